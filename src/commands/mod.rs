@@ -1,0 +1,25 @@
+//! One handler per command, behind [`dispatch`].
+
+mod info;
+mod replay;
+mod synth;
+
+use crate::cli::Command;
+
+/// How a command ended, when it did not fail.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// Everything was read and done.
+    Complete,
+    /// Done, but part of the input was damaged and skipped (exit status 3).
+    DataLoss,
+}
+
+/// Runs a command.
+pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
+    match command {
+        Command::Replay(args) => replay::run(args),
+        Command::Synth(args) => synth::run(args),
+        Command::Info(args) => info::run(args),
+    }
+}

@@ -1,0 +1,439 @@
+//! Decimation stage: samples at each channel's own rate → one grid of sample time Ts.
+//!
+//! Input: [`Sample`]s in any order (the decimator is a [`SampleSink`]). Output: a
+//! [`DecimatedRecording`]: one value or `None` per grid instant t_k = k·Ts and
+//! quantity. A channel faster than the grid is block-averaged over its window
+//! (see [`Alignment`]), which is also its anti-alias filter; a slower channel is
+//! interpolated linearly between neighbouring samples. Where a channel has no
+//! data — an empty window, or neighbours further apart than 1.5 of its nominal
+//! sample period — the value is `None`: a gap is recorded, never bridged.
+//! Several sensors of one quantity are averaged where they have data.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::recording::{Alignment, Quantity, Sample, SampleSink, SensorChannel};
+
+/// Neighbouring samples further apart than this many nominal periods enclose a gap.
+pub const GAP_FACTOR: f64 = 1.5;
+
+/// Running sums of one grid window of one channel.
+#[derive(Debug, Clone, Copy, Default)]
+struct Window {
+    sum: f64,
+    /// Sum of the sample times' offsets from the window's reference time, in s.
+    offset_sum: f64,
+    count: u32,
+}
+
+/// The windows of one channel, stored densely from `base`.
+#[derive(Debug, Default)]
+struct ChannelWindows {
+    alignment: Option<Alignment>,
+    base: i64,
+    windows: Vec<Window>,
+}
+
+impl ChannelWindows {
+    fn window_mut(&mut self, k: i64) -> &mut Window {
+        if self.windows.is_empty() {
+            self.base = k;
+        }
+        if k < self.base {
+            // Out-of-order data before the first window seen: grow at the front.
+            let extra = (self.base - k) as usize;
+            let mut grown = vec![Window::default(); extra + self.windows.len()];
+            grown[extra..].copy_from_slice(&self.windows);
+            self.windows = grown;
+            self.base = k;
+        }
+        let i = (k - self.base) as usize;
+        if i >= self.windows.len() {
+            self.windows.resize(i + 1, Window::default());
+        }
+        &mut self.windows[i]
+    }
+}
+
+/// Streams samples into per-channel grid windows.
+#[derive(Debug)]
+pub struct Decimator {
+    ts_ns: i64,
+    channels: Vec<ChannelWindows>,
+    quantities: Vec<Quantity>,
+}
+
+/// What the decimator learnt about one channel.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelGrid {
+    /// The channel's topic.
+    pub topic: String,
+    /// The quantity.
+    pub quantity: Quantity,
+    /// Median spacing of the channel's samples, in s (its nominal sample period).
+    pub nominal_period_s: f64,
+    /// Whether it has a sample in (nearly) every grid window (block-averaged), or
+    /// is slower than the grid (interpolated).
+    pub block_averaged: bool,
+    /// Number of gaps inside its span.
+    pub gaps: usize,
+    /// Grid instants inside its span without a value because of gaps.
+    pub gap_instants: usize,
+}
+
+/// One quantity on the grid.
+#[derive(Debug, Clone)]
+pub struct DecimatedSeries {
+    /// The quantity.
+    pub quantity: Quantity,
+    /// The value at each grid instant in the canonical unit, `None` where no sensor has data.
+    pub values: Vec<Option<f64>>,
+    /// How many sensors were combined.
+    pub sensors: usize,
+}
+
+/// A heat run on one time grid: the decimator's output.
+#[derive(Debug, Clone)]
+pub struct DecimatedRecording {
+    /// Sample time Ts in ns.
+    pub ts_ns: i64,
+    /// Index k of the first grid instant: t_0 = first_index·Ts since the epoch.
+    pub first_index: i64,
+    /// Number of grid instants.
+    pub len: usize,
+    /// The quantities present.
+    pub series: BTreeMap<Quantity, DecimatedSeries>,
+    /// Per-channel findings, in channel order.
+    pub channels: Vec<ChannelGrid>,
+}
+
+impl DecimatedRecording {
+    /// Sample time in seconds.
+    pub fn ts_s(&self) -> f64 {
+        self.ts_ns as f64 * 1e-9
+    }
+
+    /// Time of grid instant i in ns since the epoch: (first_index + i)·Ts.
+    pub fn time_ns(&self, i: usize) -> i64 {
+        (self.first_index + i as i64) * self.ts_ns
+    }
+
+    /// The series of a quantity, if the recording has it.
+    pub fn get(&self, q: Quantity) -> Option<&DecimatedSeries> {
+        self.series.get(&q)
+    }
+}
+
+impl Decimator {
+    /// A decimator onto the grid of sample time `ts_s` seconds.
+    pub fn new(ts_s: f64) -> Result<Decimator> {
+        if !(ts_s.is_finite() && ts_s >= 1e-3 && ts_s <= 3600.0) {
+            return Err(Error::Usage(format!(
+                "--ts {ts_s}: the sample time must be between 0.001 s and 3600 s"
+            )));
+        }
+        Ok(Decimator { ts_ns: (ts_s * 1e9).round() as i64, channels: Vec::new(), quantities: Vec::new() })
+    }
+
+    fn reference_ns(&self, alignment: Alignment, k: i64) -> i64 {
+        match alignment {
+            Alignment::Instant => k * self.ts_ns,
+            Alignment::Interval => k * self.ts_ns + self.ts_ns / 2,
+        }
+    }
+
+    /// Finishes the grid: `None` where a channel has no data, sensors combined.
+    pub fn finish(self, channels: &[SensorChannel]) -> Result<DecimatedRecording> {
+        let mut lo = i64::MAX;
+        let mut hi = i64::MIN;
+        for ch in &self.channels {
+            if let Some(first) = ch.windows.iter().position(|w| w.count > 0) {
+                let last = ch.windows.iter().rposition(|w| w.count > 0).unwrap_or(first);
+                lo = lo.min(ch.base + first as i64);
+                hi = hi.max(ch.base + last as i64);
+            }
+        }
+        if lo > hi {
+            return Err(Error::Estimation("the recording holds no heat-run samples".into()));
+        }
+        let len = (hi - lo + 1) as usize;
+        let mut grids = Vec::new();
+        let mut per_quantity: BTreeMap<Quantity, Vec<Vec<Option<f64>>>> = BTreeMap::new();
+        for (idx, ch) in self.channels.iter().enumerate() {
+            let quantity = self.quantities[idx];
+            let alignment = quantity.alignment();
+            let (values, grid) = self.channel_on_grid(ch, alignment, lo, len);
+            grids.push(ChannelGrid {
+                topic: channels.get(idx).map(|c| c.topic.clone()).unwrap_or_default(),
+                quantity,
+                ..grid
+            });
+            per_quantity.entry(quantity).or_default().push(values);
+        }
+        let series = per_quantity
+            .into_iter()
+            .map(|(quantity, sensors)| {
+                let values = (0..len)
+                    .map(|i| {
+                        let (sum, n) = sensors
+                            .iter()
+                            .filter_map(|s| s[i])
+                            .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+                        (n > 0).then(|| sum / n as f64)
+                    })
+                    .collect();
+                (quantity, DecimatedSeries { quantity, values, sensors: sensors.len() })
+            })
+            .collect();
+        Ok(DecimatedRecording { ts_ns: self.ts_ns, first_index: lo, len, series, channels: grids })
+    }
+
+    fn channel_on_grid(
+        &self,
+        ch: &ChannelWindows,
+        alignment: Alignment,
+        lo: i64,
+        len: usize,
+    ) -> (Vec<Option<f64>>, ChannelGrid) {
+        let ts = self.ts_ns as f64 * 1e-9;
+        // Occupied windows as points (grid index, mean time in s relative to grid start, mean).
+        let points: Vec<(i64, f64, f64)> = ch
+            .windows
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| w.count > 0)
+            .map(|(i, w)| {
+                let k = ch.base + i as i64;
+                let t = (self.reference_ns(alignment, k) - lo * self.ts_ns) as f64 * 1e-9
+                    + w.offset_sum / w.count as f64;
+                (k, t, w.sum / w.count as f64)
+            })
+            .collect();
+        let mut values = vec![None; len];
+        let empty = ChannelGrid {
+            topic: String::new(),
+            quantity: Quantity::CoreTemp,
+            nominal_period_s: f64::NAN,
+            block_averaged: false,
+            gaps: 0,
+            gap_instants: 0,
+        };
+        if points.is_empty() {
+            return (values, empty);
+        }
+        let total: u64 = ch.windows.iter().map(|w| w.count as u64).sum();
+        let mut index_steps: Vec<i64> = points.windows(2).map(|p| p[1].0 - p[0].0).collect();
+        index_steps.sort_unstable();
+        let median_step = index_steps.get(index_steps.len() / 2).copied().unwrap_or(1);
+        let block_averaged = median_step <= 1;
+        let (first_k, last_k) = (points[0].0, points[points.len() - 1].0);
+        let mut gaps = 0;
+        let mut gap_instants = 0;
+        let nominal_period_s;
+        if block_averaged {
+            let span_windows = (last_k - first_k + 1) as f64;
+            nominal_period_s = ts * span_windows / total as f64;
+            for &(k, _, v) in &points {
+                values[(k - lo) as usize] = Some(v);
+            }
+            for p in points.windows(2) {
+                if p[1].0 - p[0].0 > 1 {
+                    gaps += 1;
+                    gap_instants += (p[1].0 - p[0].0 - 1) as usize;
+                }
+            }
+        } else {
+            let mut spacing: Vec<f64> = points.windows(2).map(|p| p[1].1 - p[0].1).collect();
+            spacing.sort_by(f64::total_cmp);
+            nominal_period_s = spacing[spacing.len() / 2];
+            let limit = GAP_FACTOR * nominal_period_s;
+            // Interpolate at each instant's reference time between the points around it.
+            let offset = match alignment {
+                Alignment::Instant => 0.0,
+                Alignment::Interval => ts / 2.0,
+            };
+            let mut j = 0;
+            for (i, slot) in values.iter_mut().enumerate() {
+                let t = i as f64 * ts + offset;
+                while j + 1 < points.len() && points[j + 1].1 < t {
+                    j += 1;
+                }
+                let a = points[j];
+                if (a.1 - t).abs() < 1e-9 {
+                    *slot = Some(a.2);
+                    continue;
+                }
+                if j + 1 >= points.len() || a.1 > t {
+                    continue;
+                }
+                let b = points[j + 1];
+                if b.1 - a.1 <= limit {
+                    *slot = Some(a.2 + (b.2 - a.2) * (t - a.1) / (b.1 - a.1));
+                } else {
+                    gap_instants += 1;
+                }
+            }
+            gaps = points.windows(2).filter(|p| p[1].1 - p[0].1 > limit).count();
+        }
+        (
+            values,
+            ChannelGrid { nominal_period_s, block_averaged, gaps, gap_instants, ..empty },
+        )
+    }
+}
+
+impl SampleSink for Decimator {
+    fn channel(&mut self, channel: &SensorChannel) {
+        while self.channels.len() <= channel.index {
+            self.channels.push(ChannelWindows::default());
+            self.quantities.push(channel.quantity);
+        }
+        self.channels[channel.index].alignment = Some(channel.quantity.alignment());
+        self.quantities[channel.index] = channel.quantity;
+    }
+
+    fn sample(&mut self, sample: Sample) {
+        if !sample.value.is_finite() {
+            return;
+        }
+        let ts = self.ts_ns;
+        let alignment = self.channels[sample.channel].alignment.unwrap_or(Alignment::Instant);
+        let t = sample.log_time_ns as i64;
+        let k = match alignment {
+            Alignment::Instant => (t + ts / 2).div_euclid(ts),
+            Alignment::Interval => t.div_euclid(ts),
+        };
+        let reference = self.reference_ns(alignment, k);
+        let w = self.channels[sample.channel].window_mut(k);
+        w.sum += sample.value;
+        w.offset_sum += (t - reference) as f64 * 1e-9;
+        w.count += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn channel(index: usize, quantity: Quantity) -> SensorChannel {
+        SensorChannel {
+            index,
+            topic: format!("/scada/{quantity}"),
+            quantity,
+            sensor: None,
+            unit: quantity.canonical_unit().into(),
+            unit_scale: 1.0,
+        }
+    }
+
+    const S: u64 = 1_000_000_000;
+
+    #[test]
+    fn block_average_of_interval_channel() {
+        // 10 Hz current over two 1-s intervals: values 0..9 then 10..19.
+        let chans = [channel(0, Quantity::ArmatureCurrent)];
+        let mut d = Decimator::new(1.0).unwrap();
+        d.channel(&chans[0]);
+        for i in 0..20u64 {
+            d.sample(Sample { channel: 0, log_time_ns: 100 * S + i * S / 10, value: i as f64 });
+        }
+        let r = d.finish(&chans).unwrap();
+        assert_eq!(r.first_index, 100);
+        let v = &r.get(Quantity::ArmatureCurrent).unwrap().values;
+        assert_eq!(v, &vec![Some(4.5), Some(14.5)]);
+    }
+
+    #[test]
+    fn instant_channel_is_centred_on_grid_instants() {
+        // 10 Hz temperature at t = 99.55 … 100.45 averages onto instant 100.
+        let chans = [channel(0, Quantity::CoreTemp)];
+        let mut d = Decimator::new(1.0).unwrap();
+        d.channel(&chans[0]);
+        for i in 0..10u64 {
+            let t = 99 * S + S / 2 + S / 20 + i * S / 10; // 99.55, 99.65, … 100.45
+            d.sample(Sample { channel: 0, log_time_ns: t, value: 2.0 * i as f64 });
+        }
+        let r = d.finish(&chans).unwrap();
+        assert_eq!(r.first_index, 100);
+        assert_eq!(r.get(Quantity::CoreTemp).unwrap().values, vec![Some(9.0)]);
+    }
+
+    #[test]
+    fn slow_channel_is_interpolated_and_gap_is_not_bridged() {
+        // A temperature every 10 s, linear in time, with one sample missing.
+        let chans = [channel(0, Quantity::CoreTemp)];
+        let mut d = Decimator::new(1.0).unwrap();
+        d.channel(&chans[0]);
+        for i in (0..8u64).filter(|i| *i != 5) {
+            d.sample(Sample { channel: 0, log_time_ns: i * 10 * S, value: i as f64 * 10.0 });
+        }
+        let r = d.finish(&chans).unwrap();
+        let v = &r.get(Quantity::CoreTemp).unwrap().values;
+        assert_eq!(r.len, 71);
+        for (i, x) in v.iter().enumerate() {
+            if (40..60).contains(&i) && i != 40 {
+                assert_eq!(*x, None, "instant {i} lies in the gap");
+            } else {
+                assert!((x.unwrap() - i as f64).abs() < 1e-9, "instant {i}: {x:?}");
+            }
+        }
+        assert_eq!(r.channels[0].gaps, 1);
+        assert!(!r.channels[0].block_averaged);
+        assert!((r.channels[0].nominal_period_s - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn order_of_samples_does_not_matter() {
+        let chans = [channel(0, Quantity::ArmatureCurrent)];
+        let samples: Vec<Sample> = (0..50u64)
+            .map(|i| Sample { channel: 0, log_time_ns: 10 * S + i * S / 5, value: (i * i) as f64 })
+            .collect();
+        let run = |order: &[usize]| {
+            let mut d = Decimator::new(1.0).unwrap();
+            d.channel(&chans[0]);
+            for &i in order {
+                d.sample(samples[i]);
+            }
+            d.finish(&chans).unwrap().get(Quantity::ArmatureCurrent).unwrap().values.clone()
+        };
+        let forward: Vec<usize> = (0..50).collect();
+        let backward: Vec<usize> = (0..50).rev().collect();
+        assert_eq!(run(&forward), run(&backward));
+    }
+
+    #[test]
+    fn empty_window_of_fast_channel_is_a_gap() {
+        let chans = [channel(0, Quantity::LineVoltage)];
+        let mut d = Decimator::new(1.0).unwrap();
+        d.channel(&chans[0]);
+        for i in (0..100u64).filter(|i| !(30..40).contains(i)) {
+            d.sample(Sample { channel: 0, log_time_ns: i * S / 10, value: 1.0 });
+        }
+        let r = d.finish(&chans).unwrap();
+        let v = &r.get(Quantity::LineVoltage).unwrap().values;
+        assert_eq!(v[3], None);
+        assert_eq!(v.iter().filter(|x| x.is_some()).count(), 9);
+        assert_eq!(r.channels[0].gaps, 1);
+    }
+
+    #[test]
+    fn sensors_of_one_quantity_are_averaged() {
+        let chans = [channel(0, Quantity::StatorWindingTemp), channel(1, Quantity::StatorWindingTemp)];
+        let mut d = Decimator::new(1.0).unwrap();
+        d.channel(&chans[0]);
+        d.channel(&chans[1]);
+        for i in 0..5u64 {
+            d.sample(Sample { channel: 0, log_time_ns: i * S, value: 50.0 });
+            if i != 2 {
+                d.sample(Sample { channel: 1, log_time_ns: i * S, value: 52.0 });
+            }
+        }
+        let r = d.finish(&chans).unwrap();
+        let s = r.get(Quantity::StatorWindingTemp).unwrap();
+        assert_eq!(s.sensors, 2);
+        assert_eq!(s.values[1], Some(51.0));
+        assert_eq!(s.values[2], Some(50.0), "one sensor missing: the other stands");
+    }
+}

@@ -1,0 +1,187 @@
+//! Estimation stage: measured states and inputs → the discrete model Θ = [Φ Γ].
+//!
+//! Input: [`IdentificationData`], generic in the number of states n and inputs m
+//! (the generator's 3 × 3 is one configuration). Output: an [`Estimate`]. Each
+//! method lives in its own module behind the [`Estimator`] interface.
+
+use std::ops::Range;
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::losses::ThermalSignals;
+
+pub mod wls;
+
+pub use wls::WeightedLeastSquares;
+
+/// Sampled outputs y(k) (N × n) and inputs u(k) (N × m) of a system
+/// x(k) = Φ x(k−1) + Γ u(k−1), y = x, with what is known where.
+#[derive(Debug, Clone)]
+pub struct IdentificationData {
+    /// Sample time Ts in s.
+    pub ts_s: f64,
+    /// Outputs, one row per instant (unknown entries hold 0 and are masked).
+    pub outputs: DMatrix<f64>,
+    /// Inputs, one row per instant, held over [t_k, t_k + Ts).
+    pub inputs: DMatrix<f64>,
+    /// Whether every output is known at instant k.
+    pub outputs_known: Vec<bool>,
+    /// Whether every input is known at instant k.
+    pub inputs_known: Vec<bool>,
+}
+
+impl IdentificationData {
+    /// Builds the data from full matrices (every value known).
+    pub fn complete(ts_s: f64, outputs: DMatrix<f64>, inputs: DMatrix<f64>) -> Self {
+        let n = outputs.nrows();
+        IdentificationData { ts_s, outputs, inputs, outputs_known: vec![true; n], inputs_known: vec![true; n] }
+    }
+
+    /// Number of instants N.
+    pub fn len(&self) -> usize {
+        self.outputs.nrows()
+    }
+
+    /// Whether there are no instants.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Number of states n.
+    pub fn states(&self) -> usize {
+        self.outputs.ncols()
+    }
+
+    /// Number of inputs m.
+    pub fn input_count(&self) -> usize {
+        self.inputs.ncols()
+    }
+
+    /// Whether the equation for y(k) can be formed: y(k), y(k−1) and u(k−1) known.
+    /// Rows that would touch missing data are left out, never bridged.
+    pub fn row_usable(&self, k: usize) -> bool {
+        k >= 1 && self.outputs_known[k] && self.outputs_known[k - 1] && self.inputs_known[k - 1]
+    }
+
+    /// The instants k ≥ 1 whose equation can be formed.
+    pub fn usable_rows(&self) -> Vec<usize> {
+        (1..self.len()).filter(|&k| self.row_usable(k)).collect()
+    }
+
+    /// Maximal runs of instants over which the model can be simulated without
+    /// crossing missing data: within a run every equation k > start is usable.
+    /// Runs of a single instant are left out.
+    pub fn segments(&self) -> Vec<Range<usize>> {
+        let mut out = Vec::new();
+        let mut k = 0;
+        while k < self.len() {
+            if !self.outputs_known[k] {
+                k += 1;
+                continue;
+            }
+            let start = k;
+            while k + 1 < self.len() && self.row_usable(k + 1) {
+                k += 1;
+            }
+            if k > start {
+                out.push(start..k + 1);
+            }
+            k += 1;
+        }
+        out
+    }
+}
+
+impl From<&ThermalSignals> for IdentificationData {
+    /// The rises (pu) as outputs and the heat sources (pu) as inputs.
+    fn from(s: &ThermalSignals) -> Self {
+        let n = s.len();
+        let mut outputs = DMatrix::zeros(n, 3);
+        let mut inputs = DMatrix::zeros(n, 3);
+        let mut outputs_known = vec![true; n];
+        let mut inputs_known = vec![true; n];
+        for k in 0..n {
+            for j in 0..3 {
+                match s.rises_pu[j][k] {
+                    Some(v) => outputs[(k, j)] = v,
+                    None => outputs_known[k] = false,
+                }
+                match s.inputs_pu[j][k] {
+                    Some(v) => inputs[(k, j)] = v,
+                    None => inputs_known[k] = false,
+                }
+            }
+        }
+        IdentificationData { ts_s: s.ts_s, outputs, inputs, outputs_known, inputs_known }
+    }
+}
+
+/// A discrete-time model x(k) = Φ x(k−1) + Γ u(k−1) (eq. 1) with y = x.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiscreteModel {
+    /// State transition matrix Φ (n × n).
+    pub phi: DMatrix<f64>,
+    /// Input matrix Γ (n × m).
+    pub gamma: DMatrix<f64>,
+    /// Sample time Ts in s.
+    pub ts_s: f64,
+}
+
+impl DiscreteModel {
+    /// Simulates eq. (8), ŷ(k) = Φ ŷ(k−1) + Γ u(k−1), over `range` from the
+    /// measured ŷ(start) = y(start). Returns one row per instant of the range.
+    pub fn simulate(&self, data: &IdentificationData, range: Range<usize>) -> DMatrix<f64> {
+        let n = self.phi.nrows();
+        let mut out = DMatrix::zeros(range.len(), n);
+        if range.is_empty() {
+            return out;
+        }
+        let mut y = data.outputs.row(range.start).transpose();
+        out.set_row(0, &y.transpose());
+        for (i, k) in range.clone().enumerate().skip(1) {
+            let u = data.inputs.row(k - 1).transpose();
+            y = &self.phi * &y + &self.gamma * &u;
+            out.set_row(i, &y.transpose());
+        }
+        out
+    }
+}
+
+/// An estimator's result.
+#[derive(Debug, Clone, Serialize)]
+pub struct Estimate {
+    /// The model.
+    pub model: DiscreteModel,
+    /// The method's name (`wls`, …).
+    pub method: String,
+    /// Number of equations (regression rows) used.
+    pub rows_used: usize,
+    /// 2-norm condition number of the column-scaled regression matrix.
+    pub condition_number: f64,
+}
+
+/// An identification method.
+pub trait Estimator {
+    /// The method's name as given to `--method`.
+    fn name(&self) -> &'static str;
+    /// Estimates Φ and Γ from the data.
+    fn estimate(&self, data: &IdentificationData) -> Result<Estimate>;
+}
+
+/// Fewest usable equations per unknown parameter before an estimate is attempted.
+pub const MIN_ROWS_PER_PARAMETER: usize = 10;
+
+/// Checks there are enough usable rows for n + m parameters per output.
+pub(crate) fn check_enough_rows(data: &IdentificationData, rows: usize) -> Result<()> {
+    let p = data.states() + data.input_count();
+    if rows < MIN_ROWS_PER_PARAMETER * p {
+        return Err(Error::Estimation(format!(
+            "only {rows} usable samples (instants where the states and inputs are known), \
+             too few to estimate {p} parameters per state; at least {} are needed",
+            MIN_ROWS_PER_PARAMETER * p
+        )));
+    }
+    Ok(())
+}

@@ -1,0 +1,184 @@
+//! Matrix functions the analysis needs: the principal logarithm, the exponential
+//! and real eigenvalues of a general (non-symmetric) matrix.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{Error, Result};
+
+/// Eigenvalues of a general square matrix, which must all be real.
+///
+/// Computed from the real Schur form; a pair with imaginary part above
+/// `1e-9·|λ|` is reported as an error naming it, never rounded to its real part.
+pub fn real_eigenvalues(m: &DMatrix<f64>, what: &str) -> Result<Vec<f64>> {
+    let eig = m.clone().complex_eigenvalues();
+    let mut out = Vec::with_capacity(eig.len());
+    for z in eig.iter() {
+        if !z.re.is_finite() || !z.im.is_finite() {
+            return Err(Error::Model(format!("{what} has non-finite entries")));
+        }
+        if z.im.abs() > 1e-9 * z.norm().max(1e-300) {
+            return Err(Error::Model(format!(
+                "{what} has the complex eigenvalue pair {:.6} ± {:.6}i: an oscillating model \
+                 is not a thermal system of decaying time constants",
+                z.re,
+                z.im.abs()
+            )));
+        }
+        out.push(z.re);
+    }
+    out.sort_by(f64::total_cmp);
+    Ok(out)
+}
+
+/// Principal matrix logarithm ln Φ of a matrix whose eigenvalues are real and positive.
+///
+/// Inverse scaling and squaring: take square roots (Denman–Beavers iteration)
+/// until ‖X − I‖ < 0.1, sum the series ln(I + E) = Σ (−1)^{j+1} E^j / j to
+/// machine precision, and multiply by 2^s. Errors where Φ has no real logarithm:
+/// an eigenvalue ≤ 0 or a non-real pair.
+pub fn logm(phi: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    let eig = real_eigenvalues(phi, "Φ")?;
+    if let Some(bad) = eig.iter().find(|&&l| l <= 0.0) {
+        return Err(Error::Model(format!(
+            "Φ has the eigenvalue {bad:.6} ≤ 0, so it has no real logarithm and no continuous \
+             equivalent (the sample time is too long for the fastest dynamics, or the estimate is poor)"
+        )));
+    }
+    let n = phi.nrows();
+    let id = DMatrix::<f64>::identity(n, n);
+    let mut x = phi.clone();
+    let mut squarings = 0;
+    while (&x - &id).norm() >= 0.1 {
+        x = sqrtm_denman_beavers(&x)?;
+        squarings += 1;
+        if squarings > 60 {
+            return Err(Error::Model("the matrix logarithm of Φ did not converge".into()));
+        }
+    }
+    let e = &x - &id;
+    let mut term = e.clone();
+    let mut sum = e.clone();
+    for j in 2..200 {
+        term = &term * &e;
+        let add = &term * ((if j % 2 == 0 { -1.0 } else { 1.0 }) / j as f64);
+        sum += &add;
+        if add.norm() <= 1e-18 * sum.norm().max(1e-300) {
+            break;
+        }
+    }
+    Ok(sum * 2f64.powi(squarings))
+}
+
+/// Principal square root by the Denman–Beavers iteration Y ← (Y + Z⁻¹)/2, Z ← (Z + Y⁻¹)/2.
+fn sqrtm_denman_beavers(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    let n = a.nrows();
+    let mut y = a.clone();
+    let mut z = DMatrix::<f64>::identity(n, n);
+    for _ in 0..100 {
+        let y_inv = y.clone().try_inverse().ok_or_else(|| Error::Model("Φ is singular".into()))?;
+        let z_inv = z.clone().try_inverse().ok_or_else(|| Error::Model("Φ is singular".into()))?;
+        let y_next = (&y + z_inv) * 0.5;
+        let z_next = (&z + y_inv) * 0.5;
+        let change = (&y_next - &y).norm();
+        y = y_next;
+        z = z_next;
+        if change <= 1e-15 * y.norm() {
+            break;
+        }
+    }
+    Ok(y)
+}
+
+/// Matrix exponential e^A by scaling and squaring with a Taylor series.
+pub fn expm(a: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = a.nrows();
+    let norm = a.norm();
+    let squarings = if norm > 0.5 { (norm / 0.5).log2().ceil() as i32 } else { 0 };
+    let scaled = a / 2f64.powi(squarings);
+    let mut sum = DMatrix::<f64>::identity(n, n);
+    let mut term = DMatrix::<f64>::identity(n, n);
+    for j in 1..40 {
+        term = &term * &scaled / j as f64;
+        sum += &term;
+        if term.norm() <= 1e-18 * sum.norm() {
+            break;
+        }
+    }
+    for _ in 0..squarings {
+        sum = &sum * &sum;
+    }
+    sum
+}
+
+/// Zero-order-hold discretisation of dx/dt = A x + B u over Ts:
+/// Φ = e^{A·Ts}, Γ = ∫₀^Ts e^{A s} ds · B, from one exponential of the block
+/// matrix [[A, B], [0, 0]]·Ts.
+pub fn discretize(a: &DMatrix<f64>, b: &DMatrix<f64>, ts: f64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (n, m) = (a.nrows(), b.ncols());
+    let mut block = DMatrix::zeros(n + m, n + m);
+    block.view_mut((0, 0), (n, n)).copy_from(&(a * ts));
+    block.view_mut((0, n), (n, m)).copy_from(&(b * ts));
+    let e = expm(&block);
+    (e.view((0, 0), (n, n)).into_owned(), e.view((0, n), (n, m)).into_owned())
+}
+
+/// A unit eigenvector of `a` for the real eigenvalue `lambda`: the right singular
+/// vector of A − λI with the smallest singular value.
+pub fn eigenvector(a: &DMatrix<f64>, lambda: f64) -> DVector<f64> {
+    let n = a.nrows();
+    let shifted = a - DMatrix::<f64>::identity(n, n) * lambda;
+    let svd = shifted.svd(false, true);
+    let (imin, _) = svd.singular_values.argmin();
+    let v_t = svd.v_t.expect("v_t was requested");
+    v_t.row(imin).transpose()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn logm_of_upper_triangular_matches_closed_form() {
+        // ln [[a, b], [0, c]] = [[ln a, b (ln a − ln c)/(a − c)], [0, ln c]].
+        let (a, b, c) = (0.95_f64, 0.03_f64, 0.999_f64);
+        let m = DMatrix::from_row_slice(2, 2, &[a, b, 0.0, c]);
+        let l = logm(&m).unwrap();
+        let expect = DMatrix::from_row_slice(2, 2, &[a.ln(), b * (a.ln() - c.ln()) / (a - c), 0.0, c.ln()]);
+        assert!((l - expect).norm() < 1e-14);
+    }
+
+    #[test]
+    fn logm_far_from_identity_uses_square_roots() {
+        // ln of diag(0.02, 5) rotated by an orthogonal similarity.
+        let q = DMatrix::from_row_slice(2, 2, &[0.6, -0.8, 0.8, 0.6]);
+        let d = DMatrix::from_diagonal(&DVector::from_vec(vec![0.02, 5.0]));
+        let m = &q * d * q.transpose();
+        let l = logm(&m).unwrap();
+        let ld = DMatrix::from_diagonal(&DVector::from_vec(vec![0.02f64.ln(), 5f64.ln()]));
+        assert!((l - &q * ld * q.transpose()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn expm_inverts_logm() {
+        let a = DMatrix::from_row_slice(3, 3, &[-0.0012, 0.00046, 0.00077, 0.00019, -0.00058, 0.0031, 0.0021, 0.0011, -0.0417]);
+        let phi = expm(&a);
+        assert!((logm(&phi).unwrap() - a).norm() < 1e-15);
+    }
+
+    #[test]
+    fn logm_refuses_nonpositive_and_complex_eigenvalues() {
+        let neg = DMatrix::from_row_slice(2, 2, &[0.9, 0.0, 0.0, -0.2]);
+        assert!(logm(&neg).unwrap_err().to_string().contains("-0.2"));
+        let rot = DMatrix::from_row_slice(2, 2, &[0.9, -0.3, 0.3, 0.9]);
+        assert!(logm(&rot).unwrap_err().to_string().contains("complex"));
+    }
+
+    #[test]
+    fn discretize_scalar_matches_closed_form() {
+        // dx/dt = −x/τ + b u: Φ = e^{−Ts/τ}, Γ = b τ (1 − e^{−Ts/τ}).
+        let (tau, b, ts) = (24.0, 0.07, 1.0);
+        let (phi, gamma) = discretize(&DMatrix::from_element(1, 1, -1.0 / tau), &DMatrix::from_element(1, 1, b), ts);
+        assert!((phi[(0, 0)] - (-ts / tau).exp()).abs() < 1e-16);
+        assert!((gamma[(0, 0)] - b * tau * (1.0 - (-ts / tau).exp())).abs() < 1e-16);
+    }
+}

@@ -1,0 +1,178 @@
+//! The replay pipeline: recording → decimation → losses → estimation → analysis.
+//!
+//! This is the one place that knows the order of the stages; publishing and the
+//! report read its output, a [`Replay`].
+
+use std::path::{Path, PathBuf};
+
+use crate::decimate::{DecimatedRecording, Decimator};
+use crate::error::{Error, Result};
+use crate::estimate::{Estimate, Estimator, IdentificationData, WeightedLeastSquares};
+use crate::losses::{self, ThermalSignals};
+use crate::model::{self, ModelAnalysis};
+use crate::recording::{self, Nameplate, NameplateEntries, RecordingSummary};
+
+/// An identification method selectable on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// Ordinary least squares (eq. 7), W = I.
+    Ls,
+    /// Weighted least squares (eqs. 3–7) with per-output weights.
+    Wls,
+}
+
+impl Method {
+    /// The method's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Ls => "ls",
+            Method::Wls => "wls",
+        }
+    }
+}
+
+/// How to replay a recording.
+#[derive(Debug, Clone)]
+pub struct ReplayOptions {
+    /// Sample time Ts of the grid, s.
+    pub ts_s: f64,
+    /// A machine file whose keys override the recording's nameplate.
+    pub machine: Option<PathBuf>,
+    /// The identification method.
+    pub method: Method,
+    /// Per-output weights w_i for `wls` (constant in time); `None` for equal weights.
+    pub weights: Option<Vec<f64>>,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        ReplayOptions { ts_s: 1.0, machine: None, method: Method::Wls, weights: None }
+    }
+}
+
+/// Everything a replay produced, stage by stage.
+#[derive(Debug, Clone)]
+pub struct Replay {
+    /// The recording replayed.
+    pub path: PathBuf,
+    /// What the recording stage found.
+    pub recording: RecordingSummary,
+    /// The nameplate used (recording's record, overridden by the machine file).
+    pub nameplate: Nameplate,
+    /// The decimated quantities.
+    pub decimated: DecimatedRecording,
+    /// States and inputs in pu.
+    pub signals: ThermalSignals,
+    /// The identification data the estimator saw.
+    pub data: IdentificationData,
+    /// The estimate.
+    pub estimate: Estimate,
+    /// The analysis of the estimate.
+    pub analysis: ModelAnalysis,
+    /// Warnings for the user (data loss, gaps).
+    pub warnings: Vec<String>,
+}
+
+impl Replay {
+    /// Whether data were lost to damage in the file (exit status 3).
+    pub fn had_data_loss(&self) -> bool {
+        !self.recording.data_loss.is_empty()
+    }
+}
+
+/// Replays one recording through every stage.
+pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
+    let name = path.display().to_string();
+    let mut decimator = Decimator::new(options.ts_s)?;
+    let summary = recording::read_recording(path, &mut decimator)?;
+    if summary.channels.is_empty() {
+        let ignored = if summary.ignored_channels.is_empty() {
+            "it has no channels at all".to_owned()
+        } else {
+            format!(
+                "its {} channel(s) ({}) carry no quantity of the profile",
+                summary.ignored_channels.len(),
+                summary.ignored_channels.iter().map(|c| c.topic.as_str()).take(5).collect::<Vec<_>>().join(", ")
+            )
+        };
+        return Err(Error::BadRecording {
+            path: path.to_owned(),
+            message: format!("holds no heat-run data: {ignored}"),
+        });
+    }
+    let overrides = match &options.machine {
+        Some(file) => Some(NameplateEntries::from_toml_file(file)?),
+        None => None,
+    };
+    let entries = match &overrides {
+        Some(o) => summary.nameplate.clone().overridden_by(o),
+        None => summary.nameplate.clone(),
+    };
+    let nameplate = entries.resolve(&name)?;
+    let decimated = decimator.finish(&summary.channels)?;
+    let signals = losses::compute(&decimated, &nameplate, &name)?;
+    let data = IdentificationData::from(&signals);
+
+    let estimator = WeightedLeastSquares {
+        weights: match (options.method, &options.weights) {
+            (Method::Wls, Some(w)) => {
+                if w.len() != data.states() || w.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                    return Err(Error::Usage(format!(
+                        "--weights wants {} positive numbers, one per state",
+                        data.states()
+                    )));
+                }
+                Some(nalgebra::DMatrix::from_fn(data.len(), data.states(), |_, j| w[j]))
+            }
+            _ => None,
+        },
+    };
+    let mut estimate = estimator.estimate(&data).map_err(|e| with_file(e, &name))?;
+    estimate.method = options.method.name().into();
+    let (_, last_input) = signals
+        .last_inputs()
+        .ok_or_else(|| Error::Estimation(format!("{name}: the inputs are never all known")))?;
+    let analysis = model::analyse(&estimate, &data, signals.temperature_base_k, &last_input)
+        .map_err(|e| with_file(e, &name))?;
+
+    let mut warnings: Vec<String> = summary.data_loss.iter().map(|l| format!("data lost: {l}")).collect();
+    for ch in &decimated.channels {
+        if ch.gaps > 0 {
+            warnings.push(format!(
+                "channel {} has {} gap(s) ({} instants without data); no equation bridges them",
+                ch.topic, ch.gaps, ch.gap_instants
+            ));
+        }
+    }
+    if summary.bad_quality_dropped > 0 {
+        warnings.push(format!("{} samples marked `bad` were dropped", summary.bad_quality_dropped));
+    }
+    for a in &analysis.assignment {
+        if a.resolved_conflict {
+            warnings.push(format!(
+                "the time constant {:.1} s was claimed by two states; it was assigned one-to-one",
+                a.time_constant_s
+            ));
+        }
+    }
+    Ok(Replay {
+        path: path.to_owned(),
+        recording: summary,
+        nameplate,
+        decimated,
+        signals,
+        data,
+        estimate,
+        analysis,
+        warnings,
+    })
+}
+
+/// Prefixes an estimation or model error with the recording's name.
+fn with_file(e: Error, name: &str) -> Error {
+    match e {
+        Error::Estimation(m) => Error::Estimation(format!("{name}: {m}")),
+        Error::Model(m) => Error::Model(format!("{name}: {m}")),
+        other => other,
+    }
+}

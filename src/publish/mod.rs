@@ -1,0 +1,185 @@
+//! Publishing stage: a [`Replay`] → a rerun recording (an .rrd file, a running
+//! viewer, or one spawned for it), on the recording's own time line.
+//!
+//! Long series go out as columns with `send_columns`, one chunk per entity,
+//! and a blueprint opens the viewer on the story: measured against model per
+//! state, then residuals and heat sources, then the raw quantities and the
+//! sensitivity responses behind the time-constant assignment.
+
+use std::path::PathBuf;
+
+use rerun::blueprint::{Blueprint, ContainerLike, Horizontal, Tabs, TextDocumentView, TimeSeriesView, Vertical};
+use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
+
+use crate::atomic::PendingOutput;
+use crate::error::{Error, Result};
+use crate::losses::{HeatSource, ThermalState};
+use crate::pipeline::Replay;
+
+/// Name of the timeline: the recording's own clock (log_time).
+pub const TIMELINE: &str = "time";
+
+/// Where the rerun data go.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RerunSink {
+    /// A saved .rrd file, complete when [`publish`] returns.
+    Rrd(PathBuf),
+    /// A running viewer at a gRPC URL (`None`: the default local viewer).
+    Connect(Option<String>),
+    /// A viewer started for this replay.
+    Spawn,
+}
+
+fn publish_err(e: impl std::fmt::Display) -> Error {
+    Error::Publish(e.to_string())
+}
+
+/// Entity path of a state's temperature plot.
+pub fn temperature_entity(state: ThermalState) -> String {
+    format!("temperature/{}", state.name())
+}
+
+/// The viewer layout.
+pub fn blueprint(replay: &Replay) -> Blueprint {
+    let per_state: Vec<ContainerLike> = ThermalState::ALL
+        .iter()
+        .map(|s| {
+            TimeSeriesView::new(format!("{} temperature, °C", s.part()))
+                .with_origin(temperature_entity(*s))
+                .into()
+        })
+        .collect();
+    let sensitivity_views: Vec<ContainerLike> = replay
+        .analysis
+        .spectrum
+        .time_constants_s
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            TimeSeriesView::new(format!("T{} = {:.1} s: T ∂y/∂T, pu", i + 1, t))
+                .with_origin(format!("sensitivity/T{}", i + 1))
+                .into()
+        })
+        .collect();
+    let bottom = Tabs::new([
+        Horizontal::new([
+            TimeSeriesView::new("residual y − ŷ, K").with_origin("residual").into(),
+            TimeSeriesView::new("heat sources, kW").with_origin("loss").into(),
+        ])
+        .with_name("residuals and losses")
+        .into(),
+        TimeSeriesView::new("decimated quantities").with_origin("raw").into(),
+        Horizontal::new(sensitivity_views).with_name("sensitivities").into(),
+        TextDocumentView::new("summary").with_origin("summary").into(),
+    ]);
+    Blueprint::new(Vertical::new([Horizontal::new(per_state).into(), bottom.into()]))
+        .with_auto_views(false)
+}
+
+/// Sends a replay's traces to `sink`. For an .rrd the file is written under a
+/// temporary name and renamed when complete.
+pub fn publish(replay: &Replay, summary_text: &str, sink: &RerunSink) -> Result<()> {
+    let builder = RecordingStreamBuilder::new("heatrun")
+        .recording_name(replay.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
+        .with_blueprint(blueprint(replay));
+    match sink {
+        RerunSink::Rrd(path) => {
+            let pending = PendingOutput::new(path);
+            let rec = builder.save(pending.path()).map_err(publish_err)?;
+            log_all(&rec, replay, summary_text)?;
+            rec.flush_blocking().map_err(publish_err)?;
+            drop(rec);
+            pending.commit()
+        }
+        RerunSink::Connect(url) => {
+            let rec = match url {
+                Some(url) => builder.connect_grpc_opts(url.clone()),
+                None => builder.connect_grpc(),
+            }
+            .map_err(publish_err)?;
+            log_all(&rec, replay, summary_text)?;
+            rec.flush_blocking().map_err(publish_err)
+        }
+        RerunSink::Spawn => {
+            let rec = builder.spawn().map_err(publish_err)?;
+            log_all(&rec, replay, summary_text)?;
+            rec.flush_blocking().map_err(publish_err)
+        }
+    }
+}
+
+/// Sends one series as columns: only the instants where it has a value.
+fn send_series(
+    rec: &RecordingStream,
+    entity: &str,
+    time_ns: &[i64],
+    values: impl Iterator<Item = Option<f64>>,
+) -> Result<usize> {
+    let (times, vals): (Vec<i64>, Vec<f64>) =
+        time_ns.iter().zip(values).filter_map(|(t, v)| v.filter(|v| v.is_finite()).map(|v| (*t, v))).unzip();
+    if times.is_empty() {
+        return Ok(0);
+    }
+    let n = times.len();
+    rec.send_columns(
+        entity,
+        [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
+        Scalars::new(vals).columns_of_unit_batches().map_err(publish_err)?,
+    )
+    .map_err(publish_err)?;
+    Ok(n)
+}
+
+fn style(rec: &RecordingStream, entity: &str, name: &str, rgb: [u8; 3]) -> Result<()> {
+    rec.log_static(entity, &SeriesLines::new().with_names([name]).with_colors([rgb]))
+        .map_err(publish_err)
+}
+
+const MEASURED: [u8; 3] = [31, 119, 180];
+const MODEL: [u8; 3] = [255, 127, 14];
+const PALETTE: [[u8; 3]; 4] = [[214, 39, 40], [44, 160, 44], [148, 103, 189], [140, 86, 75]];
+
+fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result<()> {
+    let s = &replay.signals;
+    let t = &s.time_ns;
+    let base = s.temperature_base_k;
+    let sim = &replay.analysis.simulated;
+    for (j, state) in ThermalState::ALL.iter().enumerate() {
+        let root = temperature_entity(*state);
+        let theta0 = s.initial_temperatures_c[j];
+        style(rec, &format!("{root}/measured"), "measured", MEASURED)?;
+        style(rec, &format!("{root}/model"), "model", MODEL)?;
+        send_series(rec, &format!("{root}/measured"), t, s.temperatures_c[j].iter().copied())?;
+        send_series(rec, &format!("{root}/model"), t, (0..s.len()).map(|k| Some(theta0 + base * sim[(k, j)])))?;
+        let residual = format!("residual/{}", state.name());
+        style(rec, &residual, state.name(), PALETTE[j])?;
+        send_series(
+            rec,
+            &residual,
+            t,
+            (0..s.len()).map(|k| s.rises_pu[j][k].map(|y| base * (y - sim[(k, j)]))),
+        )?;
+    }
+    let s_n_kw = s.power_base_va / 1e3;
+    for (j, source) in HeatSource::ALL.iter().enumerate() {
+        let entity = format!("loss/{}", source.name());
+        style(rec, &entity, source.name(), PALETTE[j])?;
+        send_series(rec, &entity, t, s.inputs_pu[j].iter().map(|v| v.map(|v| v * s_n_kw)))?;
+    }
+    for (i, series) in replay.decimated.series.values().enumerate() {
+        let entity = format!("raw/{}", series.quantity.name());
+        let name = format!("{} [{}]", series.quantity.name(), series.quantity.canonical_unit());
+        style(rec, &entity, &name, PALETTE[i % PALETTE.len()])?;
+        send_series(rec, &entity, t, series.values.iter().copied())?;
+    }
+    let sens = &replay.analysis.sensitivities;
+    for (i, response) in sens.responses.iter().enumerate() {
+        for (k, state) in ThermalState::ALL.iter().enumerate() {
+            let entity = format!("sensitivity/T{}/{}", i + 1, state.name());
+            style(rec, &entity, state.name(), PALETTE[k])?;
+            send_series(rec, &entity, t, (0..s.len()).map(|r| Some(response[(r, k)])))?;
+        }
+    }
+    rec.log_static("summary", &rerun::TextDocument::new(summary_text.to_owned())).map_err(publish_err)?;
+    Ok(())
+}

@@ -1,0 +1,176 @@
+//! The measured quantities of the profile and their units.
+//!
+//! Every quantity has one SI-like canonical unit (A, V, °C, l/s); a channel's unit
+//! is converted to it on read, and a unit not in the quantity's row of the profile
+//! is an error, never a guess.
+
+use serde::Serialize;
+
+/// A quantity a heat-run channel can carry (the profile's table, in its order).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    /// Generator armature (stator) current I_g, RMS, in A.
+    ArmatureCurrent,
+    /// Field (rotor) current I_f, in A.
+    FieldCurrent,
+    /// Generator line-to-line voltage U_g, RMS, in V.
+    LineVoltage,
+    /// Field winding voltage U_f, in V (optional).
+    FieldVoltage,
+    /// Armature winding (copper) temperature θ_Cu, in °C.
+    StatorWindingTemp,
+    /// Stator iron core temperature θ_Fe, in °C.
+    CoreTemp,
+    /// Cooler outlet water temperature θ_cw, in °C.
+    CoolingWaterOutletTemp,
+    /// Cold water inlet temperature, in °C (optional).
+    CoolingWaterInletTemp,
+    /// Cooling water flow Q, in l/s (optional).
+    CoolingWaterFlow,
+    /// Field winding temperature θ_f, in °C (optional).
+    FieldWindingTemp,
+}
+
+/// How a channel's samples are placed on the decimation grid.
+///
+/// The discrete model x(k) = Φ x(k−1) + Γ u(k−1) relates point values of the
+/// states at the grid instants t_k = k·Ts to the input held over [t_{k−1}, t_k).
+/// Temperatures are therefore averaged over a window centred on t_k (a point value
+/// to O(Ts²·ẍ)), electrical quantities over the interval [t_k, t_k + Ts).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Alignment {
+    /// Window [t_k − Ts/2, t_k + Ts/2): the value at the instant t_k.
+    Instant,
+    /// Window [t_k, t_k + Ts): the mean over the interval that starts at t_k.
+    Interval,
+}
+
+impl Quantity {
+    /// All quantities, in the profile's order.
+    pub const ALL: [Quantity; 10] = [
+        Quantity::ArmatureCurrent,
+        Quantity::FieldCurrent,
+        Quantity::LineVoltage,
+        Quantity::FieldVoltage,
+        Quantity::StatorWindingTemp,
+        Quantity::CoreTemp,
+        Quantity::CoolingWaterOutletTemp,
+        Quantity::CoolingWaterInletTemp,
+        Quantity::CoolingWaterFlow,
+        Quantity::FieldWindingTemp,
+    ];
+
+    /// The quantities every heat run must carry.
+    pub const REQUIRED: [Quantity; 6] = [
+        Quantity::ArmatureCurrent,
+        Quantity::FieldCurrent,
+        Quantity::LineVoltage,
+        Quantity::StatorWindingTemp,
+        Quantity::CoreTemp,
+        Quantity::CoolingWaterOutletTemp,
+    ];
+
+    /// The profile's name of the quantity (channel metadata `quantity`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Quantity::ArmatureCurrent => "armature_current",
+            Quantity::FieldCurrent => "field_current",
+            Quantity::LineVoltage => "line_voltage",
+            Quantity::FieldVoltage => "field_voltage",
+            Quantity::StatorWindingTemp => "stator_winding_temp",
+            Quantity::CoreTemp => "core_temp",
+            Quantity::CoolingWaterOutletTemp => "cooling_water_outlet_temp",
+            Quantity::CoolingWaterInletTemp => "cooling_water_inlet_temp",
+            Quantity::CoolingWaterFlow => "cooling_water_flow",
+            Quantity::FieldWindingTemp => "field_winding_temp",
+        }
+    }
+
+    /// The quantity of a profile name, if it is one.
+    pub fn from_name(name: &str) -> Option<Quantity> {
+        Quantity::ALL.into_iter().find(|q| q.name() == name)
+    }
+
+    /// The canonical unit values are converted to.
+    pub fn canonical_unit(self) -> &'static str {
+        match self {
+            Quantity::ArmatureCurrent | Quantity::FieldCurrent => "A",
+            Quantity::LineVoltage | Quantity::FieldVoltage => "V",
+            Quantity::CoolingWaterFlow => "l/s",
+            _ => "degC",
+        }
+    }
+
+    /// The units the profile accepts for this quantity.
+    pub fn accepted_units(self) -> &'static [&'static str] {
+        match self {
+            Quantity::ArmatureCurrent | Quantity::FieldCurrent => &["A", "kA"],
+            Quantity::LineVoltage => &["V", "kV"],
+            Quantity::FieldVoltage => &["V"],
+            Quantity::CoolingWaterFlow => &["l/s", "l/min", "m3/h"],
+            _ => &["degC"],
+        }
+    }
+
+    /// The factor that converts a value in `unit` to the canonical unit, if the
+    /// profile accepts `unit` for this quantity.
+    pub fn unit_scale(self, unit: &str) -> Option<f64> {
+        if !self.accepted_units().contains(&unit) {
+            return None;
+        }
+        Some(match unit {
+            "kA" | "kV" => 1e3,
+            "l/min" => 1.0 / 60.0,
+            "m3/h" => 1e3 / 3600.0,
+            _ => 1.0,
+        })
+    }
+
+    /// Whether the quantity is a temperature (a state-like signal).
+    pub fn is_temperature(self) -> bool {
+        self.canonical_unit() == "degC"
+    }
+
+    /// Where the quantity's samples sit on the decimation grid.
+    pub fn alignment(self) -> Alignment {
+        if self.is_temperature() {
+            Alignment::Instant
+        } else {
+            Alignment::Interval
+        }
+    }
+}
+
+impl std::fmt::Display for Quantity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for q in Quantity::ALL {
+            assert_eq!(Quantity::from_name(q.name()), Some(q));
+        }
+        assert_eq!(Quantity::from_name("rotor_speed"), None);
+    }
+
+    #[test]
+    fn units_convert_to_canonical() {
+        assert_eq!(Quantity::ArmatureCurrent.unit_scale("kA"), Some(1000.0));
+        assert_eq!(Quantity::LineVoltage.unit_scale("kV"), Some(1000.0));
+        assert_eq!(Quantity::CoolingWaterFlow.unit_scale("l/min"), Some(1.0 / 60.0));
+        // 3.6 m³/h is one litre per second.
+        assert!((Quantity::CoolingWaterFlow.unit_scale("m3/h").unwrap() * 3.6 - 1.0).abs() < 1e-15);
+        assert_eq!(Quantity::CoreTemp.unit_scale("degC"), Some(1.0));
+        // Units outside a quantity's row are refused, never guessed.
+        assert_eq!(Quantity::FieldVoltage.unit_scale("kV"), None);
+        assert_eq!(Quantity::CoreTemp.unit_scale("K"), None);
+        assert_eq!(Quantity::ArmatureCurrent.unit_scale("mA"), None);
+    }
+}

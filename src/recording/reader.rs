@@ -1,0 +1,446 @@
+//! Streaming an MCAP heat run into typed samples.
+//!
+//! The file is read front to back through the `mcap` crate's sans-io
+//! [`LinearReader`], so memory does not grow with the file: whole chunks are
+//! taken one at a time, checked against their CRC and decoded, and every sample
+//! is handed to a [`SampleSink`]. A file cut short (no summary, ends mid-chunk)
+//! yields every complete chunk before the cut and says how much was lost.
+
+use std::collections::{BTreeMap, HashMap};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use mcap::records::Record;
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use serde::{Deserialize, Serialize};
+
+use super::nameplate::{NameplateEntries, NAMEPLATE_RECORD};
+use super::quantity::Quantity;
+use crate::error::{Error, Result};
+
+/// Schema name of a heat-run sample channel.
+pub const SAMPLE_SCHEMA_NAME: &str = "heatrun.Sample";
+/// Schema encoding of a heat-run sample channel.
+pub const SAMPLE_SCHEMA_ENCODING: &str = "jsonschema";
+/// Message encoding of a heat-run sample channel.
+pub const SAMPLE_MESSAGE_ENCODING: &str = "json";
+
+/// A heat-run channel: one sensor of one quantity.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SensorChannel {
+    /// Index of the channel in [`RecordingSummary::channels`] (and in [`Sample::channel`]).
+    pub index: usize,
+    /// The MCAP topic.
+    pub topic: String,
+    /// The quantity it measures.
+    pub quantity: Quantity,
+    /// The `sensor` metadata value that tells several sensors of one quantity apart.
+    pub sensor: Option<String>,
+    /// The unit as written in the recording.
+    pub unit: String,
+    /// Factor from `unit` to the quantity's canonical unit.
+    #[serde(skip)]
+    pub unit_scale: f64,
+}
+
+/// One measured value, in the quantity's canonical unit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Index of the channel in [`RecordingSummary::channels`].
+    pub channel: usize,
+    /// The message's `log_time`, in nanoseconds since the Unix epoch.
+    pub log_time_ns: u64,
+    /// The value in the canonical unit.
+    pub value: f64,
+}
+
+/// The receiver of a recording's channels and samples, in file order.
+pub trait SampleSink {
+    /// A heat-run channel was defined; its samples follow.
+    fn channel(&mut self, channel: &SensorChannel);
+    /// A sample of a channel announced before.
+    fn sample(&mut self, sample: Sample);
+}
+
+/// Quality flag of a sample (absent means good).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+enum SampleQuality {
+    #[default]
+    Good,
+    Uncertain,
+    Bad,
+}
+
+#[derive(Deserialize)]
+struct SampleMessage {
+    value: f64,
+    #[serde(default)]
+    quality: SampleQuality,
+}
+
+/// A channel of the file that is not read as heat-run data, and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IgnoredChannel {
+    /// The MCAP topic.
+    pub topic: String,
+    /// Why it is not a heat-run channel.
+    pub reason: String,
+}
+
+/// What reading a recording found, besides the samples given to the sink.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RecordingSummary {
+    /// The file.
+    pub path: PathBuf,
+    /// The heat-run channels, indexed by [`Sample::channel`].
+    pub channels: Vec<SensorChannel>,
+    /// Channels that are not heat-run data.
+    pub ignored_channels: Vec<IgnoredChannel>,
+    /// The nameplate entries of the `heatrun.nameplate` record (empty when absent).
+    #[serde(skip)]
+    pub nameplate: NameplateEntries,
+    /// Other metadata records (test id, site, operator), carried into the report.
+    pub metadata: BTreeMap<String, BTreeMap<String, String>>,
+    /// Samples per channel given to the sink.
+    pub samples_per_channel: Vec<u64>,
+    /// Samples marked `bad` and dropped.
+    pub bad_quality_dropped: u64,
+    /// Samples marked `uncertain` (kept).
+    pub uncertain_kept: u64,
+    /// Earliest and latest sample time, in ns since the epoch.
+    pub time_span_ns: Option<(u64, u64)>,
+    /// What was lost to damage (a truncated file, a corrupt chunk); empty when nothing.
+    pub data_loss: Vec<String>,
+    /// Bytes in the file.
+    pub file_bytes: u64,
+}
+
+/// Formats a `log_time` for messages: RFC 3339, UTC.
+pub fn format_time(log_time_ns: u64) -> String {
+    match jiff::Timestamp::from_nanosecond(log_time_ns as i128) {
+        Ok(ts) => ts.to_string(),
+        Err(_) => format!("{log_time_ns} ns"),
+    }
+}
+
+struct SchemaInfo {
+    name: String,
+    encoding: String,
+}
+
+/// Where an MCAP channel id leads.
+enum ChannelRoute {
+    Sensor(usize),
+    Ignored,
+}
+
+struct Reader<'s, S: SampleSink> {
+    path: PathBuf,
+    sink: &'s mut S,
+    summary: RecordingSummary,
+    schemas: HashMap<u16, SchemaInfo>,
+    routes: HashMap<u16, ChannelRoute>,
+    /// Samples of the chunk being decoded, held until its CRC has been checked.
+    chunk_samples: Vec<Sample>,
+}
+
+/// Reads the heat-run recording at `path`, giving its samples to `sink`.
+///
+/// Fails with a one-line error naming the file (and the channel and time where
+/// they apply) when the file is not MCAP, a heat-run channel is malformed, or a
+/// message is not a sample. Damage after the start (a cut, a corrupt chunk) is
+/// recovered from and listed in [`RecordingSummary::data_loss`].
+pub fn read_recording<S: SampleSink>(path: &Path, sink: &mut S) -> Result<RecordingSummary> {
+    let mut file = std::fs::File::open(path)
+        .map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
+    let file_bytes = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let bad = |message: String| Error::BadRecording { path: path.to_owned(), message };
+    if file_bytes == 0 {
+        return Err(bad("the file is empty, not an MCAP recording".into()));
+    }
+    let mut magic = [0u8; 8];
+    let got = read_full(&mut file, &mut magic)
+        .map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
+    if got < 8 || magic != *mcap::MAGIC {
+        return Err(bad(
+            "not an MCAP file (it does not start with the MCAP magic bytes)".into(),
+        ));
+    }
+
+    let mut reader = Reader {
+        path: path.to_owned(),
+        sink,
+        summary: RecordingSummary { path: path.to_owned(), file_bytes, ..Default::default() },
+        schemas: HashMap::new(),
+        routes: HashMap::new(),
+        chunk_samples: Vec::new(),
+    };
+    let options = LinearReaderOptions::default()
+        .with_skip_start_magic(true)
+        .with_emit_chunks(true)
+        .with_validate_chunk_crcs(true)
+        // A corrupt length must not make the reader allocate the machine's memory.
+        .with_record_length_limit(1 << 30);
+    let mut linear = LinearReader::new_with_options(options);
+    let mut consumed: u64 = 8;
+    let mut last_record_end: u64 = 8;
+    loop {
+        let Some(event) = linear.next_event() else { break };
+        match event {
+            Ok(LinearReadEvent::ReadRequest(need)) => {
+                let buf = linear.insert(need.max(1 << 16));
+                let n = read_full(&mut file, buf)
+                    .map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
+                consumed += n as u64;
+                linear.notify_read(n);
+            }
+            Ok(LinearReadEvent::Record { opcode, data }) => {
+                let len = data.len() as u64;
+                match mcap::parse_record(opcode, data) {
+                    Ok(record) => reader.record(record)?,
+                    Err(e) => {
+                        reader.summary.data_loss.push(format!(
+                            "a damaged record (opcode {opcode:#04x}) after byte {last_record_end}: {e}; \
+                             the rest of the file was not read"
+                        ));
+                        break;
+                    }
+                }
+                last_record_end += 9 + len;
+            }
+            Err(mcap::McapError::UnexpectedEof) => {
+                if reader.summary.channels.is_empty() && reader.summary.ignored_channels.is_empty() {
+                    return Err(bad(format!(
+                        "the file ends after {consumed} bytes, before any channel was defined"
+                    )));
+                }
+                reader.summary.data_loss.push(format!(
+                    "the file ends mid-record after byte {last_record_end} of {file_bytes} \
+                     (cut short: no summary); the last {} bytes were not usable",
+                    file_bytes.saturating_sub(last_record_end)
+                ));
+                break;
+            }
+            Err(e) => {
+                if last_record_end <= 8 {
+                    return Err(bad(format!("not a readable MCAP file: {e}")));
+                }
+                reader.summary.data_loss.push(format!(
+                    "the file is damaged after byte {last_record_end}: {e}; the rest was not read"
+                ));
+                break;
+            }
+        }
+    }
+    Ok(reader.summary)
+}
+
+/// Reads until `buf` is full or the file ends; returns the bytes read.
+fn read_full(file: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut filled = 0;
+    while filled < buf.len() {
+        match file.read(&mut buf[filled..]) {
+            Ok(0) => break,
+            Ok(n) => filled += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(filled)
+}
+
+impl<S: SampleSink> Reader<'_, S> {
+    fn bad(&self, message: String) -> Error {
+        Error::BadRecording { path: self.path.clone(), message }
+    }
+
+    fn record(&mut self, record: Record<'_>) -> Result<()> {
+        match record {
+            Record::Schema { header, .. } => {
+                self.schemas.insert(
+                    header.id,
+                    SchemaInfo { name: header.name, encoding: header.encoding },
+                );
+            }
+            Record::Channel(channel) => self.channel(channel)?,
+            Record::Message { header, data } => {
+                if let Some(sample) = self.message(header.channel_id, header.log_time, &data)? {
+                    self.deliver(sample);
+                }
+            }
+            Record::Chunk { header, data } => self.chunk(header, &data)?,
+            Record::Metadata(meta) => {
+                if meta.name == NAMEPLATE_RECORD {
+                    self.summary.nameplate = NameplateEntries::from_map(
+                        &meta.metadata,
+                        &self.path.display().to_string(),
+                    );
+                } else {
+                    self.summary.metadata.insert(meta.name, meta.metadata);
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn chunk(&mut self, header: mcap::records::ChunkHeader, data: &[u8]) -> Result<()> {
+        self.chunk_samples.clear();
+        let start = header.message_start_time;
+        let records = match mcap::read::ChunkReader::new(header, data) {
+            Ok(r) => r,
+            Err(e) => {
+                self.summary.data_loss.push(format!(
+                    "a chunk starting at {} could not be opened ({e}); its messages were dropped",
+                    format_time(start)
+                ));
+                return Ok(());
+            }
+        };
+        let mut pending = std::mem::take(&mut self.chunk_samples);
+        for record in records {
+            match record {
+                Ok(Record::Message { header, data }) => {
+                    if let Some(s) = self.message(header.channel_id, header.log_time, &data)? {
+                        pending.push(s);
+                    }
+                }
+                Ok(Record::Schema { header, .. }) => {
+                    self.schemas.insert(
+                        header.id,
+                        SchemaInfo { name: header.name, encoding: header.encoding },
+                    );
+                }
+                Ok(Record::Channel(channel)) => self.channel(channel)?,
+                Ok(_) => {}
+                Err(e) => {
+                    self.summary.data_loss.push(format!(
+                        "the chunk starting at {} is damaged ({e}); its {} messages were dropped",
+                        format_time(start),
+                        pending.len()
+                    ));
+                    pending.clear();
+                    self.chunk_samples = pending;
+                    return Ok(());
+                }
+            }
+        }
+        for s in pending.drain(..) {
+            self.deliver(s);
+        }
+        self.chunk_samples = pending;
+        Ok(())
+    }
+
+    fn deliver(&mut self, sample: Sample) {
+        self.summary.samples_per_channel[sample.channel] += 1;
+        let t = sample.log_time_ns;
+        self.summary.time_span_ns = Some(match self.summary.time_span_ns {
+            None => (t, t),
+            Some((a, b)) => (a.min(t), b.max(t)),
+        });
+        self.sink.sample(sample);
+    }
+
+    fn channel(&mut self, channel: mcap::records::Channel) -> Result<()> {
+        if self.routes.contains_key(&channel.id) {
+            // A repeated channel record (the summary repeats them): already known.
+            return Ok(());
+        }
+        let quantity_name = channel
+            .metadata
+            .get("quantity")
+            .cloned()
+            .unwrap_or_else(|| channel.topic.rsplit('/').next().unwrap_or("").to_owned());
+        let Some(quantity) = Quantity::from_name(&quantity_name) else {
+            let reason = if channel.metadata.contains_key("quantity") {
+                format!("quantity `{quantity_name}` is not one of the profile's")
+            } else {
+                "no `quantity` metadata and the topic names no quantity".to_owned()
+            };
+            self.summary.ignored_channels.push(IgnoredChannel { topic: channel.topic, reason });
+            self.routes.insert(channel.id, ChannelRoute::Ignored);
+            return Ok(());
+        };
+        let topic = &channel.topic;
+        let schema = self.schemas.get(&channel.schema_id);
+        let schema_ok = schema.is_some_and(|s| {
+            s.name == SAMPLE_SCHEMA_NAME && s.encoding == SAMPLE_SCHEMA_ENCODING
+        });
+        if !schema_ok {
+            let found = match schema {
+                Some(s) => format!("schema `{}` ({})", s.name, s.encoding),
+                None => "no schema".to_owned(),
+            };
+            return Err(self.bad(format!(
+                "channel {topic} carries {quantity} but has {found}; the profile wants schema \
+                 `{SAMPLE_SCHEMA_NAME}` with encoding `{SAMPLE_SCHEMA_ENCODING}`"
+            )));
+        }
+        if channel.message_encoding != SAMPLE_MESSAGE_ENCODING {
+            return Err(self.bad(format!(
+                "channel {topic} has message encoding `{}`; the profile wants `{SAMPLE_MESSAGE_ENCODING}`",
+                channel.message_encoding
+            )));
+        }
+        let Some(unit) = channel.metadata.get("unit").cloned() else {
+            return Err(self.bad(format!(
+                "channel {topic} ({quantity}) has no `unit` metadata; one of {} is required",
+                quantity.accepted_units().join(", ")
+            )));
+        };
+        let Some(unit_scale) = quantity.unit_scale(&unit) else {
+            return Err(self.bad(format!(
+                "channel {topic} ({quantity}) has unit `{unit}`, which the profile does not accept \
+                 for {quantity}; use one of {}",
+                quantity.accepted_units().join(", ")
+            )));
+        };
+        let index = self.summary.channels.len();
+        let sensor_channel = SensorChannel {
+            index,
+            topic: channel.topic.clone(),
+            quantity,
+            sensor: channel.metadata.get("sensor").cloned(),
+            unit,
+            unit_scale,
+        };
+        self.sink.channel(&sensor_channel);
+        self.summary.channels.push(sensor_channel);
+        self.summary.samples_per_channel.push(0);
+        self.routes.insert(channel.id, ChannelRoute::Sensor(index));
+        Ok(())
+    }
+
+    fn message(&mut self, channel_id: u16, log_time: u64, data: &[u8]) -> Result<Option<Sample>> {
+        let index = match self.routes.get(&channel_id) {
+            Some(ChannelRoute::Sensor(i)) => *i,
+            Some(ChannelRoute::Ignored) => return Ok(None),
+            None => {
+                return Err(self.bad(format!(
+                    "a message at {} is on channel id {channel_id}, which was never defined",
+                    format_time(log_time)
+                )))
+            }
+        };
+        let parsed: SampleMessage = serde_json::from_slice(data).map_err(|e| {
+            let ch = &self.summary.channels[index];
+            self.bad(format!(
+                "channel {} at {}: the message is not a sample {{\"value\": <number>}}: {e}",
+                ch.topic,
+                format_time(log_time)
+            ))
+        })?;
+        match parsed.quality {
+            SampleQuality::Bad => {
+                self.summary.bad_quality_dropped += 1;
+                return Ok(None);
+            }
+            SampleQuality::Uncertain => self.summary.uncertain_kept += 1,
+            SampleQuality::Good => {}
+        }
+        let ch = &self.summary.channels[index];
+        Ok(Some(Sample { channel: index, log_time_ns: log_time, value: parsed.value * ch.unit_scale }))
+    }
+}

@@ -1,0 +1,362 @@
+//! Report stage: a [`Replay`] → the profile's JSON report and a summary table that
+//! reads like the paper's results section.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+use crate::losses::{FieldTemperatureSource, HeatSource, ThermalState};
+use crate::pipeline::Replay;
+use crate::recording::format_time;
+
+/// The profile identifier written into every report.
+pub const PROFILE: &str = "heatrun-scada/1";
+
+/// One time constant's part, as in the profile.
+#[derive(Debug, Clone, Serialize)]
+pub struct AssignmentEntry {
+    /// T_i in s.
+    pub time_constant_s: f64,
+    /// The state (profile name) it predominantly belongs to.
+    pub state: String,
+    /// ‖T_i ∂y/∂T_i‖ (RMS, pu) of that state.
+    pub sensitivity_norm: f64,
+    /// The physical part, for people.
+    pub part: String,
+}
+
+/// Fit block of the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitEntry {
+    /// SNR in dB (eq. 25).
+    pub snr_db: Vec<f64>,
+    /// NRMSE fit in %.
+    pub nrmse_fit_percent: Vec<f64>,
+    /// RMSE in K.
+    pub rmse_k: Vec<f64>,
+    /// Largest absolute error in K.
+    pub max_abs_error_k: Vec<f64>,
+    /// Instants compared.
+    pub samples: usize,
+}
+
+/// Steady-state block of the report (eqs. 30–35).
+#[derive(Debug, Clone, Serialize)]
+pub struct SteadyStateEntry {
+    /// The input u the steady state is for (the last measured one), pu.
+    pub input_pu: Vec<f64>,
+    /// Predicted final rises −θ_base·A_c⁻¹B_c u, K.
+    pub rise_k: Vec<f64>,
+    /// Predicted final temperatures θ_0 + rise, °C.
+    pub temperature_c: Vec<f64>,
+    /// Measured temperatures at the end of the recording, °C.
+    pub measured_final_temperature_c: Vec<f64>,
+    /// Measured rises at the end of the recording, K.
+    pub measured_final_rise_k: Vec<f64>,
+}
+
+/// The recording block (an extension of the profile).
+#[derive(Debug, Clone, Serialize)]
+pub struct RecordingEntry {
+    /// The file replayed.
+    pub path: String,
+    /// Its size in bytes.
+    pub file_bytes: u64,
+    /// First and last sample time, RFC 3339.
+    pub start: Option<String>,
+    /// Last sample time, RFC 3339.
+    pub end: Option<String>,
+    /// Heat-run channels: topic, quantity, unit, samples, nominal period, gaps.
+    pub channels: Vec<ChannelEntry>,
+    /// Channels not read, with the reason.
+    pub ignored_channels: Vec<crate::recording::IgnoredChannel>,
+    /// Samples marked `bad` and dropped.
+    pub bad_quality_dropped: u64,
+    /// What was lost to damage in the file.
+    pub data_loss: Vec<String>,
+    /// Other metadata records of the file.
+    pub metadata: BTreeMap<String, BTreeMap<String, String>>,
+}
+
+/// One channel in the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelEntry {
+    /// MCAP topic.
+    pub topic: String,
+    /// Quantity.
+    pub quantity: String,
+    /// Sensor tag.
+    pub sensor: Option<String>,
+    /// Unit as recorded.
+    pub unit: String,
+    /// Samples read.
+    pub samples: u64,
+    /// Median sample period, s.
+    pub nominal_period_s: f64,
+    /// Gaps found.
+    pub gaps: usize,
+}
+
+/// Estimation details (an extension of the profile).
+#[derive(Debug, Clone, Serialize)]
+pub struct EstimationEntry {
+    /// Grid instants.
+    pub instants: usize,
+    /// Equations used.
+    pub equations_used: usize,
+    /// Contiguous segments simulated (gaps split them).
+    pub segments: usize,
+    /// Condition number of the scaled regression matrix.
+    pub condition_number: f64,
+    /// Initial temperatures θ_0 the rises are measured from, °C.
+    pub initial_temperature_c: Vec<f64>,
+    /// Time of the initial temperatures, RFC 3339.
+    pub initial_time: String,
+    /// Source of the field winding temperature.
+    pub field_temperature: FieldTemperatureSource,
+    /// Temperature base, K.
+    pub temperature_base_k: f64,
+    /// Power base, MVA.
+    pub power_base_mva: f64,
+}
+
+/// The report of `heatrun replay --report` (profile section "Report").
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    /// Always [`PROFILE`].
+    pub profile: String,
+    /// heatrun's version.
+    pub heatrun_version: String,
+    /// Ts in s.
+    pub sample_time_s: f64,
+    /// Identification method.
+    pub method: String,
+    /// State names in model order.
+    pub states: Vec<String>,
+    /// Input names in model order.
+    pub inputs: Vec<String>,
+    /// Φ, row-major.
+    pub phi: Vec<Vec<f64>>,
+    /// Γ, row-major.
+    pub gamma: Vec<Vec<f64>>,
+    /// A_c, row-major, 1/s.
+    pub a_c: Vec<Vec<f64>>,
+    /// B_c, row-major, 1/s.
+    pub b_c: Vec<Vec<f64>>,
+    /// Eigenvalues of Φ, ascending.
+    pub eigenvalues_discrete: Vec<f64>,
+    /// Eigenvalues of A_c, 1/s.
+    pub eigenvalues_continuous: Vec<f64>,
+    /// Time constants, ascending, s.
+    pub time_constants_s: Vec<f64>,
+    /// Time constant → state.
+    pub assignment: Vec<AssignmentEntry>,
+    /// `sensitivity_norms[k][i]` = ‖T_i ∂y_k/∂T_i‖ (RMS, pu): rows states, columns time constants.
+    pub sensitivity_norms: Vec<Vec<f64>>,
+    /// Fit quality.
+    pub fit: FitEntry,
+    /// Steady state.
+    pub steady_state: SteadyStateEntry,
+    /// The recording.
+    pub recording: RecordingEntry,
+    /// The nameplate used.
+    pub nameplate: crate::recording::Nameplate,
+    /// Estimation details.
+    pub estimation: EstimationEntry,
+    /// Warnings.
+    pub warnings: Vec<String>,
+}
+
+fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    (0..m.nrows()).map(|i| m.row(i).iter().copied().collect()).collect()
+}
+
+impl Report {
+    /// Builds the report of a replay.
+    pub fn new(r: &Replay) -> Report {
+        let a = &r.analysis;
+        let base = r.signals.temperature_base_k;
+        let theta0 = r.signals.initial_temperatures_c;
+        let rise_k: Vec<f64> = a.steady_state.iter().map(|y| y * base).collect();
+        let measured_final = r.signals.last_temperatures().map(|(_, t)| t.to_vec()).unwrap_or_default();
+        Report {
+            profile: PROFILE.into(),
+            heatrun_version: env!("CARGO_PKG_VERSION").into(),
+            sample_time_s: r.signals.ts_s,
+            method: r.estimate.method.clone(),
+            states: ThermalState::ALL.iter().map(|s| s.name().to_owned()).collect(),
+            inputs: HeatSource::ALL.iter().map(|s| s.name().to_owned()).collect(),
+            phi: rows(&r.estimate.model.phi),
+            gamma: rows(&r.estimate.model.gamma),
+            a_c: rows(&a.continuous.a_c),
+            b_c: rows(&a.continuous.b_c),
+            eigenvalues_discrete: a.spectrum.eigenvalues_discrete.clone(),
+            eigenvalues_continuous: a.spectrum.eigenvalues_continuous.clone(),
+            time_constants_s: a.spectrum.time_constants_s.clone(),
+            assignment: a
+                .assignment
+                .iter()
+                .map(|x| AssignmentEntry {
+                    time_constant_s: x.time_constant_s,
+                    state: ThermalState::ALL[x.state].name().into(),
+                    sensitivity_norm: x.sensitivity_norm,
+                    part: ThermalState::ALL[x.state].part().into(),
+                })
+                .collect(),
+            sensitivity_norms: a.sensitivities.norms.clone(),
+            fit: FitEntry {
+                snr_db: a.fit.snr_db.clone(),
+                nrmse_fit_percent: a.fit.nrmse_fit_percent.clone(),
+                rmse_k: a.fit.rmse_k.clone(),
+                max_abs_error_k: a.fit.max_abs_error_k.clone(),
+                samples: a.fit.samples,
+            },
+            steady_state: SteadyStateEntry {
+                input_pu: a.steady_state_input.clone(),
+                temperature_c: rise_k.iter().zip(theta0).map(|(r, t)| t + r).collect(),
+                rise_k,
+                measured_final_rise_k: measured_final.iter().zip(theta0).map(|(m, t)| m - t).collect(),
+                measured_final_temperature_c: measured_final,
+            },
+            recording: RecordingEntry {
+                path: r.path.display().to_string(),
+                file_bytes: r.recording.file_bytes,
+                start: r.recording.time_span_ns.map(|(a, _)| format_time(a)),
+                end: r.recording.time_span_ns.map(|(_, b)| format_time(b)),
+                channels: r
+                    .recording
+                    .channels
+                    .iter()
+                    .zip(&r.decimated.channels)
+                    .map(|(c, g)| ChannelEntry {
+                        topic: c.topic.clone(),
+                        quantity: c.quantity.name().into(),
+                        sensor: c.sensor.clone(),
+                        unit: c.unit.clone(),
+                        samples: r.recording.samples_per_channel[c.index],
+                        nominal_period_s: g.nominal_period_s,
+                        gaps: g.gaps,
+                    })
+                    .collect(),
+                ignored_channels: r.recording.ignored_channels.clone(),
+                bad_quality_dropped: r.recording.bad_quality_dropped,
+                data_loss: r.recording.data_loss.clone(),
+                metadata: r.recording.metadata.clone(),
+            },
+            nameplate: r.nameplate.clone(),
+            estimation: EstimationEntry {
+                instants: r.data.len(),
+                equations_used: r.estimate.rows_used,
+                segments: r.data.segments().len(),
+                condition_number: r.estimate.condition_number,
+                initial_temperature_c: theta0.to_vec(),
+                initial_time: format_time(r.signals.time_ns[r.signals.initial_index].max(0) as u64),
+                field_temperature: r.signals.field_temperature_source.clone(),
+                temperature_base_k: base,
+                power_base_mva: r.signals.power_base_va / 1e6,
+            },
+            warnings: r.warnings.clone(),
+        }
+    }
+
+    /// The report as pretty-printed JSON.
+    pub fn to_json(&self) -> String {
+        // Serialising plain numbers, strings and maps cannot fail.
+        serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+    }
+
+    /// A summary that reads like the paper's results section.
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        let names = ["stator winding", "iron core", "cooling water"];
+        let rec = &self.recording;
+        let duration = self.estimation.instants as f64 * self.sample_time_s;
+        let _ = writeln!(s, "heat run {}", rec.path);
+        let _ = writeln!(
+            s,
+            "  {} to {} ({:.0} s, {:.1} h), {} channels, Ts = {} s: {} instants, {} equations, {} segment(s)",
+            rec.start.as_deref().unwrap_or("?"),
+            rec.end.as_deref().unwrap_or("?"),
+            duration,
+            duration / 3600.0,
+            rec.channels.len(),
+            self.sample_time_s,
+            self.estimation.instants,
+            self.estimation.equations_used,
+            self.estimation.segments
+        );
+        let _ = writeln!(
+            s,
+            "  method {} (condition number {:.3e}); θ_0 = [{}] °C; field temperature: {}",
+            self.method,
+            self.estimation.condition_number,
+            join(&self.estimation.initial_temperature_c, |v| format!("{v:.2}")),
+            match &self.estimation.field_temperature {
+                FieldTemperatureSource::Measured => "measured".to_owned(),
+                FieldTemperatureSource::ResistanceMethod => "resistance method U_f/I_f".to_owned(),
+                FieldTemperatureSource::ScaledArmatureRise { scale, final_temp_c } =>
+                    format!("armature rise × {scale:.4} (final {final_temp_c} °C)"),
+            }
+        );
+        let _ = writeln!(s);
+        matrix(&mut s, "Φ (eq. 19)", &self.phi, 8);
+        matrix(&mut s, "Γ (eq. 20)", &self.gamma, 7);
+        let _ = writeln!(s, "eigenvalues of Φ (eq. 21): [{}]", join(&self.eigenvalues_discrete, |v| format!("{v:.5}")));
+        matrix(&mut s, "A_c (eq. 22), 1/s", &self.a_c, 8);
+        matrix(&mut s, "B_c (eq. 23), 1/s", &self.b_c, 7);
+        let _ = writeln!(
+            s,
+            "eigenvalues of A_c (eq. 24): [{}] 1/s",
+            join(&self.eigenvalues_continuous, |v| format!("{v:.6}"))
+        );
+        let _ = writeln!(s, "time constants (eq. 26) and the part each belongs to (eqs. 27-29):");
+        for (i, a) in self.assignment.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "  T{} = {:>9.2} s  -> {:<24} ‖T ∂y/∂T‖ = {:.3e} pu",
+                i + 1,
+                a.time_constant_s,
+                a.part,
+                a.sensitivity_norm
+            );
+        }
+        let _ = writeln!(s, "sensitivity norms ‖T_i ∂y_k/∂T_i‖, pu (rows: states; columns: T1..Tn):");
+        for (k, row) in self.sensitivity_norms.iter().enumerate() {
+            let _ = writeln!(s, "  {:<16}{}", names.get(k).unwrap_or(&"?"), join(row, |v| format!("{v:>11.3e}")));
+        }
+        let _ = writeln!(s);
+        let _ = writeln!(s, "fit of the simulated model (eq. 8) {:>16}{:>16}{:>16}", names[0], names[1], names[2]);
+        row(&mut s, "  SNR, dB (eq. 25)", &self.fit.snr_db, 3);
+        row(&mut s, "  NRMSE fit, %", &self.fit.nrmse_fit_percent, 2);
+        row(&mut s, "  RMSE, K", &self.fit.rmse_k, 3);
+        row(&mut s, "  largest error, K", &self.fit.max_abs_error_k, 3);
+        let ss = &self.steady_state;
+        let _ = writeln!(s);
+        let _ = writeln!(s, "steady state for u = [{}] pu (eqs. 30-35)", join(&ss.input_pu, |v| format!("{v:.7}")));
+        row(&mut s, "  predicted rise, K (eq. 32)", &ss.rise_k, 3);
+        row(&mut s, "  measured final rise, K (eq. 33)", &ss.measured_final_rise_k, 3);
+        row(&mut s, "  predicted temperature, °C (eq. 34)", &ss.temperature_c, 3);
+        row(&mut s, "  measured final temperature, °C (35)", &ss.measured_final_temperature_c, 3);
+        for w in &self.warnings {
+            let _ = writeln!(s, "warning: {w}");
+        }
+        s
+    }
+}
+
+fn join(v: &[f64], f: impl Fn(f64) -> String) -> String {
+    v.iter().map(|x| f(*x)).collect::<Vec<_>>().join(" ")
+}
+
+fn matrix(s: &mut String, title: &str, m: &[Vec<f64>], digits: usize) {
+    let _ = writeln!(s, "{title}:");
+    for r in m {
+        let _ = writeln!(s, "  [{}]", join(r, |v| format!("{v:>width$.digits$}", width = digits + 5)));
+    }
+}
+
+fn row(s: &mut String, label: &str, v: &[f64], digits: usize) {
+    let _ = writeln!(s, "{label:<37}{}", join(v, |x| format!("{x:>16.digits$}")));
+}
