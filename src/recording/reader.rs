@@ -162,6 +162,15 @@ pub fn read_recording<S: SampleSink>(path: &Path, sink: &mut S) -> Result<Record
     let mut magic = [0u8; 8];
     let got = read_full(&mut file, &mut magic)
         .map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
+    if magic.starts_with(b"version ") {
+        let mut head = vec![0u8; 64];
+        let n = read_full(&mut file, &mut head).unwrap_or(0);
+        if [&magic[..], &head[..n]].concat().starts_with(b"version https://git-lfs") {
+            return Err(bad(
+                "is a Git LFS pointer, not the MCAP data it stands for; fetch the data with `git lfs pull`".into(),
+            ));
+        }
+    }
     if got < 8 || magic != *mcap::MAGIC {
         return Err(bad(
             "not an MCAP file (it does not start with the MCAP magic bytes)".into(),

@@ -1,0 +1,150 @@
+//! Bad input ends with one line naming the file, channel or key, exit status 2,
+//! no panic, no partial output, and the input untouched.
+
+mod common;
+
+use std::path::Path;
+
+use common::{heatrun, RecordingBuilder};
+
+/// Runs a replay that must fail with status 2; returns its one-line message.
+fn fails_with_2(dir: &Path, file: &str) -> String {
+    let before = std::fs::read(dir.join(file)).ok();
+    let out = heatrun(&["replay", file, "--rrd", "out.rrd", "--report", "out.json"], dir);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+    assert!(stderr.contains(file), "names the file: {stderr}");
+    assert!(!dir.join("out.rrd").exists() && !dir.join("out.json").exists(), "no output on failure");
+    assert_eq!(std::fs::read(dir.join(file)).ok(), before, "input unchanged");
+    for f in common::files_in(dir) {
+        assert!(!f.to_string_lossy().contains("partial"), "{f:?} left behind");
+    }
+    stderr
+}
+
+#[test]
+fn a_file_that_is_not_mcap() {
+    let dir = common::tempdir();
+    std::fs::write(dir.path().join("notes.mcap"), "time,value\n1,2\n").unwrap();
+    let msg = fails_with_2(dir.path(), "notes.mcap");
+    assert!(msg.contains("not an MCAP file"), "{msg}");
+}
+
+#[test]
+fn an_empty_file() {
+    let dir = common::tempdir();
+    std::fs::write(dir.path().join("empty.mcap"), "").unwrap();
+    let msg = fails_with_2(dir.path(), "empty.mcap");
+    assert!(msg.contains("empty"), "{msg}");
+}
+
+#[test]
+fn a_missing_file() {
+    let dir = common::tempdir();
+    let out = heatrun(&["replay", "nowhere.mcap"], dir.path());
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("nowhere.mcap"));
+}
+
+#[test]
+fn a_missing_required_quantity_is_named() {
+    let dir = common::tempdir();
+    RecordingBuilder::heat_run(3000.0, "core_temp").write(&dir.path().join("r.mcap"));
+    let msg = fails_with_2(dir.path(), "r.mcap");
+    assert!(msg.contains("core_temp"), "{msg}");
+}
+
+#[test]
+fn an_unknown_unit_names_the_channel() {
+    let dir = common::tempdir();
+    let mut r = RecordingBuilder::heat_run(3000.0, "line_voltage");
+    r = r.channel("line_voltage", "MV", 1.0, 3000.0, |_| 0.0156);
+    r.write(&dir.path().join("r.mcap"));
+    let msg = fails_with_2(dir.path(), "r.mcap");
+    assert!(msg.contains("/scada/line_voltage") && msg.contains("`MV`"), "{msg}");
+}
+
+#[test]
+fn a_missing_nameplate_value_names_the_key() {
+    let dir = common::tempdir();
+    let mut r = RecordingBuilder::heat_run(3000.0, "");
+    r.nameplate.as_mut().unwrap().remove("rated_voltage_kv");
+    r.write(&dir.path().join("r.mcap"));
+    let msg = fails_with_2(dir.path(), "r.mcap");
+    assert!(msg.contains("rated_voltage_kv") && msg.contains("--machine"), "{msg}");
+}
+
+#[test]
+fn a_missing_nameplate_value_can_come_from_a_machine_file() {
+    let dir = common::tempdir();
+    let mut r = RecordingBuilder::heat_run(3000.0, "");
+    r.nameplate.as_mut().unwrap().remove("rated_voltage_kv");
+    r.write(&dir.path().join("r.mcap"));
+    std::fs::write(dir.path().join("m.toml"), "rated_voltage_kv = 15.65\n").unwrap();
+    let out = heatrun(&["replay", "r.mcap", "--machine", "m.toml", "--rrd", "o.rrd", "--quiet"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn a_message_that_is_not_a_sample_names_channel_and_time() {
+    let dir = common::tempdir();
+    let mut r = RecordingBuilder::heat_run(3000.0, "");
+    r.channels[0].2[100].1 = "{\"val\": 3}".into();
+    r.write(&dir.path().join("r.mcap"));
+    let msg = fails_with_2(dir.path(), "r.mcap");
+    assert!(msg.contains("/scada/armature_current") && msg.contains("2020-09-13T12:28:20Z"), "{msg}");
+}
+
+#[test]
+fn a_wrong_schema_names_the_channel() {
+    let dir = common::tempdir();
+    let mut r = RecordingBuilder::heat_run(3000.0, "");
+    r.schema_name = "foxglove.Temperature".into();
+    r.write(&dir.path().join("r.mcap"));
+    let msg = fails_with_2(dir.path(), "r.mcap");
+    assert!(msg.contains("foxglove.Temperature"), "{msg}");
+}
+
+#[test]
+fn constant_inputs_are_not_persistently_exciting() {
+    let dir = common::tempdir();
+    let mut r = RecordingBuilder::new();
+    let rise = |t: f64, tau: f64, k: f64| k * (1.0 - (-t / tau).exp());
+    r = r
+        .channel("armature_current", "A", 1.0, 3000.0, |_| 3000.0)
+        .channel("field_current", "A", 1.0, 3000.0, |_| 1000.0)
+        .channel("line_voltage", "V", 1.0, 3000.0, |_| 15650.0)
+        .channel("field_voltage", "V", 1.0, 3000.0, |_| 150.0)
+        .channel("stator_winding_temp", "degC", 1.0, 3000.0, move |t| 30.0 + rise(t, 700.0, 25.0))
+        .channel("core_temp", "degC", 1.0, 3000.0, move |t| 30.0 + rise(t, 3000.0, 17.0))
+        .channel("cooling_water_outlet_temp", "degC", 1.0, 3000.0, move |t| 10.0 + rise(t, 30.0, 3.0));
+    r.write(&dir.path().join("r.mcap"));
+    let msg = fails_with_2(dir.path(), "r.mcap");
+    assert!(msg.contains("persistently exciting"), "{msg}");
+}
+
+#[test]
+fn the_mcap_conformance_files_hold_no_heat_run() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/mcap-conformance/OneMessage");
+    let Ok(entries) = std::fs::read_dir(&root) else {
+        eprintln!("no conformance files at {}: skipped", root.display());
+        return;
+    };
+    let mut checked = 0;
+    for e in entries {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "mcap") && checked < 8 {
+            let dir = common::tempdir();
+            std::fs::copy(&p, dir.path().join("c.mcap")).unwrap();
+            let msg = fails_with_2(dir.path(), "c.mcap");
+            // The shared copies may be Git LFS pointers rather than the data.
+            let lfs = std::fs::read(&p).unwrap().starts_with(b"version https://git-lfs");
+            let want = if lfs { "Git LFS pointer" } else { "no heat-run data" };
+            assert!(msg.contains(want), "{}: {msg}", p.display());
+            checked += 1;
+        }
+    }
+    assert!(checked > 0);
+}

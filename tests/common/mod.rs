@@ -1,0 +1,112 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::collections::BTreeMap;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use heatrun::recording::Nameplate;
+
+/// Runs the heatrun binary.
+pub fn heatrun(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_heatrun")).args(args).current_dir(cwd).output().expect("heatrun runs")
+}
+
+/// A hand-built recording: channels with metadata and samples.
+pub struct RecordingBuilder {
+    pub channels: Vec<(String, BTreeMap<String, String>, Vec<(u64, String)>)>,
+    pub nameplate: Option<BTreeMap<String, String>>,
+    pub schema_name: String,
+    pub message_encoding: String,
+}
+
+pub const T0: u64 = 1_600_000_000_000_000_000;
+
+impl RecordingBuilder {
+    pub fn new() -> Self {
+        RecordingBuilder {
+            channels: Vec::new(),
+            nameplate: Some(Nameplate::paper_table1().to_record()),
+            schema_name: "heatrun.Sample".into(),
+            message_encoding: "json".into(),
+        }
+    }
+
+    /// Adds a channel `/scada/<quantity>` with samples `value(t_s)` every `period_s` for `duration_s`.
+    pub fn channel(mut self, quantity: &str, unit: &str, period_s: f64, duration_s: f64, value: impl Fn(f64) -> f64) -> Self {
+        let meta: BTreeMap<String, String> =
+            [("quantity".to_owned(), quantity.to_owned()), ("unit".to_owned(), unit.to_owned())].into();
+        let n = (duration_s / period_s) as u64;
+        let samples = (0..n)
+            .map(|i| {
+                let t = i as f64 * period_s;
+                (T0 + (t * 1e9) as u64, format!("{{\"value\":{}}}", value(t)))
+            })
+            .collect();
+        self.channels.push((format!("/scada/{quantity}"), meta, samples));
+        self
+    }
+
+    /// A complete plausible heat run of `duration_s` with load steps, without `skip`.
+    pub fn heat_run(duration_s: f64, skip: &str) -> Self {
+        let step = |t: f64, a: f64, b: f64| if t < duration_s / 2.0 { a } else { b };
+        let mut r = RecordingBuilder::new();
+        let rise = |t: f64, tau: f64, k: f64| k * (1.0 - (-t / tau).exp());
+        let all: Vec<(&str, &str, Box<dyn Fn(f64) -> f64>)> = vec![
+            ("armature_current", "A", Box::new(move |t| step(t, 2000.0, 3400.0) + 50.0 * (t / 300.0).sin())),
+            ("field_current", "A", Box::new(move |t| step(t, 900.0, 1150.0) + 30.0 * (t / 170.0).cos())),
+            ("line_voltage", "kV", Box::new(move |t| step(t, 15.6, 16.4) + 0.2 * (t / 230.0).sin())),
+            ("field_voltage", "V", Box::new(move |t| step(t, 140.0, 190.0))),
+            ("stator_winding_temp", "degC", Box::new(move |t| 30.0 + rise(t, 700.0, 25.0) + 0.3 * (t / 400.0).sin())),
+            ("core_temp", "degC", Box::new(move |t| 30.0 + rise(t, 3000.0, 17.0) + 0.2 * (t / 500.0).cos())),
+            ("cooling_water_outlet_temp", "degC", Box::new(move |t| 10.0 + rise(t, 30.0, 3.0) + 0.1 * (t / 90.0).sin())),
+        ];
+        for (q, unit, f) in all {
+            if q != skip {
+                r = r.channel(q, unit, 1.0, duration_s, f);
+            }
+        }
+        r
+    }
+
+    pub fn write(&self, path: &Path) {
+        let file = std::fs::File::create(path).unwrap();
+        let mut w = mcap::WriteOptions::new().create(BufWriter::new(file)).unwrap();
+        let schema = w.add_schema(&self.schema_name, "jsonschema", heatrun::synth::SAMPLE_SCHEMA.as_bytes()).unwrap();
+        let mut ids = Vec::new();
+        for (topic, meta, _) in &self.channels {
+            ids.push(w.add_channel(schema, topic, &self.message_encoding, meta).unwrap());
+        }
+        if let Some(np) = &self.nameplate {
+            w.write_metadata(&mcap::records::Metadata { name: "heatrun.nameplate".into(), metadata: np.clone() }).unwrap();
+        }
+        let mut all: Vec<(u64, usize, &String)> = Vec::new();
+        for (c, (_, _, samples)) in self.channels.iter().enumerate() {
+            for (t, data) in samples {
+                all.push((*t, c, data));
+            }
+        }
+        all.sort_by_key(|x| x.0);
+        for (seq, (t, c, data)) in all.into_iter().enumerate() {
+            w.write_to_known_channel(
+                &mcap::records::MessageHeader { channel_id: ids[c], sequence: seq as u32, log_time: t, publish_time: t },
+                data.as_bytes(),
+            )
+            .unwrap();
+        }
+        w.finish().unwrap();
+    }
+}
+
+/// A fresh temporary directory.
+pub fn tempdir() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+/// The files in a directory.
+pub fn files_in(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
+    v.sort();
+    v
+}
