@@ -261,8 +261,8 @@ impl Decimator {
                     j += 1;
                 }
                 let a = points[j];
-                if (a.1 - t).abs() < 1e-9 {
-                    *slot = Some(a.2);
+                if let Some(exact) = points[j..(j + 2).min(points.len())].iter().find(|p| (p.1 - t).abs() < 1e-9) {
+                    *slot = Some(exact.2);
                     continue;
                 }
                 if j + 1 >= points.len() || a.1 > t {
