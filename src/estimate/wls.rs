@@ -101,3 +101,62 @@ pub fn solve_scaled(mut f: DMatrix<f64>, y: &DVector<f64>) -> Result<(DVector<f6
     let theta = DVector::from_fn(p, |j, _| theta[j] * scale[j]);
     Ok((theta, s_max / s_min))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// A 2-state, 1-input system simulated from known matrices with random inputs.
+    fn simulated(n: usize, seed: u64) -> (IdentificationData, DMatrix<f64>, DMatrix<f64>) {
+        let phi = DMatrix::from_row_slice(2, 2, &[0.95, 0.02, 0.01, 0.99]);
+        let gamma = DMatrix::from_row_slice(2, 1, &[0.3, 0.05]);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let u = DMatrix::from_fn(n, 1, |_, _| rng.random_range(0.0..1.0));
+        let mut y = DMatrix::zeros(n, 2);
+        for k in 1..n {
+            let next = &phi * y.row(k - 1).transpose() + &gamma * u.row(k - 1).transpose();
+            y.set_row(k, &next.transpose());
+        }
+        (IdentificationData::complete(1.0, y, u), phi, gamma)
+    }
+
+    #[test]
+    fn exact_data_give_the_true_matrices() {
+        let (data, phi, gamma) = simulated(500, 7);
+        let e = WeightedLeastSquares::default().estimate(&data).unwrap();
+        assert!((e.model.phi - phi).norm() < 1e-12);
+        assert!((e.model.gamma - gamma).norm() < 1e-12);
+        assert_eq!(e.rows_used, 499);
+    }
+
+    #[test]
+    fn rows_touching_missing_data_are_left_out() {
+        let (mut data, phi, _) = simulated(500, 8);
+        // Corrupt instant 200 and mark it unknown: rows 200 and 201 must be skipped.
+        data.outputs[(200, 0)] = 1e6;
+        data.outputs_known[200] = false;
+        let e = WeightedLeastSquares::default().estimate(&data).unwrap();
+        assert_eq!(e.rows_used, 497);
+        assert!((e.model.phi - phi).norm() < 1e-12);
+        assert_eq!(data.segments(), vec![0..200, 201..500]);
+    }
+
+    #[test]
+    fn time_varying_weights_discount_a_disturbed_stretch() {
+        let (mut data, phi, _) = simulated(600, 9);
+        for k in 300..320 {
+            data.outputs[(k, 1)] += 5.0; // a disturbance on state 2
+        }
+        let plain = WeightedLeastSquares::default().estimate(&data).unwrap();
+        let mut w = DMatrix::from_element(600, 2, 1.0);
+        // The disturbed values are regressors of both states' equations at k + 1.
+        for k in 300..322 {
+            w[(k, 0)] = 1e-12;
+            w[(k, 1)] = 1e-12;
+        }
+        let weighted = WeightedLeastSquares { weights: Some(w) }.estimate(&data).unwrap();
+        assert!((plain.model.phi.clone() - &phi).norm() > 1e-3);
+        assert!((weighted.model.phi - phi).norm() < 1e-5);
+    }
+}
