@@ -27,10 +27,16 @@ pub enum Command {
 /// Identification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum MethodArg {
-    /// Ordinary least squares (eq. 7).
+    /// Ordinary least squares (eq. 7); biased when the temperatures are noisy.
     Ls,
     /// Weighted least squares (eqs. 3-7) with --weights.
     Wls,
+    /// Recursive least squares with --forgetting; its trajectory goes to rerun.
+    Rls,
+    /// Iterated instrumental variables (instruments from the simulated model).
+    Iv,
+    /// Output error: minimises the simulation error by Levenberg-Marquardt from IV.
+    Oe,
 }
 
 /// Arguments of `heatrun replay`.
@@ -44,12 +50,15 @@ pub struct ReplayArgs {
     /// Machine file (TOML) whose keys override the recording's nameplate.
     #[arg(long, value_name = "FILE.toml")]
     pub machine: Option<PathBuf>,
-    /// Identification method.
-    #[arg(long, value_enum, default_value_t = MethodArg::Wls)]
+    /// Identification method (oe: unbiased under sensor noise, the most accurate).
+    #[arg(long, value_enum, default_value_t = MethodArg::Oe)]
     pub method: MethodArg,
-    /// Per-state weights w_i of the weighted least squares, comma-separated.
+    /// Per-state weights w_i of wls and oe, comma-separated (oe default: 1/noise variance).
     #[arg(long, value_delimiter = ',', value_name = "W1,W2,W3")]
     pub weights: Option<Vec<f64>>,
+    /// Forgetting factor of rls, in (0, 1].
+    #[arg(long, default_value_t = 1.0)]
+    pub forgetting: f64,
     /// Save the rerun recording to this .rrd file (the default: <recording>.rrd here).
     #[arg(long, value_name = "PATH")]
     pub rrd: Option<PathBuf>,

@@ -7,7 +7,11 @@ use std::path::{Path, PathBuf};
 
 use crate::decimate::{DecimatedRecording, Decimator};
 use crate::error::{Error, Result};
-use crate::estimate::{Estimate, Estimator, IdentificationData, WeightedLeastSquares};
+use crate::estimate::rls::TrajectoryPoint;
+use crate::estimate::{
+    Estimate, Estimator, IdentificationData, InstrumentalVariables, OutputError, RecursiveLeastSquares,
+    WeightedLeastSquares,
+};
 use crate::losses::{self, ThermalSignals};
 use crate::model::{self, ModelAnalysis};
 use crate::recording::{self, Nameplate, NameplateEntries, RecordingSummary};
@@ -15,10 +19,16 @@ use crate::recording::{self, Nameplate, NameplateEntries, RecordingSummary};
 /// An identification method selectable on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
-    /// Ordinary least squares (eq. 7), W = I.
+    /// Ordinary least squares (eq. 7), W = I: biased by sensor noise on y.
     Ls,
     /// Weighted least squares (eqs. 3–7) with per-output weights.
     Wls,
+    /// Recursive least squares with a forgetting factor.
+    Rls,
+    /// Iterated instrumental variables.
+    Iv,
+    /// Output error by Levenberg–Marquardt from the IV estimate (the default).
+    Oe,
 }
 
 impl Method {
@@ -27,8 +37,14 @@ impl Method {
         match self {
             Method::Ls => "ls",
             Method::Wls => "wls",
+            Method::Rls => "rls",
+            Method::Iv => "iv",
+            Method::Oe => "oe",
         }
     }
+
+    /// Every method, for benchmarks and tests.
+    pub const ALL: [Method; 5] = [Method::Ls, Method::Wls, Method::Rls, Method::Iv, Method::Oe];
 }
 
 /// How to replay a recording.
@@ -40,13 +56,16 @@ pub struct ReplayOptions {
     pub machine: Option<PathBuf>,
     /// The identification method.
     pub method: Method,
-    /// Per-output weights w_i for `wls` (constant in time); `None` for equal weights.
+    /// Per-output weights w_i for `wls` and `oe` (constant in time); `None`: equal for
+    /// `wls`, the inverse noise variances for `oe`.
     pub weights: Option<Vec<f64>>,
+    /// Forgetting factor λ of `rls`.
+    pub forgetting: f64,
 }
 
 impl Default for ReplayOptions {
     fn default() -> Self {
-        ReplayOptions { ts_s: 1.0, machine: None, method: Method::Wls, weights: None }
+        ReplayOptions { ts_s: 1.0, machine: None, method: Method::Oe, weights: None, forgetting: 1.0 }
     }
 }
 
@@ -67,6 +86,8 @@ pub struct Replay {
     pub data: IdentificationData,
     /// The estimate.
     pub estimate: Estimate,
+    /// The recursion's trajectory of Θ (`rls` only).
+    pub trajectory: Vec<TrajectoryPoint>,
     /// The analysis of the estimate.
     pub analysis: ModelAnalysis,
     /// Warnings for the user (data loss, gaps).
@@ -113,21 +134,7 @@ pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
     let signals = losses::compute(&decimated, &nameplate, &name)?;
     let data = IdentificationData::from(&signals);
 
-    let estimator = WeightedLeastSquares {
-        weights: match (options.method, &options.weights) {
-            (Method::Wls, Some(w)) => {
-                if w.len() != data.states() || w.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
-                    return Err(Error::Usage(format!(
-                        "--weights wants {} positive numbers, one per state",
-                        data.states()
-                    )));
-                }
-                Some(nalgebra::DMatrix::from_fn(data.len(), data.states(), |_, j| w[j]))
-            }
-            _ => None,
-        },
-    };
-    let mut estimate = estimator.estimate(&data).map_err(|e| with_file(e, &name))?;
+    let (mut estimate, trajectory) = estimate(&data, options).map_err(|e| with_file(e, &name))?;
     estimate.method = options.method.name().into();
     let (_, last_input) = signals
         .last_inputs()
@@ -163,8 +170,29 @@ pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
         signals,
         data,
         estimate,
+        trajectory,
         analysis,
         warnings,
+    })
+}
+
+/// Runs the chosen estimator on the data.
+pub fn estimate(data: &IdentificationData, options: &ReplayOptions) -> Result<(Estimate, Vec<TrajectoryPoint>)> {
+    if let Some(w) = &options.weights {
+        if w.len() != data.states() || w.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+            return Err(Error::Usage(format!("--weights wants {} positive numbers, one per state", data.states())));
+        }
+    }
+    let per_instant = |w: &Vec<f64>| nalgebra::DMatrix::from_fn(data.len(), data.states(), |_, j| w[j]);
+    Ok(match options.method {
+        Method::Ls => (WeightedLeastSquares::default().estimate(data)?, Vec::new()),
+        Method::Wls => (
+            WeightedLeastSquares { weights: options.weights.as_ref().map(per_instant) }.estimate(data)?,
+            Vec::new(),
+        ),
+        Method::Rls => RecursiveLeastSquares { forgetting: options.forgetting, keep_every: 10 }.run(data)?,
+        Method::Iv => (InstrumentalVariables::default().estimate(data)?, Vec::new()),
+        Method::Oe => (OutputError { weights: options.weights.clone() }.estimate(data)?, Vec::new()),
     })
 }
 

@@ -74,9 +74,11 @@ pub struct OperatingPoint {
     pub field_current_pu: f64,
 }
 
-/// The default heat run: load and excitation steps that excite all three heat
-/// sources independently, ending at the paper's final operating point (eq. 30:
-/// I_g = 0.929 I_n, U_g = 1.0652 U_n, I_f = 1.0759 I_fn) for the last half.
+/// The default heat run: a stepped load-up (25, 50, 75, 93 % current) with voltage
+/// and excitation changes between the steps, so that all three heat sources are
+/// excited independently and each step shows the fast cooling-water transient, then
+/// the paper's final operating point (eq. 30: I_g = 0.929 I_n, U_g = 1.0652 U_n,
+/// I_f = 1.0759 I_fn) held for the last 58 % of the run.
 pub fn heat_run_with_load_steps() -> Vec<OperatingPoint> {
     let p = |start_fraction, armature_current_pu, line_voltage_pu, field_current_pu| OperatingPoint {
         start_fraction,
@@ -85,13 +87,17 @@ pub fn heat_run_with_load_steps() -> Vec<OperatingPoint> {
         field_current_pu,
     };
     vec![
-        p(0.00, 0.50, 1.000, 0.85),
-        p(0.06, 0.50, 1.040, 0.97),
-        p(0.13, 0.78, 1.040, 1.02),
-        p(0.21, 0.78, 0.980, 0.88),
-        p(0.29, 0.929, 1.0652, 1.0759),
-        p(0.38, 0.929, 1.010, 0.95),
-        p(0.46, 0.929, 1.0652, 1.0759),
+        p(0.00, 0.25, 1.000, 0.80),
+        p(0.04, 0.50, 1.000, 0.85),
+        p(0.08, 0.50, 1.040, 0.97),
+        p(0.12, 0.75, 1.040, 1.02),
+        p(0.16, 0.75, 0.980, 0.88),
+        p(0.20, 0.929, 0.980, 0.95),
+        p(0.24, 0.929, 1.0652, 1.0759),
+        p(0.30, 0.80, 1.0652, 1.00),
+        p(0.34, 0.929, 1.020, 1.0759),
+        p(0.38, 0.929, 1.0652, 0.95),
+        p(0.42, 0.929, 1.0652, 1.0759),
     ]
 }
 

@@ -31,8 +31,12 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
         method: match args.method {
             MethodArg::Ls => Method::Ls,
             MethodArg::Wls => Method::Wls,
+            MethodArg::Rls => Method::Rls,
+            MethodArg::Iv => Method::Iv,
+            MethodArg::Oe => Method::Oe,
         },
         weights: args.weights.clone(),
+        forgetting: args.forgetting,
     };
     let replay = pipeline::replay(&file, &options)?;
     let report = Report::new(&replay);

@@ -12,8 +12,14 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::losses::ThermalSignals;
 
+pub mod iv;
+pub mod oe;
+pub mod rls;
 pub mod wls;
 
+pub use iv::InstrumentalVariables;
+pub use oe::OutputError;
+pub use rls::RecursiveLeastSquares;
 pub use wls::WeightedLeastSquares;
 
 /// Sampled outputs y(k) (N × n) and inputs u(k) (N × m) of a system
@@ -147,6 +153,52 @@ impl DiscreteModel {
         }
         out
     }
+
+    /// The simulated output over every segment, NaN outside them (eq. 8 run from the
+    /// measured state at the start of each segment).
+    pub fn simulate_segments(&self, data: &IdentificationData, segments: &[Range<usize>]) -> DMatrix<f64> {
+        let mut out = DMatrix::from_element(data.len(), data.states(), f64::NAN);
+        for seg in segments {
+            let sim = self.simulate(data, seg.clone());
+            out.view_mut((seg.start, 0), (seg.len(), data.states())).copy_from(&sim);
+        }
+        out
+    }
+
+    /// Θ = [Φ Γ] as one vector, row by row: index i·(n+m) + j.
+    pub fn theta(&self) -> Vec<f64> {
+        let (n, m) = (self.phi.nrows(), self.gamma.ncols());
+        (0..n).flat_map(|i| (0..n + m).map(move |j| (i, j))).map(|(i, j)| {
+            if j < n { self.phi[(i, j)] } else { self.gamma[(i, j - n)] }
+        }).collect()
+    }
+
+    /// The model with Θ from a vector laid out as [`DiscreteModel::theta`].
+    pub fn with_theta(&self, theta: &[f64]) -> DiscreteModel {
+        let (n, m) = (self.phi.nrows(), self.gamma.ncols());
+        let p = n + m;
+        DiscreteModel {
+            phi: DMatrix::from_fn(n, n, |i, j| theta[i * p + j]),
+            gamma: DMatrix::from_fn(n, m, |i, j| theta[i * p + n + j]),
+            ts_s: self.ts_s,
+        }
+    }
+
+    /// Largest modulus of Φ's eigenvalues (the model is stable below 1).
+    pub fn spectral_radius(&self) -> f64 {
+        self.phi.clone().complex_eigenvalues().iter().map(|z| z.norm()).fold(0.0, f64::max)
+    }
+}
+
+/// The regression of eq. 7 over `rows`: F with rows [y(k−1)ᵀ u(k−1)ᵀ] and Y with rows y(k)ᵀ.
+pub fn regression(data: &IdentificationData, rows: &[usize]) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (n, m) = (data.states(), data.input_count());
+    let f = DMatrix::from_fn(rows.len(), n + m, |r, j| {
+        let k = rows[r];
+        if j < n { data.outputs[(k - 1, j)] } else { data.inputs[(k - 1, j - n)] }
+    });
+    let y = DMatrix::from_fn(rows.len(), n, |r, i| data.outputs[(rows[r], i)]);
+    (f, y)
 }
 
 /// An estimator's result.
@@ -158,8 +210,19 @@ pub struct Estimate {
     pub method: String,
     /// Number of equations (regression rows) used.
     pub rows_used: usize,
-    /// 2-norm condition number of the column-scaled regression matrix.
+    /// 2-norm condition number of the column-scaled regression (or Jacobian) matrix.
     pub condition_number: f64,
+    /// Covariance of Θ laid out as [`DiscreteModel::theta`], when the method gives one.
+    #[serde(skip)]
+    pub covariance: Option<DMatrix<f64>>,
+    /// Estimated noise variance per output (pu²): of the equation error for ls/wls/iv,
+    /// of the simulation error for oe.
+    pub noise_variance: Vec<f64>,
+    /// Iterations taken (IV re-estimations, LM evaluations), 0 for closed-form methods.
+    pub iterations: usize,
+    /// Estimated constant output offset c (y = x + c, pu), where the method estimates one:
+    /// the error of the initial values the rises are measured from.
+    pub output_offset: Option<Vec<f64>>,
 }
 
 /// An identification method.

@@ -4,7 +4,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{check_enough_rows, DiscreteModel, Estimate, Estimator, IdentificationData};
+use super::{check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData};
 use crate::error::{Error, Result};
 
 /// Smallest ratio σ_min/σ_max of the scaled regression matrix accepted as full rank.
@@ -34,42 +34,58 @@ impl Estimator for WeightedLeastSquares {
         check_enough_rows(data, rows.len())?;
         let (n, m) = (data.states(), data.input_count());
         let p = n + m;
-        let regressor = |k: usize, j: usize| {
-            if j < n {
-                data.outputs[(k - 1, j)]
-            } else {
-                data.inputs[(k - 1, j - n)]
-            }
-        };
-        let mut phi = DMatrix::zeros(n, n);
-        let mut gamma = DMatrix::zeros(n, m);
+        let (f, y) = regression(data, &rows);
+        let mut theta = vec![0.0; n * p];
+        let mut covariance = DMatrix::zeros(n * p, n * p);
+        let mut noise_variance = vec![0.0; n];
         let mut condition_number: f64 = 0.0;
         for i in 0..n {
-            let weight = |k: usize| self.weights.as_ref().map_or(1.0, |w| w[(k, i)].max(0.0).sqrt());
-            let f = DMatrix::from_fn(rows.len(), p, |r, j| weight(rows[r]) * regressor(rows[r], j));
-            let y = DVector::from_fn(rows.len(), |r, _| weight(rows[r]) * data.outputs[(rows[r], i)]);
-            let (theta, cond) = solve_scaled(f, &y)?;
-            condition_number = condition_number.max(cond);
-            for j in 0..n {
-                phi[(i, j)] = theta[j];
-            }
-            for j in 0..m {
-                gamma[(i, j)] = theta[n + j];
-            }
+            // Equation k is weighted by w_i(k); its row is scaled by √w_i(k).
+            let sqrt_w: Vec<f64> = rows
+                .iter()
+                .map(|&k| self.weights.as_ref().map_or(1.0, |w| w[(k, i)].max(0.0).sqrt()))
+                .collect();
+            let fw = DMatrix::from_fn(rows.len(), p, |r, j| sqrt_w[r] * f[(r, j)]);
+            let yw = DVector::from_fn(rows.len(), |r, _| sqrt_w[r] * y[(r, i)]);
+            let solution = solve_scaled(fw.clone(), &yw)?;
+            condition_number = condition_number.max(solution.condition_number);
+            let residual = &yw - &fw * &solution.theta;
+            let dof = (rows.len() - p).max(1) as f64;
+            noise_variance[i] = residual.norm_squared() / dof;
+            theta[i * p..(i + 1) * p].copy_from_slice(solution.theta.as_slice());
+            covariance
+                .view_mut((i * p, i * p), (p, p))
+                .copy_from(&(&solution.inverse_gram * noise_variance[i]));
         }
+        let template = DiscreteModel { phi: DMatrix::zeros(n, n), gamma: DMatrix::zeros(n, m), ts_s: data.ts_s };
         Ok(Estimate {
-            model: DiscreteModel { phi, gamma, ts_s: data.ts_s },
+            model: template.with_theta(&theta),
             method: self.name().into(),
             rows_used: rows.len(),
             condition_number,
+            covariance: Some(covariance),
+            noise_variance,
+            iterations: 0,
+            output_offset: None,
         })
     }
+}
+
+/// A least-squares solution with what its uncertainty needs.
+#[derive(Debug, Clone)]
+pub struct ScaledSolution {
+    /// The minimiser θ.
+    pub theta: DVector<f64>,
+    /// Condition number of the column-scaled F.
+    pub condition_number: f64,
+    /// (FᵀF)⁻¹, from the SVD: D V Σ⁻² Vᵀ D with D the column scaling.
+    pub inverse_gram: DMatrix<f64>,
 }
 
 /// Solves min ‖F θ − y‖ by SVD after scaling F's columns to unit norm; returns θ and
 /// the condition number of the scaled F. Errors when F is rank deficient: the
 /// inputs did not excite the system enough to tell the parameters apart.
-pub fn solve_scaled(mut f: DMatrix<f64>, y: &DVector<f64>) -> Result<(DVector<f64>, f64)> {
+pub fn solve_scaled(mut f: DMatrix<f64>, y: &DVector<f64>) -> Result<ScaledSolution> {
     let p = f.ncols();
     let mut scale = vec![1.0; p];
     for (j, s) in scale.iter_mut().enumerate() {
@@ -99,7 +115,11 @@ pub fn solve_scaled(mut f: DMatrix<f64>, y: &DVector<f64>) -> Result<(DVector<f6
         .solve(y, 0.0)
         .map_err(|e| Error::Estimation(format!("least-squares solve failed: {e}")))?;
     let theta = DVector::from_fn(p, |j, _| theta[j] * scale[j]);
-    Ok((theta, s_max / s_min))
+    let v_t = svd.v_t.as_ref().ok_or_else(|| Error::Estimation("SVD without V".into()))?;
+    let sigma_inv2 = DMatrix::from_diagonal(&svd.singular_values.map(|s| 1.0 / (s * s)));
+    let d = DMatrix::from_diagonal(&DVector::from_column_slice(&scale));
+    let inverse_gram = &d * v_t.transpose() * sigma_inv2 * v_t * &d;
+    Ok(ScaledSolution { theta, condition_number: s_max / s_min, inverse_gram })
 }
 
 #[cfg(test)]

@@ -24,12 +24,7 @@ pub struct Fit {
 
 /// The simulated model output over the data, NaN outside the segments.
 pub fn simulate(model: &DiscreteModel, data: &IdentificationData, segments: &[Range<usize>]) -> DMatrix<f64> {
-    let mut out = DMatrix::from_element(data.len(), data.states(), f64::NAN);
-    for seg in segments {
-        let sim = model.simulate(data, seg.clone());
-        out.view_mut((seg.start, 0), (seg.len(), data.states())).copy_from(&sim);
-    }
-    out
+    model.simulate_segments(data, segments)
 }
 
 /// Compares a simulation with the measured outputs at every instant where both exist;
