@@ -2,11 +2,12 @@ use heatrun::pipeline::{self, Method, ReplayOptions};
 use heatrun::synth::{self, SynthOptions};
 fn main() {
     let level: f64 = std::env::args().nth(1).unwrap().parse().unwrap();
+    let elevel: f64 = std::env::args().nth(2).unwrap().parse().unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.mcap");
     let mut worst = vec![0.0f64; 3];
     for seed in 1..=8 {
-        let truth = synth::write(&path, &SynthOptions { temperature_noise_k: 0.05 * level, temperature_resolution_k: 0.01, electrical_noise_pu: 0.002 * level, seed, ..SynthOptions::default() }).unwrap();
+        let truth = synth::write(&path, &SynthOptions { temperature_noise_k: 0.05 * level, temperature_resolution_k: 0.01, electrical_noise_pu: 0.0005 * elevel, seed, ..SynthOptions::default() }).unwrap();
         let t0 = std::time::Instant::now();
         let r = pipeline::replay(&path, &ReplayOptions { method: Method::Oe, ..ReplayOptions::default() }).unwrap();
         let e: Vec<f64> = r.analysis.spectrum.time_constants_s.iter().zip(&truth.time_constants_s).map(|(t, w)| (t / w - 1.0) * 100.0).collect();

@@ -74,11 +74,12 @@ pub struct OperatingPoint {
     pub field_current_pu: f64,
 }
 
-/// The default heat run: a stepped load-up (25, 50, 75, 93 % current) with voltage
-/// and excitation changes between the steps, so that all three heat sources are
-/// excited independently and each step shows the fast cooling-water transient, then
-/// the paper's final operating point (eq. 30: I_g = 0.929 I_n, U_g = 1.0652 U_n,
-/// I_f = 1.0759 I_fn) held for the last 58 % of the run.
+/// The default heat run: a stepped load-up (25, 50, 75 % current), a reactive-power
+/// test of 20 excitation and voltage steps about 250 s apart (each shows the fast
+/// cooling-water transient), full load, a partial load rejection and reload, and the
+/// paper's final operating point (eq. 30: I_g = 0.929 I_n, U_g = 1.0652 U_n,
+/// I_f = 1.0759 I_fn) held for the last 60 % of the run. All three heat sources are
+/// excited independently of each other.
 pub fn heat_run_with_load_steps() -> Vec<OperatingPoint> {
     let p = |start_fraction, armature_current_pu, line_voltage_pu, field_current_pu| OperatingPoint {
         start_fraction,
@@ -86,19 +87,20 @@ pub fn heat_run_with_load_steps() -> Vec<OperatingPoint> {
         line_voltage_pu,
         field_current_pu,
     };
-    vec![
-        p(0.00, 0.25, 1.000, 0.80),
-        p(0.04, 0.50, 1.000, 0.85),
-        p(0.08, 0.50, 1.040, 0.97),
-        p(0.12, 0.75, 1.040, 1.02),
-        p(0.16, 0.75, 0.980, 0.88),
-        p(0.20, 0.929, 0.980, 0.95),
-        p(0.24, 0.929, 1.0652, 1.0759),
-        p(0.30, 0.80, 1.0652, 1.00),
-        p(0.34, 0.929, 1.020, 1.0759),
-        p(0.38, 0.929, 1.0652, 0.95),
-        p(0.42, 0.929, 1.0652, 1.0759),
-    ]
+    let mut points = vec![p(0.00, 0.25, 1.000, 0.80), p(0.04, 0.50, 1.000, 0.85), p(0.08, 0.75, 1.020, 0.95)];
+    // Reactive-power test: alternate over- and under-excitation at 75 % current.
+    let var_levels = [(1.050, 1.10), (0.980, 0.86), (1.030, 1.02), (0.960, 0.80), (1.060, 1.12)];
+    for step in 0..20 {
+        let (u, i_f) = var_levels[step % var_levels.len()];
+        points.push(p(0.12 + 0.012 * step as f64, 0.75, u, i_f));
+    }
+    points.extend([
+        p(0.36, 0.929, 1.0652, 1.0759),
+        // A partial load rejection and reload.
+        p(0.38, 0.25, 1.000, 0.78),
+        p(0.39, 0.929, 1.0652, 1.0759),
+    ]);
+    points
 }
 
 /// Options of a synthetic heat run.

@@ -9,6 +9,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::wls::WeightedLeastSquares;
 use super::{check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData};
 use crate::error::{Error, Result};
 
@@ -33,7 +34,12 @@ impl Estimator for InstrumentalVariables {
     }
 
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
-        let first = lagged_output_iv(data)?;
+        // The lagged-output IV start is consistent but can be unstable on short or very
+        // noisy records; least squares is biased but stable, and the iteration mends it.
+        let first = match lagged_output_iv(data) {
+            Ok(model) if model.spectral_radius() < 1.0 => model,
+            _ => WeightedLeastSquares::default().estimate(data)?.model,
+        };
         self.refine(data, first)
     }
 }

@@ -63,51 +63,89 @@ impl Problem<'_> {
         self.segments.iter().map(|s| s.len()).sum::<usize>() * self.n
     }
 
-    /// Residuals and, when asked, the Jacobian, from one pass over the data.
+    /// Residuals and, when asked, the Jacobian, from one pass over the data. The
+    /// sensitivities live in flat buffers: this runs once per LM step over every instant.
     fn evaluate(&self, with_jacobian: bool) -> (DVector<f64>, Option<DMatrix<f64>>) {
         let (n, m) = (self.n, self.m);
         let p = n + m;
+        let pt = n * p;
         let model = self.model();
+        let phi: Vec<f64> = (0..n * n).map(|q| model.phi[(q / n, q % n)]).collect();
+        let gamma: Vec<f64> = (0..n * m).map(|q| model.gamma[(q / m, q % m)]).collect();
+        let rows = self.rows();
         let cols = self.params.len();
-        let mut r = DVector::zeros(self.rows());
-        let mut jac = with_jacobian.then(|| DMatrix::zeros(self.rows(), cols));
+        let mut r = DVector::zeros(rows);
+        let mut jac = with_jacobian.then(|| DMatrix::zeros(rows, cols));
+        let mut y = vec![0.0; n];
+        let mut y_next = vec![0.0; n];
+        // sens[q·n + c] = ∂ŷ_c/∂θ_q; sens_x0[q·n + c] = ∂ŷ_c/∂x0_q.
+        let mut sens = vec![0.0; pt * n];
+        let mut sens_next = vec![0.0; pt * n];
+        let mut sens_x0 = vec![0.0; n * n];
+        let mut sens_x0_next = vec![0.0; n * n];
         let mut row = 0;
         for (s, seg) in self.segments.iter().enumerate() {
-            let mut y = self.x0(s);
-            // Sensitivities of ŷ to each θ (n·p of them) and to this segment's x0 (n).
-            let mut sens_theta = vec![DVector::<f64>::zeros(n); n * p];
-            let mut sens_x0 = DMatrix::<f64>::identity(n, n);
+            let x0 = self.x0(s);
+            y.copy_from_slice(x0.as_slice());
+            sens.iter_mut().for_each(|v| *v = 0.0);
+            sens_x0.iter_mut().for_each(|v| *v = 0.0);
+            for q in 0..n {
+                sens_x0[q * n + q] = 1.0;
+            }
             for k in seg.clone() {
                 if k > seg.start {
-                    let u = self.data.inputs.row(k - 1).transpose();
+                    let u = self.data.inputs.row(k - 1);
                     if with_jacobian {
-                        for i in 0..n {
-                            for j in 0..p {
-                                let phi_j = if j < n { y[j] } else { u[j - n] };
-                                let s_prev = &sens_theta[i * p + j];
-                                let mut next = &model.phi * s_prev;
-                                next[i] += phi_j;
-                                sens_theta[i * p + j] = next;
+                        for q in 0..pt {
+                            let (i, j) = (q / p, q % p);
+                            let regressor = if j < n { y[j] } else { u[j - n] };
+                            for c in 0..n {
+                                let mut acc = if c == i { regressor } else { 0.0 };
+                                for l in 0..n {
+                                    acc += phi[c * n + l] * sens[q * n + l];
+                                }
+                                sens_next[q * n + c] = acc;
                             }
                         }
-                        sens_x0 = &model.phi * &sens_x0;
+                        std::mem::swap(&mut sens, &mut sens_next);
+                        for q in 0..n {
+                            for c in 0..n {
+                                let mut acc = 0.0;
+                                for l in 0..n {
+                                    acc += phi[c * n + l] * sens_x0[q * n + l];
+                                }
+                                sens_x0_next[q * n + c] = acc;
+                            }
+                        }
+                        std::mem::swap(&mut sens_x0, &mut sens_x0_next);
                     }
-                    y = &model.phi * &y + &model.gamma * &u;
+                    for c in 0..n {
+                        let mut acc = 0.0;
+                        for l in 0..n {
+                            acc += phi[c * n + l] * y[l];
+                        }
+                        for l in 0..m {
+                            acc += gamma[c * m + l] * u[l];
+                        }
+                        y_next[c] = acc;
+                    }
+                    std::mem::swap(&mut y, &mut y_next);
                 }
                 for c in 0..n {
                     r[row + c] = self.sqrt_w[c] * (self.data.outputs[(k, c)] - y[c]);
                 }
                 if let Some(jac) = jac.as_mut() {
-                    for (q, sens) in sens_theta.iter().enumerate() {
+                    let data = jac.as_mut_slice();
+                    for q in 0..pt {
                         for c in 0..n {
-                            jac[(row + c, q)] = -self.sqrt_w[c] * sens[c];
+                            data[q * rows + row + c] = -self.sqrt_w[c] * sens[q * n + c];
                         }
                     }
                     if self.estimate_x0 {
-                        let at = self.p_theta() + s * n;
-                        for c in 0..n {
-                            for q in 0..n {
-                                jac[(row + c, at + q)] = -self.sqrt_w[c] * sens_x0[(c, q)];
+                        let at = pt + s * n;
+                        for q in 0..n {
+                            for c in 0..n {
+                                data[(at + q) * rows + row + c] = -self.sqrt_w[c] * sens_x0[q * n + c];
                             }
                         }
                     }
@@ -187,22 +225,50 @@ impl OutputError {
                 params.extend(data.outputs.row(seg.start).iter());
             }
         }
-        let problem = Problem {
+        let sqrt_w: Vec<f64> = w.iter().map(|v| v.max(0.0).sqrt()).collect();
+        let mut problem = Problem {
             data,
             segments: segments.clone(),
             estimate_x0,
-            sqrt_w: w.iter().map(|v| v.max(0.0).sqrt()).collect(),
+            sqrt_w,
             n,
             m,
             params: DVector::from_vec(params),
         };
-        let (problem, report) = LevenbergMarquardt::new().with_patience(200).minimize(problem);
-        if !report.objective_function.is_finite() {
-            return Err(Error::Estimation(format!(
-                "output error: the minimisation failed ({:?}); the start model may be unstable",
-                report.termination
-            )));
+        let lm = LevenbergMarquardt::new().with_patience(200);
+        let mut evaluations = 0;
+        // Two passes when no weights are given: the second with 1/σ_i² of the first
+        // pass's residuals, which are then the sensor noise rather than the start's misfit.
+        for pass in 0..2 {
+            let (solved, report) = lm.minimize(problem);
+            problem = solved;
+            evaluations += report.number_of_evaluations;
+            if !report.objective_function.is_finite() {
+                return Err(Error::Estimation(format!(
+                    "output error: the minimisation failed ({:?}); the start model may be unstable",
+                    report.termination
+                )));
+            }
+            if pass == 1 || self.weights.is_some() {
+                break;
+            }
+            let (r, _) = problem.evaluate(false);
+            let per = r.len() / n;
+            let inv: Vec<f64> = (0..n)
+                .map(|c| {
+                    let sum: f64 = (0..per).map(|i| (r[i * n + c] / problem.sqrt_w[c]).powi(2)).sum();
+                    1.0 / (sum / per.max(1) as f64).max(1e-30)
+                })
+                .collect();
+            let mean = inv.iter().sum::<f64>() / n as f64;
+            let next: Vec<f64> = inv.iter().map(|v| (v / mean).sqrt()).collect();
+            let change = next.iter().zip(&problem.sqrt_w).map(|(a, b)| (a / b - 1.0).abs()).fold(0.0, f64::max);
+            problem.sqrt_w = next;
+            if change < 0.05 {
+                break;
+            }
         }
+        let w: Vec<f64> = problem.sqrt_w.iter().map(|v| v * v).collect();
         let model = problem.model();
         let (r, jac) = problem.evaluate(true);
         let jac = jac.ok_or_else(|| Error::Estimation("output error: no Jacobian".into()))?;
@@ -232,7 +298,7 @@ impl OutputError {
             condition_number: s_max / s_min,
             covariance: Some(covariance),
             noise_variance,
-            iterations: report.number_of_evaluations,
+            iterations: evaluations,
             output_offset: None,
         })
     }
