@@ -59,6 +59,12 @@ pub struct ReplayArgs {
     /// Forgetting factor of rls, in (0, 1].
     #[arg(long, default_value_t = 1.0)]
     pub forgetting: f64,
+    /// Hold out the last FRACTION of the recording and report the model's fit on it.
+    #[arg(long, value_name = "FRACTION", conflicts_with = "validate")]
+    pub holdout: Option<f64>,
+    /// Report the model's fit on another recording of the same machine.
+    #[arg(long, value_name = "FILE")]
+    pub validate: Option<PathBuf>,
     /// Save the rerun recording to this .rrd file (the default: <recording>.rrd here).
     #[arg(long, value_name = "PATH")]
     pub rrd: Option<PathBuf>,

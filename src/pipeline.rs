@@ -61,11 +61,38 @@ pub struct ReplayOptions {
     pub weights: Option<Vec<f64>>,
     /// Forgetting factor λ of `rls`.
     pub forgetting: f64,
+    /// Where to validate the model, if anywhere.
+    pub validation: Option<ValidationSource>,
+}
+
+/// Data the model is validated on, not estimated from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ValidationSource {
+    /// The last fraction (0, 1) of the recording is held out of the estimation.
+    HoldOut(f64),
+    /// Another recording of the same machine.
+    Recording(PathBuf),
+}
+
+/// Fit of the model on data it was not estimated from.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Validation {
+    /// What the data were: `hold-out of the last 30 %` or a file.
+    pub source: String,
+    /// The fit (NRMSE %, MSE K², largest error K), from the measured state at the start.
+    pub fit: crate::model::Fit,
 }
 
 impl Default for ReplayOptions {
     fn default() -> Self {
-        ReplayOptions { ts_s: 1.0, machine: None, method: Method::Oe, weights: None, forgetting: 1.0 }
+        ReplayOptions {
+            ts_s: 1.0,
+            machine: None,
+            method: Method::Oe,
+            weights: None,
+            forgetting: 1.0,
+            validation: None,
+        }
     }
 }
 
@@ -82,8 +109,12 @@ pub struct Replay {
     pub decimated: DecimatedRecording,
     /// States and inputs in pu.
     pub signals: ThermalSignals,
-    /// The identification data the estimator saw.
+    /// The identification data of the whole recording.
     pub data: IdentificationData,
+    /// The instants the estimator saw (all, or those before a hold-out).
+    pub estimation_range: std::ops::Range<usize>,
+    /// The model's fit on held-out data or another recording.
+    pub validation: Option<Validation>,
     /// The estimate.
     pub estimate: Estimate,
     /// The recursion's trajectory of Θ (`rls` only).
@@ -101,8 +132,23 @@ impl Replay {
     }
 }
 
-/// Replays one recording through every stage.
-pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
+/// The stages up to the estimator's input, for one recording.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// What the recording stage found.
+    pub recording: RecordingSummary,
+    /// The nameplate used.
+    pub nameplate: Nameplate,
+    /// The decimated quantities.
+    pub decimated: DecimatedRecording,
+    /// States and inputs in pu.
+    pub signals: ThermalSignals,
+    /// The estimator's input.
+    pub data: IdentificationData,
+}
+
+/// Reads, decimates and computes the losses of one recording.
+pub fn prepare(path: &Path, options: &ReplayOptions) -> Result<Prepared> {
     let name = path.display().to_string();
     let mut decimator = Decimator::new(options.ts_s)?;
     let summary = recording::read_recording(path, &mut decimator)?;
@@ -133,14 +179,51 @@ pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
     let decimated = decimator.finish(&summary.channels)?;
     let signals = losses::compute(&decimated, &nameplate, &name)?;
     let data = IdentificationData::from(&signals);
+    Ok(Prepared { recording: summary, nameplate, decimated, signals, data })
+}
 
-    let (mut estimate, trajectory) = estimate(&data, options).map_err(|e| with_file(e, &name))?;
+/// Replays one recording through every stage.
+pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
+    let name = path.display().to_string();
+    let Prepared { recording: summary, nameplate, decimated, signals, data } = prepare(path, options)?;
+    let estimation_range = match &options.validation {
+        Some(ValidationSource::HoldOut(f)) => {
+            if !(*f > 0.0 && *f < 0.9) {
+                return Err(Error::Usage(format!("--holdout {f}: the held-out fraction must be in (0, 0.9)")));
+            }
+            0..((data.len() as f64 * (1.0 - f)).round() as usize)
+        }
+        _ => 0..data.len(),
+    };
+    let estimation_data = data.slice(estimation_range.clone());
+    let (mut estimate, trajectory) = estimate(&estimation_data, options).map_err(|e| with_file(e, &name))?;
     estimate.method = options.method.name().into();
     let (_, last_input) = signals
         .last_inputs()
         .ok_or_else(|| Error::Estimation(format!("{name}: the inputs are never all known")))?;
-    let analysis = model::analyse(&estimate, &data, signals.temperature_base_k, &last_input)
+    let mut analysis = model::analyse(&estimate, &estimation_data, signals.temperature_base_k, &last_input)
         .map_err(|e| with_file(e, &name))?;
+    // Simulated traces over the whole recording (hold-out included) for publishing.
+    analysis.simulated = estimate.model.simulate_segments(&data, &data.segments());
+    let validation = match &options.validation {
+        None => None,
+        Some(ValidationSource::HoldOut(f)) => {
+            let held = data.slice(estimation_range.end..data.len());
+            let sim = estimate.model.simulate_segments(&held, &held.segments());
+            Some(Validation {
+                source: format!("hold-out of the last {:.0} % of the recording", f * 100.0),
+                fit: model::fit::fit(&held, &sim, signals.temperature_base_k),
+            })
+        }
+        Some(ValidationSource::Recording(other)) => {
+            let prepared = prepare(other, options)?;
+            let sim = estimate.model.simulate_segments(&prepared.data, &prepared.data.segments());
+            Some(Validation {
+                source: other.display().to_string(),
+                fit: model::fit::fit(&prepared.data, &sim, prepared.signals.temperature_base_k),
+            })
+        }
+    };
 
     let mut warnings: Vec<String> = summary.data_loss.iter().map(|l| format!("data lost: {l}")).collect();
     for ch in &decimated.channels {
@@ -169,6 +252,8 @@ pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
         decimated,
         signals,
         data,
+        estimation_range,
+        validation,
         estimate,
         trajectory,
         analysis,

@@ -38,8 +38,60 @@ pub struct FitEntry {
     pub rmse_k: Vec<f64>,
     /// Largest absolute error in K.
     pub max_abs_error_k: Vec<f64>,
+    /// Mean squared error in K².
+    pub mse_k2: Vec<f64>,
     /// Instants compared.
     pub samples: usize,
+}
+
+impl From<&crate::model::Fit> for FitEntry {
+    fn from(f: &crate::model::Fit) -> Self {
+        FitEntry {
+            snr_db: f.snr_db.clone(),
+            nrmse_fit_percent: f.nrmse_fit_percent.clone(),
+            rmse_k: f.rmse_k.clone(),
+            max_abs_error_k: f.max_abs_error_k.clone(),
+            mse_k2: f.mse_k2.clone(),
+            samples: f.samples,
+        }
+    }
+}
+
+/// 95 % confidence intervals (half-widths), by the delta method.
+#[derive(Debug, Clone, Serialize)]
+pub struct UncertaintyEntry {
+    /// Of each time constant, s.
+    pub time_constants_ci95_s: Vec<f64>,
+    /// Of each steady-state rise (and temperature), K.
+    pub steady_state_ci95_k: Vec<f64>,
+    /// Standard errors of Θ = [Φ Γ], row-major.
+    pub theta_standard_error: Vec<Vec<f64>>,
+}
+
+/// Validation block: the fit on data not used for the estimate.
+#[derive(Debug, Clone, Serialize)]
+pub struct ValidationEntry {
+    /// What the data were.
+    pub source: String,
+    /// The fit there.
+    pub fit: FitEntry,
+}
+
+/// Residual analysis block.
+#[derive(Debug, Clone, Serialize)]
+pub struct ResidualEntry {
+    /// Largest lag, samples.
+    pub max_lag: usize,
+    /// 99 % band of a white sequence: ±this.
+    pub band99: f64,
+    /// `[state][lag]` autocorrelation of the simulation residuals, lags 0..max_lag.
+    pub autocorrelation: Vec<Vec<f64>>,
+    /// `[state][input][lag + max_lag]` cross-correlation residual × input, lags −max_lag..max_lag.
+    pub cross_correlation: Vec<Vec<Vec<f64>>>,
+    /// Per state: fraction of lags 1..max_lag outside the band.
+    pub autocorrelation_outside_band: Vec<f64>,
+    /// Per state × input: largest |cross-correlation| over the lags.
+    pub max_abs_cross_correlation: Vec<Vec<f64>>,
 }
 
 /// Steady-state block of the report (eqs. 30–35).
@@ -165,6 +217,12 @@ pub struct Report {
     pub nameplate: crate::recording::Nameplate,
     /// Estimation details.
     pub estimation: EstimationEntry,
+    /// 95 % intervals, where the method gives a covariance.
+    pub uncertainty: Option<UncertaintyEntry>,
+    /// Fit on held-out data or another recording.
+    pub validation: Option<ValidationEntry>,
+    /// Whiteness and input correlation of the residuals.
+    pub residuals: ResidualEntry,
     /// Warnings.
     pub warnings: Vec<String>,
 }
@@ -206,13 +264,7 @@ impl Report {
                 })
                 .collect(),
             sensitivity_norms: a.sensitivities.norms.clone(),
-            fit: FitEntry {
-                snr_db: a.fit.snr_db.clone(),
-                nrmse_fit_percent: a.fit.nrmse_fit_percent.clone(),
-                rmse_k: a.fit.rmse_k.clone(),
-                max_abs_error_k: a.fit.max_abs_error_k.clone(),
-                samples: a.fit.samples,
-            },
+            fit: FitEntry::from(&a.fit),
             steady_state: SteadyStateEntry {
                 input_pu: a.steady_state_input.clone(),
                 temperature_c: rise_k.iter().zip(theta0).map(|(r, t)| t + r).collect(),
@@ -256,6 +308,28 @@ impl Report {
                 field_temperature: r.signals.field_temperature_source.clone(),
                 temperature_base_k: base,
                 power_base_mva: r.signals.power_base_va / 1e6,
+            },
+            uncertainty: a.uncertainty.as_ref().map(|u| {
+                let p = r.estimate.model.phi.nrows() + r.estimate.model.gamma.ncols();
+                UncertaintyEntry {
+                    time_constants_ci95_s: u.time_constants_ci95_s.clone(),
+                    steady_state_ci95_k: u.steady_state_ci95.iter().map(|v| v * base).collect(),
+                    theta_standard_error: u.theta_standard_error.chunks(p).map(|c| c.to_vec()).collect(),
+                }
+            }),
+            validation: r.validation.as_ref().map(|v| ValidationEntry { source: v.source.clone(), fit: FitEntry::from(&v.fit) }),
+            residuals: ResidualEntry {
+                max_lag: a.residuals.max_lag,
+                band99: a.residuals.band99,
+                autocorrelation: a.residuals.autocorrelation.clone(),
+                cross_correlation: a.residuals.cross_correlation.clone(),
+                autocorrelation_outside_band: a.residuals.autocorrelation_outside_band.clone(),
+                max_abs_cross_correlation: a
+                    .residuals
+                    .cross_correlation
+                    .iter()
+                    .map(|per_input| per_input.iter().map(|c| c.iter().fold(0.0_f64, |m, v| m.max(v.abs()))).collect())
+                    .collect(),
             },
             warnings: r.warnings.clone(),
         }
@@ -311,11 +385,16 @@ impl Report {
             "eigenvalues of A_c (eq. 24): [{}] 1/s",
             join(&self.eigenvalues_continuous, |v| format!("{v:.6}"))
         );
-        let _ = writeln!(s, "time constants (eq. 26) and the part each belongs to (eqs. 27-29):");
+        let _ = writeln!(s, "time constants (eq. 26), 95 % intervals, and the part each belongs to (eqs. 27-29):");
         for (i, a) in self.assignment.iter().enumerate() {
+            let ci = self
+                .uncertainty
+                .as_ref()
+                .map(|u| format!("± {:<8.2}", u.time_constants_ci95_s[i]))
+                .unwrap_or_else(|| " ".repeat(10));
             let _ = writeln!(
                 s,
-                "  T{} = {:>9.2} s  -> {:<24} ‖T ∂y/∂T‖ = {:.3e} pu",
+                "  T{} = {:>9.2} s {ci} -> {:<24} ‖T ∂y/∂T‖ = {:.3e} pu",
                 i + 1,
                 a.time_constant_s,
                 a.part,
@@ -336,9 +415,29 @@ impl Report {
         let _ = writeln!(s);
         let _ = writeln!(s, "steady state for u = [{}] pu (eqs. 30-35)", join(&ss.input_pu, |v| format!("{v:.7}")));
         row(&mut s, "  predicted rise, K (eq. 32)", &ss.rise_k, 3);
+        if let Some(u) = &self.uncertainty {
+            row(&mut s, "    95 % interval, ± K", &u.steady_state_ci95_k, 3);
+        }
         row(&mut s, "  measured final rise, K (eq. 33)", &ss.measured_final_rise_k, 3);
         row(&mut s, "  predicted temperature, °C (eq. 34)", &ss.temperature_c, 3);
         row(&mut s, "  measured final temperature, °C (35)", &ss.measured_final_temperature_c, 3);
+        let res = &self.residuals;
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "residuals (simulation error): lags 1-{} outside the 99 % band ±{:.4}, % of lags",
+            res.max_lag, res.band99
+        );
+        row(&mut s, "  autocorrelation", &res.autocorrelation_outside_band.iter().map(|v| v * 100.0).collect::<Vec<_>>(), 1);
+        let worst: Vec<f64> = res.max_abs_cross_correlation.iter().map(|r| r.iter().fold(0.0_f64, |m, v| m.max(*v))).collect();
+        row(&mut s, "  largest |cross-correlation| with u", &worst, 3);
+        if let Some(v) = &self.validation {
+            let _ = writeln!(s);
+            let _ = writeln!(s, "validation on {} ({} instants)", v.source, v.fit.samples);
+            row(&mut s, "  NRMSE fit, %", &v.fit.nrmse_fit_percent, 2);
+            row(&mut s, "  MSE, K²", &v.fit.mse_k2, 4);
+            row(&mut s, "  largest error, K", &v.fit.max_abs_error_k, 3);
+        }
         for w in &self.warnings {
             let _ = writeln!(s, "warning: {w}");
         }

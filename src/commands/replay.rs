@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use heatrun::atomic::write_atomically;
-use heatrun::pipeline::{self, Method, ReplayOptions};
+use heatrun::pipeline::{self, Method, ReplayOptions, ValidationSource};
 use heatrun::publish::{self, RerunSink};
 use heatrun::report::Report;
 
@@ -37,6 +37,11 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
         },
         weights: args.weights.clone(),
         forgetting: args.forgetting,
+        validation: match (&args.holdout, &args.validate) {
+            (Some(f), _) => Some(ValidationSource::HoldOut(*f)),
+            (None, Some(file)) => Some(ValidationSource::Recording(file.clone())),
+            (None, None) => None,
+        },
     };
     let replay = pipeline::replay(&file, &options)?;
     let report = Report::new(&replay);

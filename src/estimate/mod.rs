@@ -45,6 +45,17 @@ impl IdentificationData {
         IdentificationData { ts_s, outputs, inputs, outputs_known: vec![true; n], inputs_known: vec![true; n] }
     }
 
+    /// The instants in `range` as data of their own.
+    pub fn slice(&self, range: Range<usize>) -> IdentificationData {
+        IdentificationData {
+            ts_s: self.ts_s,
+            outputs: self.outputs.rows(range.start, range.len()).into_owned(),
+            inputs: self.inputs.rows(range.start, range.len()).into_owned(),
+            outputs_known: self.outputs_known[range.clone()].to_vec(),
+            inputs_known: self.inputs_known[range].to_vec(),
+        }
+    }
+
     /// Number of instants N.
     pub fn len(&self) -> usize {
         self.outputs.nrows()

@@ -16,6 +16,8 @@ pub struct Fit {
     pub nrmse_fit_percent: Vec<f64>,
     /// Root-mean-square error, in K.
     pub rmse_k: Vec<f64>,
+    /// Mean squared error, in K².
+    pub mse_k2: Vec<f64>,
     /// Largest absolute error, in K.
     pub max_abs_error_k: Vec<f64>,
     /// Instants compared.
@@ -35,6 +37,7 @@ pub fn fit(data: &IdentificationData, simulated: &DMatrix<f64>, temperature_base
         snr_db: vec![0.0; n],
         nrmse_fit_percent: vec![0.0; n],
         rmse_k: vec![0.0; n],
+        mse_k2: vec![0.0; n],
         max_abs_error_k: vec![0.0; n],
         samples: 0,
     };
@@ -54,6 +57,7 @@ pub fn fit(data: &IdentificationData, simulated: &DMatrix<f64>, temperature_base
         fit.snr_db[j] = 20.0 * (y_norm / e_norm).log10();
         fit.nrmse_fit_percent[j] = 100.0 * (1.0 - e_norm / dev_norm);
         fit.rmse_k[j] = e_norm / (e.len() as f64).sqrt() * temperature_base_k;
+        fit.mse_k2[j] = fit.rmse_k[j] * fit.rmse_k[j];
         fit.max_abs_error_k[j] = e.iter().fold(0.0_f64, |m, v| m.max(v.abs())) * temperature_base_k;
     }
     fit

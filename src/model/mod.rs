@@ -8,14 +8,18 @@
 pub mod continuous;
 pub mod fit;
 pub mod matrix;
+pub mod residuals;
 pub mod sensitivity;
+pub mod uncertainty;
 
 use nalgebra::DMatrix;
 use serde::Serialize;
 
 pub use continuous::{ContinuousModel, Spectrum};
 pub use fit::Fit;
+pub use residuals::ResidualAnalysis;
 pub use sensitivity::{Assignment, Sensitivities};
+pub use uncertainty::Uncertainty;
 
 use crate::error::Result;
 use crate::estimate::{Estimate, IdentificationData};
@@ -40,7 +44,15 @@ pub struct ModelAnalysis {
     pub steady_state_input: Vec<f64>,
     /// Steady-state outputs −A_c⁻¹ B_c u (pu).
     pub steady_state: Vec<f64>,
+    /// 95 % intervals of the time constants and the steady state, where the method
+    /// gives a covariance.
+    pub uncertainty: Option<Uncertainty>,
+    /// Whiteness of the residuals and their correlation with the inputs.
+    pub residuals: ResidualAnalysis,
 }
+
+/// Largest lag of the residual correlations.
+pub const RESIDUAL_MAX_LAG: usize = 60;
 
 /// Analyses an estimate against its data; `steady_state_input` is the input
 /// (normally the last measured one, eq. 30) whose steady state is wanted.
@@ -60,6 +72,8 @@ pub fn analyse(
         sensitivity::sensitivities(&continuous, &spectrum.time_constants_s, model.ts_s, data, &segments)?;
     let assignment = sensitivity::assign(&sensitivities);
     let steady_state = continuous.steady_state(steady_state_input)?;
+    let uncertainty = uncertainty::propagate(estimate, steady_state_input);
+    let residuals = residuals::analyse(data, &simulated, RESIDUAL_MAX_LAG);
     Ok(ModelAnalysis {
         continuous,
         spectrum,
@@ -69,5 +83,7 @@ pub fn analyse(
         assignment,
         steady_state_input: steady_state_input.to_vec(),
         steady_state,
+        uncertainty,
+        residuals,
     })
 }

@@ -177,7 +177,8 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
         for (k, state) in ThermalState::ALL.iter().enumerate() {
             let entity = format!("sensitivity/T{}/{}", i + 1, state.name());
             style(rec, &entity, state.name(), PALETTE[k])?;
-            send_series(rec, &entity, t, (0..s.len()).map(|r| Some(response[(r, k)])))?;
+            // Sensitivities cover the instants the model was estimated on.
+            send_series(rec, &entity, &t[..response.nrows()], (0..response.nrows()).map(|r| Some(response[(r, k)])))?;
         }
     }
     rec.log_static("summary", &rerun::TextDocument::new(summary_text.to_owned())).map_err(publish_err)?;

@@ -1,0 +1,112 @@
+//! Residual analysis: whiteness of the simulation residuals and their independence
+//! of the inputs, with the 99 % band ±2.576/√N of a white sequence.
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+use crate::estimate::IdentificationData;
+
+/// z of the two-sided 99 % normal band.
+pub const Z99: f64 = 2.575_829_303_548_901;
+
+/// Autocorrelations and cross-correlations of the residuals e = y − ŷ.
+#[derive(Debug, Clone, Serialize)]
+pub struct ResidualAnalysis {
+    /// Largest lag.
+    pub max_lag: usize,
+    /// `autocorrelation[i][τ]`: normalised autocorrelation of e_i at lag τ = 0..max_lag.
+    pub autocorrelation: Vec<Vec<f64>>,
+    /// `cross_correlation[i][j][τ + max_lag]`: normalised correlation of e_i(k) with
+    /// u_j(k − τ), τ = −max_lag..max_lag.
+    pub cross_correlation: Vec<Vec<Vec<f64>>>,
+    /// The 99 % band of a white sequence of this length.
+    pub band99: f64,
+    /// Samples used.
+    pub samples: usize,
+    /// Per output: the fraction of lags 1..max_lag outside the band (about 1 % for white residuals).
+    pub autocorrelation_outside_band: Vec<f64>,
+}
+
+/// Correlation analysis of the residuals over the instants where `simulated` exists.
+pub fn analyse(data: &IdentificationData, simulated: &DMatrix<f64>, max_lag: usize) -> ResidualAnalysis {
+    let n = data.states();
+    let m = data.input_count();
+    let len = data.len();
+    let valid: Vec<bool> = (0..len).map(|k| data.outputs_known[k] && simulated[(k, 0)].is_finite()).collect();
+    let samples = valid.iter().filter(|v| **v).count();
+    let centred = |f: &dyn Fn(usize) -> f64, ok: &dyn Fn(usize) -> bool| -> Vec<Option<f64>> {
+        let (sum, count) = (0..len).filter(|&k| ok(k)).fold((0.0, 0usize), |(s, c), k| (s + f(k), c + 1));
+        let mean = sum / count.max(1) as f64;
+        (0..len).map(|k| ok(k).then(|| f(k) - mean)).collect()
+    };
+    let residuals: Vec<Vec<Option<f64>>> = (0..n)
+        .map(|i| centred(&|k| data.outputs[(k, i)] - simulated[(k, i)], &|k| valid[k]))
+        .collect();
+    let inputs: Vec<Vec<Option<f64>>> =
+        (0..m).map(|j| centred(&|k| data.inputs[(k, j)], &|k| data.inputs_known[k])).collect();
+    let correlate = |a: &[Option<f64>], b: &[Option<f64>], lag: i64| -> f64 {
+        let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+        for k in 0..len as i64 {
+            let kb = k - lag;
+            if kb < 0 || kb >= len as i64 {
+                continue;
+            }
+            if let (Some(x), Some(y)) = (a[k as usize], b[kb as usize]) {
+                sab += x * y;
+            }
+        }
+        for x in a.iter().flatten() {
+            saa += x * x;
+        }
+        for y in b.iter().flatten() {
+            sbb += y * y;
+        }
+        sab / (saa * sbb).sqrt().max(1e-300)
+    };
+    let autocorrelation: Vec<Vec<f64>> = residuals
+        .iter()
+        .map(|e| (0..=max_lag).map(|lag| correlate(e, e, lag as i64)).collect())
+        .collect();
+    let cross_correlation = residuals
+        .iter()
+        .map(|e| {
+            inputs
+                .iter()
+                .map(|u| (-(max_lag as i64)..=max_lag as i64).map(|lag| correlate(e, u, lag)).collect())
+                .collect()
+        })
+        .collect();
+    let band99 = Z99 / (samples.max(1) as f64).sqrt();
+    let autocorrelation_outside_band = autocorrelation
+        .iter()
+        .map(|r| r[1..].iter().filter(|v| v.abs() > band99).count() as f64 / max_lag.max(1) as f64)
+        .collect();
+    ResidualAnalysis { max_lag, autocorrelation, cross_correlation, band99, samples, autocorrelation_outside_band }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    #[test]
+    fn white_residuals_stay_in_the_band_and_a_random_walk_does_not() {
+        let n = 5000;
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let normal = Normal::new(0.0, 1.0).unwrap();
+        let white: Vec<f64> = (0..n).map(|_| normal.sample(&mut rng)).collect();
+        let mut walk = vec![0.0; n];
+        for k in 1..n {
+            walk[k] = walk[k - 1] + white[k];
+        }
+        let outputs = DMatrix::from_fn(n, 2, |k, j| if j == 0 { white[k] } else { walk[k] });
+        let inputs = DMatrix::from_fn(n, 1, |k, _| (k as f64 * 0.01).sin());
+        let data = IdentificationData::complete(1.0, outputs, inputs);
+        let a = analyse(&data, &DMatrix::zeros(n, 2), 20);
+        assert!((a.autocorrelation[0][0] - 1.0).abs() < 1e-12);
+        assert!(a.autocorrelation_outside_band[0] <= 0.1, "{:?}", a.autocorrelation_outside_band);
+        assert_eq!(a.autocorrelation_outside_band[1], 1.0);
+        assert!((a.band99 - 2.5758 / (n as f64).sqrt()).abs() < 1e-4);
+    }
+}
