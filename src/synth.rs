@@ -158,6 +158,19 @@ impl Default for SynthOptions {
     }
 }
 
+impl SynthOptions {
+    /// Sensor noise at `level` × the PT100-like reference: temperatures σ = 0.05·level K
+    /// at 0.01 K resolution, electrical channels σ = 0.05·level % of their value.
+    pub fn with_noise_level(self, level: f64) -> SynthOptions {
+        SynthOptions {
+            temperature_noise_k: 0.05 * level,
+            temperature_resolution_k: if level > 0.0 { 0.01 } else { 0.0 },
+            electrical_noise_pu: 0.0005 * level,
+            ..self
+        }
+    }
+}
+
 /// What a synthetic run was made from, written beside it as `<OUT>.truth.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct Truth {

@@ -3,13 +3,12 @@
 //!
 //! With the regressor φ(k) = [y(k−1)ᵀ u(k−1)ᵀ]ᵀ shared by all outputs:
 //! K = P φ / (λ + φᵀ P φ), θ_i ← θ_i + K (y_i(k) − φᵀ θ_i), P ← (P − K φᵀ P) / λ.
-//! It starts from the batch LS solution over the first usable rows (P = (FᵀF)⁻¹),
-//! and with λ = 1 ends at the batch LS estimate.
+//! It starts diffuse (θ = 0, P large on the regressors' scales), and with λ = 1 ends
+//! at the batch LS estimate.
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use super::wls::solve_scaled;
 use super::{check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData};
 use crate::error::{Error, Result};
 
@@ -47,16 +46,16 @@ impl RecursiveLeastSquares {
         check_enough_rows(data, rows.len())?;
         let (n, m) = (data.states(), data.input_count());
         let p = n + m;
-        let warm = (20 * p).min(rows.len());
-        let (f0, y0) = regression(data, &rows[..warm]);
-        let mut theta = DMatrix::zeros(p, n); // column i: θ_i
-        let mut gram_inv = DMatrix::zeros(p, p);
-        for i in 0..n {
-            let sol = solve_scaled(f0.clone(), &y0.column(i).into_owned())?;
-            theta.set_column(i, &sol.theta);
-            gram_inv = sol.inverse_gram;
+        // A diffuse start: θ = 0 and P = 10⁸·diag(1/rms_j²) over the regressors' scales, so
+        // the prior weighs like a hundred-millionth of one equation.
+        let (f_all, _) = regression(data, &rows);
+        let mut pm = DMatrix::zeros(p, p);
+        for j in 0..p {
+            let rms = (f_all.column(j).norm_squared() / rows.len() as f64).sqrt().max(1e-300);
+            pm[(j, j)] = 1e8 / (rms * rms);
         }
-        let mut pm = gram_inv;
+        let mut theta = DMatrix::zeros(p, n); // column i: θ_i
+        let warm = 0;
         let lambda = self.forgetting;
         let mut trajectory = Vec::new();
         let template = DiscreteModel { phi: DMatrix::zeros(n, n), gamma: DMatrix::zeros(n, m), ts_s: data.ts_s };

@@ -61,7 +61,15 @@ pub fn blueprint(replay: &Replay) -> Blueprint {
                 .into()
         })
         .collect();
-    let bottom = Tabs::new([
+    let correlation_views: Vec<ContainerLike> = ThermalState::ALL
+        .iter()
+        .map(|st| {
+            TimeSeriesView::new(format!("{}: residual correlation (x: lag)", st.part()))
+                .with_origin(format!("residual_correlation/{}", st.name()))
+                .into()
+        })
+        .collect();
+    let mut tabs: Vec<ContainerLike> = vec![
         Horizontal::new([
             TimeSeriesView::new("residual y − ŷ, K").with_origin("residual").into(),
             TimeSeriesView::new("heat sources, kW").with_origin("loss").into(),
@@ -70,8 +78,22 @@ pub fn blueprint(replay: &Replay) -> Blueprint {
         .into(),
         TimeSeriesView::new("decimated quantities").with_origin("raw").into(),
         Horizontal::new(sensitivity_views).with_name("sensitivities").into(),
+        Horizontal::new(correlation_views).with_name("residual correlation").into(),
         TextDocumentView::new("summary").with_origin("summary").into(),
-    ]);
+    ];
+    if !replay.trajectory.is_empty() {
+        tabs.insert(
+            1,
+            Horizontal::new([
+                TimeSeriesView::new("RLS time constants, s").with_origin("rls/time_constant").into(),
+                TimeSeriesView::new("RLS Φ").with_origin("rls/phi").into(),
+                TimeSeriesView::new("RLS Γ").with_origin("rls/gamma").into(),
+            ])
+            .with_name("recursive estimate")
+            .into(),
+        );
+    }
+    let bottom = Tabs::new(tabs);
     Blueprint::new(Vertical::new([Horizontal::new(per_state).into(), bottom.into()]))
         .with_auto_views(false)
 }
@@ -181,6 +203,73 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
             send_series(rec, &entity, &t[..response.nrows()], (0..response.nrows()).map(|r| Some(response[(r, k)])))?;
         }
     }
+    log_residual_correlation(rec, replay)?;
+    log_trajectory(rec, replay)?;
     rec.log_static("summary", &rerun::TextDocument::new(summary_text.to_owned())).map_err(publish_err)?;
+    Ok(())
+}
+
+/// Name of the timeline of the correlation plots (lag in samples).
+pub const LAG_TIMELINE: &str = "lag";
+
+fn send_by_lag(rec: &RecordingStream, entity: &str, lags: Vec<i64>, values: Vec<f64>) -> Result<()> {
+    rec.send_columns(
+        entity,
+        [TimeColumn::new_sequence(LAG_TIMELINE, lags)],
+        Scalars::new(values).columns_of_unit_batches().map_err(publish_err)?,
+    )
+    .map_err(publish_err)
+}
+
+fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let res = &replay.analysis.residuals;
+    let lag = res.max_lag as i64;
+    for (i, state) in ThermalState::ALL.iter().enumerate() {
+        let root = format!("residual_correlation/{}", state.name());
+        style(rec, &format!("{root}/autocorrelation"), "autocorrelation", MEASURED)?;
+        send_by_lag(rec, &format!("{root}/autocorrelation"), (0..=lag).collect(), res.autocorrelation[i].clone())?;
+        for (bound, sign) in [("band99_upper", 1.0), ("band99_lower", -1.0)] {
+            style(rec, &format!("{root}/{bound}"), "99 % band", [128, 128, 128])?;
+            send_by_lag(rec, &format!("{root}/{bound}"), vec![-lag, lag], vec![sign * res.band99; 2])?;
+        }
+        for (j, source) in HeatSource::ALL.iter().enumerate() {
+            let entity = format!("{root}/cross_{}", source.name());
+            style(rec, &entity, &format!("× {}", source.name()), PALETTE[j])?;
+            send_by_lag(rec, &entity, (-lag..=lag).collect(), res.cross_correlation[i][j].clone())?;
+        }
+    }
+    Ok(())
+}
+
+fn log_trajectory(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let traj = &replay.trajectory;
+    if traj.is_empty() {
+        return Ok(());
+    }
+    let model = &replay.estimate.model;
+    let (n, m) = (model.phi.nrows(), model.gamma.ncols());
+    let p = n + m;
+    let t: Vec<i64> = traj.iter().map(|pt| replay.signals.time_ns[pt.instant]).collect();
+    for i in 0..n {
+        for j in 0..p {
+            let (entity, name) = if j < n {
+                (format!("rls/phi/{}{}", i + 1, j + 1), format!("Φ({},{})", i + 1, j + 1))
+            } else {
+                (format!("rls/gamma/{}{}", i + 1, j - n + 1), format!("Γ({},{})", i + 1, j - n + 1))
+            };
+            style(rec, &entity, &name, PALETTE[(i * p + j) % PALETTE.len()])?;
+            send_series(rec, &entity, &t, traj.iter().map(|pt| Some(pt.theta[i * p + j])))?;
+        }
+    }
+    // Time constants where the running estimate is a stable thermal system.
+    let constants: Vec<Option<Vec<f64>>> = traj
+        .iter()
+        .map(|pt| crate::model::Spectrum::of(&model.with_theta(&pt.theta)).ok().map(|s| s.time_constants_s))
+        .collect();
+    for i in 0..n {
+        let entity = format!("rls/time_constant/T{}", i + 1);
+        style(rec, &entity, &format!("T{}", i + 1), PALETTE[i % PALETTE.len()])?;
+        send_series(rec, &entity, &t, constants.iter().map(|c| c.as_ref().map(|c| c[i])))?;
+    }
     Ok(())
 }
