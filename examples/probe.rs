@@ -1,19 +1,17 @@
-use heatrun::pipeline::{self, Method, ReplayOptions};
+use heatrun::estimate::{Estimator, InstrumentalVariables, OutputError, iv::lagged_output_iv};
+use heatrun::pipeline::{self, ReplayOptions};
 use heatrun::synth::{self, SynthOptions};
+use std::time::Instant;
 fn main() {
-    let level: f64 = std::env::args().nth(1).unwrap().parse().unwrap();
-    let elevel: f64 = std::env::args().nth(2).unwrap().parse().unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.mcap");
-    let mut worst = vec![0.0f64; 3];
-    for seed in 1..=8 {
-        let truth = synth::write(&path, &SynthOptions { temperature_noise_k: 0.05 * level, temperature_resolution_k: 0.01, electrical_noise_pu: 0.0005 * elevel, seed, ..SynthOptions::default() }).unwrap();
-        let t0 = std::time::Instant::now();
-        let r = pipeline::replay(&path, &ReplayOptions { method: Method::Oe, ..ReplayOptions::default() }).unwrap();
-        let e: Vec<f64> = r.analysis.spectrum.time_constants_s.iter().zip(&truth.time_constants_s).map(|(t, w)| (t / w - 1.0) * 100.0).collect();
-        let ss: Vec<f64> = r.analysis.steady_state.iter().zip(&truth.steady_state_rise_k).map(|(s, w)| s * 80.0 - w).collect();
-        for i in 0..3 { worst[i] = worst[i].max(e[i].abs()); }
-        println!("seed {seed}: T err % {:.2?} ss err K {:.3?} evals {} {:.2}s", e, ss, r.estimate.iterations, t0.elapsed().as_secs_f64());
-    }
-    println!("worst {worst:.2?}");
+    synth::write(&path, &SynthOptions::default().with_noise_level(1.0)).unwrap();
+    let t = Instant::now();
+    let prepared = pipeline::prepare(&path, &ReplayOptions::default()).unwrap();
+    println!("prepare {:.3}s", t.elapsed().as_secs_f64());
+    let data = &prepared.data;
+    let t = Instant::now(); let l = lagged_output_iv(data).unwrap(); println!("lagged iv {:.3}s", t.elapsed().as_secs_f64());
+    let t = Instant::now(); let iv = InstrumentalVariables::default().refine(data, l).unwrap(); println!("iv refine {:.3}s iters {}", t.elapsed().as_secs_f64(), iv.iterations);
+    let t = Instant::now(); let oe = OutputError::default().refine(data, &iv.model).unwrap(); println!("oe refine {:.3}s evals {}", t.elapsed().as_secs_f64(), oe.iterations);
+    let t = Instant::now(); let _ = heatrun::model::analyse(&oe, data, 80.0, &[0.0027, 0.0024, 0.0036]).unwrap(); println!("analyse {:.3}s", t.elapsed().as_secs_f64());
 }

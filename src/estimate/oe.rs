@@ -187,7 +187,8 @@ impl Estimator for OutputError {
     }
 
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
-        let start = InstrumentalVariables::default().estimate(data)?;
+        // A rough IV start is enough: LM takes it the rest of the way.
+        let start = InstrumentalVariables { max_iterations: 10, tolerance: 1e-6 }.estimate(data)?;
         self.refine(data, &start.model)
     }
 }
@@ -235,7 +236,9 @@ impl OutputError {
             m,
             params: DVector::from_vec(params),
         };
-        let lm = LevenbergMarquardt::new().with_patience(200);
+        // Tolerances far below the statistical uncertainty of Θ (~1e-3 relative), and far
+        // above rounding: the last evaluations of the default 30·ε would buy nothing.
+        let lm = LevenbergMarquardt::new().with_patience(200).with_ftol(1e-10).with_xtol(1e-10).with_gtol(1e-10);
         let mut evaluations = 0;
         // Two passes when no weights are given: the second with 1/σ_i² of the first
         // pass's residuals, which are then the sensor noise rather than the start's misfit.
