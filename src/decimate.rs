@@ -34,7 +34,19 @@ struct ChannelWindows {
     alignment: Option<Alignment>,
     base: i64,
     windows: Vec<Window>,
+    /// Latest sample time seen so far in file order, ns.
+    latest_ns: Option<i64>,
+    /// A backward step in file order under watch: (time jumped from, time jumped to,
+    /// samples checked since, of which landed in windows that already had data).
+    suspect: Option<(i64, i64, u32, u32)>,
+    /// A confirmed clock jump: (from, to).
+    clock_jump: Option<(i64, i64)>,
 }
+
+/// A step back in a channel's own time, in file order, that is watched as a possible clock jump.
+const CLOCK_JUMP_MIN_NS: i64 = 60_000_000_000;
+/// Samples after a backward step that decide whether it overlaps earlier data.
+const CLOCK_JUMP_WATCH: u32 = 20;
 
 impl ChannelWindows {
     fn window_mut(&mut self, k: i64) -> &mut Window {
@@ -157,6 +169,18 @@ impl Decimator {
         }
         if lo > hi {
             return Err(Error::Estimation("the recording holds no heat-run samples".into()));
+        }
+        for (idx, ch) in self.channels.iter().enumerate() {
+            if let Some((from, to)) = ch.clock_jump {
+                let topic = channels.get(idx).map(|c| c.topic.as_str()).unwrap_or("?");
+                return Err(Error::ClockJump(format!(
+                    "channel {topic}: its clock jumps back from {} to {} and the samples after the jump \
+                     overlap earlier ones, so their times cannot be trusted (a clock reset, or two \
+                     recordings merged); cut the recording at the jump",
+                    crate::recording::format_time(from.max(0) as u64),
+                    crate::recording::format_time(to.max(0) as u64)
+                )));
+            }
         }
         let len = (hi - lo + 1) as usize;
         let mut grids = Vec::new();
@@ -306,7 +330,31 @@ impl SampleSink for Decimator {
             Alignment::Interval => t.div_euclid(ts),
         };
         let reference = self.reference_ns(alignment, k);
-        let w = self.channels[sample.channel].window_mut(k);
+        let ch = &mut self.channels[sample.channel];
+        // Out-of-order storage lands earlier samples in empty windows; a clock jump back
+        // lands them on windows that already hold data. Watch each large backward step.
+        let latest = ch.latest_ns.unwrap_or(t);
+        if ch.suspect.is_none() && ch.clock_jump.is_none() && t < latest - CLOCK_JUMP_MIN_NS {
+            ch.suspect = Some((latest, t, 0, 0));
+        }
+        ch.latest_ns = Some(latest.max(t));
+        let occupied = {
+            let i = k - ch.base;
+            !ch.windows.is_empty() && i >= 0 && (i as usize) < ch.windows.len() && ch.windows[i as usize].count > 0
+        };
+        if let Some((from, to, checked, overlapped)) = ch.suspect.as_mut() {
+            *checked += 1;
+            if occupied {
+                *overlapped += 1;
+            }
+            if *checked >= CLOCK_JUMP_WATCH {
+                if *overlapped * 4 >= *checked * 3 {
+                    ch.clock_jump = Some((*from, *to));
+                }
+                ch.suspect = None;
+            }
+        }
+        let w = ch.window_mut(k);
         w.sum += sample.value;
         w.offset_sum += (t - reference) as f64 * 1e-9;
         w.count += 1;

@@ -35,6 +35,9 @@ pub enum Error {
         /// What is wrong, naming the key.
         message: String,
     },
+    /// A channel's clock jumps back over its own earlier data.
+    #[error("{0}")]
+    ClockJump(String),
     /// The data do not support an estimate (too short, not exciting, unstable).
     #[error("{0}")]
     Estimation(String),
@@ -66,6 +69,7 @@ impl Error {
                 | Error::BadRecording { .. }
                 | Error::BadMachineFile { .. }
                 | Error::Estimation(_)
+                | Error::ClockJump(_)
                 | Error::Model(_)
                 | Error::Usage(_)
         )

@@ -176,7 +176,11 @@ pub fn prepare(path: &Path, options: &ReplayOptions) -> Result<Prepared> {
         None => summary.nameplate.clone(),
     };
     let nameplate = entries.resolve(&name)?;
-    let decimated = decimator.finish(&summary.channels)?;
+    let decimated = decimator.finish(&summary.channels).map_err(|e| match e {
+        Error::ClockJump(m) => Error::BadRecording { path: path.to_owned(), message: m },
+        Error::Estimation(m) => Error::BadRecording { path: path.to_owned(), message: m },
+        other => other,
+    })?;
     let signals = losses::compute(&decimated, &nameplate, &name)?;
     let data = IdentificationData::from(&signals);
     Ok(Prepared { recording: summary, nameplate, decimated, signals, data })
@@ -232,6 +236,36 @@ pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
                 "channel {} has {} gap(s) ({} instants without data); no equation bridges them",
                 ch.topic, ch.gaps, ch.gap_instants
             ));
+        }
+    }
+    for (i, ch) in summary.channels.iter().enumerate() {
+        if let Some((t, v)) = summary.first_implausible[i] {
+            warnings.push(format!(
+                "channel {}: {} sample(s) outside the physical range of {} were dropped, the first {} {} at {}",
+                ch.topic,
+                summary.implausible_per_channel[i],
+                ch.quantity,
+                v,
+                ch.quantity.canonical_unit(),
+                crate::recording::format_time(t)
+            ));
+        }
+    }
+    // A required channel that stops well before the others.
+    if let Some((_, end)) = summary.time_span_ns {
+        for series in decimated.series.values() {
+            if let Some(last) = series.values.iter().rposition(|v| v.is_some()) {
+                let stop_ns = decimated.time_ns(last);
+                let early_s = (end as i64 - stop_ns) as f64 * 1e-9;
+                if early_s > 600.0 {
+                    warnings.push(format!(
+                        "{} stops at {}, {:.0} s before the recording ends; the rest is not used",
+                        series.quantity,
+                        crate::recording::format_time(stop_ns.max(0) as u64),
+                        early_s
+                    ));
+                }
+            }
         }
     }
     if summary.bad_quality_dropped > 0 {

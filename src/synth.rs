@@ -134,6 +134,8 @@ pub struct SynthOptions {
     pub start_time_ns: u64,
     /// zstd-compress the chunks.
     pub compress: bool,
+    /// Target size of a chunk, bytes.
+    pub chunk_size: u64,
 }
 
 impl Default for SynthOptions {
@@ -154,6 +156,7 @@ impl Default for SynthOptions {
             // 2019-06-03T06:00:00Z
             start_time_ns: 1_559_541_600_000_000_000,
             compress: true,
+            chunk_size: 1 << 20,
         }
     }
 }
@@ -365,7 +368,7 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
         .profile("heatrun-scada/1")
         .library(concat!("heatrun ", env!("CARGO_PKG_VERSION")))
         .compression(if o.compress { Some(mcap::Compression::Zstd) } else { None })
-        .chunk_size(Some(1 << 20));
+        .chunk_size(Some(o.chunk_size));
     let mut writer = options.create(BufWriter::new(file)).map_err(wr)?;
     let schema = writer.add_schema(SAMPLE_SCHEMA_NAME, SAMPLE_SCHEMA_ENCODING, SAMPLE_SCHEMA.as_bytes()).map_err(wr)?;
     let mut ids = Vec::new();

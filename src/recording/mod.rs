@@ -11,6 +11,6 @@ pub mod reader;
 pub use nameplate::{Nameplate, NameplateEntries, NAMEPLATE_RECORD};
 pub use quantity::{Alignment, Quantity};
 pub use reader::{
-    format_time, read_recording, IgnoredChannel, RecordingSummary, Sample, SampleSink,
+    format_time, read_recording, read_stream, IgnoredChannel, RecordingSummary, Sample, SampleSink,
     SensorChannel, SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING, SAMPLE_SCHEMA_NAME,
 };

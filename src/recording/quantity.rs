@@ -127,6 +127,20 @@ impl Quantity {
         })
     }
 
+    /// The physically possible values in the canonical unit. A sample outside is a
+    /// transducer or export fault (a negative RMS current, 10⁹ °C) and is dropped.
+    pub fn plausible_range(self) -> (f64, f64) {
+        match self {
+            // RMS quantities and flows are not negative; a generator's are below 1 MA, 1 MV.
+            Quantity::ArmatureCurrent | Quantity::LineVoltage => (0.0, 1e6),
+            // A DC field may be driven either way during field forcing or de-excitation.
+            Quantity::FieldCurrent | Quantity::FieldVoltage => (-1e5, 1e5),
+            Quantity::CoolingWaterFlow => (0.0, 1e5),
+            // Machine and water temperatures: below freezing sites to insulation failure.
+            _ => (-60.0, 300.0),
+        }
+    }
+
     /// Whether the quantity is a temperature (a state-like signal).
     pub fn is_temperature(self) -> bool {
         self.canonical_unit() == "degC"

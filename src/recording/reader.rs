@@ -106,6 +106,10 @@ pub struct RecordingSummary {
     pub samples_per_channel: Vec<u64>,
     /// Samples marked `bad` and dropped.
     pub bad_quality_dropped: u64,
+    /// Per channel: samples outside the quantity's physical range, dropped.
+    pub implausible_per_channel: Vec<u64>,
+    /// Per channel: the first implausible sample (time, value in the canonical unit).
+    pub first_implausible: Vec<Option<(u64, f64)>>,
     /// Samples marked `uncertain` (kept).
     pub uncertain_kept: u64,
     /// Earliest and latest sample time, in ns since the epoch.
@@ -114,6 +118,8 @@ pub struct RecordingSummary {
     pub data_loss: Vec<String>,
     /// Bytes in the file.
     pub file_bytes: u64,
+    /// Remarks on the file that are not data loss (a cut summary section).
+    pub notes: Vec<String>,
 }
 
 /// Formats a `log_time` for messages: RFC 3339, UTC.
@@ -143,6 +149,8 @@ struct Reader<'s, S: SampleSink> {
     routes: HashMap<u16, ChannelRoute>,
     /// Samples of the chunk being decoded, held until its CRC has been checked.
     chunk_samples: Vec<Sample>,
+    /// Whether the Data End record (the end of the data section) was read.
+    seen_data_end: bool,
 }
 
 /// Reads the heat-run recording at `path`, giving its samples to `sink`.
@@ -152,16 +160,27 @@ struct Reader<'s, S: SampleSink> {
 /// message is not a sample. Damage after the start (a cut, a corrupt chunk) is
 /// recovered from and listed in [`RecordingSummary::data_loss`].
 pub fn read_recording<S: SampleSink>(path: &Path, sink: &mut S) -> Result<RecordingSummary> {
-    let mut file = std::fs::File::open(path)
-        .map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
+    let file = std::fs::File::open(path).map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
     let file_bytes = file.metadata().map(|m| m.len()).unwrap_or(0);
+    read_stream(file, path, file_bytes, sink)
+}
+
+/// Reads a recording from any byte stream (a file, memory); `path` names it in
+/// messages and `stream_bytes` is its length, when known, for the data-loss report.
+pub fn read_stream<S: SampleSink>(
+    mut file: impl Read,
+    path: &Path,
+    stream_bytes: u64,
+    sink: &mut S,
+) -> Result<RecordingSummary> {
+    let file_bytes = stream_bytes;
     let bad = |message: String| Error::BadRecording { path: path.to_owned(), message };
-    if file_bytes == 0 {
-        return Err(bad("the file is empty, not an MCAP recording".into()));
-    }
     let mut magic = [0u8; 8];
     let got = read_full(&mut file, &mut magic)
         .map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
+    if got == 0 {
+        return Err(bad("the file is empty, not an MCAP recording".into()));
+    }
     if magic.starts_with(b"version ") {
         let mut head = vec![0u8; 64];
         let n = read_full(&mut file, &mut head).unwrap_or(0);
@@ -184,6 +203,7 @@ pub fn read_recording<S: SampleSink>(path: &Path, sink: &mut S) -> Result<Record
         schemas: HashMap::new(),
         routes: HashMap::new(),
         chunk_samples: Vec::new(),
+        seen_data_end: false,
     };
     let options = LinearReaderOptions::default()
         .with_skip_start_magic(true)
@@ -198,7 +218,9 @@ pub fn read_recording<S: SampleSink>(path: &Path, sink: &mut S) -> Result<Record
         let Some(event) = linear.next_event() else { break };
         match event {
             Ok(LinearReadEvent::ReadRequest(need)) => {
-                let buf = linear.insert(need.max(1 << 16));
+                // Read in pieces of at most 1 MiB: a damaged length must not make us
+                // allocate what the file does not hold.
+                let buf = linear.insert(need.clamp(1 << 12, 1 << 20));
                 let n = read_full(&mut file, buf)
                     .map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
                 consumed += n as u64;
@@ -218,15 +240,23 @@ pub fn read_recording<S: SampleSink>(path: &Path, sink: &mut S) -> Result<Record
                 }
                 last_record_end += 9 + len;
             }
+            Err(mcap::McapError::UnexpectedEof) if reader.seen_data_end => {
+                // Only the summary (indexes, statistics) is cut: every message was read.
+                reader.summary.notes.push(format!(
+                    "the summary section is cut short after byte {last_record_end}; no data were lost"
+                ));
+                break;
+            }
             Err(mcap::McapError::UnexpectedEof) => {
                 if reader.summary.channels.is_empty() && reader.summary.ignored_channels.is_empty() {
                     return Err(bad(format!(
                         "the file ends after {consumed} bytes, before any channel was defined"
                     )));
                 }
+                let last = reader.summary.time_span_ns.map(|(_, b)| format_time(b)).unwrap_or_else(|| "none".into());
                 reader.summary.data_loss.push(format!(
-                    "the file ends mid-record after byte {last_record_end} of {file_bytes} \
-                     (cut short: no summary); the last {} bytes were not usable",
+                    "the file is cut short: it ends mid-record after byte {last_record_end} of {file_bytes}, \
+                     with no summary; the last {} bytes were not usable (last complete sample: {last})",
                     file_bytes.saturating_sub(last_record_end)
                 ));
                 break;
@@ -279,6 +309,7 @@ impl<S: SampleSink> Reader<'_, S> {
                 }
             }
             Record::Chunk { header, data } => self.chunk(header, &data)?,
+            Record::DataEnd(_) => self.seen_data_end = true,
             Record::Metadata(meta) => {
                 if meta.name == NAMEPLATE_RECORD {
                     self.summary.nameplate = NameplateEntries::from_map(
@@ -418,6 +449,8 @@ impl<S: SampleSink> Reader<'_, S> {
         self.sink.channel(&sensor_channel);
         self.summary.channels.push(sensor_channel);
         self.summary.samples_per_channel.push(0);
+        self.summary.implausible_per_channel.push(0);
+        self.summary.first_implausible.push(None);
         self.routes.insert(channel.id, ChannelRoute::Sensor(index));
         Ok(())
     }
@@ -450,6 +483,15 @@ impl<S: SampleSink> Reader<'_, S> {
             SampleQuality::Good => {}
         }
         let ch = &self.summary.channels[index];
-        Ok(Some(Sample { channel: index, log_time_ns: log_time, value: parsed.value * ch.unit_scale }))
+        let value = parsed.value * ch.unit_scale;
+        let (lo, hi) = ch.quantity.plausible_range();
+        if !(value >= lo && value <= hi) {
+            self.summary.implausible_per_channel[index] += 1;
+            if self.summary.first_implausible[index].is_none() {
+                self.summary.first_implausible[index] = Some((log_time, value));
+            }
+            return Ok(None);
+        }
+        Ok(Some(Sample { channel: index, log_time_ns: log_time, value }))
     }
 }

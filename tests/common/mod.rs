@@ -70,9 +70,66 @@ impl RecordingBuilder {
         r
     }
 
-    pub fn write(&self, path: &Path) {
+    /// The channels and samples of a synthetic heat run of the paper's model (a real
+    /// thermal system, so the estimate stays meaningful after the test edits it).
+    pub fn from_synth(duration_s: f64) -> Self {
+        let dir = tempdir();
+        let path = dir.path().join("synth.mcap");
+        heatrun::synth::write(&path, &heatrun::synth::SynthOptions { duration_s, ..Default::default() }).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let mut r = RecordingBuilder::new();
+        let mut index: BTreeMap<String, usize> = BTreeMap::new();
+        for msg in mcap::MessageStream::new(&bytes).unwrap() {
+            let msg = msg.unwrap();
+            let topic = msg.channel.topic.clone();
+            let i = *index.entry(topic.clone()).or_insert_with(|| {
+                r.channels.push((topic.clone(), msg.channel.metadata.clone(), Vec::new()));
+                r.channels.len() - 1
+            });
+            r.channels[i].2.push((msg.log_time, String::from_utf8(msg.data.to_vec()).unwrap()));
+        }
+        // Synthetic runs start at their own epoch: rebase onto T0.
+        let start = r.channels.iter().flat_map(|c| c.2.iter().map(|s| s.0)).min().unwrap();
+        for c in r.channels.iter_mut() {
+            for s in c.2.iter_mut() {
+                s.0 = s.0 - start + T0;
+            }
+        }
+        r
+    }
+
+    /// Index of the channel of a quantity.
+    pub fn channel_of(&self, quantity: &str) -> usize {
+        self.channels.iter().position(|c| c.0.ends_with(&format!("/{quantity}"))).unwrap()
+    }
+
+    /// Writes the messages in the given order (arrival order, as a recorder would).
+    pub fn write_in_order(&self, path: &Path, order: &[(usize, usize, u64)]) {
         let file = std::fs::File::create(path).unwrap();
         let mut w = mcap::WriteOptions::new().create(BufWriter::new(file)).unwrap();
+        let schema = w.add_schema(&self.schema_name, "jsonschema", heatrun::synth::SAMPLE_SCHEMA.as_bytes()).unwrap();
+        let ids: Vec<u16> = self.channels.iter().map(|(topic, meta, _)| w.add_channel(schema, topic, &self.message_encoding, meta).unwrap()).collect();
+        if let Some(np) = &self.nameplate {
+            w.write_metadata(&mcap::records::Metadata { name: "heatrun.nameplate".into(), metadata: np.clone() }).unwrap();
+        }
+        for (seq, &(c, i, log_time)) in order.iter().enumerate() {
+            w.write_to_known_channel(
+                &mcap::records::MessageHeader { channel_id: ids[c], sequence: seq as u32, log_time, publish_time: log_time },
+                self.channels[c].2[i].1.as_bytes(),
+            )
+            .unwrap();
+        }
+        w.finish().unwrap();
+    }
+
+    pub fn write(&self, path: &Path) {
+        self.write_with(path, mcap::WriteOptions::new(), None);
+    }
+
+    /// Writes with the given MCAP options; `shuffle` stores the messages in a seeded random order.
+    pub fn write_with(&self, path: &Path, options: mcap::WriteOptions, shuffle: Option<u64>) {
+        let file = std::fs::File::create(path).unwrap();
+        let mut w = options.create(BufWriter::new(file)).unwrap();
         let schema = w.add_schema(&self.schema_name, "jsonschema", heatrun::synth::SAMPLE_SCHEMA.as_bytes()).unwrap();
         let mut ids = Vec::new();
         for (topic, meta, _) in &self.channels {
@@ -88,6 +145,15 @@ impl RecordingBuilder {
             }
         }
         all.sort_by_key(|x| x.0);
+        if let Some(seed) = shuffle {
+            // Fisher–Yates with a small LCG: deterministic without another dependency.
+            let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            for i in (1..all.len()).rev() {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let j = (state >> 33) as usize % (i + 1);
+                all.swap(i, j);
+            }
+        }
         for (seq, (t, c, data)) in all.into_iter().enumerate() {
             w.write_to_known_channel(
                 &mcap::records::MessageHeader { channel_id: ids[c], sequence: seq as u32, log_time: t, publish_time: t },
