@@ -23,6 +23,7 @@ pub mod estimate;
 pub mod losses;
 pub mod model;
 pub mod pipeline;
+#[cfg(feature = "rerun")]
 pub mod publish;
 pub mod recording;
 pub mod report;

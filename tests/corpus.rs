@@ -319,3 +319,16 @@ fn every_mcap_layout_gives_the_same_estimate() {
         assert_eq!(info.status.code(), Some(0), "{name}");
     }
 }
+
+#[test]
+fn fuzz_findings_stay_fixed() {
+    // Inputs cargo-fuzz found crashing the recording path, kept as regressions.
+    let found = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    for entry in std::fs::read_dir(found).unwrap() {
+        let path = entry.unwrap().path();
+        let dir = common::tempdir();
+        std::fs::copy(&path, dir.path().join("f.mcap")).unwrap();
+        let (code, stderr, _) = replay(dir.path(), "f.mcap");
+        assert!(code == 2 || code == 3 || code == 0, "{}: exit {code}: {stderr}", path.display());
+    }
+}

@@ -56,6 +56,20 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         if summary.bad_quality_dropped > 0 {
             println!("  samples marked bad: {}", summary.bad_quality_dropped);
         }
+        for (i, c) in summary.channels.iter().enumerate() {
+            if let Some((t, v)) = summary.first_implausible[i] {
+                println!(
+                    "  {}: {} implausible sample(s), the first {v} {} at {}",
+                    c.topic,
+                    summary.implausible_per_channel[i],
+                    c.quantity.canonical_unit(),
+                    format_time(t)
+                );
+            }
+        }
+        for n in &summary.notes {
+            println!("  note: {n}");
+        }
         for l in &summary.data_loss {
             println!("  data lost: {l}");
         }

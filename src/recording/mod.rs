@@ -4,6 +4,7 @@
 //! canonical units pushed to a [`SampleSink`] as the file streams by, and a
 //! [`RecordingSummary`] (channels, nameplate entries, metadata, data loss).
 
+pub mod chunk;
 pub mod nameplate;
 pub mod quantity;
 pub mod reader;

@@ -326,31 +326,30 @@ impl<S: SampleSink> Reader<'_, S> {
     }
 
     fn chunk(&mut self, header: mcap::records::ChunkHeader, data: &[u8]) -> Result<()> {
-        self.chunk_samples.clear();
         let start = header.message_start_time;
-        let records = match mcap::read::ChunkReader::new(header, data) {
-            Ok(r) => r,
-            Err(e) => {
+        let plain = match super::chunk::decompress(&header, data) {
+            Ok(p) => p,
+            Err(why) => {
                 self.summary.data_loss.push(format!(
-                    "a chunk starting at {} could not be opened ({e}); its messages were dropped",
+                    "the chunk starting at {} is damaged ({why}); its messages were dropped",
                     format_time(start)
                 ));
                 return Ok(());
             }
         };
+        // Held until the whole chunk has parsed, so a damaged chunk gives nothing.
         let mut pending = std::mem::take(&mut self.chunk_samples);
-        for record in records {
-            match record {
+        pending.clear();
+        for item in super::chunk::records(&plain) {
+            let parsed = item.and_then(|(opcode, body)| mcap::parse_record(opcode, body).map_err(|e| e.to_string()));
+            match parsed {
                 Ok(Record::Message { header, data }) => {
                     if let Some(s) = self.message(header.channel_id, header.log_time, &data)? {
                         pending.push(s);
                     }
                 }
                 Ok(Record::Schema { header, .. }) => {
-                    self.schemas.insert(
-                        header.id,
-                        SchemaInfo { name: header.name, encoding: header.encoding },
-                    );
+                    self.schemas.insert(header.id, SchemaInfo { name: header.name, encoding: header.encoding });
                 }
                 Ok(Record::Channel(channel)) => self.channel(channel)?,
                 Ok(_) => {}
