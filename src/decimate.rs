@@ -9,7 +9,7 @@
 //! sample period — the value is `None`: a gap is recorded, never bridged.
 //! Several sensors of one quantity are averaged where they have data.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 use serde::Serialize;
 
@@ -28,12 +28,22 @@ struct Window {
     count: u32,
 }
 
-/// The windows of one channel, stored densely from `base`.
+/// Windows per storage block.
+const BLOCK: i64 = 1024;
+
+/// Most grid instants a recording may span (about 3 years at Ts = 1 s).
+pub const MAX_GRID_INSTANTS: i64 = 100_000_000;
+
+/// The windows of one channel, in blocks of [`BLOCK`] allocated where samples fall, so
+/// that memory follows the data and a stray timestamp costs one block, not its distance.
 #[derive(Debug, Default)]
 struct ChannelWindows {
     alignment: Option<Alignment>,
-    base: i64,
-    windows: Vec<Window>,
+    blocks: Vec<Box<[Window]>>,
+    /// Block number → index in `blocks`.
+    block_of: HashMap<i64, usize>,
+    /// The block used last: (block number, index), the common case of the next sample.
+    last: Option<(i64, usize)>,
     /// Latest sample time seen so far in file order, ns.
     latest_ns: Option<i64>,
     /// A backward step in file order under watch: (time jumped from, time jumped to,
@@ -49,23 +59,46 @@ const CLOCK_JUMP_MIN_NS: i64 = 60_000_000_000;
 const CLOCK_JUMP_WATCH: u32 = 20;
 
 impl ChannelWindows {
+    fn slot(&mut self, block: i64) -> usize {
+        if let Some((b, i)) = self.last {
+            if b == block {
+                return i;
+            }
+        }
+        let next = self.blocks.len();
+        let i = *self.block_of.entry(block).or_insert(next);
+        if i == next {
+            self.blocks.push(vec![Window::default(); BLOCK as usize].into_boxed_slice());
+        }
+        self.last = Some((block, i));
+        i
+    }
+
     fn window_mut(&mut self, k: i64) -> &mut Window {
-        if self.windows.is_empty() {
-            self.base = k;
-        }
-        if k < self.base {
-            // Out-of-order data before the first window seen: grow at the front.
-            let extra = (self.base - k) as usize;
-            let mut grown = vec![Window::default(); extra + self.windows.len()];
-            grown[extra..].copy_from_slice(&self.windows);
-            self.windows = grown;
-            self.base = k;
-        }
-        let i = (k - self.base) as usize;
-        if i >= self.windows.len() {
-            self.windows.resize(i + 1, Window::default());
-        }
-        &mut self.windows[i]
+        let (block, at) = (k.div_euclid(BLOCK), k.rem_euclid(BLOCK) as usize);
+        let i = self.slot(block);
+        &mut self.blocks[i][at]
+    }
+
+    fn occupied(&self, k: i64) -> bool {
+        let (block, at) = (k.div_euclid(BLOCK), k.rem_euclid(BLOCK) as usize);
+        self.block_of.get(&block).is_some_and(|&i| self.blocks[i][at].count > 0)
+    }
+
+    /// The occupied windows in grid order: (k, window).
+    fn occupied_windows(&self) -> Vec<(i64, Window)> {
+        let mut order: Vec<(i64, usize)> = self.block_of.iter().map(|(b, i)| (*b, *i)).collect();
+        order.sort_unstable();
+        order
+            .into_iter()
+            .flat_map(|(b, i)| {
+                self.blocks[i]
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, w)| w.count > 0)
+                    .map(move |(j, w)| (b * BLOCK + j as i64, *w))
+            })
+            .collect()
     }
 }
 
@@ -160,12 +193,24 @@ impl Decimator {
     pub fn finish(self, channels: &[SensorChannel]) -> Result<DecimatedRecording> {
         let mut lo = i64::MAX;
         let mut hi = i64::MIN;
-        for ch in &self.channels {
-            if let Some(first) = ch.windows.iter().position(|w| w.count > 0) {
-                let last = ch.windows.iter().rposition(|w| w.count > 0).unwrap_or(first);
-                lo = lo.min(ch.base + first as i64);
-                hi = hi.max(ch.base + last as i64);
+        let occupied: Vec<Vec<(i64, Window)>> = self.channels.iter().map(|c| c.occupied_windows()).collect();
+        for windows in &occupied {
+            if let (Some(first), Some(last)) = (windows.first(), windows.last()) {
+                lo = lo.min(first.0);
+                hi = hi.max(last.0);
             }
+        }
+        // The grid must stay in proportion to the data: a stray timestamp far from the rest
+        // would otherwise make every series as long as the distance to it.
+        let densest = occupied.iter().map(|w| w.iter().map(|(_, w)| w.count as i64).sum::<i64>()).max().unwrap_or(0);
+        if lo <= hi && (hi - lo >= MAX_GRID_INSTANTS || hi - lo > 100 * densest + 100_000) {
+            let at = |k: i64| crate::recording::format_time((k * self.ts_ns).max(0) as u64);
+            return Err(Error::Estimation(format!(
+                "the samples span {} to {}, far more sample times than there are samples: a clock \
+                 or a timestamp is damaged, or --ts is too short for the data (see `heatrun info`)",
+                at(lo),
+                at(hi)
+            )));
         }
         if lo > hi {
             return Err(Error::Estimation("the recording holds no heat-run samples".into()));
@@ -185,10 +230,10 @@ impl Decimator {
         let len = (hi - lo + 1) as usize;
         let mut grids = Vec::new();
         let mut per_quantity: BTreeMap<Quantity, Vec<Vec<Option<f64>>>> = BTreeMap::new();
-        for (idx, ch) in self.channels.iter().enumerate() {
+        for idx in 0..self.channels.len() {
             let quantity = self.quantities[idx];
             let alignment = quantity.alignment();
-            let (values, grid) = self.channel_on_grid(ch, alignment, lo, len);
+            let (values, grid) = self.channel_on_grid(&occupied[idx], alignment, lo, len);
             grids.push(ChannelGrid {
                 topic: channels.get(idx).map(|c| c.topic.clone()).unwrap_or_default(),
                 quantity,
@@ -216,20 +261,17 @@ impl Decimator {
 
     fn channel_on_grid(
         &self,
-        ch: &ChannelWindows,
+        windows: &[(i64, Window)],
         alignment: Alignment,
         lo: i64,
         len: usize,
     ) -> (Vec<Option<f64>>, ChannelGrid) {
         let ts = self.ts_ns as f64 * 1e-9;
         // Occupied windows as points (grid index, mean time in s relative to grid start, mean).
-        let points: Vec<(i64, f64, f64)> = ch
-            .windows
+        let points: Vec<(i64, f64, f64)> = windows
             .iter()
-            .enumerate()
-            .filter(|(_, w)| w.count > 0)
-            .map(|(i, w)| {
-                let k = ch.base + i as i64;
+            .map(|(k, w)| {
+                let k = *k;
                 let t = (self.reference_ns(alignment, k) - lo * self.ts_ns) as f64 * 1e-9
                     + w.offset_sum / w.count as f64;
                 (k, t, w.sum / w.count as f64)
@@ -247,7 +289,7 @@ impl Decimator {
         if points.is_empty() {
             return (values, empty);
         }
-        let total: u64 = ch.windows.iter().map(|w| w.count as u64).sum();
+        let total: u64 = windows.iter().map(|(_, w)| w.count as u64).sum();
         let mut index_steps: Vec<i64> = points.windows(2).map(|p| p[1].0 - p[0].0).collect();
         index_steps.sort_unstable();
         let median_step = index_steps.get(index_steps.len() / 2).copied().unwrap_or(1);
@@ -338,10 +380,7 @@ impl SampleSink for Decimator {
             ch.suspect = Some((latest, t, 0, 0));
         }
         ch.latest_ns = Some(latest.max(t));
-        let occupied = {
-            let i = k - ch.base;
-            !ch.windows.is_empty() && i >= 0 && (i as usize) < ch.windows.len() && ch.windows[i as usize].count > 0
-        };
+        let occupied = ch.suspect.is_some() && ch.occupied(k);
         if let Some((from, to, checked, overlapped)) = ch.suspect.as_mut() {
             *checked += 1;
             if occupied {

@@ -10,7 +10,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use mcap::records::Record;
+use mcap::records::{ChunkHeader, Record};
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use serde::{Deserialize, Serialize};
 
@@ -147,8 +147,6 @@ struct Reader<'s, S: SampleSink> {
     summary: RecordingSummary,
     schemas: HashMap<u16, SchemaInfo>,
     routes: HashMap<u16, ChannelRoute>,
-    /// Samples of the chunk being decoded, held until its CRC has been checked.
-    chunk_samples: Vec<Sample>,
     /// Whether the Data End record (the end of the data section) was read.
     seen_data_end: bool,
 }
@@ -168,7 +166,7 @@ pub fn read_recording<S: SampleSink>(path: &Path, sink: &mut S) -> Result<Record
 /// Reads a recording from any byte stream (a file, memory); `path` names it in
 /// messages and `stream_bytes` is its length, when known, for the data-loss report.
 pub fn read_stream<S: SampleSink>(
-    mut file: impl Read,
+    mut file: impl Read + Send,
     path: &Path,
     stream_bytes: u64,
     sink: &mut S,
@@ -196,83 +194,164 @@ pub fn read_stream<S: SampleSink>(
         ));
     }
 
-    let mut reader = Reader {
+    let mut merger = Reader {
         path: path.to_owned(),
         sink,
         summary: RecordingSummary { path: path.to_owned(), file_bytes, ..Default::default() },
         schemas: HashMap::new(),
         routes: HashMap::new(),
-        chunk_samples: Vec::new(),
         seen_data_end: false,
     };
+    // Three stages, so that both cores work: this thread's scan reads the file and
+    // cuts it into records and whole chunks; workers decompress chunks and parse their
+    // messages; the merger (the calling thread) takes the results back in file order and
+    // feeds the sink. Bounded queues keep memory constant whatever the file's length.
+    let workers = std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(1, 4);
+    let (work_tx, work_rx) = crossbeam_channel::bounded::<(u64, ChunkHeader, Vec<u8>)>(2 * workers);
+    let (done_tx, done_rx) = crossbeam_channel::bounded::<Unit>(4 * workers);
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            let (work_rx, done_tx) = (work_rx.clone(), done_tx.clone());
+            scope.spawn(move || {
+                for (seq, header, data) in work_rx {
+                    let start = header.message_start_time;
+                    let unit = Unit::Decoded { seq, start, items: decode_chunk(&header, &data) };
+                    if done_tx.send(unit).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(work_rx);
+        let scan_done = done_tx.clone();
+        drop(done_tx);
+        scope.spawn(move || scan(file, work_tx, scan_done));
+        let result = merger.merge(done_rx);
+        result
+    })?;
+    Ok(merger.summary)
+}
+
+/// Decoded pieces of the file, in file order by `seq`.
+enum Unit {
+    /// Records outside chunks, or a chunk's records (`Err`: the chunk is damaged).
+    Decoded { seq: u64, start: u64, items: std::result::Result<Vec<Item>, String> },
+    /// The end of the scan, and why it ended.
+    End { seq: u64, end: ScanEnd },
+}
+
+/// How the scan of the file ended.
+enum ScanEnd {
+    /// The file ended where a file may end.
+    Clean,
+    /// The file ended mid-record.
+    Cut { consumed: u64, last_record_end: u64 },
+    /// A record could not be read; nothing after it was.
+    Damaged { last_record_end: u64, what: String },
+    /// Reading the file failed.
+    Io(std::io::Error),
+}
+
+/// One record's content, owned, as the merger needs it.
+enum Item {
+    Schema { id: u16, name: String, encoding: String },
+    Channel(mcap::records::Channel),
+    /// A message with its payload parsed as a sample (or why not); `stray` when its time
+    /// lies outside the time range its chunk declares (a damaged timestamp).
+    Message { channel_id: u16, log_time: u64, sample: std::result::Result<SampleMessage, String>, stray: bool },
+    Metadata(mcap::records::Metadata),
+    DataEnd,
+}
+
+/// The item of one parsed record outside or inside a chunk (`None`: not needed).
+fn item(record: Record<'_>) -> Option<Item> {
+    Some(match record {
+        Record::Schema { header, .. } => Item::Schema { id: header.id, name: header.name, encoding: header.encoding },
+        Record::Channel(c) => Item::Channel(c),
+        Record::Message { header, data } => Item::Message {
+            channel_id: header.channel_id,
+            log_time: header.log_time,
+            sample: serde_json::from_slice::<SampleMessage>(&data).map_err(|e| e.to_string()),
+            stray: false,
+        },
+        Record::Metadata(m) => Item::Metadata(m),
+        Record::DataEnd(_) => Item::DataEnd,
+        _ => return None,
+    })
+}
+
+/// Decompresses a chunk and parses its records; any damage drops the whole chunk.
+fn decode_chunk(header: &ChunkHeader, data: &[u8]) -> std::result::Result<Vec<Item>, String> {
+    let plain = super::chunk::decompress(header, data)?;
+    let mut items = Vec::new();
+    for record in super::chunk::records(&plain) {
+        let (opcode, body) = record?;
+        let record = mcap::parse_record(opcode, body).map_err(|e| e.to_string())?;
+        let mut it = item(record);
+        if let Some(Item::Message { log_time, stray, .. }) = it.as_mut() {
+            *stray = *log_time < header.message_start_time || *log_time > header.message_end_time;
+        }
+        items.extend(it);
+    }
+    Ok(items)
+}
+
+/// Reads the file front to back: records outside chunks are parsed here, chunks go to
+/// the workers whole. Ends with a [`Unit::End`].
+fn scan(
+    mut file: impl Read,
+    work: crossbeam_channel::Sender<(u64, ChunkHeader, Vec<u8>)>,
+    done: crossbeam_channel::Sender<Unit>,
+) {
     let options = LinearReaderOptions::default()
         .with_skip_start_magic(true)
         .with_emit_chunks(true)
-        .with_validate_chunk_crcs(true)
         // A corrupt length must not make the reader allocate the machine's memory.
         .with_record_length_limit(1 << 30);
     let mut linear = LinearReader::new_with_options(options);
     let mut consumed: u64 = 8;
     let mut last_record_end: u64 = 8;
-    loop {
-        let Some(event) = linear.next_event() else { break };
+    let mut seq = 0u64;
+    let end = loop {
+        let Some(event) = linear.next_event() else { break ScanEnd::Clean };
         match event {
             Ok(LinearReadEvent::ReadRequest(need)) => {
                 // Read in pieces of at most 1 MiB: a damaged length must not make us
                 // allocate what the file does not hold.
                 let buf = linear.insert(need.clamp(1 << 12, 1 << 20));
-                let n = read_full(&mut file, buf)
-                    .map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
-                consumed += n as u64;
-                linear.notify_read(n);
+                match read_full(&mut file, buf) {
+                    Ok(n) => {
+                        consumed += n as u64;
+                        linear.notify_read(n);
+                    }
+                    Err(e) => break ScanEnd::Io(e),
+                }
             }
             Ok(LinearReadEvent::Record { opcode, data }) => {
                 let len = data.len() as u64;
-                match mcap::parse_record(opcode, data) {
-                    Ok(record) => reader.record(record)?,
+                let sent = match mcap::parse_record(opcode, data) {
+                    Ok(Record::Chunk { header, data }) => work.send((seq, header, data.into_owned())).is_ok(),
+                    Ok(record) => done
+                        .send(Unit::Decoded { seq, start: 0, items: Ok(item(record).into_iter().collect()) })
+                        .is_ok(),
                     Err(e) => {
-                        reader.summary.data_loss.push(format!(
-                            "a damaged record (opcode {opcode:#04x}) after byte {last_record_end}: {e}; \
-                             the rest of the file was not read"
-                        ));
-                        break;
+                        break ScanEnd::Damaged {
+                            last_record_end,
+                            what: format!("a damaged record (opcode {opcode:#04x}): {e}"),
+                        }
                     }
+                };
+                if !sent {
+                    return; // the merger stopped: nothing more is wanted
                 }
+                seq += 1;
                 last_record_end += 9 + len;
             }
-            Err(mcap::McapError::UnexpectedEof) if reader.seen_data_end => {
-                // Only the summary (indexes, statistics) is cut: every message was read.
-                reader.summary.notes.push(format!(
-                    "the summary section is cut short after byte {last_record_end}; no data were lost"
-                ));
-                break;
-            }
-            Err(mcap::McapError::UnexpectedEof) => {
-                if reader.summary.channels.is_empty() && reader.summary.ignored_channels.is_empty() {
-                    return Err(bad(format!(
-                        "the file ends after {consumed} bytes, before any channel was defined"
-                    )));
-                }
-                let last = reader.summary.time_span_ns.map(|(_, b)| format_time(b)).unwrap_or_else(|| "none".into());
-                reader.summary.data_loss.push(format!(
-                    "the file is cut short: it ends mid-record after byte {last_record_end} of {file_bytes}, \
-                     with no summary; the last {} bytes were not usable (last complete sample: {last})",
-                    file_bytes.saturating_sub(last_record_end)
-                ));
-                break;
-            }
-            Err(e) => {
-                if last_record_end <= 8 {
-                    return Err(bad(format!("not a readable MCAP file: {e}")));
-                }
-                reader.summary.data_loss.push(format!(
-                    "the file is damaged after byte {last_record_end}: {e}; the rest was not read"
-                ));
-                break;
-            }
+            Err(mcap::McapError::UnexpectedEof) => break ScanEnd::Cut { consumed, last_record_end },
+            Err(e) => break ScanEnd::Damaged { last_record_end, what: e.to_string() },
         }
-    }
-    Ok(reader.summary)
+    };
+    let _ = done.send(Unit::End { seq, end });
 }
 
 /// Reads until `buf` is full or the file ends; returns the bytes read.
@@ -294,81 +373,100 @@ impl<S: SampleSink> Reader<'_, S> {
         Error::BadRecording { path: self.path.clone(), message }
     }
 
-    fn record(&mut self, record: Record<'_>) -> Result<()> {
-        match record {
-            Record::Schema { header, .. } => {
-                self.schemas.insert(
-                    header.id,
-                    SchemaInfo { name: header.name, encoding: header.encoding },
-                );
-            }
-            Record::Channel(channel) => self.channel(channel)?,
-            Record::Message { header, data } => {
-                if let Some(sample) = self.message(header.channel_id, header.log_time, &data)? {
-                    self.deliver(sample);
+    /// Takes the decoded units back in file order and applies them.
+    fn merge(&mut self, done: crossbeam_channel::Receiver<Unit>) -> Result<()> {
+        let mut waiting: std::collections::BTreeMap<u64, Unit> = std::collections::BTreeMap::new();
+        let mut next = 0u64;
+        for unit in done.iter() {
+            let seq = match &unit {
+                Unit::Decoded { seq, .. } | Unit::End { seq, .. } => *seq,
+            };
+            waiting.insert(seq, unit);
+            while let Some(unit) = waiting.remove(&next) {
+                next += 1;
+                match unit {
+                    Unit::Decoded { start, items, .. } => match items {
+                        Ok(items) => {
+                            for item in items {
+                                self.apply(item)?;
+                            }
+                        }
+                        Err(why) => self.summary.data_loss.push(format!(
+                            "the chunk starting at {} is damaged ({why}); its messages were dropped",
+                            format_time(start)
+                        )),
+                    },
+                    Unit::End { end, .. } => return self.finish(end),
                 }
             }
-            Record::Chunk { header, data } => self.chunk(header, &data)?,
-            Record::DataEnd(_) => self.seen_data_end = true,
-            Record::Metadata(meta) => {
-                if meta.name == NAMEPLATE_RECORD {
-                    self.summary.nameplate = NameplateEntries::from_map(
-                        &meta.metadata,
-                        &self.path.display().to_string(),
-                    );
-                } else {
-                    self.summary.metadata.insert(meta.name, meta.metadata);
-                }
-            }
-            _ => {}
         }
         Ok(())
     }
 
-    fn chunk(&mut self, header: mcap::records::ChunkHeader, data: &[u8]) -> Result<()> {
-        let start = header.message_start_time;
-        let plain = match super::chunk::decompress(&header, data) {
-            Ok(p) => p,
-            Err(why) => {
-                self.summary.data_loss.push(format!(
-                    "the chunk starting at {} is damaged ({why}); its messages were dropped",
-                    format_time(start)
+    fn finish(&mut self, end: ScanEnd) -> Result<()> {
+        let file_bytes = self.summary.file_bytes;
+        match end {
+            ScanEnd::Clean => {}
+            ScanEnd::Io(source) => return Err(Error::ReadInput { path: self.path.clone(), source }),
+            ScanEnd::Cut { last_record_end, .. } if self.seen_data_end => {
+                // Only the summary (indexes, statistics) is cut: every message was read.
+                self.summary.notes.push(format!(
+                    "the summary section is cut short after byte {last_record_end}; no data were lost"
                 ));
-                return Ok(());
             }
-        };
-        // Held until the whole chunk has parsed, so a damaged chunk gives nothing.
-        let mut pending = std::mem::take(&mut self.chunk_samples);
-        pending.clear();
-        for item in super::chunk::records(&plain) {
-            let parsed = item.and_then(|(opcode, body)| mcap::parse_record(opcode, body).map_err(|e| e.to_string()));
-            match parsed {
-                Ok(Record::Message { header, data }) => {
-                    if let Some(s) = self.message(header.channel_id, header.log_time, &data)? {
-                        pending.push(s);
+            ScanEnd::Cut { consumed, last_record_end } => {
+                if self.summary.channels.is_empty() && self.summary.ignored_channels.is_empty() {
+                    return Err(self.bad(format!("the file ends after {consumed} bytes, before any channel was defined")));
+                }
+                let last = self.summary.time_span_ns.map(|(_, b)| format_time(b)).unwrap_or_else(|| "none".into());
+                self.summary.data_loss.push(format!(
+                    "the file is cut short: it ends mid-record after byte {last_record_end} of {file_bytes}, \
+                     with no summary; the last {} bytes were not usable (last complete sample: {last})",
+                    file_bytes.saturating_sub(last_record_end)
+                ));
+            }
+            ScanEnd::Damaged { last_record_end, what } => {
+                if last_record_end <= 8 {
+                    return Err(self.bad(format!("not a readable MCAP file: {what}")));
+                }
+                self.summary.data_loss.push(format!(
+                    "the file is damaged after byte {last_record_end}: {what}; the rest was not read"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn apply(&mut self, item: Item) -> Result<()> {
+        match item {
+            Item::Schema { id, name, encoding } => {
+                self.schemas.insert(id, SchemaInfo { name, encoding });
+            }
+            Item::Channel(channel) => self.channel(channel)?,
+            Item::Message { channel_id, log_time, sample, stray } => {
+                if stray {
+                    if let Some(ChannelRoute::Sensor(i)) = self.routes.get(&channel_id) {
+                        let i = *i;
+                        self.summary.implausible_per_channel[i] += 1;
+                        let value = sample.as_ref().map(|s| s.value).unwrap_or(f64::NAN);
+                        self.summary.first_implausible[i].get_or_insert((log_time, value));
                     }
-                }
-                Ok(Record::Schema { header, .. }) => {
-                    self.schemas.insert(header.id, SchemaInfo { name: header.name, encoding: header.encoding });
-                }
-                Ok(Record::Channel(channel)) => self.channel(channel)?,
-                Ok(_) => {}
-                Err(e) => {
-                    self.summary.data_loss.push(format!(
-                        "the chunk starting at {} is damaged ({e}); its {} messages were dropped",
-                        format_time(start),
-                        pending.len()
-                    ));
-                    pending.clear();
-                    self.chunk_samples = pending;
                     return Ok(());
                 }
+                if let Some(sample) = self.message(channel_id, log_time, sample)? {
+                    self.deliver(sample);
+                }
             }
+            Item::Metadata(meta) => {
+                if meta.name == NAMEPLATE_RECORD {
+                    self.summary.nameplate =
+                        NameplateEntries::from_map(&meta.metadata, &self.path.display().to_string());
+                } else {
+                    self.summary.metadata.insert(meta.name, meta.metadata);
+                }
+            }
+            Item::DataEnd => self.seen_data_end = true,
         }
-        for s in pending.drain(..) {
-            self.deliver(s);
-        }
-        self.chunk_samples = pending;
         Ok(())
     }
 
@@ -454,7 +552,12 @@ impl<S: SampleSink> Reader<'_, S> {
         Ok(())
     }
 
-    fn message(&mut self, channel_id: u16, log_time: u64, data: &[u8]) -> Result<Option<Sample>> {
+    fn message(
+        &mut self,
+        channel_id: u16,
+        log_time: u64,
+        sample: std::result::Result<SampleMessage, String>,
+    ) -> Result<Option<Sample>> {
         let index = match self.routes.get(&channel_id) {
             Some(ChannelRoute::Sensor(i)) => *i,
             Some(ChannelRoute::Ignored) => return Ok(None),
@@ -465,7 +568,7 @@ impl<S: SampleSink> Reader<'_, S> {
                 )))
             }
         };
-        let parsed: SampleMessage = serde_json::from_slice(data).map_err(|e| {
+        let parsed: SampleMessage = sample.map_err(|e| {
             let ch = &self.summary.channels[index];
             self.bad(format!(
                 "channel {} at {}: the message is not a sample {{\"value\": <number>}}: {e}",
