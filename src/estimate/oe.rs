@@ -34,6 +34,7 @@ struct Problem<'a> {
     n: usize,
     m: usize,
     params: DVector<f64>,
+    cache: std::cell::RefCell<Option<(DVector<f64>, Evaluation)>>,
 }
 
 impl Problem<'_> {
@@ -63,19 +64,23 @@ impl Problem<'_> {
         self.segments.iter().map(|s| s.len()).sum::<usize>() * self.n
     }
 
-    /// Residuals and, when asked, the Jacobian, from one pass over the data. The
-    /// sensitivities live in flat buffers: this runs once per LM step over every instant.
-    fn evaluate(&self, with_jacobian: bool) -> (DVector<f64>, Option<DMatrix<f64>>) {
+    /// One pass over the data: the weighted squared error per output and, when asked,
+    /// the normal equations JᵀJ and Jᵀr of the weighted residuals. The Jacobian itself is
+    /// never stored (a week at 1 s would be 1.8 million rows); the sensitivities live in
+    /// flat buffers.
+    fn evaluate(&self, with_jacobian: bool) -> Evaluation {
         let (n, m) = (self.n, self.m);
         let p = n + m;
         let pt = n * p;
         let model = self.model();
         let phi: Vec<f64> = (0..n * n).map(|q| model.phi[(q / n, q % n)]).collect();
         let gamma: Vec<f64> = (0..n * m).map(|q| model.gamma[(q / m, q % m)]).collect();
-        let rows = self.rows();
         let cols = self.params.len();
-        let mut r = DVector::zeros(rows);
-        let mut jac = with_jacobian.then(|| DMatrix::zeros(rows, cols));
+        let mut sse = vec![0.0; n];
+        let mut gram = with_jacobian.then(|| DMatrix::<f64>::zeros(cols, cols));
+        let mut grad = with_jacobian.then(|| DVector::<f64>::zeros(cols));
+        let mut row_j = vec![0.0; cols];
+        let mut nonzero: Vec<usize> = Vec::with_capacity(pt + n);
         let mut y = vec![0.0; n];
         let mut y_next = vec![0.0; n];
         // sens[q·n + c] = ∂ŷ_c/∂θ_q; sens_x0[q·n + c] = ∂ŷ_c/∂x0_q.
@@ -83,7 +88,6 @@ impl Problem<'_> {
         let mut sens_next = vec![0.0; pt * n];
         let mut sens_x0 = vec![0.0; n * n];
         let mut sens_x0_next = vec![0.0; n * n];
-        let mut row = 0;
         for (s, seg) in self.segments.iter().enumerate() {
             let x0 = self.x0(s);
             y.copy_from_slice(x0.as_slice());
@@ -132,28 +136,89 @@ impl Problem<'_> {
                     std::mem::swap(&mut y, &mut y_next);
                 }
                 for c in 0..n {
-                    r[row + c] = self.sqrt_w[c] * (self.data.outputs[(k, c)] - y[c]);
-                }
-                if let Some(jac) = jac.as_mut() {
-                    let data = jac.as_mut_slice();
-                    for q in 0..pt {
-                        for c in 0..n {
-                            data[q * rows + row + c] = -self.sqrt_w[c] * sens[q * n + c];
+                    let r = self.sqrt_w[c] * (self.data.outputs[(k, c)] - y[c]);
+                    sse[c] += r * r;
+                    if let (Some(gram), Some(grad)) = (gram.as_mut(), grad.as_mut()) {
+                        // This row of J: −√w_c ∂ŷ_c/∂(θ, this segment's x0); zero elsewhere.
+                        nonzero.clear();
+                        for q in 0..pt {
+                            row_j[q] = -self.sqrt_w[c] * sens[q * n + c];
+                            nonzero.push(q);
                         }
-                    }
-                    if self.estimate_x0 {
-                        let at = pt + s * n;
-                        for q in 0..n {
-                            for c in 0..n {
-                                data[(at + q) * rows + row + c] = -self.sqrt_w[c] * sens_x0[q * n + c];
+                        if self.estimate_x0 {
+                            let at = pt + s * n;
+                            for q in 0..n {
+                                row_j[at + q] = -self.sqrt_w[c] * sens_x0[q * n + c];
+                                nonzero.push(at + q);
+                            }
+                        }
+                        for (a, &qa) in nonzero.iter().enumerate() {
+                            grad[qa] += row_j[qa] * r;
+                            for &qb in &nonzero[a..] {
+                                gram[(qa, qb)] += row_j[qa] * row_j[qb];
                             }
                         }
                     }
                 }
-                row += n;
             }
         }
-        (r, jac)
+        if let Some(g) = gram.as_mut() {
+            for a in 0..cols {
+                for b in 0..a {
+                    g[(a, b)] = g[(b, a)];
+                }
+            }
+        }
+        Evaluation { sse, gram, grad }
+    }
+
+    /// The evaluation at the current parameters, computed once per parameter vector.
+    fn evaluated(&self) -> std::cell::Ref<'_, Evaluation> {
+        let stale = self.cache.borrow().as_ref().is_none_or(|(at, _)| at != &self.params);
+        if stale {
+            let e = self.evaluate(true);
+            *self.cache.borrow_mut() = Some((self.params.clone(), e));
+        }
+        std::cell::Ref::map(self.cache.borrow(), |c| &c.as_ref().expect("just filled").1)
+    }
+}
+
+/// The result of one pass over the data.
+#[derive(Debug, Clone)]
+struct Evaluation {
+    /// Σ_k (√w_c (y_c − ŷ_c))² per output.
+    sse: Vec<f64>,
+    /// JᵀJ of the weighted residuals.
+    gram: Option<DMatrix<f64>>,
+    /// Jᵀr of the weighted residuals.
+    grad: Option<DVector<f64>>,
+}
+
+impl Evaluation {
+    /// The least-squares problem in square-root form: R with RᵀR = JᵀJ, and the reduced
+    /// residual [R⁻ᵀJᵀr; √(‖r‖² − ‖R⁻ᵀJᵀr‖²)], whose norm is ‖r‖. Levenberg–Marquardt
+    /// sees the same JᵀJ, Jᵀr and objective as with the full Jacobian, at p + 1 rows.
+    fn square_root_form(&self) -> Option<(DVector<f64>, DMatrix<f64>)> {
+        let gram = self.gram.as_ref()?;
+        let grad = self.grad.as_ref()?;
+        let p = gram.nrows();
+        // Symmetric scaling keeps the factorisation accurate; a whisper of ridge keeps it
+        // defined where a parameter is not seen (a segment too short for its x0).
+        let d: Vec<f64> = (0..p).map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt()).collect();
+        let scaled = DMatrix::from_fn(p, p, |i, j| gram[(i, j)] * d[i] * d[j] + if i == j { 1e-13 } else { 0.0 });
+        let chol = scaled.cholesky()?;
+        // R = L_sᵀ D⁻¹ (JᵀJ = D⁻¹ L_s L_sᵀ D⁻¹).
+        let l = chol.l();
+        let r_mat = DMatrix::from_fn(p, p, |i, j| l[(j, i)] / d[j]);
+        let z = r_mat.transpose().solve_lower_triangular(grad)?;
+        let total: f64 = self.sse.iter().sum();
+        let rest = (total - z.norm_squared()).max(0.0).sqrt();
+        let mut residual = DVector::zeros(p + 1);
+        residual.rows_mut(0, p).copy_from(&z);
+        residual[p] = rest;
+        let mut jacobian = DMatrix::zeros(p + 1, p);
+        jacobian.view_mut((0, 0), (p, p)).copy_from(&r_mat);
+        Some((residual, jacobian))
     }
 }
 
@@ -171,13 +236,13 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        let (r, _) = self.evaluate(false);
+        let (r, _) = self.evaluated().square_root_form()?;
         r.iter().all(|v| v.is_finite()).then_some(r)
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let (_, j) = self.evaluate(true);
-        j.filter(|j| j.iter().all(|v| v.is_finite()))
+        let (_, j) = self.evaluated().square_root_form()?;
+        j.iter().all(|v| v.is_finite()).then_some(j)
     }
 }
 
@@ -235,6 +300,7 @@ impl OutputError {
             n,
             m,
             params: DVector::from_vec(params),
+            cache: std::cell::RefCell::new(None),
         };
         // Tolerances far below the statistical uncertainty of Θ (~1e-3 relative), and far
         // above rounding: the last evaluations of the default 30·ε would buy nothing.
@@ -255,13 +321,10 @@ impl OutputError {
             if pass == 1 || self.weights.is_some() {
                 break;
             }
-            let (r, _) = problem.evaluate(false);
-            let per = r.len() / n;
+            let sse = problem.evaluate(false).sse;
+            let per = problem.rows() / n;
             let inv: Vec<f64> = (0..n)
-                .map(|c| {
-                    let sum: f64 = (0..per).map(|i| (r[i * n + c] / problem.sqrt_w[c]).powi(2)).sum();
-                    1.0 / (sum / per.max(1) as f64).max(1e-30)
-                })
+                .map(|c| 1.0 / (sse[c] / problem.sqrt_w[c].powi(2) / per.max(1) as f64).max(1e-30))
                 .collect();
             let mean = inv.iter().sum::<f64>() / n as f64;
             let next: Vec<f64> = inv.iter().map(|v| (v / mean).sqrt()).collect();
@@ -273,32 +336,30 @@ impl OutputError {
         }
         let w: Vec<f64> = problem.sqrt_w.iter().map(|v| v * v).collect();
         let model = problem.model();
-        let (r, jac) = problem.evaluate(true);
-        let jac = jac.ok_or_else(|| Error::Estimation("output error: no Jacobian".into()))?;
-        let dof = (r.len().saturating_sub(problem.params.len())).max(1) as f64;
-        let sigma2 = r.norm_squared() / dof;
-        // Covariance σ² (JᵀJ)⁻¹ from the SVD of the column-scaled Jacobian; Θ's block of it.
-        let scale: Vec<f64> = (0..jac.ncols()).map(|j| 1.0 / jac.column(j).norm().max(1e-300)).collect();
-        let js = DMatrix::from_fn(jac.nrows(), jac.ncols(), |i, j| jac[(i, j)] * scale[j]);
-        let svd = js.svd(false, true);
-        let (s_max, s_min) = (svd.singular_values.max(), svd.singular_values.min());
-        let v_t = svd.v_t.ok_or_else(|| Error::Estimation("output error: no SVD".into()))?;
+        let evaluation = problem.evaluate(true);
+        let rows = problem.rows();
+        let dof = rows.saturating_sub(problem.params.len()).max(1) as f64;
+        let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
+        // Covariance σ² (JᵀJ)⁻¹ from the eigen-decomposition of the scaled JᵀJ; Θ's block.
+        let gram = evaluation.gram.as_ref().ok_or_else(|| Error::Estimation("output error: no normal equations".into()))?;
+        let p_all = gram.nrows();
+        let scale: Vec<f64> = (0..p_all).map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt()).collect();
+        let scaled = DMatrix::from_fn(p_all, p_all, |i, j| gram[(i, j)] * scale[i] * scale[j]);
+        let eig = scaled.symmetric_eigen();
+        let (e_max, e_min) = (eig.eigenvalues.max(), eig.eigenvalues.min().max(0.0));
+        let inv = DMatrix::from_diagonal(&eig.eigenvalues.map(|e| if e > 1e-14 * e_max { 1.0 / e } else { 0.0 }));
         let d = DMatrix::from_diagonal(&DVector::from_column_slice(&scale));
-        let sinv2 = DMatrix::from_diagonal(&svd.singular_values.map(|s| if s > 1e-14 * s_max { 1.0 / (s * s) } else { 0.0 }));
-        let full = &d * v_t.transpose() * sinv2 * &v_t * &d * sigma2;
+        let full = &d * &eig.eigenvectors * inv * eig.eigenvectors.transpose() * &d * sigma2;
         let p_theta = n * (n + m);
         let covariance = full.view((0, 0), (p_theta, p_theta)).into_owned();
-        let noise_variance: Vec<f64> = (0..n)
-            .map(|c| {
-                let (sum, count) = (0..r.len() / n).fold((0.0, 0usize), |(a, k), i| (a + r[i * n + c].powi(2), k + 1));
-                sum / count.max(1) as f64 / w[c].max(1e-300)
-            })
-            .collect();
+        let per = rows / n;
+        let noise_variance: Vec<f64> = (0..n).map(|c| evaluation.sse[c] / per.max(1) as f64 / w[c].max(1e-300)).collect();
+        let condition_number = (e_max / e_min.max(1e-300)).sqrt();
         Ok(Estimate {
             model,
             method: self.name().into(),
             rows_used,
-            condition_number: s_max / s_min,
+            condition_number,
             covariance: Some(covariance),
             noise_variance,
             iterations: evaluations,

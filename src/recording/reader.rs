@@ -263,6 +263,15 @@ enum Item {
     DataEnd,
 }
 
+/// Whether heatrun reads records of this opcode. The others (attachments, indexes,
+/// statistics, summary offsets, header, footer) are skipped unparsed: they carry
+/// nothing a replay needs, and mcap 0.26's `parse_record` panics on a truncated
+/// attachment body (found by fuzzing), so they are never handed to it.
+fn wanted(opcode: u8) -> bool {
+    use mcap::records::op;
+    matches!(opcode, op::SCHEMA | op::CHANNEL | op::MESSAGE | op::CHUNK | op::METADATA | op::DATA_END)
+}
+
 /// The item of one parsed record outside or inside a chunk (`None`: not needed).
 fn item(record: Record<'_>) -> Option<Item> {
     Some(match record {
@@ -286,6 +295,9 @@ fn decode_chunk(header: &ChunkHeader, data: &[u8]) -> std::result::Result<Vec<It
     let mut items = Vec::new();
     for record in super::chunk::records(&plain) {
         let (opcode, body) = record?;
+        if !wanted(opcode) {
+            continue;
+        }
         let record = mcap::parse_record(opcode, body).map_err(|e| e.to_string())?;
         let mut it = item(record);
         if let Some(Item::Message { log_time, stray, .. }) = it.as_mut() {
@@ -329,6 +341,10 @@ fn scan(
             }
             Ok(LinearReadEvent::Record { opcode, data }) => {
                 let len = data.len() as u64;
+                if !wanted(opcode) {
+                    last_record_end += 9 + len;
+                    continue;
+                }
                 let sent = match mcap::parse_record(opcode, data) {
                     Ok(Record::Chunk { header, data }) => work.send((seq, header, data.into_owned())).is_ok(),
                     Ok(record) => done
