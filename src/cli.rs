@@ -42,8 +42,9 @@ pub enum MethodArg {
 /// Arguments of `heatrun replay`.
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
-    /// The recording (MCAP, heatrun SCADA profile). Default: the shipped fixture.
-    pub file: Option<PathBuf>,
+    /// Recordings (MCAP, heatrun SCADA profile), or folders of them. Default: the shipped
+    /// fixture. More than one recording (or a folder) replays a fleet in parallel.
+    pub files: Vec<PathBuf>,
     /// Sample time Ts of the model in seconds.
     #[arg(long, default_value_t = 1.0)]
     pub ts: f64,
@@ -77,6 +78,15 @@ pub struct ReplayArgs {
     /// Write the JSON report (profile section "Report") to this file.
     #[arg(long, value_name = "PATH")]
     pub report: Option<PathBuf>,
+    /// Also publish every channel at its full rate (columns streamed as the file is read).
+    #[arg(long)]
+    pub raw: bool,
+    /// Fleet mode: the folder for each recording's .rrd and report and the fleet summary.
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    pub out_dir: PathBuf,
+    /// Fleet mode: recordings replayed at once (default: the number of cores).
+    #[arg(long)]
+    pub jobs: Option<usize>,
     /// Do not print the summary.
     #[arg(long, short)]
     pub quiet: bool,

@@ -14,7 +14,7 @@ use crate::estimate::{
 };
 use crate::losses::{self, ThermalSignals};
 use crate::model::{self, ModelAnalysis};
-use crate::recording::{self, Nameplate, NameplateEntries, RecordingSummary};
+use crate::recording::{self, Nameplate, NameplateEntries, RecordingSummary, SampleSink};
 
 /// An identification method selectable on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -149,9 +149,35 @@ pub struct Prepared {
 
 /// Reads, decimates and computes the losses of one recording.
 pub fn prepare(path: &Path, options: &ReplayOptions) -> Result<Prepared> {
+    prepare_with(path, options, None)
+}
+
+/// Gives every sample to the decimator and to a second sink (the full-rate publisher).
+struct Tee<'a> {
+    decimator: &'a mut Decimator,
+    also: &'a mut dyn SampleSink,
+}
+
+impl SampleSink for Tee<'_> {
+    fn channel(&mut self, channel: &recording::SensorChannel) {
+        self.decimator.channel(channel);
+        self.also.channel(channel);
+    }
+
+    fn sample(&mut self, sample: recording::Sample) {
+        self.decimator.sample(sample);
+        self.also.sample(sample);
+    }
+}
+
+/// [`prepare`], with every raw sample also given to `also` as the file streams by.
+pub fn prepare_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn SampleSink>) -> Result<Prepared> {
     let name = path.display().to_string();
     let mut decimator = Decimator::new(options.ts_s)?;
-    let summary = recording::read_recording(path, &mut decimator)?;
+    let summary = match also {
+        Some(also) => recording::read_recording(path, &mut Tee { decimator: &mut decimator, also })?,
+        None => recording::read_recording(path, &mut decimator)?,
+    };
     if summary.channels.is_empty() {
         let ignored = if summary.ignored_channels.is_empty() {
             "it has no channels at all".to_owned()
@@ -188,8 +214,13 @@ pub fn prepare(path: &Path, options: &ReplayOptions) -> Result<Prepared> {
 
 /// Replays one recording through every stage.
 pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
+    replay_with(path, options, None)
+}
+
+/// [`replay`], with every raw sample also given to `also` as the file streams by.
+pub fn replay_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn SampleSink>) -> Result<Replay> {
     let name = path.display().to_string();
-    let Prepared { recording: summary, nameplate, decimated, signals, data } = prepare(path, options)?;
+    let Prepared { recording: summary, nameplate, decimated, signals, data } = prepare_with(path, options, also)?;
     let estimation_range = match &options.validation {
         Some(ValidationSource::HoldOut(f)) => {
             if !(*f > 0.0 && *f < 0.9) {

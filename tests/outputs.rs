@@ -140,3 +140,40 @@ fn report_follows_the_profile_and_its_schema() {
     assert_eq!(report["assignment"].as_array().unwrap().len(), 3);
     assert_eq!(report["recording"]["metadata"]["heatrun.test"]["test_id"], "synthetic-seed-1");
 }
+
+#[test]
+fn raw_publishes_every_sample_at_full_rate() {
+    let dir = common::tempdir();
+    let mcap = dir.path().join("run.mcap");
+    synth::write(&mcap, &SynthOptions { duration_s: 2000.0, electrical_rate_hz: 5.0, ..SynthOptions::default() }).unwrap();
+    let out = common::heatrun(&["replay", "run.mcap", "--raw", "--rrd", "raw.rrd", "--quiet"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (rows, _) = rows_per_entity(&dir.path().join("raw.rrd"));
+    assert_eq!(rows["/full_rate/scada/armature_current"], 10_000);
+    assert_eq!(rows["/full_rate/scada/core_temp"], 2000);
+    // The decimated traces are there too.
+    assert_eq!(rows["/raw/armature_current"], 2000);
+}
+
+#[test]
+fn a_fleet_gets_one_report_each_and_a_summary() {
+    let dir = common::tempdir();
+    let input = dir.path().join("archive");
+    std::fs::create_dir(&input).unwrap();
+    for seed in 1..=2 {
+        synth::write(&input.join(format!("unit{seed}.mcap")), &SynthOptions { duration_s: 4000.0, seed, ..SynthOptions::default() }).unwrap();
+    }
+    std::fs::write(input.join("broken.mcap"), "not mcap").unwrap();
+    let out = common::heatrun(&["replay", "archive", "--out-dir", "out", "--jobs", "2"], dir.path());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(2), "one recording is broken: {stdout}");
+    for seed in 1..=2 {
+        assert!(dir.path().join(format!("out/unit{seed}.rrd")).exists());
+        let report: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join(format!("out/unit{seed}.report.json"))).unwrap()).unwrap();
+        assert_eq!(report["profile"], "heatrun-scada/1");
+    }
+    let csv = std::fs::read_to_string(dir.path().join("out/fleet-summary.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 4, "{csv}");
+    assert!(csv.contains("broken.mcap,failed: ") && csv.contains("unit2.mcap,ok,"), "{csv}");
+    assert!(stdout.contains("3 recordings") && stdout.contains("2 ok") && stdout.contains("1 failed"), "{stdout}");
+}

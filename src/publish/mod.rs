@@ -11,6 +11,9 @@ use std::path::PathBuf;
 use rerun::blueprint::{Blueprint, ContainerLike, Horizontal, Tabs, TextDocumentView, TimeSeriesView, Vertical};
 use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
 
+#[allow(unused_imports)]
+use crate::recording::SampleSink as _;
+
 use crate::atomic::PendingOutput;
 use crate::error::{Error, Result};
 use crate::losses::{HeatSource, ThermalState};
@@ -40,7 +43,7 @@ pub fn temperature_entity(state: ThermalState) -> String {
 }
 
 /// The viewer layout.
-pub fn blueprint(replay: &Replay) -> Blueprint {
+pub fn blueprint(replay: &Replay, full_rate: bool) -> Blueprint {
     let per_state: Vec<ContainerLike> = ThermalState::ALL
         .iter()
         .map(|s| {
@@ -81,6 +84,9 @@ pub fn blueprint(replay: &Replay) -> Blueprint {
         Horizontal::new(correlation_views).with_name("residual correlation").into(),
         TextDocumentView::new("summary").with_origin("summary").into(),
     ];
+    if full_rate {
+        tabs.insert(1, TimeSeriesView::new("full-rate channels").with_origin("full_rate").into());
+    }
     if !replay.trajectory.is_empty() {
         tabs.insert(
             1,
@@ -98,34 +104,128 @@ pub fn blueprint(replay: &Replay) -> Blueprint {
         .with_auto_views(false)
 }
 
+/// An open rerun recording: created before the replay (so full-rate samples can stream
+/// into it), finished with the replay's traces and the blueprint.
+pub struct Publisher {
+    rec: RecordingStream,
+    pending: Option<PendingOutput>,
+    full_rate: std::cell::Cell<bool>,
+}
+
+impl Publisher {
+    /// Opens the recording on `sink`; `name` is the recording's name in the viewer.
+    pub fn open(sink: &RerunSink, name: &str) -> Result<Publisher> {
+        let builder = RecordingStreamBuilder::new("heatrun").recording_name(name.to_owned());
+        Ok(match sink {
+            RerunSink::Rrd(path) => {
+                let pending = PendingOutput::new(path);
+                let rec = builder.save(pending.path()).map_err(publish_err)?;
+                Publisher { rec, pending: Some(pending), full_rate: Default::default() }
+            }
+            RerunSink::Connect(url) => {
+                let rec = match url {
+                    Some(url) => builder.connect_grpc_opts(url.clone()),
+                    None => builder.connect_grpc(),
+                }
+                .map_err(publish_err)?;
+                Publisher { rec, pending: None, full_rate: Default::default() }
+            }
+            RerunSink::Spawn => {
+                Publisher { rec: builder.spawn().map_err(publish_err)?, pending: None, full_rate: Default::default() }
+            }
+        })
+    }
+
+    /// A sink that publishes every raw sample at full rate under `full_rate/<topic>`.
+    pub fn full_rate(&self) -> FullRatePublisher {
+        self.full_rate.set(true);
+        FullRatePublisher { rec: self.rec.clone(), channels: Vec::new(), failed: None }
+    }
+
+    /// Logs the replay's traces, sends the blueprint, and completes the output (an .rrd
+    /// is renamed into place only now).
+    pub fn finish(self, replay: &Replay, summary_text: &str) -> Result<()> {
+        log_all(&self.rec, replay, summary_text)?;
+        blueprint(replay, self.full_rate.get())
+            .send(&self.rec, rerun::blueprint::BlueprintActivation { make_active: true, make_default: true })
+            .map_err(publish_err)?;
+        self.rec.flush_blocking().map_err(publish_err)?;
+        drop(self.rec);
+        match self.pending {
+            Some(pending) => pending.commit(),
+            None => Ok(()),
+        }
+    }
+}
+
 /// Sends a replay's traces to `sink`. For an .rrd the file is written under a
 /// temporary name and renamed when complete.
 pub fn publish(replay: &Replay, summary_text: &str, sink: &RerunSink) -> Result<()> {
-    let builder = RecordingStreamBuilder::new("heatrun")
-        .recording_name(replay.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
-        .with_blueprint(blueprint(replay));
-    match sink {
-        RerunSink::Rrd(path) => {
-            let pending = PendingOutput::new(path);
-            let rec = builder.save(pending.path()).map_err(publish_err)?;
-            log_all(&rec, replay, summary_text)?;
-            rec.flush_blocking().map_err(publish_err)?;
-            drop(rec);
-            pending.commit()
+    let name = replay.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    Publisher::open(sink, &name)?.finish(replay, summary_text)
+}
+
+/// Samples buffered per channel before they go out as one column chunk.
+const FULL_RATE_BATCH: usize = 1 << 16;
+
+/// Publishes raw samples at full rate as they stream by, in column batches, so that
+/// memory stays bounded whatever the recording's length.
+pub struct FullRatePublisher {
+    rec: RecordingStream,
+    /// Per channel: entity path, times, values.
+    channels: Vec<(String, Vec<i64>, Vec<f64>)>,
+    failed: Option<String>,
+}
+
+impl FullRatePublisher {
+    fn flush_channel(&mut self, i: usize) {
+        let (entity, times, values) = &mut self.channels[i];
+        if times.is_empty() {
+            return;
         }
-        RerunSink::Connect(url) => {
-            let rec = match url {
-                Some(url) => builder.connect_grpc_opts(url.clone()),
-                None => builder.connect_grpc(),
-            }
-            .map_err(publish_err)?;
-            log_all(&rec, replay, summary_text)?;
-            rec.flush_blocking().map_err(publish_err)
+        let t = std::mem::take(times);
+        let v = std::mem::take(values);
+        let result = Scalars::new(v).columns_of_unit_batches().map_err(publish_err).and_then(|cols| {
+            self.rec
+                .send_columns(entity.as_str(), [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, t)], cols)
+                .map_err(publish_err)
+        });
+        if let Err(e) = result {
+            self.failed.get_or_insert(e.to_string());
         }
-        RerunSink::Spawn => {
-            let rec = builder.spawn().map_err(publish_err)?;
-            log_all(&rec, replay, summary_text)?;
-            rec.flush_blocking().map_err(publish_err)
+    }
+
+    /// Sends what is buffered; reports the first failure, if any.
+    pub fn flush(&mut self) -> Result<()> {
+        for i in 0..self.channels.len() {
+            self.flush_channel(i);
+        }
+        match self.failed.take() {
+            Some(e) => Err(Error::Publish(e)),
+            None => Ok(()),
+        }
+    }
+}
+
+impl crate::recording::SampleSink for FullRatePublisher {
+    fn channel(&mut self, channel: &crate::recording::SensorChannel) {
+        while self.channels.len() <= channel.index {
+            self.channels.push((String::new(), Vec::new(), Vec::new()));
+        }
+        let entity = format!("full_rate/{}", channel.topic.trim_start_matches('/'));
+        let _ = self.rec.log_static(
+            entity.as_str(),
+            &SeriesLines::new().with_names([format!("{} [{}]", channel.quantity, channel.quantity.canonical_unit())]),
+        );
+        self.channels[channel.index].0 = entity;
+    }
+
+    fn sample(&mut self, sample: crate::recording::Sample) {
+        let ch = &mut self.channels[sample.channel];
+        ch.1.push(sample.log_time_ns as i64);
+        ch.2.push(sample.value);
+        if ch.1.len() >= FULL_RATE_BATCH {
+            self.flush_channel(sample.channel);
         }
     }
 }
