@@ -17,28 +17,55 @@ use nalgebra::DMatrix;
 
 /// A second machine with other time constants (about 60 s, 1100 s and 5000 s).
 fn second_machine() -> DiscreteModel {
-    let a_c = DMatrix::from_row_slice(3, 3, &[
-        -1.0 / 1100.0, 0.00010, 0.00020,
-        0.00005, -1.0 / 5000.0, 0.00030,
-        0.00050, 0.00030, -1.0 / 60.0,
-    ]);
-    let b_c = DMatrix::from_row_slice(3, 3, &[
-        0.050, 0.060, -0.020,
-        0.004, 0.006, 0.012,
-        0.010, -0.080, 0.140,
-    ]);
+    let a_c = DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            -1.0 / 1100.0,
+            0.00010,
+            0.00020,
+            0.00005,
+            -1.0 / 5000.0,
+            0.00030,
+            0.00050,
+            0.00030,
+            -1.0 / 60.0,
+        ],
+    );
+    let b_c = DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            0.050, 0.060, -0.020, 0.004, 0.006, 0.012, 0.010, -0.080, 0.140,
+        ],
+    );
     let (phi, gamma) = heatrun::model::matrix::discretize(&a_c, &b_c, 1.0);
-    DiscreteModel { phi, gamma, ts_s: 1.0 }
+    DiscreteModel {
+        phi,
+        gamma,
+        ts_s: 1.0,
+    }
 }
 
 fn main() {
     let seeds: Vec<u64> = (1..=5).collect();
     let levels = [0.0, 0.5, 1.0, 2.0];
     let dir = tempfile::tempdir().expect("temporary directory");
-    for (machine, truth_model, duration) in [("paper (eqs. 19-20)", synth::paper_model(), 20868.0), ("second machine", second_machine(), 30000.0)] {
+    for (machine, truth_model, duration) in [
+        ("paper (eqs. 19-20)", synth::paper_model(), 20868.0),
+        ("second machine", second_machine(), 30000.0),
+    ] {
         let spectrum = Spectrum::of(&truth_model).expect("stable truth");
         let _ = ContinuousModel::from_discrete(&truth_model).expect("continuous truth");
-        println!("\n## {machine}: true time constants {:?} s, {duration} s at 1 Hz, {} seeds", spectrum.time_constants_s.iter().map(|t| (t * 100.0).round() / 100.0).collect::<Vec<_>>(), seeds.len());
+        println!(
+            "\n## {machine}: true time constants {:?} s, {duration} s at 1 Hz, {} seeds",
+            spectrum
+                .time_constants_s
+                .iter()
+                .map(|t| (t * 100.0).round() / 100.0)
+                .collect::<Vec<_>>(),
+            seeds.len()
+        );
         println!("worst time-constant error, % (median over seeds / worst seed); steady state: worst |error|, K");
         print!("{:<6}", "method");
         for l in levels {
@@ -50,19 +77,41 @@ fn main() {
             let mut per_method: Vec<Vec<(f64, f64)>> = vec![Vec::new(); Method::ALL.len()];
             for &seed in &seeds {
                 let path = dir.path().join(format!("run-{seed}-{level}.mcap"));
-                let options = SynthOptions { truth: truth_model.clone(), duration_s: duration, seed, ..SynthOptions::default() }
-                    .with_noise_level(level);
+                let options = SynthOptions {
+                    truth: truth_model.clone(),
+                    duration_s: duration,
+                    seed,
+                    ..SynthOptions::default()
+                }
+                .with_noise_level(level);
                 let truth = synth::write(&path, &options).expect("synthetic run");
                 for (mi, method) in Method::ALL.iter().enumerate() {
-                    let replay = pipeline::replay(&path, &ReplayOptions { method: *method, ..ReplayOptions::default() });
+                    let replay = pipeline::replay(
+                        &path,
+                        &ReplayOptions {
+                            method: *method,
+                            ..ReplayOptions::default()
+                        },
+                    );
                     let entry = match replay {
                         Ok(r) => {
-                            let tc = r.analysis.spectrum.time_constants_s.iter().zip(&truth.time_constants_s)
-                                .map(|(t, w)| ((t - w) / w).abs() * 100.0).fold(0.0, f64::max);
+                            let tc = r
+                                .analysis
+                                .spectrum
+                                .time_constants_s
+                                .iter()
+                                .zip(&truth.time_constants_s)
+                                .map(|(t, w)| ((t - w) / w).abs() * 100.0)
+                                .fold(0.0, f64::max);
                             // Steady-state temperatures: θ_0 (measured) + predicted rise against the truth.
                             let ss = (0..3)
-                                .map(|j| (r.signals.initial_temperatures_c[j] + 80.0 * r.analysis.steady_state[j]
-                                    - truth.initial_temperatures_c[j] - truth.steady_state_rise_k[j]).abs())
+                                .map(|j| {
+                                    (r.signals.initial_temperatures_c[j]
+                                        + 80.0 * r.analysis.steady_state[j]
+                                        - truth.initial_temperatures_c[j]
+                                        - truth.steady_state_rise_k[j])
+                                        .abs()
+                                })
                                 .fold(0.0, f64::max);
                             (tc, ss)
                         }
@@ -76,7 +125,12 @@ fn main() {
                 tc.sort_by(f64::total_cmp);
                 let worst_ss = results.iter().map(|r| r.1).fold(0.0, f64::max);
                 let cell = if tc[tc.len() - 1].is_finite() {
-                    format!("{:.2}/{:.2}% {:.3}K", tc[tc.len() / 2], tc[tc.len() - 1], worst_ss)
+                    format!(
+                        "{:.2}/{:.2}% {:.3}K",
+                        tc[tc.len() / 2],
+                        tc[tc.len() - 1],
+                        worst_ss
+                    )
                 } else {
                     format!("{:.2}/failed", tc[tc.len() / 2])
                 };

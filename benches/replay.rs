@@ -55,8 +55,14 @@ fn replay(path: &Path, out: &Path) -> (f64, f64) {
     let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
     // SAFETY: waits for our own child; `usage` is a valid out-pointer.
     let r = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
-    assert!(r == pid && libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0, "replay failed: {status}");
-    (start.elapsed().as_secs_f64(), usage.ru_maxrss as f64 / 1024.0)
+    assert!(
+        r == pid && libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
+        "replay failed: {status}"
+    );
+    (
+        start.elapsed().as_secs_f64(),
+        usage.ru_maxrss as f64 / 1024.0,
+    )
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -76,7 +82,11 @@ fn workload(dir: &Path, name: &str, duration_s: f64) -> PathBuf {
         .with_noise_level(1.0);
         let t = Instant::now();
         synth::write(&path, &options).expect("workload written");
-        eprintln!("made {} in {:.1} s", path.display(), t.elapsed().as_secs_f64());
+        eprintln!(
+            "made {} in {:.1} s",
+            path.display(),
+            t.elapsed().as_secs_f64()
+        );
     }
     path
 }
@@ -95,7 +105,10 @@ fn main() {
     if std::env::var_os("HEATRUN_BENCH_W2").is_some() {
         cases.push(("W2".into(), 7.0 * 86400.0, 1));
     }
-    println!("{:<6} {:>12} {:>9} {:>10} {:>12} {:>9} {:>10} {:>9} {:>7}", "case", "messages", "MB", "replay s", "messages/s", "MB/s", "peak MB", "floor s", "ratio");
+    println!(
+        "{:<6} {:>12} {:>9} {:>10} {:>12} {:>9} {:>10} {:>9} {:>7}",
+        "case", "messages", "MB", "replay s", "messages/s", "MB/s", "peak MB", "floor s", "ratio"
+    );
     for (name, duration, runs) in cases {
         let path = workload(&dir, &name.replace('/', "_"), duration);
         let bytes = std::fs::metadata(&path).expect("workload").len() as f64 / 1e6;
@@ -116,7 +129,15 @@ fn main() {
         let (t, f) = (median(times), median(floors));
         println!(
             "{:<6} {:>12} {:>9.0} {:>10.2} {:>12.0} {:>9.0} {:>10.1} {:>9.2} {:>7.2}",
-            name, messages, bytes, t, messages as f64 / t, bytes / t, peaks.iter().cloned().fold(0.0, f64::max), f, t / f
+            name,
+            messages,
+            bytes,
+            t,
+            messages as f64 / t,
+            bytes / t,
+            peaks.iter().cloned().fold(0.0, f64::max),
+            f,
+            t / f
         );
         if keep.is_none() {
             let _ = std::fs::remove_file(&path);

@@ -16,9 +16,17 @@ pub struct PendingOutput {
 impl PendingOutput {
     /// Reserves a temporary name beside `destination` (nothing is created yet).
     pub fn new(destination: &Path) -> PendingOutput {
-        let file_name = destination.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let temporary = destination.with_file_name(format!(".{file_name}.{}.partial", std::process::id()));
-        PendingOutput { temporary, destination: destination.to_owned(), committed: false }
+        let file_name = destination
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let temporary =
+            destination.with_file_name(format!(".{file_name}.{}.partial", std::process::id()));
+        PendingOutput {
+            temporary,
+            destination: destination.to_owned(),
+            committed: false,
+        }
     }
 
     /// Where to write.

@@ -23,8 +23,9 @@ pub const GAP_FACTOR: f64 = 1.5;
 #[derive(Debug, Clone, Copy, Default)]
 struct Window {
     sum: f64,
-    /// Sum of the sample times' offsets from the window's reference time, in s.
-    offset_sum: f64,
+    /// Sum of the sample times' offsets from the window's reference time, in s (f32: the
+    /// offsets are within ±Ts, and the window stays 16 bytes).
+    offset_sum: f32,
     count: u32,
 }
 
@@ -68,7 +69,8 @@ impl ChannelWindows {
         let next = self.blocks.len();
         let i = *self.block_of.entry(block).or_insert(next);
         if i == next {
-            self.blocks.push(vec![Window::default(); BLOCK as usize].into_boxed_slice());
+            self.blocks
+                .push(vec![Window::default(); BLOCK as usize].into_boxed_slice());
         }
         self.last = Some((block, i));
         i
@@ -82,7 +84,25 @@ impl ChannelWindows {
 
     fn occupied(&self, k: i64) -> bool {
         let (block, at) = (k.div_euclid(BLOCK), k.rem_euclid(BLOCK) as usize);
-        self.block_of.get(&block).is_some_and(|&i| self.blocks[i][at].count > 0)
+        self.block_of
+            .get(&block)
+            .is_some_and(|&i| self.blocks[i][at].count > 0)
+    }
+
+    /// First and last occupied window and the number of samples, without allocating.
+    fn extent(&self) -> Option<(i64, i64, i64)> {
+        let (mut first, mut last, mut count) = (i64::MAX, i64::MIN, 0i64);
+        for (&b, &i) in &self.block_of {
+            for (j, w) in self.blocks[i].iter().enumerate() {
+                if w.count > 0 {
+                    let k = b * BLOCK + j as i64;
+                    first = first.min(k);
+                    last = last.max(k);
+                    count += w.count as i64;
+                }
+            }
+        }
+        (count > 0).then_some((first, last, count))
     }
 
     /// The occupied windows in grid order: (k, window).
@@ -179,7 +199,11 @@ impl Decimator {
                 "--ts {ts_s}: the sample time must be between 0.001 s and 3600 s"
             )));
         }
-        Ok(Decimator { ts_ns: (ts_s * 1e9).round() as i64, channels: Vec::new(), quantities: Vec::new() })
+        Ok(Decimator {
+            ts_ns: (ts_s * 1e9).round() as i64,
+            channels: Vec::new(),
+            quantities: Vec::new(),
+        })
     }
 
     fn reference_ns(&self, alignment: Alignment, k: i64) -> i64 {
@@ -190,19 +214,19 @@ impl Decimator {
     }
 
     /// Finishes the grid: `None` where a channel has no data, sensors combined.
-    pub fn finish(self, channels: &[SensorChannel]) -> Result<DecimatedRecording> {
+    pub fn finish(mut self, channels: &[SensorChannel]) -> Result<DecimatedRecording> {
         let mut lo = i64::MAX;
         let mut hi = i64::MIN;
-        let occupied: Vec<Vec<(i64, Window)>> = self.channels.iter().map(|c| c.occupied_windows()).collect();
-        for windows in &occupied {
-            if let (Some(first), Some(last)) = (windows.first(), windows.last()) {
-                lo = lo.min(first.0);
-                hi = hi.max(last.0);
+        let mut densest = 0i64;
+        for ch in &self.channels {
+            if let Some((first, last, count)) = ch.extent() {
+                lo = lo.min(first);
+                hi = hi.max(last);
+                densest = densest.max(count);
             }
         }
         // The grid must stay in proportion to the data: a stray timestamp far from the rest
         // would otherwise make every series as long as the distance to it.
-        let densest = occupied.iter().map(|w| w.iter().map(|(_, w)| w.count as i64).sum::<i64>()).max().unwrap_or(0);
         if lo <= hi && (hi - lo >= MAX_GRID_INSTANTS || hi - lo > 100 * densest + 100_000) {
             let at = |k: i64| crate::recording::format_time((k * self.ts_ns).max(0) as u64);
             return Err(Error::Estimation(format!(
@@ -213,7 +237,9 @@ impl Decimator {
             )));
         }
         if lo > hi {
-            return Err(Error::Estimation("the recording holds no heat-run samples".into()));
+            return Err(Error::Estimation(
+                "the recording holds no heat-run samples".into(),
+            ));
         }
         for (idx, ch) in self.channels.iter().enumerate() {
             if let Some((from, to)) = ch.clock_jump {
@@ -230,12 +256,20 @@ impl Decimator {
         let len = (hi - lo + 1) as usize;
         let mut grids = Vec::new();
         let mut per_quantity: BTreeMap<Quantity, Vec<Vec<Option<f64>>>> = BTreeMap::new();
-        for idx in 0..self.channels.len() {
-            let quantity = self.quantities[idx];
+        let ts_ns = self.ts_ns;
+        let quantities = self.quantities.clone();
+        // One channel at a time: its windows are freed before the next is laid out.
+        for (idx, ch) in std::mem::take(&mut self.channels).into_iter().enumerate() {
+            let quantity = quantities[idx];
             let alignment = quantity.alignment();
-            let (values, grid) = self.channel_on_grid(&occupied[idx], alignment, lo, len);
+            let windows = ch.occupied_windows();
+            drop(ch);
+            let (values, grid) = channel_on_grid(ts_ns, &windows, alignment, lo, len);
             grids.push(ChannelGrid {
-                topic: channels.get(idx).map(|c| c.topic.clone()).unwrap_or_default(),
+                topic: channels
+                    .get(idx)
+                    .map(|c| c.topic.clone())
+                    .unwrap_or_default(),
                 quantity,
                 ..grid
             });
@@ -253,101 +287,134 @@ impl Decimator {
                         (n > 0).then(|| sum / n as f64)
                     })
                     .collect();
-                (quantity, DecimatedSeries { quantity, values, sensors: sensors.len() })
+                (
+                    quantity,
+                    DecimatedSeries {
+                        quantity,
+                        values,
+                        sensors: sensors.len(),
+                    },
+                )
             })
             .collect();
-        Ok(DecimatedRecording { ts_ns: self.ts_ns, first_index: lo, len, series, channels: grids })
+        Ok(DecimatedRecording {
+            ts_ns,
+            first_index: lo,
+            len,
+            series,
+            channels: grids,
+        })
     }
+}
 
-    fn channel_on_grid(
-        &self,
-        windows: &[(i64, Window)],
-        alignment: Alignment,
-        lo: i64,
-        len: usize,
-    ) -> (Vec<Option<f64>>, ChannelGrid) {
-        let ts = self.ts_ns as f64 * 1e-9;
-        // Occupied windows as points (grid index, mean time in s relative to grid start, mean).
-        let points: Vec<(i64, f64, f64)> = windows
-            .iter()
-            .map(|(k, w)| {
-                let k = *k;
-                let t = (self.reference_ns(alignment, k) - lo * self.ts_ns) as f64 * 1e-9
-                    + w.offset_sum / w.count as f64;
-                (k, t, w.sum / w.count as f64)
-            })
-            .collect();
-        let mut values = vec![None; len];
-        let empty = ChannelGrid {
-            topic: String::new(),
-            quantity: Quantity::CoreTemp,
-            nominal_period_s: f64::NAN,
-            block_averaged: false,
-            gaps: 0,
-            gap_instants: 0,
-        };
-        if points.is_empty() {
-            return (values, empty);
-        }
-        let total: u64 = windows.iter().map(|(_, w)| w.count as u64).sum();
-        let mut index_steps: Vec<i64> = points.windows(2).map(|p| p[1].0 - p[0].0).collect();
-        index_steps.sort_unstable();
-        let median_step = index_steps.get(index_steps.len() / 2).copied().unwrap_or(1);
-        let block_averaged = median_step <= 1;
-        let (first_k, last_k) = (points[0].0, points[points.len() - 1].0);
-        let mut gaps = 0;
-        let mut gap_instants = 0;
-        let nominal_period_s;
-        if block_averaged {
-            let span_windows = (last_k - first_k + 1) as f64;
-            nominal_period_s = ts * span_windows / total as f64;
-            for &(k, _, v) in &points {
-                values[(k - lo) as usize] = Some(v);
-            }
-            for p in points.windows(2) {
-                if p[1].0 - p[0].0 > 1 {
-                    gaps += 1;
-                    gap_instants += (p[1].0 - p[0].0 - 1) as usize;
-                }
-            }
-        } else {
-            let mut spacing: Vec<f64> = points.windows(2).map(|p| p[1].1 - p[0].1).collect();
-            spacing.sort_by(f64::total_cmp);
-            nominal_period_s = spacing[spacing.len() / 2];
-            let limit = GAP_FACTOR * nominal_period_s;
-            // Interpolate at each instant's reference time between the points around it.
-            let offset = match alignment {
-                Alignment::Instant => 0.0,
-                Alignment::Interval => ts / 2.0,
-            };
-            let mut j = 0;
-            for (i, slot) in values.iter_mut().enumerate() {
-                let t = i as f64 * ts + offset;
-                while j + 1 < points.len() && points[j + 1].1 < t {
-                    j += 1;
-                }
-                let a = points[j];
-                if let Some(exact) = points[j..(j + 2).min(points.len())].iter().find(|p| (p.1 - t).abs() < 1e-9) {
-                    *slot = Some(exact.2);
-                    continue;
-                }
-                if j + 1 >= points.len() || a.1 > t {
-                    continue;
-                }
-                let b = points[j + 1];
-                if b.1 - a.1 <= limit {
-                    *slot = Some(a.2 + (b.2 - a.2) * (t - a.1) / (b.1 - a.1));
-                } else {
-                    gap_instants += 1;
-                }
-            }
-            gaps = points.windows(2).filter(|p| p[1].1 - p[0].1 > limit).count();
-        }
-        (
-            values,
-            ChannelGrid { nominal_period_s, block_averaged, gaps, gap_instants, ..empty },
-        )
+/// The time of window k's reference point, ns: the instant, or the middle of the interval.
+fn reference_ns(ts_ns: i64, alignment: Alignment, k: i64) -> i64 {
+    match alignment {
+        Alignment::Instant => k * ts_ns,
+        Alignment::Interval => k * ts_ns + ts_ns / 2,
     }
+}
+
+fn channel_on_grid(
+    ts_ns: i64,
+    windows: &[(i64, Window)],
+    alignment: Alignment,
+    lo: i64,
+    len: usize,
+) -> (Vec<Option<f64>>, ChannelGrid) {
+    let ts = ts_ns as f64 * 1e-9;
+    // Occupied windows as points (grid index, mean time in s relative to grid start, mean).
+    let points: Vec<(i64, f64, f64)> = windows
+        .iter()
+        .map(|(k, w)| {
+            let k = *k;
+            let t = (reference_ns(ts_ns, alignment, k) - lo * ts_ns) as f64 * 1e-9
+                + w.offset_sum as f64 / w.count as f64;
+            (k, t, w.sum / w.count as f64)
+        })
+        .collect();
+    let mut values = vec![None; len];
+    let empty = ChannelGrid {
+        topic: String::new(),
+        quantity: Quantity::CoreTemp,
+        nominal_period_s: f64::NAN,
+        block_averaged: false,
+        gaps: 0,
+        gap_instants: 0,
+    };
+    if points.is_empty() {
+        return (values, empty);
+    }
+    let total: u64 = windows.iter().map(|(_, w)| w.count as u64).sum();
+    let mut index_steps: Vec<i64> = points.windows(2).map(|p| p[1].0 - p[0].0).collect();
+    index_steps.sort_unstable();
+    let median_step = index_steps.get(index_steps.len() / 2).copied().unwrap_or(1);
+    let block_averaged = median_step <= 1;
+    let (first_k, last_k) = (points[0].0, points[points.len() - 1].0);
+    let mut gaps = 0;
+    let mut gap_instants = 0;
+    let nominal_period_s;
+    if block_averaged {
+        let span_windows = (last_k - first_k + 1) as f64;
+        nominal_period_s = ts * span_windows / total as f64;
+        for &(k, _, v) in &points {
+            values[(k - lo) as usize] = Some(v);
+        }
+        for p in points.windows(2) {
+            if p[1].0 - p[0].0 > 1 {
+                gaps += 1;
+                gap_instants += (p[1].0 - p[0].0 - 1) as usize;
+            }
+        }
+    } else {
+        let mut spacing: Vec<f64> = points.windows(2).map(|p| p[1].1 - p[0].1).collect();
+        spacing.sort_by(f64::total_cmp);
+        nominal_period_s = spacing[spacing.len() / 2];
+        let limit = GAP_FACTOR * nominal_period_s;
+        // Interpolate at each instant's reference time between the points around it.
+        let offset = match alignment {
+            Alignment::Instant => 0.0,
+            Alignment::Interval => ts / 2.0,
+        };
+        let mut j = 0;
+        for (i, slot) in values.iter_mut().enumerate() {
+            let t = i as f64 * ts + offset;
+            while j + 1 < points.len() && points[j + 1].1 < t {
+                j += 1;
+            }
+            let a = points[j];
+            if let Some(exact) = points[j..(j + 2).min(points.len())]
+                .iter()
+                .find(|p| (p.1 - t).abs() < 1e-9)
+            {
+                *slot = Some(exact.2);
+                continue;
+            }
+            if j + 1 >= points.len() || a.1 > t {
+                continue;
+            }
+            let b = points[j + 1];
+            if b.1 - a.1 <= limit {
+                *slot = Some(a.2 + (b.2 - a.2) * (t - a.1) / (b.1 - a.1));
+            } else {
+                gap_instants += 1;
+            }
+        }
+        gaps = points
+            .windows(2)
+            .filter(|p| p[1].1 - p[0].1 > limit)
+            .count();
+    }
+    (
+        values,
+        ChannelGrid {
+            nominal_period_s,
+            block_averaged,
+            gaps,
+            gap_instants,
+            ..empty
+        },
+    )
 }
 
 impl SampleSink for Decimator {
@@ -365,7 +432,9 @@ impl SampleSink for Decimator {
             return;
         }
         let ts = self.ts_ns;
-        let alignment = self.channels[sample.channel].alignment.unwrap_or(Alignment::Instant);
+        let alignment = self.channels[sample.channel]
+            .alignment
+            .unwrap_or(Alignment::Instant);
         let t = sample.log_time_ns as i64;
         let k = match alignment {
             Alignment::Instant => (t + ts / 2).div_euclid(ts),
@@ -395,7 +464,7 @@ impl SampleSink for Decimator {
         }
         let w = ch.window_mut(k);
         w.sum += sample.value;
-        w.offset_sum += (t - reference) as f64 * 1e-9;
+        w.offset_sum += ((t - reference) as f64 * 1e-9) as f32;
         w.count += 1;
     }
 }
@@ -424,7 +493,11 @@ mod tests {
         let mut d = Decimator::new(1.0).unwrap();
         d.channel(&chans[0]);
         for i in 0..20u64 {
-            d.sample(Sample { channel: 0, log_time_ns: 100 * S + i * S / 10, value: i as f64 });
+            d.sample(Sample {
+                channel: 0,
+                log_time_ns: 100 * S + i * S / 10,
+                value: i as f64,
+            });
         }
         let r = d.finish(&chans).unwrap();
         assert_eq!(r.first_index, 100);
@@ -440,7 +513,11 @@ mod tests {
         d.channel(&chans[0]);
         for i in 0..10u64 {
             let t = 99 * S + S / 2 + S / 20 + i * S / 10; // 99.55, 99.65, … 100.45
-            d.sample(Sample { channel: 0, log_time_ns: t, value: 2.0 * i as f64 });
+            d.sample(Sample {
+                channel: 0,
+                log_time_ns: t,
+                value: 2.0 * i as f64,
+            });
         }
         let r = d.finish(&chans).unwrap();
         assert_eq!(r.first_index, 100);
@@ -454,7 +531,11 @@ mod tests {
         let mut d = Decimator::new(1.0).unwrap();
         d.channel(&chans[0]);
         for i in (0..8u64).filter(|i| *i != 5) {
-            d.sample(Sample { channel: 0, log_time_ns: i * 10 * S, value: i as f64 * 10.0 });
+            d.sample(Sample {
+                channel: 0,
+                log_time_ns: i * 10 * S,
+                value: i as f64 * 10.0,
+            });
         }
         let r = d.finish(&chans).unwrap();
         let v = &r.get(Quantity::CoreTemp).unwrap().values;
@@ -475,7 +556,11 @@ mod tests {
     fn order_of_samples_does_not_matter() {
         let chans = [channel(0, Quantity::ArmatureCurrent)];
         let samples: Vec<Sample> = (0..50u64)
-            .map(|i| Sample { channel: 0, log_time_ns: 10 * S + i * S / 5, value: (i * i) as f64 })
+            .map(|i| Sample {
+                channel: 0,
+                log_time_ns: 10 * S + i * S / 5,
+                value: (i * i) as f64,
+            })
             .collect();
         let run = |order: &[usize]| {
             let mut d = Decimator::new(1.0).unwrap();
@@ -483,7 +568,12 @@ mod tests {
             for &i in order {
                 d.sample(samples[i]);
             }
-            d.finish(&chans).unwrap().get(Quantity::ArmatureCurrent).unwrap().values.clone()
+            d.finish(&chans)
+                .unwrap()
+                .get(Quantity::ArmatureCurrent)
+                .unwrap()
+                .values
+                .clone()
         };
         let forward: Vec<usize> = (0..50).collect();
         let backward: Vec<usize> = (0..50).rev().collect();
@@ -496,7 +586,11 @@ mod tests {
         let mut d = Decimator::new(1.0).unwrap();
         d.channel(&chans[0]);
         for i in (0..100u64).filter(|i| !(30..40).contains(i)) {
-            d.sample(Sample { channel: 0, log_time_ns: i * S / 10, value: 1.0 });
+            d.sample(Sample {
+                channel: 0,
+                log_time_ns: i * S / 10,
+                value: 1.0,
+            });
         }
         let r = d.finish(&chans).unwrap();
         let v = &r.get(Quantity::LineVoltage).unwrap().values;
@@ -507,20 +601,35 @@ mod tests {
 
     #[test]
     fn sensors_of_one_quantity_are_averaged() {
-        let chans = [channel(0, Quantity::StatorWindingTemp), channel(1, Quantity::StatorWindingTemp)];
+        let chans = [
+            channel(0, Quantity::StatorWindingTemp),
+            channel(1, Quantity::StatorWindingTemp),
+        ];
         let mut d = Decimator::new(1.0).unwrap();
         d.channel(&chans[0]);
         d.channel(&chans[1]);
         for i in 0..5u64 {
-            d.sample(Sample { channel: 0, log_time_ns: i * S, value: 50.0 });
+            d.sample(Sample {
+                channel: 0,
+                log_time_ns: i * S,
+                value: 50.0,
+            });
             if i != 2 {
-                d.sample(Sample { channel: 1, log_time_ns: i * S, value: 52.0 });
+                d.sample(Sample {
+                    channel: 1,
+                    log_time_ns: i * S,
+                    value: 52.0,
+                });
             }
         }
         let r = d.finish(&chans).unwrap();
         let s = r.get(Quantity::StatorWindingTemp).unwrap();
         assert_eq!(s.sensors, 2);
         assert_eq!(s.values[1], Some(51.0));
-        assert_eq!(s.values[2], Some(50.0), "one sensor missing: the other stands");
+        assert_eq!(
+            s.values[2],
+            Some(50.0),
+            "one sensor missing: the other stands"
+        );
     }
 }

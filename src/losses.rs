@@ -27,8 +27,11 @@ pub enum ThermalState {
 
 impl ThermalState {
     /// The states in model order.
-    pub const ALL: [ThermalState; 3] =
-        [ThermalState::StatorWinding, ThermalState::Core, ThermalState::CoolingWaterOutlet];
+    pub const ALL: [ThermalState; 3] = [
+        ThermalState::StatorWinding,
+        ThermalState::Core,
+        ThermalState::CoolingWaterOutlet,
+    ];
 
     /// The measured quantity the state is the rise of (also its name in the report).
     pub fn quantity(self) -> Quantity {
@@ -68,8 +71,11 @@ pub enum HeatSource {
 
 impl HeatSource {
     /// The inputs in model order.
-    pub const ALL: [HeatSource; 3] =
-        [HeatSource::ArmatureCopperLoss, HeatSource::FieldCopperLoss, HeatSource::IronLoss];
+    pub const ALL: [HeatSource; 3] = [
+        HeatSource::ArmatureCopperLoss,
+        HeatSource::FieldCopperLoss,
+        HeatSource::IronLoss,
+    ];
 
     /// The profile's name of the input.
     pub fn name(self) -> &'static str {
@@ -106,14 +112,22 @@ pub fn copper_resistance(r_ref_ohm: f64, ref_temp_c: f64, temp_c: f64) -> f64 {
 
 /// Armature copper loss in W: 3·I_g²·R_a(θ_Cu) + ½·P_add·(I_g/I_n)².
 pub fn armature_copper_loss_w(np: &Nameplate, current_a: f64, winding_temp_c: f64) -> f64 {
-    let r = copper_resistance(np.armature_resistance_ohm, np.armature_resistance_ref_temp_c, winding_temp_c);
+    let r = copper_resistance(
+        np.armature_resistance_ohm,
+        np.armature_resistance_ref_temp_c,
+        winding_temp_c,
+    );
     let i_pu = current_a / np.rated_current_a;
     3.0 * current_a * current_a * r + 0.5 * np.additional_losses_w * i_pu * i_pu
 }
 
 /// Field copper loss in W: I_f²·R_f(θ_f) (a DC winding: no factor 3).
 pub fn field_copper_loss_w(np: &Nameplate, field_current_a: f64, field_temp_c: f64) -> f64 {
-    let r = copper_resistance(np.field_resistance_ohm, np.field_resistance_ref_temp_c, field_temp_c);
+    let r = copper_resistance(
+        np.field_resistance_ohm,
+        np.field_resistance_ref_temp_c,
+        field_temp_c,
+    );
     field_current_a * field_current_a * r
 }
 
@@ -124,7 +138,11 @@ pub fn iron_loss_w(np: &Nameplate, line_voltage_v: f64) -> f64 {
 }
 
 /// Field winding temperature from the resistance method: solves R_f(θ) = U_f / I_f for θ.
-pub fn field_temp_from_resistance(np: &Nameplate, field_voltage_v: f64, field_current_a: f64) -> f64 {
+pub fn field_temp_from_resistance(
+    np: &Nameplate,
+    field_voltage_v: f64,
+    field_current_a: f64,
+) -> f64 {
     let r = field_voltage_v / field_current_a;
     r / np.field_resistance_ohm * (COPPER_INFERRED_ZERO_C + np.field_resistance_ref_temp_c)
         - COPPER_INFERRED_ZERO_C
@@ -171,7 +189,14 @@ impl ThermalSignals {
     /// The last instant at which every input is known, with those inputs (pu).
     pub fn last_inputs(&self) -> Option<(usize, [f64; 3])> {
         (0..self.len()).rev().find_map(|k| {
-            Some((k, [self.inputs_pu[0][k]?, self.inputs_pu[1][k]?, self.inputs_pu[2][k]?]))
+            Some((
+                k,
+                [
+                    self.inputs_pu[0][k]?,
+                    self.inputs_pu[1][k]?,
+                    self.inputs_pu[2][k]?,
+                ],
+            ))
         })
     }
 
@@ -180,7 +205,11 @@ impl ThermalSignals {
         (0..self.len()).rev().find_map(|k| {
             Some((
                 k,
-                [self.temperatures_c[0][k]?, self.temperatures_c[1][k]?, self.temperatures_c[2][k]?],
+                [
+                    self.temperatures_c[0][k]?,
+                    self.temperatures_c[1][k]?,
+                    self.temperatures_c[2][k]?,
+                ],
             ))
         })
     }
@@ -195,13 +224,20 @@ pub fn compute(
     np: &Nameplate,
     recording: &str,
 ) -> Result<ThermalSignals> {
-    let missing = |q: Quantity| Error::BadRecording {
+    let missing = |q: Quantity| {
+        Error::BadRecording {
         path: recording.into(),
         message: format!(
             "no channel carries the required quantity `{q}` (metadata `quantity` or a topic ending in /{q})"
         ),
+    }
     };
-    let series = |q: Quantity| decimated.get(q).map(|s| &s.values).ok_or_else(|| missing(q));
+    let series = |q: Quantity| {
+        decimated
+            .get(q)
+            .map(|s| &s.values)
+            .ok_or_else(|| missing(q))
+    };
     let i_g = series(Quantity::ArmatureCurrent)?;
     let i_f = series(Quantity::FieldCurrent)?;
     let u_g = series(Quantity::LineVoltage)?;
@@ -213,51 +249,68 @@ pub fn compute(
     let n = decimated.len;
     let initial_index = (0..n)
         .find(|&k| temps.iter().all(|t| t[k].is_some()))
-        .ok_or_else(|| Error::Estimation(format!(
-            "{recording}: the three temperatures are never known at the same instant"
-        )))?;
+        .ok_or_else(|| {
+            Error::Estimation(format!(
+                "{recording}: the three temperatures are never known at the same instant"
+            ))
+        })?;
     let theta0 = [0, 1, 2].map(|s| temps[s][initial_index].unwrap_or(f64::NAN));
     let base = np.temperature_base_k;
     let rises_pu = [0, 1, 2].map(|s| {
-        temps[s].iter().map(|t| t.map(|t| (t - theta0[s]) / base)).collect::<Vec<_>>()
+        temps[s]
+            .iter()
+            .map(|t| t.map(|t| (t - theta0[s]) / base))
+            .collect::<Vec<_>>()
     });
 
     // Field winding temperature, in the profile's order of preference.
-    let (field_temperature_c, field_temperature_source) =
-        if let Some(measured) = decimated.get(Quantity::FieldWindingTemp) {
-            (measured.values.clone(), FieldTemperatureSource::Measured)
-        } else if let Some(u_f) = decimated.get(Quantity::FieldVoltage) {
-            let theta: Vec<Option<f64>> = (0..n)
-                .map(|k| match (u_f.values[k], i_f[k]) {
-                    (Some(u), Some(i)) if i.abs() > 1e-3 * np.rated_field_current_a.unwrap_or(1000.0) => {
-                        Some(field_temp_from_resistance(np, u, i))
-                    }
-                    _ => None,
-                })
-                .collect();
-            (theta, FieldTemperatureSource::ResistanceMethod)
-        } else if let Some(final_temp_c) = np.field_winding_final_temp_c {
-            let last_cu = (0..n).rev().find_map(|k| temps[0][k]).unwrap_or(theta0[0]);
-            let rise = last_cu - theta0[0];
-            if rise < 1.0 {
-                return Err(Error::Estimation(format!(
-                    "{recording}: the stator winding rises only {rise:.2} K, too little to scale \
+    let (field_temperature_c, field_temperature_source) = if let Some(measured) =
+        decimated.get(Quantity::FieldWindingTemp)
+    {
+        (measured.values.clone(), FieldTemperatureSource::Measured)
+    } else if let Some(u_f) = decimated.get(Quantity::FieldVoltage) {
+        let theta: Vec<Option<f64>> = (0..n)
+            .map(|k| match (u_f.values[k], i_f[k]) {
+                (Some(u), Some(i))
+                    if i.abs() > 1e-3 * np.rated_field_current_a.unwrap_or(1000.0) =>
+                {
+                    Some(field_temp_from_resistance(np, u, i))
+                }
+                _ => None,
+            })
+            .collect();
+        (theta, FieldTemperatureSource::ResistanceMethod)
+    } else if let Some(final_temp_c) = np.field_winding_final_temp_c {
+        let last_cu = (0..n).rev().find_map(|k| temps[0][k]).unwrap_or(theta0[0]);
+        let rise = last_cu - theta0[0];
+        if rise < 1.0 {
+            return Err(Error::Estimation(format!(
+                "{recording}: the stator winding rises only {rise:.2} K, too little to scale \
                      the field winding temperature to {final_temp_c} °C; record field_voltage or \
                      field_winding_temp"
-                )));
-            }
-            let scale = (final_temp_c - theta0[0]) / rise;
-            let theta = temps[0].iter().map(|t| t.map(|t| theta0[0] + scale * (t - theta0[0]))).collect();
-            (theta, FieldTemperatureSource::ScaledArmatureRise { scale, final_temp_c })
-        } else {
-            return Err(Error::BadRecording {
+            )));
+        }
+        let scale = (final_temp_c - theta0[0]) / rise;
+        let theta = temps[0]
+            .iter()
+            .map(|t| t.map(|t| theta0[0] + scale * (t - theta0[0])))
+            .collect();
+        (
+            theta,
+            FieldTemperatureSource::ScaledArmatureRise {
+                scale,
+                final_temp_c,
+            },
+        )
+    } else {
+        return Err(Error::BadRecording {
                 path: recording.into(),
                 message: "no field winding temperature: the recording has neither a `field_winding_temp` \
                           nor a `field_voltage` channel, and nameplate key `field_winding_final_temp_c` \
                           is missing (give it with --machine FILE.toml)"
                     .into(),
             });
-        };
+    };
 
     let s_n = np.rated_apparent_power_va;
     let mut inputs_pu: [Vec<Option<f64>>; 3] = [vec![None; n], vec![None; n], vec![None; n]];
@@ -314,7 +367,11 @@ mod tests {
         assert!(close(got, 317_760.0, 1e-3), "about 317.8 kW: {got}");
         // Field at I_fn = 1092 A and 81 °C: 1092² · 0.1422 · 316/256 = 209.3 kW.
         let got = field_copper_loss_w(&np, 1092.0, 81.0);
-        assert!(close(got, 1092.0f64.powi(2) * 0.1422 * 316.0 / 256.0, 1e-12));
+        assert!(close(
+            got,
+            1092.0f64.powi(2) * 0.1422 * 316.0 / 256.0,
+            1e-12
+        ));
         assert!(close(got, 209_316.0, 1e-4), "{got}");
         // Iron at U_n: P_Fe + ½ P_add = 244.8 + 71.8 kW.
         assert!(close(iron_loss_w(&np, 15_650.0), 316_600.0, 1e-12));
@@ -328,7 +385,11 @@ mod tests {
         let np = Nameplate::paper_table1();
         let theta = 81.0;
         let i = 1100.0;
-        let u = i * copper_resistance(np.field_resistance_ohm, np.field_resistance_ref_temp_c, theta);
+        let u = i * copper_resistance(
+            np.field_resistance_ohm,
+            np.field_resistance_ref_temp_c,
+            theta,
+        );
         assert!((field_temp_from_resistance(&np, u, i) - theta).abs() < 1e-10);
     }
 }

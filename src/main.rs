@@ -17,7 +17,9 @@ fn main() -> ExitCode {
         Ok(Outcome::Complete) => ExitCode::SUCCESS,
         Ok(Outcome::DataLoss) => ExitCode::from(3),
         Err(err) => {
-            let bad_input = err.downcast_ref::<heatrun::Error>().is_some_and(|e| e.is_bad_input());
+            let bad_input = err
+                .downcast_ref::<heatrun::Error>()
+                .is_some_and(|e| e.is_bad_input());
             eprintln!("heatrun: {err:#}");
             ExitCode::from(if bad_input { 2 } else { 1 })
         }

@@ -9,8 +9,8 @@ use crate::decimate::{DecimatedRecording, Decimator};
 use crate::error::{Error, Result};
 use crate::estimate::rls::TrajectoryPoint;
 use crate::estimate::{
-    Estimate, Estimator, IdentificationData, InstrumentalVariables, OutputError, RecursiveLeastSquares,
-    WeightedLeastSquares,
+    Estimate, Estimator, IdentificationData, InstrumentalVariables, OutputError,
+    RecursiveLeastSquares, WeightedLeastSquares,
 };
 use crate::losses::{self, ThermalSignals};
 use crate::model::{self, ModelAnalysis};
@@ -171,11 +171,21 @@ impl SampleSink for Tee<'_> {
 }
 
 /// [`prepare`], with every raw sample also given to `also` as the file streams by.
-pub fn prepare_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn SampleSink>) -> Result<Prepared> {
+pub fn prepare_with(
+    path: &Path,
+    options: &ReplayOptions,
+    also: Option<&mut dyn SampleSink>,
+) -> Result<Prepared> {
     let name = path.display().to_string();
     let mut decimator = Decimator::new(options.ts_s)?;
     let summary = match also {
-        Some(also) => recording::read_recording(path, &mut Tee { decimator: &mut decimator, also })?,
+        Some(also) => recording::read_recording(
+            path,
+            &mut Tee {
+                decimator: &mut decimator,
+                also,
+            },
+        )?,
         None => recording::read_recording(path, &mut decimator)?,
     };
     if summary.channels.is_empty() {
@@ -185,7 +195,13 @@ pub fn prepare_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn 
             format!(
                 "its {} channel(s) ({}) carry no quantity of the profile",
                 summary.ignored_channels.len(),
-                summary.ignored_channels.iter().map(|c| c.topic.as_str()).take(5).collect::<Vec<_>>().join(", ")
+                summary
+                    .ignored_channels
+                    .iter()
+                    .map(|c| c.topic.as_str())
+                    .take(5)
+                    .collect::<Vec<_>>()
+                    .join(", ")
             )
         };
         return Err(Error::BadRecording {
@@ -203,13 +219,25 @@ pub fn prepare_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn 
     };
     let nameplate = entries.resolve(&name)?;
     let decimated = decimator.finish(&summary.channels).map_err(|e| match e {
-        Error::ClockJump(m) => Error::BadRecording { path: path.to_owned(), message: m },
-        Error::Estimation(m) => Error::BadRecording { path: path.to_owned(), message: m },
+        Error::ClockJump(m) => Error::BadRecording {
+            path: path.to_owned(),
+            message: m,
+        },
+        Error::Estimation(m) => Error::BadRecording {
+            path: path.to_owned(),
+            message: m,
+        },
         other => other,
     })?;
     let signals = losses::compute(&decimated, &nameplate, &name)?;
     let data = IdentificationData::from(&signals);
-    Ok(Prepared { recording: summary, nameplate, decimated, signals, data })
+    Ok(Prepared {
+        recording: summary,
+        nameplate,
+        decimated,
+        signals,
+        data,
+    })
 }
 
 /// Replays one recording through every stage.
@@ -218,26 +246,44 @@ pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
 }
 
 /// [`replay`], with every raw sample also given to `also` as the file streams by.
-pub fn replay_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn SampleSink>) -> Result<Replay> {
+pub fn replay_with(
+    path: &Path,
+    options: &ReplayOptions,
+    also: Option<&mut dyn SampleSink>,
+) -> Result<Replay> {
     let name = path.display().to_string();
-    let Prepared { recording: summary, nameplate, decimated, signals, data } = prepare_with(path, options, also)?;
+    let Prepared {
+        recording: summary,
+        nameplate,
+        decimated,
+        signals,
+        data,
+    } = prepare_with(path, options, also)?;
     let estimation_range = match &options.validation {
         Some(ValidationSource::HoldOut(f)) => {
             if !(*f > 0.0 && *f < 0.9) {
-                return Err(Error::Usage(format!("--holdout {f}: the held-out fraction must be in (0, 0.9)")));
+                return Err(Error::Usage(format!(
+                    "--holdout {f}: the held-out fraction must be in (0, 0.9)"
+                )));
             }
             0..((data.len() as f64 * (1.0 - f)).round() as usize)
         }
         _ => 0..data.len(),
     };
     let estimation_data = data.slice(estimation_range.clone());
-    let (mut estimate, trajectory) = estimate(&estimation_data, options).map_err(|e| with_file(e, &name))?;
+    let (mut estimate, trajectory) =
+        estimate(&estimation_data, options).map_err(|e| with_file(e, &name))?;
     estimate.method = options.method.name().into();
     let (_, last_input) = signals
         .last_inputs()
         .ok_or_else(|| Error::Estimation(format!("{name}: the inputs are never all known")))?;
-    let mut analysis = model::analyse(&estimate, &estimation_data, signals.temperature_base_k, &last_input)
-        .map_err(|e| with_file(e, &name))?;
+    let mut analysis = model::analyse(
+        &estimate,
+        &estimation_data,
+        signals.temperature_base_k,
+        &last_input,
+    )
+    .map_err(|e| with_file(e, &name))?;
     // Simulated traces over the whole recording (hold-out included) for publishing.
     analysis.simulated = estimate.model.simulate_segments(&data, &data.segments());
     let validation = match &options.validation {
@@ -252,7 +298,9 @@ pub fn replay_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn S
         }
         Some(ValidationSource::Recording(other)) => {
             let prepared = prepare(other, options)?;
-            let sim = estimate.model.simulate_segments(&prepared.data, &prepared.data.segments());
+            let sim = estimate
+                .model
+                .simulate_segments(&prepared.data, &prepared.data.segments());
             Some(Validation {
                 source: other.display().to_string(),
                 fit: model::fit::fit(&prepared.data, &sim, prepared.signals.temperature_base_k),
@@ -260,7 +308,11 @@ pub fn replay_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn S
         }
     };
 
-    let mut warnings: Vec<String> = summary.data_loss.iter().map(|l| format!("data lost: {l}")).collect();
+    let mut warnings: Vec<String> = summary
+        .data_loss
+        .iter()
+        .map(|l| format!("data lost: {l}"))
+        .collect();
     for ch in &decimated.channels {
         if ch.gaps > 0 {
             warnings.push(format!(
@@ -300,7 +352,10 @@ pub fn replay_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn S
         }
     }
     if summary.bad_quality_dropped > 0 {
-        warnings.push(format!("{} samples marked `bad` were dropped", summary.bad_quality_dropped));
+        warnings.push(format!(
+            "{} samples marked `bad` were dropped",
+            summary.bad_quality_dropped
+        ));
     }
     for a in &analysis.assignment {
         if a.resolved_conflict {
@@ -327,22 +382,42 @@ pub fn replay_with(path: &Path, options: &ReplayOptions, also: Option<&mut dyn S
 }
 
 /// Runs the chosen estimator on the data.
-pub fn estimate(data: &IdentificationData, options: &ReplayOptions) -> Result<(Estimate, Vec<TrajectoryPoint>)> {
+pub fn estimate(
+    data: &IdentificationData,
+    options: &ReplayOptions,
+) -> Result<(Estimate, Vec<TrajectoryPoint>)> {
     if let Some(w) = &options.weights {
         if w.len() != data.states() || w.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
-            return Err(Error::Usage(format!("--weights wants {} positive numbers, one per state", data.states())));
+            return Err(Error::Usage(format!(
+                "--weights wants {} positive numbers, one per state",
+                data.states()
+            )));
         }
     }
-    let per_instant = |w: &Vec<f64>| nalgebra::DMatrix::from_fn(data.len(), data.states(), |_, j| w[j]);
+    let per_instant =
+        |w: &Vec<f64>| nalgebra::DMatrix::from_fn(data.len(), data.states(), |_, j| w[j]);
     Ok(match options.method {
         Method::Ls => (WeightedLeastSquares::default().estimate(data)?, Vec::new()),
         Method::Wls => (
-            WeightedLeastSquares { weights: options.weights.as_ref().map(per_instant) }.estimate(data)?,
+            WeightedLeastSquares {
+                weights: options.weights.as_ref().map(per_instant),
+            }
+            .estimate(data)?,
             Vec::new(),
         ),
-        Method::Rls => RecursiveLeastSquares { forgetting: options.forgetting, keep_every: 10 }.run(data)?,
+        Method::Rls => RecursiveLeastSquares {
+            forgetting: options.forgetting,
+            keep_every: 10,
+        }
+        .run(data)?,
         Method::Iv => (InstrumentalVariables::default().estimate(data)?, Vec::new()),
-        Method::Oe => (OutputError { weights: options.weights.clone() }.estimate(data)?, Vec::new()),
+        Method::Oe => (
+            OutputError {
+                weights: options.weights.clone(),
+            }
+            .estimate(data)?,
+            Vec::new(),
+        ),
     })
 }
 

@@ -228,7 +228,9 @@ pub struct Report {
 }
 
 fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
-    (0..m.nrows()).map(|i| m.row(i).iter().copied().collect()).collect()
+    (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect()
 }
 
 impl Report {
@@ -238,14 +240,24 @@ impl Report {
         let base = r.signals.temperature_base_k;
         let theta0 = r.signals.initial_temperatures_c;
         let rise_k: Vec<f64> = a.steady_state.iter().map(|y| y * base).collect();
-        let measured_final = r.signals.last_temperatures().map(|(_, t)| t.to_vec()).unwrap_or_default();
+        let measured_final = r
+            .signals
+            .last_temperatures()
+            .map(|(_, t)| t.to_vec())
+            .unwrap_or_default();
         Report {
             profile: PROFILE.into(),
             heatrun_version: env!("CARGO_PKG_VERSION").into(),
             sample_time_s: r.signals.ts_s,
             method: r.estimate.method.clone(),
-            states: ThermalState::ALL.iter().map(|s| s.name().to_owned()).collect(),
-            inputs: HeatSource::ALL.iter().map(|s| s.name().to_owned()).collect(),
+            states: ThermalState::ALL
+                .iter()
+                .map(|s| s.name().to_owned())
+                .collect(),
+            inputs: HeatSource::ALL
+                .iter()
+                .map(|s| s.name().to_owned())
+                .collect(),
             phi: rows(&r.estimate.model.phi),
             gamma: rows(&r.estimate.model.gamma),
             a_c: rows(&a.continuous.a_c),
@@ -269,7 +281,11 @@ impl Report {
                 input_pu: a.steady_state_input.clone(),
                 temperature_c: rise_k.iter().zip(theta0).map(|(r, t)| t + r).collect(),
                 rise_k,
-                measured_final_rise_k: measured_final.iter().zip(theta0).map(|(m, t)| m - t).collect(),
+                measured_final_rise_k: measured_final
+                    .iter()
+                    .zip(theta0)
+                    .map(|(m, t)| m - t)
+                    .collect(),
                 measured_final_temperature_c: measured_final,
             },
             recording: RecordingEntry {
@@ -314,10 +330,17 @@ impl Report {
                 UncertaintyEntry {
                     time_constants_ci95_s: u.time_constants_ci95_s.clone(),
                     steady_state_ci95_k: u.steady_state_ci95.iter().map(|v| v * base).collect(),
-                    theta_standard_error: u.theta_standard_error.chunks(p).map(|c| c.to_vec()).collect(),
+                    theta_standard_error: u
+                        .theta_standard_error
+                        .chunks(p)
+                        .map(|c| c.to_vec())
+                        .collect(),
                 }
             }),
-            validation: r.validation.as_ref().map(|v| ValidationEntry { source: v.source.clone(), fit: FitEntry::from(&v.fit) }),
+            validation: r.validation.as_ref().map(|v| ValidationEntry {
+                source: v.source.clone(),
+                fit: FitEntry::from(&v.fit),
+            }),
             residuals: ResidualEntry {
                 max_lag: a.residuals.max_lag,
                 band99: a.residuals.band99,
@@ -328,7 +351,12 @@ impl Report {
                     .residuals
                     .cross_correlation
                     .iter()
-                    .map(|per_input| per_input.iter().map(|c| c.iter().fold(0.0_f64, |m, v| m.max(v.abs()))).collect())
+                    .map(|per_input| {
+                        per_input
+                            .iter()
+                            .map(|c| c.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
+                            .collect()
+                    })
                     .collect(),
             },
             warnings: r.warnings.clone(),
@@ -366,18 +394,26 @@ impl Report {
             "  method {} (condition number {:.3e}); θ_0 = [{}] °C; field temperature: {}",
             self.method,
             self.estimation.condition_number,
-            join(&self.estimation.initial_temperature_c, |v| format!("{v:.2}")),
+            join(&self.estimation.initial_temperature_c, |v| format!(
+                "{v:.2}"
+            )),
             match &self.estimation.field_temperature {
                 FieldTemperatureSource::Measured => "measured".to_owned(),
                 FieldTemperatureSource::ResistanceMethod => "resistance method U_f/I_f".to_owned(),
-                FieldTemperatureSource::ScaledArmatureRise { scale, final_temp_c } =>
-                    format!("armature rise × {scale:.4} (final {final_temp_c} °C)"),
+                FieldTemperatureSource::ScaledArmatureRise {
+                    scale,
+                    final_temp_c,
+                } => format!("armature rise × {scale:.4} (final {final_temp_c} °C)"),
             }
         );
         let _ = writeln!(s);
         matrix(&mut s, "Φ (eq. 19)", &self.phi, 8);
         matrix(&mut s, "Γ (eq. 20)", &self.gamma, 7);
-        let _ = writeln!(s, "eigenvalues of Φ (eq. 21): [{}]", join(&self.eigenvalues_discrete, |v| format!("{v:.5}")));
+        let _ = writeln!(
+            s,
+            "eigenvalues of Φ (eq. 21): [{}]",
+            join(&self.eigenvalues_discrete, |v| format!("{v:.5}"))
+        );
         matrix(&mut s, "A_c (eq. 22), 1/s", &self.a_c, 8);
         matrix(&mut s, "B_c (eq. 23), 1/s", &self.b_c, 7);
         let _ = writeln!(
@@ -385,7 +421,10 @@ impl Report {
             "eigenvalues of A_c (eq. 24): [{}] 1/s",
             join(&self.eigenvalues_continuous, |v| format!("{v:.6}"))
         );
-        let _ = writeln!(s, "time constants (eq. 26), 95 % intervals, and the part each belongs to (eqs. 27-29):");
+        let _ = writeln!(
+            s,
+            "time constants (eq. 26), 95 % intervals, and the part each belongs to (eqs. 27-29):"
+        );
         for (i, a) in self.assignment.iter().enumerate() {
             let ci = self
                 .uncertainty
@@ -401,26 +440,57 @@ impl Report {
                 a.sensitivity_norm
             );
         }
-        let _ = writeln!(s, "sensitivity norms ‖T_i ∂y_k/∂T_i‖, pu (rows: states; columns: T1..Tn):");
+        let _ = writeln!(
+            s,
+            "sensitivity norms ‖T_i ∂y_k/∂T_i‖, pu (rows: states; columns: T1..Tn):"
+        );
         for (k, row) in self.sensitivity_norms.iter().enumerate() {
-            let _ = writeln!(s, "  {:<16}{}", names.get(k).unwrap_or(&"?"), join(row, |v| format!("{v:>11.3e}")));
+            let _ = writeln!(
+                s,
+                "  {:<16}{}",
+                names.get(k).unwrap_or(&"?"),
+                join(row, |v| format!("{v:>11.3e}"))
+            );
         }
         let _ = writeln!(s);
-        let _ = writeln!(s, "fit of the simulated model (eq. 8) {:>16}{:>16}{:>16}", names[0], names[1], names[2]);
+        let _ = writeln!(
+            s,
+            "fit of the simulated model (eq. 8) {:>16}{:>16}{:>16}",
+            names[0], names[1], names[2]
+        );
         row(&mut s, "  SNR, dB (eq. 25)", &self.fit.snr_db, 3);
         row(&mut s, "  NRMSE fit, %", &self.fit.nrmse_fit_percent, 2);
         row(&mut s, "  RMSE, K", &self.fit.rmse_k, 3);
         row(&mut s, "  largest error, K", &self.fit.max_abs_error_k, 3);
         let ss = &self.steady_state;
         let _ = writeln!(s);
-        let _ = writeln!(s, "steady state for u = [{}] pu (eqs. 30-35)", join(&ss.input_pu, |v| format!("{v:.7}")));
+        let _ = writeln!(
+            s,
+            "steady state for u = [{}] pu (eqs. 30-35)",
+            join(&ss.input_pu, |v| format!("{v:.7}"))
+        );
         row(&mut s, "  predicted rise, K (eq. 32)", &ss.rise_k, 3);
         if let Some(u) = &self.uncertainty {
             row(&mut s, "    95 % interval, ± K", &u.steady_state_ci95_k, 3);
         }
-        row(&mut s, "  measured final rise, K (eq. 33)", &ss.measured_final_rise_k, 3);
-        row(&mut s, "  predicted temperature, °C (eq. 34)", &ss.temperature_c, 3);
-        row(&mut s, "  measured final temperature, °C (35)", &ss.measured_final_temperature_c, 3);
+        row(
+            &mut s,
+            "  measured final rise, K (eq. 33)",
+            &ss.measured_final_rise_k,
+            3,
+        );
+        row(
+            &mut s,
+            "  predicted temperature, °C (eq. 34)",
+            &ss.temperature_c,
+            3,
+        );
+        row(
+            &mut s,
+            "  measured final temperature, °C (35)",
+            &ss.measured_final_temperature_c,
+            3,
+        );
         let res = &self.residuals;
         let _ = writeln!(s);
         let _ = writeln!(
@@ -428,8 +498,20 @@ impl Report {
             "residuals (simulation error): lags 1-{} outside the 99 % band ±{:.4}, % of lags",
             res.max_lag, res.band99
         );
-        row(&mut s, "  autocorrelation", &res.autocorrelation_outside_band.iter().map(|v| v * 100.0).collect::<Vec<_>>(), 1);
-        let worst: Vec<f64> = res.max_abs_cross_correlation.iter().map(|r| r.iter().fold(0.0_f64, |m, v| m.max(*v))).collect();
+        row(
+            &mut s,
+            "  autocorrelation",
+            &res.autocorrelation_outside_band
+                .iter()
+                .map(|v| v * 100.0)
+                .collect::<Vec<_>>(),
+            1,
+        );
+        let worst: Vec<f64> = res
+            .max_abs_cross_correlation
+            .iter()
+            .map(|r| r.iter().fold(0.0_f64, |m, v| m.max(*v)))
+            .collect();
         row(&mut s, "  largest |cross-correlation| with u", &worst, 3);
         if let Some(v) = &self.validation {
             let _ = writeln!(s);
@@ -452,7 +534,11 @@ fn join(v: &[f64], f: impl Fn(f64) -> String) -> String {
 fn matrix(s: &mut String, title: &str, m: &[Vec<f64>], digits: usize) {
     let _ = writeln!(s, "{title}:");
     for r in m {
-        let _ = writeln!(s, "  [{}]", join(r, |v| format!("{v:>width$.digits$}", width = digits + 5)));
+        let _ = writeln!(
+            s,
+            "  [{}]",
+            join(r, |v| format!("{v:>width$.digits$}", width = digits + 5))
+        );
     }
 }
 

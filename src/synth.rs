@@ -22,7 +22,10 @@ use crate::estimate::DiscreteModel;
 use crate::losses::{self, copper_resistance};
 use crate::model::matrix::discretize;
 use crate::model::{ContinuousModel, Spectrum};
-use crate::recording::{Nameplate, Quantity, NAMEPLATE_RECORD, SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING, SAMPLE_SCHEMA_NAME};
+use crate::recording::{
+    Nameplate, Quantity, NAMEPLATE_RECORD, SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING,
+    SAMPLE_SCHEMA_NAME,
+};
 
 /// The JSON Schema of a sample message (also `schemas/sample.schema.json`).
 pub const SAMPLE_SCHEMA: &str = include_str!("../schemas/sample.schema.json");
@@ -47,7 +50,11 @@ pub const PAPER_INITIAL_TEMPERATURES_C: [f64; 3] = [36.7, 36.3, 10.5];
 /// The paper's model as a [`DiscreteModel`].
 pub fn paper_model() -> DiscreteModel {
     let m = |a: [[f64; 3]; 3]| DMatrix::from_fn(3, 3, |i, j| a[i][j]);
-    DiscreteModel { phi: m(PAPER_PHI), gamma: m(PAPER_GAMMA), ts_s: 1.0 }
+    DiscreteModel {
+        phi: m(PAPER_PHI),
+        gamma: m(PAPER_GAMMA),
+        ts_s: 1.0,
+    }
 }
 
 /// How the field winding temperature reaches the recording.
@@ -81,15 +88,26 @@ pub struct OperatingPoint {
 /// I_f = 1.0759 I_fn) held for the last 60 % of the run. All three heat sources are
 /// excited independently of each other.
 pub fn heat_run_with_load_steps() -> Vec<OperatingPoint> {
-    let p = |start_fraction, armature_current_pu, line_voltage_pu, field_current_pu| OperatingPoint {
-        start_fraction,
-        armature_current_pu,
-        line_voltage_pu,
-        field_current_pu,
-    };
-    let mut points = vec![p(0.00, 0.25, 1.000, 0.80), p(0.04, 0.50, 1.000, 0.85), p(0.08, 0.75, 1.020, 0.95)];
+    let p =
+        |start_fraction, armature_current_pu, line_voltage_pu, field_current_pu| OperatingPoint {
+            start_fraction,
+            armature_current_pu,
+            line_voltage_pu,
+            field_current_pu,
+        };
+    let mut points = vec![
+        p(0.00, 0.25, 1.000, 0.80),
+        p(0.04, 0.50, 1.000, 0.85),
+        p(0.08, 0.75, 1.020, 0.95),
+    ];
     // Reactive-power test: alternate over- and under-excitation at 75 % current.
-    let var_levels = [(1.050, 1.10), (0.980, 0.86), (1.030, 1.02), (0.960, 0.80), (1.060, 1.12)];
+    let var_levels = [
+        (1.050, 1.10),
+        (0.980, 0.86),
+        (1.030, 1.02),
+        (0.960, 0.80),
+        (1.060, 1.12),
+    ];
     for step in 0..20 {
         let (u, i_f) = var_levels[step % var_levels.len()];
         points.push(p(0.12 + 0.012 * step as f64, 0.75, u, i_f));
@@ -204,7 +222,9 @@ pub struct Truth {
 }
 
 fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
-    (0..m.nrows()).map(|i| m.row(i).iter().copied().collect()).collect()
+    (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect()
 }
 
 /// The noise-free simulated run on the model's grid.
@@ -230,7 +250,11 @@ fn simulate(o: &SynthOptions) -> Result<Trajectory> {
     let final_field = np.field_winding_final_temp_c.unwrap_or(81.0);
     let point_at = |k: usize| {
         let f = k as f64 / steps as f64;
-        *o.profile.iter().rev().find(|p| p.start_fraction <= f + 1e-12).unwrap_or(&o.profile[0])
+        *o.profile
+            .iter()
+            .rev()
+            .find(|p| p.start_fraction <= f + 1e-12)
+            .unwrap_or(&o.profile[0])
     };
     // The paper's field temperature θ_f = θ_Cu0 + s (θ_Cu − θ_Cu0): iterate s to its fixed
     // point so that the final field temperature is the nameplate's.
@@ -266,11 +290,19 @@ fn simulate(o: &SynthOptions) -> Result<Trajectory> {
         }
         let final_rise = base * states[steps][0];
         if final_rise <= 0.5 {
-            return Err(Error::Usage("the synthetic run's stator winding does not heat up".into()));
+            return Err(Error::Usage(
+                "the synthetic run's stator winding does not heat up".into(),
+            ));
         }
         let new_scale = (final_field - th0[0]) / final_rise;
         let converged = (new_scale - scale).abs() < 1e-13 * scale.abs();
-        result = Some(Trajectory { states, points, field_temps, inputs, field_scale: scale });
+        result = Some(Trajectory {
+            states,
+            points,
+            field_temps,
+            inputs,
+            field_scale: scale,
+        });
         if converged || o.field_channel != FieldChannel::Nameplate {
             break;
         }
@@ -288,11 +320,15 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
         ("temperature rate", o.temperature_rate_hz),
     ] {
         if !(v.is_finite() && v > 0.0) {
-            return Err(Error::Usage(format!("the {name} must be a positive number, not {v}")));
+            return Err(Error::Usage(format!(
+                "the {name} must be a positive number, not {v}"
+            )));
         }
     }
     if o.duration_s < 10.0 * o.truth.ts_s {
-        return Err(Error::Usage("the duration must cover at least 10 sample times".into()));
+        return Err(Error::Usage(
+            "the duration must cover at least 10 sample times".into(),
+        ));
     }
     let traj = simulate(o)?;
     let continuous = ContinuousModel::from_discrete(&o.truth)?;
@@ -319,8 +355,10 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
     };
 
     let mut rng = rand::rngs::StdRng::seed_from_u64(o.seed);
-    let temp_noise = Normal::new(0.0, o.temperature_noise_k.max(0.0)).map_err(|e| Error::Usage(e.to_string()))?;
-    let elec_noise = Normal::new(0.0, o.electrical_noise_pu.max(0.0)).map_err(|e| Error::Usage(e.to_string()))?;
+    let temp_noise = Normal::new(0.0, o.temperature_noise_k.max(0.0))
+        .map_err(|e| Error::Usage(e.to_string()))?;
+    let elec_noise = Normal::new(0.0, o.electrical_noise_pu.max(0.0))
+        .map_err(|e| Error::Usage(e.to_string()))?;
     let quantize = |v: f64| {
         if o.temperature_resolution_k > 0.0 {
             (v / o.temperature_resolution_k).round() * o.temperature_resolution_k
@@ -334,7 +372,11 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
     let duration_ns = steps as u64 * ts_ns;
     let times = |rate: f64, centred_on_instants: bool| -> Vec<u64> {
         let period = 1e9 / rate;
-        let phase = if centred_on_instants { period / 2.0 - (ts_ns as f64) / 2.0 } else { period / 2.0 };
+        let phase = if centred_on_instants {
+            period / 2.0 - (ts_ns as f64) / 2.0
+        } else {
+            period / 2.0
+        };
         let phase = phase.rem_euclid(period);
         (0..)
             .map(|i| (phase + i as f64 * period).round() as u64)
@@ -361,28 +403,58 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
     ]);
 
     let pending = PendingOutput::new(out);
-    let file = std::fs::File::create(pending.path())
-        .map_err(|e| Error::WriteOutput { path: out.to_owned(), message: e.to_string() })?;
-    let wr = |e: mcap::McapError| Error::WriteOutput { path: out.to_owned(), message: e.to_string() };
+    let file = std::fs::File::create(pending.path()).map_err(|e| Error::WriteOutput {
+        path: out.to_owned(),
+        message: e.to_string(),
+    })?;
+    let wr = |e: mcap::McapError| Error::WriteOutput {
+        path: out.to_owned(),
+        message: e.to_string(),
+    };
     let options = mcap::WriteOptions::new()
         .profile("heatrun-scada/1")
         .library(concat!("heatrun ", env!("CARGO_PKG_VERSION")))
-        .compression(if o.compress { Some(mcap::Compression::Zstd) } else { None })
+        .compression(if o.compress {
+            Some(mcap::Compression::Zstd)
+        } else {
+            None
+        })
         .chunk_size(Some(o.chunk_size));
     let mut writer = options.create(BufWriter::new(file)).map_err(wr)?;
-    let schema = writer.add_schema(SAMPLE_SCHEMA_NAME, SAMPLE_SCHEMA_ENCODING, SAMPLE_SCHEMA.as_bytes()).map_err(wr)?;
+    let schema = writer
+        .add_schema(
+            SAMPLE_SCHEMA_NAME,
+            SAMPLE_SCHEMA_ENCODING,
+            SAMPLE_SCHEMA.as_bytes(),
+        )
+        .map_err(wr)?;
     let mut ids = Vec::new();
     for (q, unit) in &channels {
-        let meta: BTreeMap<String, String> =
-            [("quantity".to_owned(), q.name().to_owned()), ("unit".to_owned(), unit.to_string())].into();
-        ids.push(writer.add_channel(schema, &format!("/scada/{}", q.name()), SAMPLE_MESSAGE_ENCODING, &meta).map_err(wr)?);
+        let meta: BTreeMap<String, String> = [
+            ("quantity".to_owned(), q.name().to_owned()),
+            ("unit".to_owned(), unit.to_string()),
+        ]
+        .into();
+        ids.push(
+            writer
+                .add_channel(
+                    schema,
+                    &format!("/scada/{}", q.name()),
+                    SAMPLE_MESSAGE_ENCODING,
+                    &meta,
+                )
+                .map_err(wr)?,
+        );
     }
     let mut nameplate = np.clone();
     if o.field_channel != FieldChannel::Nameplate {
         nameplate.field_winding_final_temp_c = None;
     }
     writer
-        .write_metadata(&mcap::records::Metadata { name: NAMEPLATE_RECORD.into(), metadata: nameplate.to_record() })
+        .write_metadata(&mcap::records::Metadata {
+            name: NAMEPLATE_RECORD.into(),
+            metadata: nameplate.to_record(),
+        })
         .map_err(wr)?;
     writer
         .write_metadata(&mcap::records::Metadata {
@@ -401,8 +473,13 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
     let mut seq = 0u32;
     let mut buf = String::new();
     while ie < elec_times.len() || it < temp_times.len() {
-        let take_elec = it >= temp_times.len() || (ie < elec_times.len() && elec_times[ie] <= temp_times[it]);
-        let t_rel = if take_elec { elec_times[ie] } else { temp_times[it] };
+        let take_elec =
+            it >= temp_times.len() || (ie < elec_times.len() && elec_times[ie] <= temp_times[it]);
+        let t_rel = if take_elec {
+            elec_times[ie]
+        } else {
+            temp_times[it]
+        };
         let log_time = o.start_time_ns + t_rel;
         for (c, (q, _)) in channels.iter().enumerate() {
             if q.is_temperature() == take_elec {
@@ -412,15 +489,25 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
             let p = traj.points[k];
             let value = match q {
                 Quantity::ArmatureCurrent => {
-                    p.armature_current_pu * np.rated_current_a * (1.0 + elec_noise.sample(&mut rng)) / 1e3
+                    p.armature_current_pu * np.rated_current_a * (1.0 + elec_noise.sample(&mut rng))
+                        / 1e3
                 }
                 Quantity::FieldCurrent => {
-                    p.field_current_pu * np.rated_field_current_a.unwrap_or(1000.0) * (1.0 + elec_noise.sample(&mut rng))
+                    p.field_current_pu
+                        * np.rated_field_current_a.unwrap_or(1000.0)
+                        * (1.0 + elec_noise.sample(&mut rng))
                 }
-                Quantity::LineVoltage => p.line_voltage_pu * np.rated_voltage_v * (1.0 + elec_noise.sample(&mut rng)) / 1e3,
+                Quantity::LineVoltage => {
+                    p.line_voltage_pu * np.rated_voltage_v * (1.0 + elec_noise.sample(&mut rng))
+                        / 1e3
+                }
                 Quantity::FieldVoltage => {
                     let i_f = p.field_current_pu * np.rated_field_current_a.unwrap_or(1000.0);
-                    let r = copper_resistance(np.field_resistance_ohm, np.field_resistance_ref_temp_c, traj.field_temps[k]);
+                    let r = copper_resistance(
+                        np.field_resistance_ohm,
+                        np.field_resistance_ref_temp_c,
+                        traj.field_temps[k],
+                    );
                     i_f * r * (1.0 + elec_noise.sample(&mut rng))
                 }
                 _ => {
@@ -434,10 +521,18 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
                             let cu = th0[0] + base * x[0];
                             let v = th0[0] + traj.field_scale * (cu - th0[0]);
                             buf.clear();
-                            buf.push_str(&format!("{{\"value\":{}}}", fmt_value(quantize(v + temp_noise.sample(&mut rng)))));
+                            buf.push_str(&format!(
+                                "{{\"value\":{}}}",
+                                fmt_value(quantize(v + temp_noise.sample(&mut rng)))
+                            ));
                             writer
                                 .write_to_known_channel(
-                                    &mcap::records::MessageHeader { channel_id: ids[c], sequence: seq, log_time, publish_time: log_time },
+                                    &mcap::records::MessageHeader {
+                                        channel_id: ids[c],
+                                        sequence: seq,
+                                        log_time,
+                                        publish_time: log_time,
+                                    },
                                     buf.as_bytes(),
                                 )
                                 .map_err(wr)?;
@@ -452,7 +547,12 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
             buf.push_str(&format!("{{\"value\":{}}}", fmt_value(value)));
             writer
                 .write_to_known_channel(
-                    &mcap::records::MessageHeader { channel_id: ids[c], sequence: seq, log_time, publish_time: log_time },
+                    &mcap::records::MessageHeader {
+                        channel_id: ids[c],
+                        sequence: seq,
+                        log_time,
+                        publish_time: log_time,
+                    },
                     buf.as_bytes(),
                 )
                 .map_err(wr)?;
@@ -480,12 +580,19 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
         final_input_pu: last_u.iter().copied().collect(),
         steady_state_rise_k: ss.iter().map(|v| v * base).collect(),
         initial_temperatures_c: th0.to_vec(),
-        final_temperatures_c: (0..3).map(|j| th0[j] + base * traj.states[steps][j]).collect(),
+        final_temperatures_c: (0..3)
+            .map(|j| th0[j] + base * traj.states[steps][j])
+            .collect(),
         profile: o.profile.clone(),
         seed: o.seed,
     };
     let truth_path = truth_path(out);
-    crate::atomic::write_atomically(&truth_path, serde_json::to_string_pretty(&truth).unwrap_or_default().as_bytes())?;
+    crate::atomic::write_atomically(
+        &truth_path,
+        serde_json::to_string_pretty(&truth)
+            .unwrap_or_default()
+            .as_bytes(),
+    )?;
     Ok(truth)
 }
 

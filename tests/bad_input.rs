@@ -10,16 +10,29 @@ use common::{heatrun, RecordingBuilder};
 /// Runs a replay that must fail with status 2; returns its one-line message.
 fn fails_with_2(dir: &Path, file: &str) -> String {
     let before = std::fs::read(dir.join(file)).ok();
-    let out = heatrun(&["replay", file, "--rrd", "out.rrd", "--report", "out.json"], dir);
+    let out = heatrun(
+        &["replay", file, "--rrd", "out.rrd", "--report", "out.json"],
+        dir,
+    );
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
     assert!(stderr.contains(file), "names the file: {stderr}");
-    assert!(!dir.join("out.rrd").exists() && !dir.join("out.json").exists(), "no output on failure");
-    assert_eq!(std::fs::read(dir.join(file)).ok(), before, "input unchanged");
+    assert!(
+        !dir.join("out.rrd").exists() && !dir.join("out.json").exists(),
+        "no output on failure"
+    );
+    assert_eq!(
+        std::fs::read(dir.join(file)).ok(),
+        before,
+        "input unchanged"
+    );
     for f in common::files_in(dir) {
-        assert!(!f.to_string_lossy().contains("partial"), "{f:?} left behind");
+        assert!(
+            !f.to_string_lossy().contains("partial"),
+            "{f:?} left behind"
+        );
     }
     stderr
 }
@@ -63,7 +76,10 @@ fn an_unknown_unit_names_the_channel() {
     r = r.channel("line_voltage", "MV", 1.0, 3000.0, |_| 0.0156);
     r.write(&dir.path().join("r.mcap"));
     let msg = fails_with_2(dir.path(), "r.mcap");
-    assert!(msg.contains("/scada/line_voltage") && msg.contains("`MV`"), "{msg}");
+    assert!(
+        msg.contains("/scada/line_voltage") && msg.contains("`MV`"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -73,7 +89,10 @@ fn a_missing_nameplate_value_names_the_key() {
     r.nameplate.as_mut().unwrap().remove("rated_voltage_kv");
     r.write(&dir.path().join("r.mcap"));
     let msg = fails_with_2(dir.path(), "r.mcap");
-    assert!(msg.contains("rated_voltage_kv") && msg.contains("--machine"), "{msg}");
+    assert!(
+        msg.contains("rated_voltage_kv") && msg.contains("--machine"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -83,8 +102,23 @@ fn a_missing_nameplate_value_can_come_from_a_machine_file() {
     r.nameplate.as_mut().unwrap().remove("rated_voltage_kv");
     r.write(&dir.path().join("r.mcap"));
     std::fs::write(dir.path().join("m.toml"), "rated_voltage_kv = 15.65\n").unwrap();
-    let out = heatrun(&["replay", "r.mcap", "--machine", "m.toml", "--rrd", "o.rrd", "--quiet"], dir.path());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = heatrun(
+        &[
+            "replay",
+            "r.mcap",
+            "--machine",
+            "m.toml",
+            "--rrd",
+            "o.rrd",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]
@@ -94,7 +128,10 @@ fn a_message_that_is_not_a_sample_names_channel_and_time() {
     r.channels[0].2[100].1 = "{\"val\": 3}".into();
     r.write(&dir.path().join("r.mcap"));
     let msg = fails_with_2(dir.path(), "r.mcap");
-    assert!(msg.contains("/scada/armature_current") && msg.contains("2020-09-13T12:28:20Z"), "{msg}");
+    assert!(
+        msg.contains("/scada/armature_current") && msg.contains("2020-09-13T12:28:20Z"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -117,9 +154,15 @@ fn constant_inputs_are_not_persistently_exciting() {
         .channel("field_current", "A", 1.0, 3000.0, |_| 1000.0)
         .channel("line_voltage", "V", 1.0, 3000.0, |_| 15650.0)
         .channel("field_voltage", "V", 1.0, 3000.0, |_| 150.0)
-        .channel("stator_winding_temp", "degC", 1.0, 3000.0, move |t| 30.0 + rise(t, 700.0, 25.0))
-        .channel("core_temp", "degC", 1.0, 3000.0, move |t| 30.0 + rise(t, 3000.0, 17.0))
-        .channel("cooling_water_outlet_temp", "degC", 1.0, 3000.0, move |t| 10.0 + rise(t, 30.0, 3.0));
+        .channel("stator_winding_temp", "degC", 1.0, 3000.0, move |t| {
+            30.0 + rise(t, 700.0, 25.0)
+        })
+        .channel("core_temp", "degC", 1.0, 3000.0, move |t| {
+            30.0 + rise(t, 3000.0, 17.0)
+        })
+        .channel("cooling_water_outlet_temp", "degC", 1.0, 3000.0, move |t| {
+            10.0 + rise(t, 30.0, 3.0)
+        });
     r.write(&dir.path().join("r.mcap"));
     let msg = fails_with_2(dir.path(), "r.mcap");
     assert!(msg.contains("persistently exciting"), "{msg}");
@@ -140,8 +183,14 @@ fn the_mcap_conformance_files_hold_no_heat_run() {
             std::fs::copy(&p, dir.path().join("c.mcap")).unwrap();
             let msg = fails_with_2(dir.path(), "c.mcap");
             // The shared copies may be Git LFS pointers rather than the data.
-            let lfs = std::fs::read(&p).unwrap().starts_with(b"version https://git-lfs");
-            let want = if lfs { "Git LFS pointer" } else { "no heat-run data" };
+            let lfs = std::fs::read(&p)
+                .unwrap()
+                .starts_with(b"version https://git-lfs");
+            let want = if lfs {
+                "Git LFS pointer"
+            } else {
+                "no heat-run data"
+            };
             assert!(msg.contains(want), "{}: {msg}", p.display());
             checked += 1;
         }

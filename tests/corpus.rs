@@ -32,20 +32,40 @@ use heatrun::synth::{self, SynthOptions};
 /// The outcome of a replay of `file` in `dir`: exit status, stderr, stdout.
 fn replay(dir: &Path, file: &str) -> (i32, String, String) {
     let before = std::fs::read(dir.join(file)).ok();
-    let out = heatrun(&["replay", file, "--rrd", "out.rrd", "--report", "out.json"], dir);
+    let out = heatrun(
+        &["replay", file, "--rrd", "out.rrd", "--report", "out.json"],
+        dir,
+    );
     let code = out.status.code().unwrap_or(-1);
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(!stderr.contains("panicked"), "{file}: {stderr}");
-    assert_eq!(std::fs::read(dir.join(file)).ok(), before, "{file}: the input was modified");
+    assert_eq!(
+        std::fs::read(dir.join(file)).ok(),
+        before,
+        "{file}: the input was modified"
+    );
     for f in common::files_in(dir) {
-        assert!(!f.to_string_lossy().contains("partial"), "{f:?} left behind");
+        assert!(
+            !f.to_string_lossy().contains("partial"),
+            "{f:?} left behind"
+        );
     }
     if code == 2 || code == 1 {
-        assert_eq!(stderr.trim_end().lines().count(), 1, "{file}: one line: {stderr}");
-        assert!(!dir.join("out.rrd").exists() && !dir.join("out.json").exists(), "{file}: output on failure");
+        assert_eq!(
+            stderr.trim_end().lines().count(),
+            1,
+            "{file}: one line: {stderr}"
+        );
+        assert!(
+            !dir.join("out.rrd").exists() && !dir.join("out.json").exists(),
+            "{file}: output on failure"
+        );
     } else {
-        assert!(dir.join("out.rrd").exists() && dir.join("out.json").exists(), "{file}: outputs missing");
+        assert!(
+            dir.join("out.rrd").exists() && dir.join("out.json").exists(),
+            "{file}: outputs missing"
+        );
     }
     let _ = std::fs::remove_file(dir.join("out.rrd"));
     let _ = std::fs::remove_file(dir.join("out.json"));
@@ -56,13 +76,30 @@ fn report_time_constants(stdout: &str) -> Vec<f64> {
     stdout
         .lines()
         .filter(|l| l.trim_start().starts_with('T') && l.contains(" s ") && l.contains("->"))
-        .map(|l| l.split('=').nth(1).unwrap().split_whitespace().next().unwrap().parse().unwrap())
+        .map(|l| {
+            l.split('=')
+                .nth(1)
+                .unwrap()
+                .split_whitespace()
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap()
+        })
         .collect()
 }
 
 fn clean_run(dir: &Path, chunk_size: u64) -> std::path::PathBuf {
     let path = dir.join("clean.mcap");
-    synth::write(&path, &SynthOptions { duration_s: 8000.0, chunk_size, ..SynthOptions::default() }).unwrap();
+    synth::write(
+        &path,
+        &SynthOptions {
+            duration_s: 8000.0,
+            chunk_size,
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
     path
 }
 
@@ -78,7 +115,10 @@ fn cut_short_at_many_offsets() {
         let (code, stderr, stdout) = replay(dir.path(), "cut.mcap");
         match code {
             3 => {
-                assert!(stdout.contains("cut short") && stdout.contains("last complete sample"), "{stdout}");
+                assert!(
+                    stdout.contains("cut short") && stdout.contains("last complete sample"),
+                    "{stdout}"
+                );
                 lost += 1;
             }
             2 => {
@@ -88,7 +128,10 @@ fn cut_short_at_many_offsets() {
             other => panic!("cut at {cut}: exit {other}: {stderr}"),
         }
     }
-    assert!(lost >= 15, "most cuts leave enough to estimate: {lost} used, {refused} refused");
+    assert!(
+        lost >= 15,
+        "most cuts leave enough to estimate: {lost} used, {refused} refused"
+    );
 }
 
 #[test]
@@ -115,19 +158,31 @@ fn a_corrupted_chunk_is_dropped_and_named() {
     std::fs::write(dir.path().join("bad.mcap"), &bytes).unwrap();
     let (code, stderr, stdout) = replay(dir.path(), "bad.mcap");
     assert_eq!(code, 3, "{stderr}");
-    assert!(stdout.contains("chunk starting at") && stdout.contains("dropped"), "{stdout}");
+    assert!(
+        stdout.contains("chunk starting at") && stdout.contains("dropped"),
+        "{stdout}"
+    );
 }
 
 #[test]
 fn messages_that_are_not_samples() {
-    for (text, what) in [("{\"value\": NaN}", "NaN"), ("{\"value\": 1e999}", "1e999"), ("[1, 2]", "array"), ("{\"quality\": \"good\"}", "no value")] {
+    for (text, what) in [
+        ("{\"value\": NaN}", "NaN"),
+        ("{\"value\": 1e999}", "1e999"),
+        ("[1, 2]", "array"),
+        ("{\"quality\": \"good\"}", "no value"),
+    ] {
         let dir = common::tempdir();
         let mut r = RecordingBuilder::heat_run(3000.0, "");
         r.channels[4].2[50].1 = text.into();
         r.write(&dir.path().join("r.mcap"));
         let (code, stderr, _) = replay(dir.path(), "r.mcap");
         assert_eq!(code, 2, "{what}: {stderr}");
-        assert!(stderr.contains("/scada/stator_winding_temp") && stderr.contains("2020-09-13T12:27:30Z"), "{what}: {stderr}");
+        assert!(
+            stderr.contains("/scada/stator_winding_temp")
+                && stderr.contains("2020-09-13T12:27:30Z"),
+            "{what}: {stderr}"
+        );
     }
 }
 
@@ -139,7 +194,10 @@ fn a_wrong_message_encoding_names_the_channel() {
     r.write(&dir.path().join("r.mcap"));
     let (code, stderr, _) = replay(dir.path(), "r.mcap");
     assert_eq!(code, 2);
-    assert!(stderr.contains("protobuf") && stderr.contains("/scada/"), "{stderr}");
+    assert!(
+        stderr.contains("protobuf") && stderr.contains("/scada/"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -152,8 +210,14 @@ fn absurd_values_are_dropped_with_a_warning() {
     r.write(&dir.path().join("r.mcap"));
     let (code, stderr, stdout) = replay(dir.path(), "r.mcap");
     assert_eq!(code, 0, "{stderr}");
-    assert!(stdout.contains("/scada/armature_current: 1 sample(s) outside the physical range"), "{stdout}");
-    assert!(stdout.contains("/scada/core_temp: 1 sample(s)") && stdout.contains("1000000000 degC"), "{stdout}");
+    assert!(
+        stdout.contains("/scada/armature_current: 1 sample(s) outside the physical range"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("/scada/core_temp: 1 sample(s)") && stdout.contains("1000000000 degC"),
+        "{stdout}"
+    );
 }
 
 #[test]
@@ -167,7 +231,10 @@ fn bad_quality_samples_are_dropped_and_counted() {
     r.write(&dir.path().join("r.mcap"));
     let (code, stderr, stdout) = replay(dir.path(), "r.mcap");
     assert_eq!(code, 0, "{stderr}");
-    assert!(stdout.contains("30 samples marked `bad` were dropped"), "{stdout}");
+    assert!(
+        stdout.contains("30 samples marked `bad` were dropped"),
+        "{stdout}"
+    );
 }
 
 #[test]
@@ -185,13 +252,20 @@ fn duplicates_and_disorder_change_nothing() {
         ch.2.extend(copy);
     }
     dup.write(&dir.path().join("dup.mcap"));
-    base.write_with(&dir.path().join("shuffled.mcap"), mcap::WriteOptions::new(), Some(7));
+    base.write_with(
+        &dir.path().join("shuffled.mcap"),
+        mcap::WriteOptions::new(),
+        Some(7),
+    );
     for file in ["dup.mcap", "shuffled.mcap"] {
         let (code, stderr, out) = replay(dir.path(), file);
         assert_eq!(code, 0, "{file}: {stderr}");
         let t = report_time_constants(&out);
         for (a, b) in t.iter().zip(&clean) {
-            assert!((a - b).abs() <= 1e-6 * b.abs() + 0.011, "{file}: {t:?} vs {clean:?}");
+            assert!(
+                (a - b).abs() <= 1e-6 * b.abs() + 0.011,
+                "{file}: {t:?} vs {clean:?}"
+            );
         }
     }
 }
@@ -202,13 +276,23 @@ fn a_gap_splits_the_regression() {
     // Five minutes of the core temperature missing.
     let mut r = RecordingBuilder::from_synth(6000.0);
     let core = r.channel_of("core_temp");
-    r.channels[core].2.retain(|(t, _)| !(T0 + 2_000_000_000_000..T0 + 2_300_000_000_000).contains(t));
+    r.channels[core]
+        .2
+        .retain(|(t, _)| !(T0 + 2_000_000_000_000..T0 + 2_300_000_000_000).contains(t));
     r.write(&dir.path().join("gap.mcap"));
     let (code, stderr, stdout) = replay(dir.path(), "gap.mcap");
     assert_eq!(code, 0, "{stderr}");
-    assert!(stdout.contains("/scada/core_temp has 1 gap(s)") && stdout.contains("2 segment(s)"), "{stdout}");
+    assert!(
+        stdout.contains("/scada/core_temp has 1 gap(s)") && stdout.contains("2 segment(s)"),
+        "{stdout}"
+    );
     let report: serde_json::Value = {
-        heatrun(&["replay", "gap.mcap", "--rrd", "g.rrd", "--report", "g.json", "-q"], dir.path());
+        heatrun(
+            &[
+                "replay", "gap.mcap", "--rrd", "g.rrd", "--report", "g.json", "-q",
+            ],
+            dir.path(),
+        );
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("g.json")).unwrap()).unwrap()
     };
     // 6000 instants, 300 without the core temperature; 301 equations touch them.
@@ -224,7 +308,11 @@ fn a_channel_that_stops_early_is_named() {
     r.write(&dir.path().join("r.mcap"));
     let (code, stderr, stdout) = replay(dir.path(), "r.mcap");
     assert_eq!(code, 0, "{stderr}");
-    assert!(stdout.contains("line_voltage stops at") && stdout.contains("1500 s before the recording ends"), "{stdout}");
+    assert!(
+        stdout.contains("line_voltage stops at")
+            && stdout.contains("1500 s before the recording ends"),
+        "{stdout}"
+    );
 }
 
 #[test]
@@ -249,7 +337,10 @@ fn a_clock_jump_backwards_is_refused() {
     r.write_in_order(&dir.path().join("r.mcap"), &order);
     let (code, stderr, _) = replay(dir.path(), "r.mcap");
     assert_eq!(code, 2, "{stderr}");
-    assert!(stderr.contains("/scada/stator_winding_temp") && stderr.contains("clock jumps back"), "{stderr}");
+    assert!(
+        stderr.contains("/scada/stator_winding_temp") && stderr.contains("clock jumps back"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -261,19 +352,40 @@ fn too_short_and_unstable_recordings_are_refused() {
     assert!(stderr.contains("too few"), "{stderr}");
     // Temperatures that run away exponentially: no stable thermal system fits them.
     let mut r = RecordingBuilder::new();
-    let step = |t: f64| if (t / 500.0) as i64 % 2 == 0 { 1.0 } else { 1.3 };
+    let step = |t: f64| {
+        if (t / 500.0) as i64 % 2 == 0 {
+            1.0
+        } else {
+            1.3
+        }
+    };
     r = r
-        .channel("armature_current", "A", 1.0, 5000.0, move |t| 3000.0 * step(t))
-        .channel("field_current", "A", 1.0, 5000.0, move |t| 1000.0 * step(t + 170.0))
-        .channel("line_voltage", "V", 1.0, 5000.0, move |t| 15650.0 * (0.95 + 0.1 * step(t + 330.0)))
+        .channel("armature_current", "A", 1.0, 5000.0, move |t| {
+            3000.0 * step(t)
+        })
+        .channel("field_current", "A", 1.0, 5000.0, move |t| {
+            1000.0 * step(t + 170.0)
+        })
+        .channel("line_voltage", "V", 1.0, 5000.0, move |t| {
+            15650.0 * (0.95 + 0.1 * step(t + 330.0))
+        })
         .channel("field_voltage", "V", 1.0, 5000.0, |_| 150.0)
-        .channel("stator_winding_temp", "degC", 1.0, 5000.0, |t| 30.0 + (t / 1500.0).exp())
-        .channel("core_temp", "degC", 1.0, 5000.0, |t| 30.0 + (t / 1800.0).exp())
-        .channel("cooling_water_outlet_temp", "degC", 1.0, 5000.0, |t| 10.0 + (t / 2000.0).exp());
+        .channel("stator_winding_temp", "degC", 1.0, 5000.0, |t| {
+            30.0 + (t / 1500.0).exp()
+        })
+        .channel("core_temp", "degC", 1.0, 5000.0, |t| {
+            30.0 + (t / 1800.0).exp()
+        })
+        .channel("cooling_water_outlet_temp", "degC", 1.0, 5000.0, |t| {
+            10.0 + (t / 2000.0).exp()
+        });
     r.write(&dir.path().join("runaway.mcap"));
     let (code, stderr, _) = replay(dir.path(), "runaway.mcap");
     assert_eq!(code, 2, "{stderr}");
-    assert!(stderr.contains("not a stable thermal system") || stderr.contains("unstable"), "{stderr}");
+    assert!(
+        stderr.contains("not a stable thermal system") || stderr.contains("unstable"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -281,14 +393,30 @@ fn a_recording_without_heat_run_channels() {
     let dir = common::tempdir();
     let file = std::fs::File::create(dir.path().join("camera.mcap")).unwrap();
     let mut w = mcap::Writer::new(std::io::BufWriter::new(file)).unwrap();
-    let schema = w.add_schema("foxglove.CompressedImage", "jsonschema", b"{}").unwrap();
-    let ch = w.add_channel(schema, "/camera/front", "json", &Default::default()).unwrap();
-    w.write_to_known_channel(&mcap::records::MessageHeader { channel_id: ch, sequence: 0, log_time: T0, publish_time: T0 }, b"{}").unwrap();
+    let schema = w
+        .add_schema("foxglove.CompressedImage", "jsonschema", b"{}")
+        .unwrap();
+    let ch = w
+        .add_channel(schema, "/camera/front", "json", &Default::default())
+        .unwrap();
+    w.write_to_known_channel(
+        &mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: 0,
+            log_time: T0,
+            publish_time: T0,
+        },
+        b"{}",
+    )
+    .unwrap();
     w.finish().unwrap();
     drop(w);
     let (code, stderr, _) = replay(dir.path(), "camera.mcap");
     assert_eq!(code, 2);
-    assert!(stderr.contains("holds no heat-run data") && stderr.contains("/camera/front"), "{stderr}");
+    assert!(
+        stderr.contains("holds no heat-run data") && stderr.contains("/camera/front"),
+        "{stderr}"
+    );
     let info = heatrun(&["info", "camera.mcap"], dir.path());
     assert_eq!(info.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&info.stdout).contains("holds no heat-run data"));
@@ -303,11 +431,29 @@ fn every_mcap_layout_gives_the_same_estimate() {
     let reference = report_time_constants(&out);
     let layouts: Vec<(&str, mcap::WriteOptions)> = vec![
         ("unchunked", mcap::WriteOptions::new().use_chunks(false)),
-        ("lz4", mcap::WriteOptions::new().compression(Some(mcap::Compression::Lz4))),
+        (
+            "lz4",
+            mcap::WriteOptions::new().compression(Some(mcap::Compression::Lz4)),
+        ),
         ("uncompressed", mcap::WriteOptions::new().compression(None)),
-        ("no-summary", mcap::WriteOptions::new().emit_summary_records(false).emit_summary_offsets(false).emit_statistics(false)),
-        ("no-indexes", mcap::WriteOptions::new().emit_message_indexes(false).emit_chunk_indexes(false).emit_metadata_indexes(false)),
-        ("small-chunks", mcap::WriteOptions::new().chunk_size(Some(4096))),
+        (
+            "no-summary",
+            mcap::WriteOptions::new()
+                .emit_summary_records(false)
+                .emit_summary_offsets(false)
+                .emit_statistics(false),
+        ),
+        (
+            "no-indexes",
+            mcap::WriteOptions::new()
+                .emit_message_indexes(false)
+                .emit_chunk_indexes(false)
+                .emit_metadata_indexes(false),
+        ),
+        (
+            "small-chunks",
+            mcap::WriteOptions::new().chunk_size(Some(4096)),
+        ),
     ];
     for (name, options) in layouts {
         let file = format!("{name}.mcap");
@@ -329,6 +475,10 @@ fn fuzz_findings_stay_fixed() {
         let dir = common::tempdir();
         std::fs::copy(&path, dir.path().join("f.mcap")).unwrap();
         let (code, stderr, _) = replay(dir.path(), "f.mcap");
-        assert!(code == 2 || code == 3 || code == 0, "{}: exit {code}: {stderr}", path.display());
+        assert!(
+            code == 2 || code == 3 || code == 0,
+            "{}: exit {code}: {stderr}",
+            path.display()
+        );
     }
 }

@@ -9,12 +9,36 @@ use heatrun::synth::{self, SynthOptions, Truth};
 fn run(level: f64, seed: u64, method: Method) -> (Replay, Truth) {
     let dir = common::tempdir();
     let path = dir.path().join("run.mcap");
-    let truth = synth::write(&path, &SynthOptions { seed, ..SynthOptions::default() }.with_noise_level(level)).unwrap();
-    (replay(&path, &ReplayOptions { method, ..ReplayOptions::default() }).unwrap(), truth)
+    let truth = synth::write(
+        &path,
+        &SynthOptions {
+            seed,
+            ..SynthOptions::default()
+        }
+        .with_noise_level(level),
+    )
+    .unwrap();
+    (
+        replay(
+            &path,
+            &ReplayOptions {
+                method,
+                ..ReplayOptions::default()
+            },
+        )
+        .unwrap(),
+        truth,
+    )
 }
 
 fn time_constant_errors(r: &Replay, truth: &Truth) -> Vec<f64> {
-    r.analysis.spectrum.time_constants_s.iter().zip(&truth.time_constants_s).map(|(t, w)| (t - w) / w).collect()
+    r.analysis
+        .spectrum
+        .time_constants_s
+        .iter()
+        .zip(&truth.time_constants_s)
+        .map(|(t, w)| (t - w) / w)
+        .collect()
 }
 
 /// Predicted steady-state temperature minus the true one, K (the rise is measured from
@@ -34,11 +58,21 @@ fn the_default_meets_the_accuracy_bar_at_pt100_noise() {
     for seed in 1..=5 {
         let (r, truth) = run(1.0, seed, Method::Oe);
         let tc = time_constant_errors(&r, &truth);
-        assert!(tc.iter().all(|e| e.abs() < 0.02), "seed {seed}: time-constant errors {tc:?}");
+        assert!(
+            tc.iter().all(|e| e.abs() < 0.02),
+            "seed {seed}: time-constant errors {tc:?}"
+        );
         let ss = steady_state_temperature_errors(&r, &truth);
-        assert!(ss.iter().all(|e| e.abs() < 0.3), "seed {seed}: steady-state errors {ss:?} K");
+        assert!(
+            ss.iter().all(|e| e.abs() < 0.3),
+            "seed {seed}: steady-state errors {ss:?} K"
+        );
         assert_eq!(
-            r.analysis.assignment.iter().map(|a| a.state).collect::<Vec<_>>(),
+            r.analysis
+                .assignment
+                .iter()
+                .map(|a| a.state)
+                .collect::<Vec<_>>(),
             vec![2, 0, 1],
             "the paper's assignment"
         );
@@ -60,10 +94,14 @@ fn least_squares_is_biased_by_sensor_noise_and_iv_mends_it() {
 fn rls_without_forgetting_ends_at_least_squares() {
     let (rls, _) = run(1.0, 4, Method::Rls);
     let (ls, _) = run(1.0, 4, Method::Ls);
-    let diff = (&rls.estimate.model.phi - &ls.estimate.model.phi).norm() / ls.estimate.model.phi.norm();
+    let diff =
+        (&rls.estimate.model.phi - &ls.estimate.model.phi).norm() / ls.estimate.model.phi.norm();
     assert!(diff < 1e-6, "{diff}");
     assert!(!rls.trajectory.is_empty());
-    assert_eq!(rls.trajectory.last().unwrap().theta, rls.estimate.model.theta());
+    assert_eq!(
+        rls.trajectory.last().unwrap().theta,
+        rls.estimate.model.theta()
+    );
 }
 
 #[test]
@@ -72,7 +110,11 @@ fn confidence_intervals_cover_the_truth() {
     let mut total = 0;
     for seed in 1..=4 {
         let (r, truth) = run(1.0, seed, Method::Oe);
-        let u = r.analysis.uncertainty.as_ref().expect("oe gives a covariance");
+        let u = r
+            .analysis
+            .uncertainty
+            .as_ref()
+            .expect("oe gives a covariance");
         for i in 0..3 {
             let err = (r.analysis.spectrum.time_constants_s[i] - truth.time_constants_s[i]).abs();
             assert!(u.time_constants_ci95_s[i] > 0.0);
@@ -83,22 +125,47 @@ fn confidence_intervals_cover_the_truth() {
         }
     }
     // 95 % intervals: at most a few of the 12 may miss.
-    assert!(covered >= 9, "{covered} of {total} intervals cover the truth");
+    assert!(
+        covered >= 9,
+        "{covered} of {total} intervals cover the truth"
+    );
 }
 
 #[test]
 fn held_out_fit_is_at_the_noise_level() {
     let dir = common::tempdir();
     let path = dir.path().join("run.mcap");
-    synth::write(&path, &SynthOptions { seed: 2, ..SynthOptions::default() }.with_noise_level(1.0)).unwrap();
-    let options = ReplayOptions { validation: Some(ValidationSource::HoldOut(0.3)), ..ReplayOptions::default() };
+    synth::write(
+        &path,
+        &SynthOptions {
+            seed: 2,
+            ..SynthOptions::default()
+        }
+        .with_noise_level(1.0),
+    )
+    .unwrap();
+    let options = ReplayOptions {
+        validation: Some(ValidationSource::HoldOut(0.3)),
+        ..ReplayOptions::default()
+    };
     let r = replay(&path, &options).unwrap();
-    assert_eq!(r.estimation_range.end, (r.data.len() as f64 * 0.7).round() as usize);
+    assert_eq!(
+        r.estimation_range.end,
+        (r.data.len() as f64 * 0.7).round() as usize
+    );
     let v = r.validation.as_ref().unwrap();
     // σ = 0.05 K: the MSE of a right model is σ² = 0.0025 K², the largest error a few σ.
     for j in 0..3 {
-        assert!(v.fit.mse_k2[j] > 0.0015 && v.fit.mse_k2[j] < 0.005, "{:?}", v.fit.mse_k2);
-        assert!(v.fit.max_abs_error_k[j] < 0.35, "{:?}", v.fit.max_abs_error_k);
+        assert!(
+            v.fit.mse_k2[j] > 0.0015 && v.fit.mse_k2[j] < 0.005,
+            "{:?}",
+            v.fit.mse_k2
+        );
+        assert!(
+            v.fit.max_abs_error_k[j] < 0.35,
+            "{:?}",
+            v.fit.max_abs_error_k
+        );
     }
 }
 
@@ -106,13 +173,36 @@ fn held_out_fit_is_at_the_noise_level() {
 fn validation_on_another_recording() {
     let dir = common::tempdir();
     let (a, b) = (dir.path().join("a.mcap"), dir.path().join("b.mcap"));
-    synth::write(&a, &SynthOptions { duration_s: 10000.0, ..SynthOptions::default() }).unwrap();
-    synth::write(&b, &SynthOptions { duration_s: 8000.0, seed: 9, ..SynthOptions::default() }.with_noise_level(0.5)).unwrap();
-    let options = ReplayOptions { validation: Some(ValidationSource::Recording(b.clone())), ..ReplayOptions::default() };
+    synth::write(
+        &a,
+        &SynthOptions {
+            duration_s: 10000.0,
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
+    synth::write(
+        &b,
+        &SynthOptions {
+            duration_s: 8000.0,
+            seed: 9,
+            ..SynthOptions::default()
+        }
+        .with_noise_level(0.5),
+    )
+    .unwrap();
+    let options = ReplayOptions {
+        validation: Some(ValidationSource::Recording(b.clone())),
+        ..ReplayOptions::default()
+    };
     let r = replay(&a, &options).unwrap();
     let v = r.validation.unwrap();
     assert_eq!(v.source, b.display().to_string());
-    assert!(v.fit.nrmse_fit_percent[0] > 95.0, "{:?}", v.fit.nrmse_fit_percent);
+    assert!(
+        v.fit.nrmse_fit_percent[0] > 95.0,
+        "{:?}",
+        v.fit.nrmse_fit_percent
+    );
 }
 
 #[test]
@@ -120,6 +210,13 @@ fn residuals_of_the_true_structure_are_white() {
     let (r, _) = run(1.0, 5, Method::Oe);
     let res = &r.analysis.residuals;
     // The cooling water residual is sensor noise: nearly every lag inside the 99 % band.
-    assert!(res.autocorrelation_outside_band[2] < 0.1, "{:?}", res.autocorrelation_outside_band);
-    assert!(res.cross_correlation[2].iter().flatten().all(|c| c.abs() < 0.1));
+    assert!(
+        res.autocorrelation_outside_band[2] < 0.1,
+        "{:?}",
+        res.autocorrelation_outside_band
+    );
+    assert!(res.cross_correlation[2]
+        .iter()
+        .flatten()
+        .all(|c| c.abs() < 0.1));
 }

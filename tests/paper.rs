@@ -26,7 +26,10 @@ fn half_ulp(printed: &str) -> f64 {
 fn parse(m: &[&[&str]]) -> (DMatrix<f64>, Vec<Vec<f64>>) {
     let n = m.len();
     let values = DMatrix::from_fn(n, m[0].len(), |i, j| m[i][j].parse().unwrap());
-    let ulps = m.iter().map(|r| r.iter().map(|s| half_ulp(s)).collect()).collect();
+    let ulps = m
+        .iter()
+        .map(|r| r.iter().map(|s| half_ulp(s)).collect())
+        .collect();
     (values, ulps)
 }
 
@@ -38,7 +41,11 @@ fn rounding_bound(f: impl Fn(&DiscreteModel) -> Vec<f64>) -> Vec<f64> {
     for which in 0..2 {
         for p in 0..3 {
             for q in 0..3 {
-                let x = if which == 0 { base.phi[(p, q)] } else { base.gamma[(p, q)] };
+                let x = if which == 0 {
+                    base.phi[(p, q)]
+                } else {
+                    base.gamma[(p, q)]
+                };
                 let r = radius5(x);
                 let h = r * 1e-2;
                 let mut plus = base.clone();
@@ -61,7 +68,10 @@ fn rounding_bound(f: impl Fn(&DiscreteModel) -> Vec<f64>) -> Vec<f64> {
 }
 
 fn flatten(m: &DMatrix<f64>) -> Vec<f64> {
-    (0..m.nrows()).flat_map(|i| (0..m.ncols()).map(move |j| (i, j))).map(|(i, j)| m[(i, j)]).collect()
+    (0..m.nrows())
+        .flat_map(|i| (0..m.ncols()).map(move |j| (i, j)))
+        .map(|(i, j)| m[(i, j)])
+        .collect()
 }
 
 #[test]
@@ -73,7 +83,14 @@ fn eigenvalues_of_phi_match_eq21_to_printed_digits() {
         let err = (s.eigenvalues_discrete[i] - printed[i]).abs();
         // Eq. 21 is printed to five decimals; the middle one sits 1.4e-6 past a rounding
         // edge (0.998644…), well inside what the rounding of Φ allows.
-        assert!(err <= 0.5e-5 + bound[i], "λ{}: {} vs {} (bound {})", i + 1, s.eigenvalues_discrete[i], printed[i], bound[i]);
+        assert!(
+            err <= 0.5e-5 + bound[i],
+            "λ{}: {} vs {} (bound {})",
+            i + 1,
+            s.eigenvalues_discrete[i],
+            printed[i],
+            bound[i]
+        );
     }
     assert!((s.eigenvalues_discrete[0] - 0.95902).abs() < 0.5e-5);
     assert!((s.eigenvalues_discrete[2] - 0.99970).abs() < 0.5e-5);
@@ -98,8 +115,10 @@ fn unexplained_entries(phi_13: f64) -> (Vec<String>, ContinuousModel) {
         &["-0.0027851", "-0.0106720", "-0.0066313"],
         &["0.0089894", "-0.2447000", "0.3553900"],
     ]);
-    let a_bound = rounding_bound(|m| flatten(&ContinuousModel::from_discrete(&with(m)).unwrap().a_c));
-    let b_bound = rounding_bound(|m| flatten(&ContinuousModel::from_discrete(&with(m)).unwrap().b_c));
+    let a_bound =
+        rounding_bound(|m| flatten(&ContinuousModel::from_discrete(&with(m)).unwrap().a_c));
+    let b_bound =
+        rounding_bound(|m| flatten(&ContinuousModel::from_discrete(&with(m)).unwrap().b_c));
     let mut unexplained = Vec::new();
     for i in 0..3 {
         for j in 0..3 {
@@ -123,8 +142,19 @@ fn continuous_matrices_match_eqs22_23_except_the_13_entries() {
     // rounding allows ~1e-8), B_c(1,3) = -0.0612683 where it prints -0.061263, and
     // A_c(1,2) = 0.00045963 where it prints 0.00045965 (2e-8 off, the rounding allows 1e-8).
     let (unexplained, c) = unexplained_entries(0.00078830);
-    assert_eq!(unexplained, vec!["A_c(1,2)".to_owned(), "A_c(1,3)".to_owned(), "B_c(1,3)".to_owned()]);
-    assert!((c.a_c[(0, 2)] - 0.00080462).abs() < 5e-9, "{}", c.a_c[(0, 2)]);
+    assert_eq!(
+        unexplained,
+        vec![
+            "A_c(1,2)".to_owned(),
+            "A_c(1,3)".to_owned(),
+            "B_c(1,3)".to_owned()
+        ]
+    );
+    assert!(
+        (c.a_c[(0, 2)] - 0.00080462).abs() < 5e-9,
+        "{}",
+        c.a_c[(0, 2)]
+    );
     // Conclusion: eq. 19's Φ(1,3) = 0.00078830 is a misprint of 0.00075883 (a dropped
     // digit 5). With it, ln Φ reproduces every printed entry of A_c and B_c, these three included.
     let (unexplained, c) = unexplained_entries(0.00075883);
@@ -142,10 +172,19 @@ fn continuous_eigenvalues_and_time_constants_match_eqs24_26() {
     let t_bound = rounding_bound(|m| Spectrum::of(m).unwrap().time_constants_s);
     for i in 0..3 {
         let lc: f64 = lc_printed[i].parse().unwrap();
-        assert!((s.eigenvalues_continuous[i] - lc).abs() <= 1.1 * lc_bound[i] + half_ulp(lc_printed[i]));
+        assert!(
+            (s.eigenvalues_continuous[i] - lc).abs() <= 1.1 * lc_bound[i] + half_ulp(lc_printed[i])
+        );
         let t: f64 = t_printed[i].parse().unwrap();
         let err = (s.time_constants_s[i] - t).abs();
-        assert!(err <= 1.1 * t_bound[i] + half_ulp(t_printed[i]), "T{}: {} vs {} (bound {})", i + 1, s.time_constants_s[i], t, t_bound[i]);
+        assert!(
+            err <= 1.1 * t_bound[i] + half_ulp(t_printed[i]),
+            "T{}: {} vs {} (bound {})",
+            i + 1,
+            s.time_constants_s[i],
+            t,
+            t_bound[i]
+        );
     }
     // The longest time constant is the least certain: 5e-6 in Φ's diagonal moves it by tens of seconds.
     assert!(t_bound[2] > 20.0 && t_bound[0] < 0.01, "{t_bound:?}");
@@ -153,17 +192,47 @@ fn continuous_eigenvalues_and_time_constants_match_eqs24_26() {
 
 #[test]
 fn steady_state_from_printed_ac_bc_gives_eq32() {
-    let a_c = DMatrix::from_row_slice(3, 3, &[-0.00119970, 0.00045965, 0.0007745, 0.00019001, -0.00057742, 0.0031408, 0.00206200, 0.00112490, -0.041717]);
-    let b_c = DMatrix::from_row_slice(3, 3, &[0.0710460, 0.1160400, -0.0612630, -0.0027851, -0.0106720, -0.0066313, 0.0089894, -0.2447000, 0.3553900]);
+    let a_c = DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            -0.00119970,
+            0.00045965,
+            0.0007745,
+            0.00019001,
+            -0.00057742,
+            0.0031408,
+            0.00206200,
+            0.00112490,
+            -0.041717,
+        ],
+    );
+    let b_c = DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            0.0710460, 0.1160400, -0.0612630, -0.0027851, -0.0106720, -0.0066313, 0.0089894,
+            -0.2447000, 0.3553900,
+        ],
+    );
     let model = ContinuousModel { a_c, b_c };
     let u = [0.0027397, 0.0024230, 0.0035920]; // eq. 30
-    let rise: Vec<f64> = model.steady_state(&u).unwrap().iter().map(|y| 80.0 * y).collect();
+    let rise: Vec<f64> = model
+        .steady_state(&u)
+        .unwrap()
+        .iter()
+        .map(|y| 80.0 * y)
+        .collect();
     let printed = [25.707, 17.367, 3.0972]; // eq. 32
     for i in 0..3 {
         assert!((rise[i] - printed[i]).abs() < 2e-3, "{rise:?}");
     }
     // Eq. 34: add the initial temperatures [36.7, 36.3, 10.5] °C.
-    let final_c: Vec<f64> = rise.iter().zip([36.7, 36.3, 10.5]).map(|(r, t)| r + t).collect();
+    let final_c: Vec<f64> = rise
+        .iter()
+        .zip([36.7, 36.3, 10.5])
+        .map(|(r, t)| r + t)
+        .collect();
     for (got, want) in final_c.iter().zip([62.407, 53.667, 13.597]) {
         assert!((got - want).abs() < 2e-3);
     }

@@ -9,13 +9,23 @@ fn assert_matches_truth(est: &nalgebra::DMatrix<f64>, truth: &[Vec<f64>], rel: f
     for i in 0..3 {
         for j in 0..3 {
             let (e, t) = (est[(i, j)], truth[i][j]);
-            assert!((e - t).abs() <= rel * t.abs(), "{what}({},{}) = {e} vs true {t} (relative {:.2e})", i + 1, j + 1, ((e - t) / t).abs());
+            assert!(
+                (e - t).abs() <= rel * t.abs(),
+                "{what}({},{}) = {e} vs true {t} (relative {:.2e})",
+                i + 1,
+                j + 1,
+                ((e - t) / t).abs()
+            );
         }
     }
 }
 
 fn parts(r: &heatrun::pipeline::Replay) -> Vec<&'static str> {
-    r.analysis.assignment.iter().map(|a| heatrun::losses::ThermalState::ALL[a.state].name()).collect()
+    r.analysis
+        .assignment
+        .iter()
+        .map(|a| heatrun::losses::ThermalState::ALL[a.state].name())
+        .collect()
 }
 
 #[test]
@@ -27,14 +37,36 @@ fn noise_free_paper_run_recovers_phi_gamma_and_the_papers_assignment() {
     assert_matches_truth(&r.estimate.model.phi, &truth.phi, 1e-3, "Φ");
     assert_matches_truth(&r.estimate.model.gamma, &truth.gamma, 1e-3, "Γ");
     // Shortest to the cooling water, middle to the stator winding, longest to the core.
-    assert_eq!(parts(&r), vec!["cooling_water_outlet_temp", "stator_winding_temp", "core_temp"]);
-    for (t, want) in r.analysis.spectrum.time_constants_s.iter().zip(&truth.time_constants_s) {
+    assert_eq!(
+        parts(&r),
+        vec![
+            "cooling_water_outlet_temp",
+            "stator_winding_temp",
+            "core_temp"
+        ]
+    );
+    for (t, want) in r
+        .analysis
+        .spectrum
+        .time_constants_s
+        .iter()
+        .zip(&truth.time_constants_s)
+    {
         assert!((t - want).abs() < 1e-3 * want);
     }
-    for (ss, want) in r.analysis.steady_state.iter().zip(&truth.steady_state_rise_k) {
+    for (ss, want) in r
+        .analysis
+        .steady_state
+        .iter()
+        .zip(&truth.steady_state_rise_k)
+    {
         assert!((ss * 80.0 - want).abs() < 1e-3, "{ss} vs {want}");
     }
-    assert!(r.analysis.fit.snr_db.iter().all(|s| *s > 100.0), "{:?}", r.analysis.fit.snr_db);
+    assert!(
+        r.analysis.fit.snr_db.iter().all(|s| *s > 100.0),
+        "{:?}",
+        r.analysis.fit.snr_db
+    );
     assert!(r.warnings.is_empty(), "{:?}", r.warnings);
 }
 
@@ -42,10 +74,17 @@ fn noise_free_paper_run_recovers_phi_gamma_and_the_papers_assignment() {
 fn paper_field_temperature_method_recovers_the_model() {
     let dir = common::tempdir();
     let path = dir.path().join("run.mcap");
-    let options = SynthOptions { field_channel: FieldChannel::Nameplate, duration_s: 15000.0, ..SynthOptions::default() };
+    let options = SynthOptions {
+        field_channel: FieldChannel::Nameplate,
+        duration_s: 15000.0,
+        ..SynthOptions::default()
+    };
     let truth = synth::write(&path, &options).unwrap();
     let r = replay(&path, &ReplayOptions::default()).unwrap();
-    assert!(matches!(r.signals.field_temperature_source, heatrun::losses::FieldTemperatureSource::ScaledArmatureRise { .. }));
+    assert!(matches!(
+        r.signals.field_temperature_source,
+        heatrun::losses::FieldTemperatureSource::ScaledArmatureRise { .. }
+    ));
     assert_matches_truth(&r.estimate.model.phi, &truth.phi, 1e-3, "Φ");
     assert_matches_truth(&r.estimate.model.gamma, &truth.gamma, 1e-3, "Γ");
 }
@@ -72,7 +111,12 @@ fn fast_channels_are_block_averaged_onto_the_model_grid() {
     assert!((t[0] - want[0]).abs() < 0.02 * want[0], "{t:?} vs {want:?}");
     assert!((t[1] - want[1]).abs() < 2e-3 * want[1], "{t:?} vs {want:?}");
     assert!((t[2] - want[2]).abs() < 2e-3 * want[2], "{t:?} vs {want:?}");
-    for (ss, want) in r.analysis.steady_state.iter().zip(&truth.steady_state_rise_k) {
+    for (ss, want) in r
+        .analysis
+        .steady_state
+        .iter()
+        .zip(&truth.steady_state_rise_k)
+    {
         assert!((ss * 80.0 - want).abs() < 0.02, "{ss} vs {want}");
     }
     assert_eq!(r.recording.channels.len(), 7);
@@ -83,12 +127,27 @@ fn fast_channels_are_block_averaged_onto_the_model_grid() {
 fn temperatures_slower_than_the_grid_are_interpolated() {
     let dir = common::tempdir();
     let path = dir.path().join("run.mcap");
-    let options = SynthOptions { duration_s: 12000.0, temperature_rate_hz: 0.5, ..SynthOptions::default() };
+    let options = SynthOptions {
+        duration_s: 12000.0,
+        temperature_rate_hz: 0.5,
+        ..SynthOptions::default()
+    };
     let truth = synth::write(&path, &options).unwrap();
     let r = replay(&path, &ReplayOptions::default()).unwrap();
-    let slow: Vec<_> = r.decimated.channels.iter().filter(|c| !c.block_averaged).collect();
+    let slow: Vec<_> = r
+        .decimated
+        .channels
+        .iter()
+        .filter(|c| !c.block_averaged)
+        .collect();
     assert_eq!(slow.len(), 3, "the three temperatures are interpolated");
-    for (t, want) in r.analysis.spectrum.time_constants_s.iter().zip(&truth.time_constants_s) {
+    for (t, want) in r
+        .analysis
+        .spectrum
+        .time_constants_s
+        .iter()
+        .zip(&truth.time_constants_s)
+    {
         assert!((t - want).abs() < 0.02 * want, "{t} vs {want}");
     }
 }
@@ -97,11 +156,25 @@ fn temperatures_slower_than_the_grid_are_interpolated() {
 fn a_machine_file_overrides_the_nameplate() {
     let dir = common::tempdir();
     let path = dir.path().join("run.mcap");
-    synth::write(&path, &SynthOptions { duration_s: 6000.0, ..SynthOptions::default() }).unwrap();
+    synth::write(
+        &path,
+        &SynthOptions {
+            duration_s: 6000.0,
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
     let machine = dir.path().join("m.toml");
     std::fs::write(&machine, "temperature_base_k = 40\n").unwrap();
     let base = replay(&path, &ReplayOptions::default()).unwrap();
-    let over = replay(&path, &ReplayOptions { machine: Some(machine), ..ReplayOptions::default() }).unwrap();
+    let over = replay(
+        &path,
+        &ReplayOptions {
+            machine: Some(machine),
+            ..ReplayOptions::default()
+        },
+    )
+    .unwrap();
     assert_eq!(over.nameplate.temperature_base_k, 40.0);
     // Halving the temperature base doubles the rises in pu, and so Γ.
     let ratio = over.estimate.model.gamma[(0, 0)] / base.estimate.model.gamma[(0, 0)];

@@ -9,7 +9,11 @@ use crate::cli::InfoArgs;
 pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     let mut decimator = Decimator::new(1.0)?;
     let summary = recording::read_recording(&args.file, &mut decimator)?;
-    let grid = if summary.channels.is_empty() { None } else { decimator.finish(&summary.channels).ok() };
+    let grid = if summary.channels.is_empty() {
+        None
+    } else {
+        decimator.finish(&summary.channels).ok()
+    };
     if args.json {
         let value = serde_json::json!({
             "recording": summary,
@@ -20,7 +24,12 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     } else {
         println!("{} ({} bytes)", args.file.display(), summary.file_bytes);
         if let Some((a, b)) = summary.time_span_ns {
-            println!("  span {} to {} ({:.1} s)", format_time(a), format_time(b), (b - a) as f64 * 1e-9);
+            println!(
+                "  span {} to {} ({:.1} s)",
+                format_time(a),
+                format_time(b),
+                (b - a) as f64 * 1e-9
+            );
         }
         println!("  heat-run channels: {}", summary.channels.len());
         for (i, c) in summary.channels.iter().enumerate() {
@@ -33,11 +42,17 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
                 summary.samples_per_channel[i],
                 g.map_or("?".into(), |g| format!("{:.3}", g.nominal_period_s)),
                 g.map_or(0, |g| g.gaps),
-                c.sensor.as_ref().map(|s| format!("  sensor {s}")).unwrap_or_default()
+                c.sensor
+                    .as_ref()
+                    .map(|s| format!("  sensor {s}"))
+                    .unwrap_or_default()
             );
         }
         if !summary.ignored_channels.is_empty() {
-            println!("  other channels (not heat-run data): {}", summary.ignored_channels.len());
+            println!(
+                "  other channels (not heat-run data): {}",
+                summary.ignored_channels.len()
+            );
             for c in &summary.ignored_channels {
                 println!("    {:<40} {}", c.topic, c.reason);
             }
@@ -51,7 +66,13 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
             }
         }
         for (name, m) in &summary.metadata {
-            println!("  metadata {name}: {}", m.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(", "));
+            println!(
+                "  metadata {name}: {}",
+                m.iter()
+                    .map(|(k, v)| format!("{k}={v}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
         }
         if summary.bad_quality_dropped > 0 {
             println!("  samples marked bad: {}", summary.bad_quality_dropped);
@@ -77,5 +98,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
             println!("  this recording holds no heat-run data");
         }
     }
-    Ok(if summary.data_loss.is_empty() { Outcome::Complete } else { Outcome::DataLoss })
+    Ok(if summary.data_loss.is_empty() {
+        Outcome::Complete
+    } else {
+        Outcome::DataLoss
+    })
 }

@@ -55,7 +55,10 @@ fn recordings(files: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, bool)> {
         if f.is_dir() {
             folder = true;
             let mut found: Vec<PathBuf> = std::fs::read_dir(f)
-                .map_err(|e| heatrun::Error::ReadInput { path: f.clone(), source: e })?
+                .map_err(|e| heatrun::Error::ReadInput {
+                    path: f.clone(),
+                    source: e,
+                })?
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
                 .collect();
@@ -66,19 +69,31 @@ fn recordings(files: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, bool)> {
         }
     }
     if out.is_empty() {
-        return Err(heatrun::Error::Usage("no .mcap recordings in the folders given".into()).into());
+        return Err(
+            heatrun::Error::Usage("no .mcap recordings in the folders given".into()).into(),
+        );
     }
     Ok((out, folder))
 }
 
 fn stem(file: &Path) -> String {
-    file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "heatrun".into())
+    file.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "heatrun".into())
 }
 
 /// Replays one recording into its sink and report; returns the replay and its summary text.
-fn replay_one(args: &ReplayArgs, file: &Path, sink: &RerunSink, report: Option<&Path>) -> anyhow::Result<(Replay, String)> {
+fn replay_one(
+    args: &ReplayArgs,
+    file: &Path,
+    sink: &RerunSink,
+    report: Option<&Path>,
+) -> anyhow::Result<(Replay, String)> {
     let options = options(args);
-    let name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let publisher = Publisher::open(sink, &name)?;
     let replay = if args.raw {
         let mut full_rate = publisher.full_rate();
@@ -109,7 +124,11 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
     } else if let Some(url) = &args.connect {
         RerunSink::Connect((!url.is_empty()).then(|| url.clone()))
     } else {
-        RerunSink::Rrd(args.rrd.clone().unwrap_or_else(|| PathBuf::from(format!("{}.rrd", stem(file)))))
+        RerunSink::Rrd(
+            args.rrd
+                .clone()
+                .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", stem(file)))),
+        )
     };
     let (replay, summary) = replay_one(&args, file, &sink, args.report.as_deref())?;
     if args.quiet {
@@ -120,7 +139,10 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
         print!("{summary}");
         match &sink {
             RerunSink::Rrd(p) => println!("rerun recording: {}", p.display()),
-            RerunSink::Connect(url) => println!("rerun: sent to {}", url.as_deref().unwrap_or("the local viewer")),
+            RerunSink::Connect(url) => println!(
+                "rerun: sent to {}",
+                url.as_deref().unwrap_or("the local viewer")
+            ),
             RerunSink::Spawn => println!("rerun: sent to a spawned viewer"),
         }
         if let Some(path) = &args.report {
@@ -128,7 +150,11 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
         }
         println!("replayed in {:.2} s", started.elapsed().as_secs_f64());
     }
-    Ok(if replay.had_data_loss() { Outcome::DataLoss } else { Outcome::Complete })
+    Ok(if replay.had_data_loss() {
+        Outcome::DataLoss
+    } else {
+        Outcome::Complete
+    })
 }
 
 /// One line of the fleet summary.
@@ -149,8 +175,12 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
         )
         .into());
     }
-    std::fs::create_dir_all(&args.out_dir).with_context(|| format!("cannot create {}", args.out_dir.display()))?;
-    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get())).max(1);
+    std::fs::create_dir_all(&args.out_dir)
+        .with_context(|| format!("cannot create {}", args.out_dir.display()))?;
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()))
+        .max(1);
     let next = std::sync::atomic::AtomicUsize::new(0);
     let rows = std::sync::Mutex::new(Vec::new());
     let started = Instant::now();
@@ -166,13 +196,27 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
                     .map(|(r, _)| {
                         let a = &r.analysis;
                         let temps: Vec<f64> = (0..3)
-                            .map(|j| r.signals.initial_temperatures_c[j] + r.signals.temperature_base_k * a.steady_state[j])
+                            .map(|j| {
+                                r.signals.initial_temperatures_c[j]
+                                    + r.signals.temperature_base_k * a.steady_state[j]
+                            })
                             .collect();
-                        (a.spectrum.time_constants_s.clone(), a.fit.nrmse_fit_percent.clone(), temps, r.had_data_loss())
+                        (
+                            a.spectrum.time_constants_s.clone(),
+                            a.fit.nrmse_fit_percent.clone(),
+                            temps,
+                            r.had_data_loss(),
+                        )
                     })
                     .map_err(|e| format!("{e:#}"));
                 if let Ok(mut rows) = rows.lock() {
-                    rows.push((i, FleetRow { file: file.clone(), result }));
+                    rows.push((
+                        i,
+                        FleetRow {
+                            file: file.clone(),
+                            result,
+                        },
+                    ));
                 }
             });
         }
@@ -191,8 +235,20 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
             Ok((t, fit, ss, loss)) => {
                 let status = if *loss { "data lost" } else { "ok" };
                 lossy += usize::from(*loss);
-                let f3 = |v: &[f64], d: usize| v.iter().map(|x| format!("{x:.d$}")).collect::<Vec<_>>().join(" ");
-                println!("{name:<32} {:>9.2} {:>9.2} {:>9.2}  {:>22}  {:>22}  {status}", t[0], t[1], t[2], f3(fit, 2), f3(ss, 2));
+                let f3 = |v: &[f64], d: usize| {
+                    v.iter()
+                        .map(|x| format!("{x:.d$}"))
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                };
+                println!(
+                    "{name:<32} {:>9.2} {:>9.2} {:>9.2}  {:>22}  {:>22}  {status}",
+                    t[0],
+                    t[1],
+                    t[2],
+                    f3(fit, 2),
+                    f3(ss, 2)
+                );
                 csv.push_str(&format!(
                     "{name},{status},{},{},{},{},{},{},{},{},{}\n",
                     t[0], t[1], t[2], fit[0], fit[1], fit[2], ss[0], ss[1], ss[2]
@@ -201,7 +257,10 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
             Err(e) => {
                 failed += 1;
                 println!("{name:<32} failed: {e}");
-                csv.push_str(&format!("{name},failed: {},,,,,,,,,\n", e.replace(',', ";")));
+                csv.push_str(&format!(
+                    "{name},failed: {},,,,,,,,,\n",
+                    e.replace(',', ";")
+                ));
             }
         }
     }
@@ -217,7 +276,11 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
         args.out_dir.display()
     );
     Ok(if failed > 0 {
-        return Err(heatrun::Error::Usage(format!("{failed} of {} recordings failed (see the table)", rows.len())).into());
+        return Err(heatrun::Error::Usage(format!(
+            "{failed} of {} recordings failed (see the table)",
+            rows.len()
+        ))
+        .into());
     } else if lossy > 0 {
         Outcome::DataLoss
     } else {

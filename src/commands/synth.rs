@@ -23,16 +23,31 @@ pub fn run(args: SynthArgs) -> anyhow::Result<Outcome> {
         ..SynthOptions::default()
     };
     if args.profile == ProfileArg::SingleStep {
-        let last = *synth::heat_run_with_load_steps().last().expect("the default profile has points");
-        options.profile = vec![OperatingPoint { start_fraction: 0.0, ..last }];
+        let last = *synth::heat_run_with_load_steps()
+            .last()
+            .expect("the default profile has points");
+        options.profile = vec![OperatingPoint {
+            start_fraction: 0.0,
+            ..last
+        }];
     }
     let truth = synth::write(&args.out, &options)?;
     println!(
         "wrote {} ({:.0} s; true time constants [{}] s; true steady-state rise [{}] K) and {}",
         args.out.display(),
         options.duration_s,
-        truth.time_constants_s.iter().map(|t| format!("{t:.2}")).collect::<Vec<_>>().join(", "),
-        truth.steady_state_rise_k.iter().map(|t| format!("{t:.3}")).collect::<Vec<_>>().join(", "),
+        truth
+            .time_constants_s
+            .iter()
+            .map(|t| format!("{t:.2}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        truth
+            .steady_state_rise_k
+            .iter()
+            .map(|t| format!("{t:.3}"))
+            .collect::<Vec<_>>()
+            .join(", "),
         synth::truth_path(&args.out).display()
     );
     Ok(Outcome::Complete)

@@ -10,7 +10,9 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::wls::WeightedLeastSquares;
-use super::{check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData};
+use super::{
+    check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData,
+};
 use crate::error::{Error, Result};
 
 /// Iterated instrumental-variable estimator.
@@ -24,7 +26,10 @@ pub struct InstrumentalVariables {
 
 impl Default for InstrumentalVariables {
     fn default() -> Self {
-        InstrumentalVariables { max_iterations: 30, tolerance: 1e-10 }
+        InstrumentalVariables {
+            max_iterations: 30,
+            tolerance: 1e-10,
+        }
     }
 }
 
@@ -49,18 +54,30 @@ impl Estimator for InstrumentalVariables {
 /// equation error v(k) − Φ v(k−1), so this start is consistent without a model; the
 /// simulated instruments then take the variance down.
 pub fn lagged_output_iv(data: &IdentificationData) -> Result<DiscreteModel> {
-    let rows: Vec<usize> = data.usable_rows().into_iter().filter(|&k| k >= 2 && data.outputs_known[k - 2]).collect();
+    let rows: Vec<usize> = data
+        .usable_rows()
+        .into_iter()
+        .filter(|&k| k >= 2 && data.outputs_known[k - 2])
+        .collect();
     check_enough_rows(data, rows.len())?;
     let z = instrument_matrix(data, &rows, |k, j| data.outputs[(k - 2, j)]);
     Ok(solve(data, &rows, &z)?.0)
 }
 
 /// Z with rows [g(k, ·) u(k−1)ᵀ] for the given output instrument g.
-fn instrument_matrix(data: &IdentificationData, rows: &[usize], g: impl Fn(usize, usize) -> f64) -> DMatrix<f64> {
+fn instrument_matrix(
+    data: &IdentificationData,
+    rows: &[usize],
+    g: impl Fn(usize, usize) -> f64,
+) -> DMatrix<f64> {
     let (n, m) = (data.states(), data.input_count());
     DMatrix::from_fn(rows.len(), n + m, |r, j| {
         let k = rows[r];
-        if j < n { g(k, j) } else { data.inputs[(k - 1, j - n)] }
+        if j < n {
+            g(k, j)
+        } else {
+            data.inputs[(k - 1, j - n)]
+        }
     })
 }
 
@@ -72,9 +89,13 @@ fn solve(data: &IdentificationData, rows: &[usize], z: &DMatrix<f64>) -> Result<
     let (n, m) = (data.states(), data.input_count());
     let p = n + m;
     let (f, y) = regression(data, rows);
-    let f_scale: Vec<f64> = (0..p).map(|j| 1.0 / f.column(j).norm().max(1e-300)).collect();
+    let f_scale: Vec<f64> = (0..p)
+        .map(|j| 1.0 / f.column(j).norm().max(1e-300))
+        .collect();
     let fs = DMatrix::from_fn(f.nrows(), p, |r, j| f[(r, j)] * f_scale[j]);
-    let z_scale: Vec<f64> = (0..p).map(|j| 1.0 / z.column(j).norm().max(1e-300)).collect();
+    let z_scale: Vec<f64> = (0..p)
+        .map(|j| 1.0 / z.column(j).norm().max(1e-300))
+        .collect();
     let zs = DMatrix::from_fn(z.nrows(), p, |r, j| z[(r, j)] * z_scale[j]);
     let moment = zs.transpose() * &fs;
     let sv = moment.clone().singular_values();
@@ -86,7 +107,9 @@ fn solve(data: &IdentificationData, rows: &[usize], z: &DMatrix<f64>) -> Result<
                 .into(),
         ));
     }
-    let inv = moment.try_inverse().ok_or_else(|| Error::Estimation("singular IV moment matrix".into()))?;
+    let inv = moment
+        .try_inverse()
+        .ok_or_else(|| Error::Estimation("singular IV moment matrix".into()))?;
     let mut theta = vec![0.0; n * p];
     for i in 0..n {
         let t = &inv * (zs.transpose() * y.column(i));
@@ -94,7 +117,11 @@ fn solve(data: &IdentificationData, rows: &[usize], z: &DMatrix<f64>) -> Result<
             theta[i * p + j] = t[j] * f_scale[j];
         }
     }
-    let template = DiscreteModel { phi: DMatrix::zeros(n, n), gamma: DMatrix::zeros(n, m), ts_s: data.ts_s };
+    let template = DiscreteModel {
+        phi: DMatrix::zeros(n, n),
+        gamma: DMatrix::zeros(n, m),
+        ts_s: data.ts_s,
+    };
     Ok((template.with_theta(&theta), inv, zs, f_scale, s_max / s_min))
 }
 
@@ -141,8 +168,9 @@ impl InstrumentalVariables {
                 break;
             }
         }
-        let (_, inv, zs, f_scale, condition_number) =
-            last.ok_or_else(|| Error::Estimation("instrumental variables made no stable step".into()))?;
+        let (_, inv, zs, f_scale, condition_number) = last.ok_or_else(|| {
+            Error::Estimation("instrumental variables made no stable step".into())
+        })?;
         // Covariance σ_i² (ZᵀF)⁻¹ ZᵀZ (ZᵀF)⁻ᵀ, in the scaled variables and scaled back.
         let d = DMatrix::from_diagonal(&DVector::from_column_slice(&f_scale));
         let core = &d * &inv * (zs.transpose() * &zs) * inv.transpose() * &d;
@@ -154,7 +182,9 @@ impl InstrumentalVariables {
             let t = DVector::from_column_slice(&theta[i * p..(i + 1) * p]);
             let e = y.column(i) - &f * t;
             noise_variance[i] = e.norm_squared() / (rows.len() - p).max(1) as f64;
-            covariance.view_mut((i * p, i * p), (p, p)).copy_from(&(&core * noise_variance[i]));
+            covariance
+                .view_mut((i * p, i * p), (p, p))
+                .copy_from(&(&core * noise_variance[i]));
         }
         Ok(Estimate {
             model,

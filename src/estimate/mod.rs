@@ -42,7 +42,13 @@ impl IdentificationData {
     /// Builds the data from full matrices (every value known).
     pub fn complete(ts_s: f64, outputs: DMatrix<f64>, inputs: DMatrix<f64>) -> Self {
         let n = outputs.nrows();
-        IdentificationData { ts_s, outputs, inputs, outputs_known: vec![true; n], inputs_known: vec![true; n] }
+        IdentificationData {
+            ts_s,
+            outputs,
+            inputs,
+            outputs_known: vec![true; n],
+            inputs_known: vec![true; n],
+        }
     }
 
     /// The instants in `range` as data of their own.
@@ -131,7 +137,13 @@ impl From<&ThermalSignals> for IdentificationData {
                 }
             }
         }
-        IdentificationData { ts_s: s.ts_s, outputs, inputs, outputs_known, inputs_known }
+        IdentificationData {
+            ts_s: s.ts_s,
+            outputs,
+            inputs,
+            outputs_known,
+            inputs_known,
+        }
     }
 }
 
@@ -167,11 +179,16 @@ impl DiscreteModel {
 
     /// The simulated output over every segment, NaN outside them (eq. 8 run from the
     /// measured state at the start of each segment).
-    pub fn simulate_segments(&self, data: &IdentificationData, segments: &[Range<usize>]) -> DMatrix<f64> {
+    pub fn simulate_segments(
+        &self,
+        data: &IdentificationData,
+        segments: &[Range<usize>],
+    ) -> DMatrix<f64> {
         let mut out = DMatrix::from_element(data.len(), data.states(), f64::NAN);
         for seg in segments {
             let sim = self.simulate(data, seg.clone());
-            out.view_mut((seg.start, 0), (seg.len(), data.states())).copy_from(&sim);
+            out.view_mut((seg.start, 0), (seg.len(), data.states()))
+                .copy_from(&sim);
         }
         out
     }
@@ -179,9 +196,16 @@ impl DiscreteModel {
     /// Θ = [Φ Γ] as one vector, row by row: index i·(n+m) + j.
     pub fn theta(&self) -> Vec<f64> {
         let (n, m) = (self.phi.nrows(), self.gamma.ncols());
-        (0..n).flat_map(|i| (0..n + m).map(move |j| (i, j))).map(|(i, j)| {
-            if j < n { self.phi[(i, j)] } else { self.gamma[(i, j - n)] }
-        }).collect()
+        (0..n)
+            .flat_map(|i| (0..n + m).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                if j < n {
+                    self.phi[(i, j)]
+                } else {
+                    self.gamma[(i, j - n)]
+                }
+            })
+            .collect()
     }
 
     /// The model with Θ from a vector laid out as [`DiscreteModel::theta`].
@@ -197,7 +221,12 @@ impl DiscreteModel {
 
     /// Largest modulus of Φ's eigenvalues (the model is stable below 1).
     pub fn spectral_radius(&self) -> f64 {
-        self.phi.clone().complex_eigenvalues().iter().map(|z| z.norm()).fold(0.0, f64::max)
+        self.phi
+            .clone()
+            .complex_eigenvalues()
+            .iter()
+            .map(|z| z.norm())
+            .fold(0.0, f64::max)
     }
 }
 
@@ -206,7 +235,11 @@ pub fn regression(data: &IdentificationData, rows: &[usize]) -> (DMatrix<f64>, D
     let (n, m) = (data.states(), data.input_count());
     let f = DMatrix::from_fn(rows.len(), n + m, |r, j| {
         let k = rows[r];
-        if j < n { data.outputs[(k - 1, j)] } else { data.inputs[(k - 1, j - n)] }
+        if j < n {
+            data.outputs[(k - 1, j)]
+        } else {
+            data.inputs[(k - 1, j - n)]
+        }
     });
     let y = DMatrix::from_fn(rows.len(), n, |r, i| data.outputs[(rows[r], i)]);
     (f, y)

@@ -174,7 +174,11 @@ impl Problem<'_> {
 
     /// The evaluation at the current parameters, computed once per parameter vector.
     fn evaluated(&self) -> std::cell::Ref<'_, Evaluation> {
-        let stale = self.cache.borrow().as_ref().is_none_or(|(at, _)| at != &self.params);
+        let stale = self
+            .cache
+            .borrow()
+            .as_ref()
+            .is_none_or(|(at, _)| at != &self.params);
         if stale {
             let e = self.evaluate(true);
             *self.cache.borrow_mut() = Some((self.params.clone(), e));
@@ -204,8 +208,12 @@ impl Evaluation {
         let p = gram.nrows();
         // Symmetric scaling keeps the factorisation accurate; a whisper of ridge keeps it
         // defined where a parameter is not seen (a segment too short for its x0).
-        let d: Vec<f64> = (0..p).map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt()).collect();
-        let scaled = DMatrix::from_fn(p, p, |i, j| gram[(i, j)] * d[i] * d[j] + if i == j { 1e-13 } else { 0.0 });
+        let d: Vec<f64> = (0..p)
+            .map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt())
+            .collect();
+        let scaled = DMatrix::from_fn(p, p, |i, j| {
+            gram[(i, j)] * d[i] * d[j] + if i == j { 1e-13 } else { 0.0 }
+        });
         let chol = scaled.cholesky()?;
         // R = L_sᵀ D⁻¹ (JᵀJ = D⁻¹ L_s L_sᵀ D⁻¹).
         let l = chol.l();
@@ -253,7 +261,11 @@ impl Estimator for OutputError {
 
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
         // A rough IV start is enough: LM takes it the rest of the way.
-        let start = InstrumentalVariables { max_iterations: 10, tolerance: 1e-6 }.estimate(data)?;
+        let start = InstrumentalVariables {
+            max_iterations: 10,
+            tolerance: 1e-6,
+        }
+        .estimate(data)?;
         self.refine(data, &start.model)
     }
 }
@@ -270,10 +282,14 @@ impl OutputError {
         let sim = start.simulate_segments(data, &segments);
         let variance: Vec<f64> = (0..n)
             .map(|c| {
-                let (sum, count) = segments.iter().flat_map(|s| s.clone()).fold((0.0, 0usize), |(a, k), i| {
-                    let e = data.outputs[(i, c)] - sim[(i, c)];
-                    (a + e * e, k + 1)
-                });
+                let (sum, count) =
+                    segments
+                        .iter()
+                        .flat_map(|s| s.clone())
+                        .fold((0.0, 0usize), |(a, k), i| {
+                            let e = data.outputs[(i, c)] - sim[(i, c)];
+                            (a + e * e, k + 1)
+                        });
                 (sum / count.max(1) as f64).max(1e-24)
             })
             .collect();
@@ -304,7 +320,11 @@ impl OutputError {
         };
         // Tolerances far below the statistical uncertainty of Θ (~1e-3 relative), and far
         // above rounding: the last evaluations of the default 30·ε would buy nothing.
-        let lm = LevenbergMarquardt::new().with_patience(200).with_ftol(1e-10).with_xtol(1e-10).with_gtol(1e-10);
+        let lm = LevenbergMarquardt::new()
+            .with_patience(200)
+            .with_ftol(1e-10)
+            .with_xtol(1e-10)
+            .with_gtol(1e-10);
         let mut evaluations = 0;
         // Two passes when no weights are given: the second with 1/σ_i² of the first
         // pass's residuals, which are then the sensor noise rather than the start's misfit.
@@ -328,7 +348,11 @@ impl OutputError {
                 .collect();
             let mean = inv.iter().sum::<f64>() / n as f64;
             let next: Vec<f64> = inv.iter().map(|v| (v / mean).sqrt()).collect();
-            let change = next.iter().zip(&problem.sqrt_w).map(|(a, b)| (a / b - 1.0).abs()).fold(0.0, f64::max);
+            let change = next
+                .iter()
+                .zip(&problem.sqrt_w)
+                .map(|(a, b)| (a / b - 1.0).abs())
+                .fold(0.0, f64::max);
             problem.sqrt_w = next;
             if change < 0.05 {
                 break;
@@ -341,19 +365,32 @@ impl OutputError {
         let dof = rows.saturating_sub(problem.params.len()).max(1) as f64;
         let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
         // Covariance σ² (JᵀJ)⁻¹ from the eigen-decomposition of the scaled JᵀJ; Θ's block.
-        let gram = evaluation.gram.as_ref().ok_or_else(|| Error::Estimation("output error: no normal equations".into()))?;
+        let gram = evaluation
+            .gram
+            .as_ref()
+            .ok_or_else(|| Error::Estimation("output error: no normal equations".into()))?;
         let p_all = gram.nrows();
-        let scale: Vec<f64> = (0..p_all).map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt()).collect();
+        let scale: Vec<f64> = (0..p_all)
+            .map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt())
+            .collect();
         let scaled = DMatrix::from_fn(p_all, p_all, |i, j| gram[(i, j)] * scale[i] * scale[j]);
         let eig = scaled.symmetric_eigen();
         let (e_max, e_min) = (eig.eigenvalues.max(), eig.eigenvalues.min().max(0.0));
-        let inv = DMatrix::from_diagonal(&eig.eigenvalues.map(|e| if e > 1e-14 * e_max { 1.0 / e } else { 0.0 }));
+        let inv = DMatrix::from_diagonal(&eig.eigenvalues.map(|e| {
+            if e > 1e-14 * e_max {
+                1.0 / e
+            } else {
+                0.0
+            }
+        }));
         let d = DMatrix::from_diagonal(&DVector::from_column_slice(&scale));
         let full = &d * &eig.eigenvectors * inv * eig.eigenvectors.transpose() * &d * sigma2;
         let p_theta = n * (n + m);
         let covariance = full.view((0, 0), (p_theta, p_theta)).into_owned();
         let per = rows / n;
-        let noise_variance: Vec<f64> = (0..n).map(|c| evaluation.sse[c] / per.max(1) as f64 / w[c].max(1e-300)).collect();
+        let noise_variance: Vec<f64> = (0..n)
+            .map(|c| evaluation.sse[c] / per.max(1) as f64 / w[c].max(1e-300))
+            .collect();
         let condition_number = (e_max / e_min.max(1e-300)).sqrt();
         Ok(Estimate {
             model,

@@ -9,7 +9,9 @@
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use super::{check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData};
+use super::{
+    check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData,
+};
 use crate::error::{Error, Result};
 
 /// Θ at one instant of the recursion.
@@ -32,7 +34,10 @@ pub struct RecursiveLeastSquares {
 
 impl Default for RecursiveLeastSquares {
     fn default() -> Self {
-        RecursiveLeastSquares { forgetting: 1.0, keep_every: 10 }
+        RecursiveLeastSquares {
+            forgetting: 1.0,
+            keep_every: 10,
+        }
     }
 }
 
@@ -40,7 +45,10 @@ impl RecursiveLeastSquares {
     /// Runs the recursion; returns the final estimate and the trajectory.
     pub fn run(&self, data: &IdentificationData) -> Result<(Estimate, Vec<TrajectoryPoint>)> {
         if !(self.forgetting > 0.0 && self.forgetting <= 1.0) {
-            return Err(Error::Usage(format!("--forgetting {} must be in (0, 1]", self.forgetting)));
+            return Err(Error::Usage(format!(
+                "--forgetting {} must be in (0, 1]",
+                self.forgetting
+            )));
         }
         let rows = data.usable_rows();
         check_enough_rows(data, rows.len())?;
@@ -51,18 +59,34 @@ impl RecursiveLeastSquares {
         let (f_all, _) = regression(data, &rows);
         let mut pm = DMatrix::zeros(p, p);
         for j in 0..p {
-            let rms = (f_all.column(j).norm_squared() / rows.len() as f64).sqrt().max(1e-300);
+            let rms = (f_all.column(j).norm_squared() / rows.len() as f64)
+                .sqrt()
+                .max(1e-300);
             pm[(j, j)] = 1e8 / (rms * rms);
         }
         let mut theta = DMatrix::zeros(p, n); // column i: θ_i
         let warm = 0;
         let lambda = self.forgetting;
         let mut trajectory = Vec::new();
-        let template = DiscreteModel { phi: DMatrix::zeros(n, n), gamma: DMatrix::zeros(n, m), ts_s: data.ts_s };
-        let as_vec = |theta: &DMatrix<f64>| -> Vec<f64> { (0..n).flat_map(|i| (0..p).map(move |j| theta[(j, i)])).collect() };
+        let template = DiscreteModel {
+            phi: DMatrix::zeros(n, n),
+            gamma: DMatrix::zeros(n, m),
+            ts_s: data.ts_s,
+        };
+        let as_vec = |theta: &DMatrix<f64>| -> Vec<f64> {
+            (0..n)
+                .flat_map(|i| (0..p).map(move |j| theta[(j, i)]))
+                .collect()
+        };
         let mut sse = vec![0.0; n];
         for (count, &k) in rows.iter().enumerate().skip(warm) {
-            let phi = DVector::from_fn(p, |j, _| if j < n { data.outputs[(k - 1, j)] } else { data.inputs[(k - 1, j - n)] });
+            let phi = DVector::from_fn(p, |j, _| {
+                if j < n {
+                    data.outputs[(k - 1, j)]
+                } else {
+                    data.inputs[(k - 1, j - n)]
+                }
+            });
             let p_phi = &pm * &phi;
             let denom = lambda + phi.dot(&p_phi);
             let gain = &p_phi / denom;
@@ -76,14 +100,19 @@ impl RecursiveLeastSquares {
             // Keep P symmetric against rounding.
             pm = (&pm + pm.transpose()) * 0.5;
             if count % self.keep_every.max(1) == 0 || count + 1 == rows.len() {
-                trajectory.push(TrajectoryPoint { instant: k, theta: as_vec(&theta) });
+                trajectory.push(TrajectoryPoint {
+                    instant: k,
+                    theta: as_vec(&theta),
+                });
             }
         }
         let dof = (rows.len() - warm).max(1) as f64;
         let noise_variance: Vec<f64> = sse.iter().map(|s| s / dof).collect();
         let mut covariance = DMatrix::zeros(n * p, n * p);
         for i in 0..n {
-            covariance.view_mut((i * p, i * p), (p, p)).copy_from(&(&pm * noise_variance[i]));
+            covariance
+                .view_mut((i * p, i * p), (p, p))
+                .copy_from(&(&pm * noise_variance[i]));
         }
         let estimate = Estimate {
             model: template.with_theta(&as_vec(&theta)),

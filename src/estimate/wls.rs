@@ -4,7 +4,9 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData};
+use super::{
+    check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData,
+};
 use crate::error::{Error, Result};
 
 /// Smallest ratio σ_min/σ_max of the scaled regression matrix accepted as full rank.
@@ -43,7 +45,11 @@ impl Estimator for WeightedLeastSquares {
             // Equation k is weighted by w_i(k); its row is scaled by √w_i(k).
             let sqrt_w: Vec<f64> = rows
                 .iter()
-                .map(|&k| self.weights.as_ref().map_or(1.0, |w| w[(k, i)].max(0.0).sqrt()))
+                .map(|&k| {
+                    self.weights
+                        .as_ref()
+                        .map_or(1.0, |w| w[(k, i)].max(0.0).sqrt())
+                })
                 .collect();
             let fw = DMatrix::from_fn(rows.len(), p, |r, j| sqrt_w[r] * f[(r, j)]);
             let yw = DVector::from_fn(rows.len(), |r, _| sqrt_w[r] * y[(r, i)]);
@@ -57,7 +63,11 @@ impl Estimator for WeightedLeastSquares {
                 .view_mut((i * p, i * p), (p, p))
                 .copy_from(&(&solution.inverse_gram * noise_variance[i]));
         }
-        let template = DiscreteModel { phi: DMatrix::zeros(n, n), gamma: DMatrix::zeros(n, m), ts_s: data.ts_s };
+        let template = DiscreteModel {
+            phi: DMatrix::zeros(n, n),
+            gamma: DMatrix::zeros(n, m),
+            ts_s: data.ts_s,
+        };
         Ok(Estimate {
             model: template.with_theta(&theta),
             method: self.name().into(),
@@ -115,11 +125,18 @@ pub fn solve_scaled(mut f: DMatrix<f64>, y: &DVector<f64>) -> Result<ScaledSolut
         .solve(y, 0.0)
         .map_err(|e| Error::Estimation(format!("least-squares solve failed: {e}")))?;
     let theta = DVector::from_fn(p, |j, _| theta[j] * scale[j]);
-    let v_t = svd.v_t.as_ref().ok_or_else(|| Error::Estimation("SVD without V".into()))?;
+    let v_t = svd
+        .v_t
+        .as_ref()
+        .ok_or_else(|| Error::Estimation("SVD without V".into()))?;
     let sigma_inv2 = DMatrix::from_diagonal(&svd.singular_values.map(|s| 1.0 / (s * s)));
     let d = DMatrix::from_diagonal(&DVector::from_column_slice(&scale));
     let inverse_gram = &d * v_t.transpose() * sigma_inv2 * v_t * &d;
-    Ok(ScaledSolution { theta, condition_number: s_max / s_min, inverse_gram })
+    Ok(ScaledSolution {
+        theta,
+        condition_number: s_max / s_min,
+        inverse_gram,
+    })
 }
 
 #[cfg(test)]
@@ -175,7 +192,9 @@ mod tests {
             w[(k, 0)] = 1e-12;
             w[(k, 1)] = 1e-12;
         }
-        let weighted = WeightedLeastSquares { weights: Some(w) }.estimate(&data).unwrap();
+        let weighted = WeightedLeastSquares { weights: Some(w) }
+            .estimate(&data)
+            .unwrap();
         assert!((plain.model.phi.clone() - &phi).norm() > 1e-3);
         assert!((weighted.model.phi - phi).norm() < 1e-5);
     }

@@ -35,7 +35,9 @@ impl ContinuousModel {
         let n = model.phi.nrows();
         let phi_minus_i = &model.phi - DMatrix::<f64>::identity(n, n);
         let inv = phi_minus_i.try_inverse().ok_or_else(|| {
-            Error::Model("Φ − I is singular: Φ has an eigenvalue 1 (an integrator, no time constant)".into())
+            Error::Model(
+                "Φ − I is singular: Φ has an eigenvalue 1 (an integrator, no time constant)".into(),
+            )
         })?;
         let b_c = inv * &a_c * &model.gamma;
         Ok(ContinuousModel { a_c, b_c })
@@ -43,11 +45,10 @@ impl ContinuousModel {
 
     /// Steady state y(∞) = −A_c⁻¹ B_c u for a constant input u (eq. 31).
     pub fn steady_state(&self, u: &[f64]) -> Result<Vec<f64>> {
-        let inv = self
-            .a_c
-            .clone()
-            .try_inverse()
-            .ok_or_else(|| Error::Model("A_c is singular: the model has no steady state".into()))?;
+        let inv =
+            self.a_c.clone().try_inverse().ok_or_else(|| {
+                Error::Model("A_c is singular: the model has no steady state".into())
+            })?;
         let u = nalgebra::DVector::from_column_slice(u);
         Ok((-(inv * &self.b_c * u)).iter().copied().collect())
     }
@@ -63,10 +64,17 @@ impl Spectrum {
                 "the estimate is not a stable thermal system: Φ has the eigenvalue {bad:.6}, outside (0, 1)"
             )));
         }
-        let eigenvalues_continuous: Vec<f64> =
-            eigenvalues_discrete.iter().map(|l| l.ln() / model.ts_s).collect();
-        let mut time_constants_s: Vec<f64> = eigenvalues_continuous.iter().map(|l| -1.0 / l).collect();
+        let eigenvalues_continuous: Vec<f64> = eigenvalues_discrete
+            .iter()
+            .map(|l| l.ln() / model.ts_s)
+            .collect();
+        let mut time_constants_s: Vec<f64> =
+            eigenvalues_continuous.iter().map(|l| -1.0 / l).collect();
         time_constants_s.sort_by(f64::total_cmp);
-        Ok(Spectrum { eigenvalues_discrete, eigenvalues_continuous, time_constants_s })
+        Ok(Spectrum {
+            eigenvalues_discrete,
+            eigenvalues_continuous,
+            time_constants_s,
+        })
     }
 }

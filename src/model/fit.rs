@@ -25,7 +25,11 @@ pub struct Fit {
 }
 
 /// The simulated model output over the data, NaN outside the segments.
-pub fn simulate(model: &DiscreteModel, data: &IdentificationData, segments: &[Range<usize>]) -> DMatrix<f64> {
+pub fn simulate(
+    model: &DiscreteModel,
+    data: &IdentificationData,
+    segments: &[Range<usize>],
+) -> DMatrix<f64> {
     model.simulate_segments(data, segments)
 }
 
@@ -41,15 +45,19 @@ pub fn fit(data: &IdentificationData, simulated: &DMatrix<f64>, temperature_base
         max_abs_error_k: vec![0.0; n],
         samples: 0,
     };
-    let rows: Vec<usize> =
-        (0..data.len()).filter(|&k| data.outputs_known[k] && simulated[(k, 0)].is_finite()).collect();
+    let rows: Vec<usize> = (0..data.len())
+        .filter(|&k| data.outputs_known[k] && simulated[(k, 0)].is_finite())
+        .collect();
     fit.samples = rows.len();
     if rows.is_empty() {
         return fit;
     }
     for j in 0..n {
         let y: Vec<f64> = rows.iter().map(|&k| data.outputs[(k, j)]).collect();
-        let e: Vec<f64> = rows.iter().map(|&k| data.outputs[(k, j)] - simulated[(k, j)]).collect();
+        let e: Vec<f64> = rows
+            .iter()
+            .map(|&k| data.outputs[(k, j)] - simulated[(k, j)])
+            .collect();
         let mean = y.iter().sum::<f64>() / y.len() as f64;
         let y_norm = y.iter().map(|v| v * v).sum::<f64>().sqrt();
         let e_norm = e.iter().map(|v| v * v).sum::<f64>().sqrt();

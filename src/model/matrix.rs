@@ -52,7 +52,9 @@ pub fn logm(phi: &DMatrix<f64>) -> Result<DMatrix<f64>> {
         x = sqrtm_denman_beavers(&x)?;
         squarings += 1;
         if squarings > 60 {
-            return Err(Error::Model("the matrix logarithm of Φ did not converge".into()));
+            return Err(Error::Model(
+                "the matrix logarithm of Φ did not converge".into(),
+            ));
         }
     }
     let e = &x - &id;
@@ -75,8 +77,14 @@ fn sqrtm_denman_beavers(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     let mut y = a.clone();
     let mut z = DMatrix::<f64>::identity(n, n);
     for _ in 0..100 {
-        let y_inv = y.clone().try_inverse().ok_or_else(|| Error::Model("Φ is singular".into()))?;
-        let z_inv = z.clone().try_inverse().ok_or_else(|| Error::Model("Φ is singular".into()))?;
+        let y_inv = y
+            .clone()
+            .try_inverse()
+            .ok_or_else(|| Error::Model("Φ is singular".into()))?;
+        let z_inv = z
+            .clone()
+            .try_inverse()
+            .ok_or_else(|| Error::Model("Φ is singular".into()))?;
         let y_next = (&y + z_inv) * 0.5;
         let z_next = (&z + y_inv) * 0.5;
         let change = (&y_next - &y).norm();
@@ -93,7 +101,11 @@ fn sqrtm_denman_beavers(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
 pub fn expm(a: &DMatrix<f64>) -> DMatrix<f64> {
     let n = a.nrows();
     let norm = a.norm();
-    let squarings = if norm > 0.5 { (norm / 0.5).log2().ceil() as i32 } else { 0 };
+    let squarings = if norm > 0.5 {
+        (norm / 0.5).log2().ceil() as i32
+    } else {
+        0
+    };
     let scaled = a / 2f64.powi(squarings);
     let mut sum = DMatrix::<f64>::identity(n, n);
     let mut term = DMatrix::<f64>::identity(n, n);
@@ -119,7 +131,10 @@ pub fn discretize(a: &DMatrix<f64>, b: &DMatrix<f64>, ts: f64) -> (DMatrix<f64>,
     block.view_mut((0, 0), (n, n)).copy_from(&(a * ts));
     block.view_mut((0, n), (n, m)).copy_from(&(b * ts));
     let e = expm(&block);
-    (e.view((0, 0), (n, n)).into_owned(), e.view((0, n), (n, m)).into_owned())
+    (
+        e.view((0, 0), (n, n)).into_owned(),
+        e.view((0, n), (n, m)).into_owned(),
+    )
 }
 
 /// A unit eigenvector of `a` for the real eigenvalue `lambda`: the right singular
@@ -143,7 +158,11 @@ mod tests {
         let (a, b, c) = (0.95_f64, 0.03_f64, 0.999_f64);
         let m = DMatrix::from_row_slice(2, 2, &[a, b, 0.0, c]);
         let l = logm(&m).unwrap();
-        let expect = DMatrix::from_row_slice(2, 2, &[a.ln(), b * (a.ln() - c.ln()) / (a - c), 0.0, c.ln()]);
+        let expect = DMatrix::from_row_slice(
+            2,
+            2,
+            &[a.ln(), b * (a.ln() - c.ln()) / (a - c), 0.0, c.ln()],
+        );
         assert!((l - expect).norm() < 1e-14);
     }
 
@@ -160,7 +179,13 @@ mod tests {
 
     #[test]
     fn expm_inverts_logm() {
-        let a = DMatrix::from_row_slice(3, 3, &[-0.0012, 0.00046, 0.00077, 0.00019, -0.00058, 0.0031, 0.0021, 0.0011, -0.0417]);
+        let a = DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                -0.0012, 0.00046, 0.00077, 0.00019, -0.00058, 0.0031, 0.0021, 0.0011, -0.0417,
+            ],
+        );
         let phi = expm(&a);
         assert!((logm(&phi).unwrap() - a).norm() < 1e-15);
     }
@@ -177,7 +202,11 @@ mod tests {
     fn discretize_scalar_matches_closed_form() {
         // dx/dt = −x/τ + b u: Φ = e^{−Ts/τ}, Γ = b τ (1 − e^{−Ts/τ}).
         let (tau, b, ts) = (24.0, 0.07, 1.0);
-        let (phi, gamma) = discretize(&DMatrix::from_element(1, 1, -1.0 / tau), &DMatrix::from_element(1, 1, b), ts);
+        let (phi, gamma) = discretize(
+            &DMatrix::from_element(1, 1, -1.0 / tau),
+            &DMatrix::from_element(1, 1, b),
+            ts,
+        );
         assert!((phi[(0, 0)] - (-ts / tau).exp()).abs() < 1e-16);
         assert!((gamma[(0, 0)] - b * tau * (1.0 - (-ts / tau).exp())).abs() < 1e-16);
     }

@@ -68,8 +68,13 @@ pub fn analyse(
     let segments = data.segments();
     let simulated = fit::simulate(model, data, &segments);
     let fit = fit::fit(data, &simulated, temperature_base_k);
-    let sensitivities =
-        sensitivity::sensitivities(&continuous, &spectrum.time_constants_s, model.ts_s, data, &segments)?;
+    let sensitivities = sensitivity::sensitivities(
+        &continuous,
+        &spectrum.time_constants_s,
+        model.ts_s,
+        data,
+        &segments,
+    )?;
     let assignment = sensitivity::assign(&sensitivities);
     let steady_state = continuous.steady_state(steady_state_input)?;
     let uncertainty = uncertainty::propagate(estimate, steady_state_input);

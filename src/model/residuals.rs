@@ -28,22 +28,31 @@ pub struct ResidualAnalysis {
 }
 
 /// Correlation analysis of the residuals over the instants where `simulated` exists.
-pub fn analyse(data: &IdentificationData, simulated: &DMatrix<f64>, max_lag: usize) -> ResidualAnalysis {
+pub fn analyse(
+    data: &IdentificationData,
+    simulated: &DMatrix<f64>,
+    max_lag: usize,
+) -> ResidualAnalysis {
     let n = data.states();
     let m = data.input_count();
     let len = data.len();
-    let valid: Vec<bool> = (0..len).map(|k| data.outputs_known[k] && simulated[(k, 0)].is_finite()).collect();
+    let valid: Vec<bool> = (0..len)
+        .map(|k| data.outputs_known[k] && simulated[(k, 0)].is_finite())
+        .collect();
     let samples = valid.iter().filter(|v| **v).count();
     let centred = |f: &dyn Fn(usize) -> f64, ok: &dyn Fn(usize) -> bool| -> Vec<Option<f64>> {
-        let (sum, count) = (0..len).filter(|&k| ok(k)).fold((0.0, 0usize), |(s, c), k| (s + f(k), c + 1));
+        let (sum, count) = (0..len)
+            .filter(|&k| ok(k))
+            .fold((0.0, 0usize), |(s, c), k| (s + f(k), c + 1));
         let mean = sum / count.max(1) as f64;
         (0..len).map(|k| ok(k).then(|| f(k) - mean)).collect()
     };
     let residuals: Vec<Vec<Option<f64>>> = (0..n)
         .map(|i| centred(&|k| data.outputs[(k, i)] - simulated[(k, i)], &|k| valid[k]))
         .collect();
-    let inputs: Vec<Vec<Option<f64>>> =
-        (0..m).map(|j| centred(&|k| data.inputs[(k, j)], &|k| data.inputs_known[k])).collect();
+    let inputs: Vec<Vec<Option<f64>>> = (0..m)
+        .map(|j| centred(&|k| data.inputs[(k, j)], &|k| data.inputs_known[k]))
+        .collect();
     let correlate = |a: &[Option<f64>], b: &[Option<f64>], lag: i64| -> f64 {
         let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
         for k in 0..len as i64 {
@@ -65,14 +74,22 @@ pub fn analyse(data: &IdentificationData, simulated: &DMatrix<f64>, max_lag: usi
     };
     let autocorrelation: Vec<Vec<f64>> = residuals
         .iter()
-        .map(|e| (0..=max_lag).map(|lag| correlate(e, e, lag as i64)).collect())
+        .map(|e| {
+            (0..=max_lag)
+                .map(|lag| correlate(e, e, lag as i64))
+                .collect()
+        })
         .collect();
     let cross_correlation = residuals
         .iter()
         .map(|e| {
             inputs
                 .iter()
-                .map(|u| (-(max_lag as i64)..=max_lag as i64).map(|lag| correlate(e, u, lag)).collect())
+                .map(|u| {
+                    (-(max_lag as i64)..=max_lag as i64)
+                        .map(|lag| correlate(e, u, lag))
+                        .collect()
+                })
                 .collect()
         })
         .collect();
@@ -81,7 +98,14 @@ pub fn analyse(data: &IdentificationData, simulated: &DMatrix<f64>, max_lag: usi
         .iter()
         .map(|r| r[1..].iter().filter(|v| v.abs() > band99).count() as f64 / max_lag.max(1) as f64)
         .collect();
-    ResidualAnalysis { max_lag, autocorrelation, cross_correlation, band99, samples, autocorrelation_outside_band }
+    ResidualAnalysis {
+        max_lag,
+        autocorrelation,
+        cross_correlation,
+        band99,
+        samples,
+        autocorrelation_outside_band,
+    }
 }
 
 #[cfg(test)]
@@ -105,7 +129,11 @@ mod tests {
         let data = IdentificationData::complete(1.0, outputs, inputs);
         let a = analyse(&data, &DMatrix::zeros(n, 2), 20);
         assert!((a.autocorrelation[0][0] - 1.0).abs() < 1e-12);
-        assert!(a.autocorrelation_outside_band[0] <= 0.1, "{:?}", a.autocorrelation_outside_band);
+        assert!(
+            a.autocorrelation_outside_band[0] <= 0.1,
+            "{:?}",
+            a.autocorrelation_outside_band
+        );
         assert_eq!(a.autocorrelation_outside_band[1], 1.0);
         assert!((a.band99 - 2.5758 / (n as f64).sqrt()).abs() < 1e-4);
     }

@@ -58,12 +58,15 @@ pub fn sensitivities(
     for (i, t) in time_constants_s.iter().enumerate() {
         v.set_column(i, &eigenvector(&model.a_c, -1.0 / t));
     }
-    let v_inv = v
-        .clone()
-        .try_inverse()
-        .ok_or_else(|| Error::Model("A_c is not diagonalisable (repeated time constants)".into()))?;
+    let v_inv = v.clone().try_inverse().ok_or_else(|| {
+        Error::Model("A_c is not diagonalisable (repeated time constants)".into())
+    })?;
     let mu: Vec<f64> = time_constants_s.iter().map(|t| (-ts_s / t).exp()).collect();
-    let g: Vec<f64> = time_constants_s.iter().zip(&mu).map(|(t, m)| t * (1.0 - m)).collect();
+    let g: Vec<f64> = time_constants_s
+        .iter()
+        .zip(&mu)
+        .map(|(t, m)| t * (1.0 - m))
+        .collect();
     let modal = |d: &[f64]| &v * DMatrix::from_diagonal(&DVector::from_column_slice(d)) * &v_inv;
     let phi = modal(&mu);
     let gamma = modal(&g) * &model.b_c;
@@ -101,7 +104,11 @@ pub fn sensitivities(
         }
         responses.push(out);
     }
-    Ok(Sensitivities { time_constants_s: time_constants_s.to_vec(), norms, responses })
+    Ok(Sensitivities {
+        time_constants_s: time_constants_s.to_vec(),
+        norms,
+        responses,
+    })
 }
 
 /// Assigns each time constant T_i to the state whose response it changes most,
@@ -111,7 +118,11 @@ pub fn sensitivities(
 pub fn assign(s: &Sensitivities) -> Vec<Assignment> {
     let n = s.time_constants_s.len();
     let plain: Vec<usize> = (0..n)
-        .map(|i| (0..n).max_by(|&a, &b| s.norms[a][i].total_cmp(&s.norms[b][i])).unwrap_or(0))
+        .map(|i| {
+            (0..n)
+                .max_by(|&a, &b| s.norms[a][i].total_cmp(&s.norms[b][i]))
+                .unwrap_or(0)
+        })
         .collect();
     let share = |k: usize, i: usize| {
         let total: f64 = (0..n).map(|kk| s.norms[kk][i]).sum();
@@ -168,7 +179,11 @@ mod tests {
             a_c: DMatrix::from_element(1, 1, -1.0 / t_c),
             b_c: DMatrix::from_element(1, 1, b),
         };
-        let data = IdentificationData::complete(ts, DMatrix::zeros(n, 1), DMatrix::from_element(n, 1, 1.0));
+        let data = IdentificationData::complete(
+            ts,
+            DMatrix::zeros(n, 1),
+            DMatrix::from_element(n, 1, 1.0),
+        );
         let s = sensitivities(&model, &[t_c], ts, &data, &[0..n]).unwrap();
         for k in 0..n {
             let t = k as f64 * ts;

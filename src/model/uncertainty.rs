@@ -31,8 +31,17 @@ pub fn propagate(estimate: &Estimate, u: &[f64]) -> Option<Uncertainty> {
     let derived = |t: &[f64]| -> Option<Vec<f64>> {
         let model = estimate.model.with_theta(t);
         let spectrum = Spectrum::of(&model).ok()?;
-        let steady = ContinuousModel::from_discrete(&model).ok()?.steady_state(u).ok()?;
-        Some(spectrum.time_constants_s.into_iter().chain(steady).collect())
+        let steady = ContinuousModel::from_discrete(&model)
+            .ok()?
+            .steady_state(u)
+            .ok()?;
+        Some(
+            spectrum
+                .time_constants_s
+                .into_iter()
+                .chain(steady)
+                .collect(),
+        )
     };
     let base = derived(&theta)?;
     let k = base.len();
@@ -49,11 +58,16 @@ pub fn propagate(estimate: &Estimate, u: &[f64]) -> Option<Uncertainty> {
             g[j] = (gp[q] - gm[q]) / (2.0 * h);
         }
     }
-    let half: Vec<f64> = grads.iter().map(|g| Z95 * (g.transpose() * cov * g)[(0, 0)].max(0.0).sqrt()).collect();
+    let half: Vec<f64> = grads
+        .iter()
+        .map(|g| Z95 * (g.transpose() * cov * g)[(0, 0)].max(0.0).sqrt())
+        .collect();
     let n = estimate.model.phi.nrows();
     Some(Uncertainty {
         time_constants_ci95_s: half[..n].to_vec(),
         steady_state_ci95: half[n..].to_vec(),
-        theta_standard_error: (0..theta.len()).map(|j| cov[(j, j)].max(0.0).sqrt()).collect(),
+        theta_standard_error: (0..theta.len())
+            .map(|j| cov[(j, j)].max(0.0).sqrt())
+            .collect(),
     })
 }

@@ -8,7 +8,9 @@
 
 use std::path::PathBuf;
 
-use rerun::blueprint::{Blueprint, ContainerLike, Horizontal, Tabs, TextDocumentView, TimeSeriesView, Vertical};
+use rerun::blueprint::{
+    Blueprint, ContainerLike, Horizontal, Tabs, TextDocumentView, TimeSeriesView, Vertical,
+};
 use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
 
 #[allow(unused_imports)]
@@ -74,24 +76,43 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Blueprint {
         .collect();
     let mut tabs: Vec<ContainerLike> = vec![
         Horizontal::new([
-            TimeSeriesView::new("residual y − ŷ, K").with_origin("residual").into(),
-            TimeSeriesView::new("heat sources, kW").with_origin("loss").into(),
+            TimeSeriesView::new("residual y − ŷ, K")
+                .with_origin("residual")
+                .into(),
+            TimeSeriesView::new("heat sources, kW")
+                .with_origin("loss")
+                .into(),
         ])
         .with_name("residuals and losses")
         .into(),
-        TimeSeriesView::new("decimated quantities").with_origin("raw").into(),
-        Horizontal::new(sensitivity_views).with_name("sensitivities").into(),
-        Horizontal::new(correlation_views).with_name("residual correlation").into(),
-        TextDocumentView::new("summary").with_origin("summary").into(),
+        TimeSeriesView::new("decimated quantities")
+            .with_origin("raw")
+            .into(),
+        Horizontal::new(sensitivity_views)
+            .with_name("sensitivities")
+            .into(),
+        Horizontal::new(correlation_views)
+            .with_name("residual correlation")
+            .into(),
+        TextDocumentView::new("summary")
+            .with_origin("summary")
+            .into(),
     ];
     if full_rate {
-        tabs.insert(1, TimeSeriesView::new("full-rate channels").with_origin("full_rate").into());
+        tabs.insert(
+            1,
+            TimeSeriesView::new("full-rate channels")
+                .with_origin("full_rate")
+                .into(),
+        );
     }
     if !replay.trajectory.is_empty() {
         tabs.insert(
             1,
             Horizontal::new([
-                TimeSeriesView::new("RLS time constants, s").with_origin("rls/time_constant").into(),
+                TimeSeriesView::new("RLS time constants, s")
+                    .with_origin("rls/time_constant")
+                    .into(),
                 TimeSeriesView::new("RLS Φ").with_origin("rls/phi").into(),
                 TimeSeriesView::new("RLS Γ").with_origin("rls/gamma").into(),
             ])
@@ -100,8 +121,11 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Blueprint {
         );
     }
     let bottom = Tabs::new(tabs);
-    Blueprint::new(Vertical::new([Horizontal::new(per_state).into(), bottom.into()]))
-        .with_auto_views(false)
+    Blueprint::new(Vertical::new([
+        Horizontal::new(per_state).into(),
+        bottom.into(),
+    ]))
+    .with_auto_views(false)
 }
 
 /// An open rerun recording: created before the replay (so full-rate samples can stream
@@ -120,7 +144,11 @@ impl Publisher {
             RerunSink::Rrd(path) => {
                 let pending = PendingOutput::new(path);
                 let rec = builder.save(pending.path()).map_err(publish_err)?;
-                Publisher { rec, pending: Some(pending), full_rate: Default::default() }
+                Publisher {
+                    rec,
+                    pending: Some(pending),
+                    full_rate: Default::default(),
+                }
             }
             RerunSink::Connect(url) => {
                 let rec = match url {
@@ -128,18 +156,28 @@ impl Publisher {
                     None => builder.connect_grpc(),
                 }
                 .map_err(publish_err)?;
-                Publisher { rec, pending: None, full_rate: Default::default() }
+                Publisher {
+                    rec,
+                    pending: None,
+                    full_rate: Default::default(),
+                }
             }
-            RerunSink::Spawn => {
-                Publisher { rec: builder.spawn().map_err(publish_err)?, pending: None, full_rate: Default::default() }
-            }
+            RerunSink::Spawn => Publisher {
+                rec: builder.spawn().map_err(publish_err)?,
+                pending: None,
+                full_rate: Default::default(),
+            },
         })
     }
 
     /// A sink that publishes every raw sample at full rate under `full_rate/<topic>`.
     pub fn full_rate(&self) -> FullRatePublisher {
         self.full_rate.set(true);
-        FullRatePublisher { rec: self.rec.clone(), channels: Vec::new(), failed: None }
+        FullRatePublisher {
+            rec: self.rec.clone(),
+            channels: Vec::new(),
+            failed: None,
+        }
     }
 
     /// Logs the replay's traces, sends the blueprint, and completes the output (an .rrd
@@ -147,7 +185,13 @@ impl Publisher {
     pub fn finish(self, replay: &Replay, summary_text: &str) -> Result<()> {
         log_all(&self.rec, replay, summary_text)?;
         blueprint(replay, self.full_rate.get())
-            .send(&self.rec, rerun::blueprint::BlueprintActivation { make_active: true, make_default: true })
+            .send(
+                &self.rec,
+                rerun::blueprint::BlueprintActivation {
+                    make_active: true,
+                    make_default: true,
+                },
+            )
             .map_err(publish_err)?;
         self.rec.flush_blocking().map_err(publish_err)?;
         drop(self.rec);
@@ -161,7 +205,11 @@ impl Publisher {
 /// Sends a replay's traces to `sink`. For an .rrd the file is written under a
 /// temporary name and renamed when complete.
 pub fn publish(replay: &Replay, summary_text: &str, sink: &RerunSink) -> Result<()> {
-    let name = replay.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = replay
+        .path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     Publisher::open(sink, &name)?.finish(replay, summary_text)
 }
 
@@ -185,11 +233,18 @@ impl FullRatePublisher {
         }
         let t = std::mem::take(times);
         let v = std::mem::take(values);
-        let result = Scalars::new(v).columns_of_unit_batches().map_err(publish_err).and_then(|cols| {
-            self.rec
-                .send_columns(entity.as_str(), [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, t)], cols)
-                .map_err(publish_err)
-        });
+        let result = Scalars::new(v)
+            .columns_of_unit_batches()
+            .map_err(publish_err)
+            .and_then(|cols| {
+                self.rec
+                    .send_columns(
+                        entity.as_str(),
+                        [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, t)],
+                        cols,
+                    )
+                    .map_err(publish_err)
+            });
         if let Err(e) = result {
             self.failed.get_or_insert(e.to_string());
         }
@@ -215,7 +270,11 @@ impl crate::recording::SampleSink for FullRatePublisher {
         let entity = format!("full_rate/{}", channel.topic.trim_start_matches('/'));
         let _ = self.rec.log_static(
             entity.as_str(),
-            &SeriesLines::new().with_names([format!("{} [{}]", channel.quantity, channel.quantity.canonical_unit())]),
+            &SeriesLines::new().with_names([format!(
+                "{} [{}]",
+                channel.quantity,
+                channel.quantity.canonical_unit()
+            )]),
         );
         self.channels[channel.index].0 = entity;
     }
@@ -237,8 +296,11 @@ fn send_series(
     time_ns: &[i64],
     values: impl Iterator<Item = Option<f64>>,
 ) -> Result<usize> {
-    let (times, vals): (Vec<i64>, Vec<f64>) =
-        time_ns.iter().zip(values).filter_map(|(t, v)| v.filter(|v| v.is_finite()).map(|v| (*t, v))).unzip();
+    let (times, vals): (Vec<i64>, Vec<f64>) = time_ns
+        .iter()
+        .zip(values)
+        .filter_map(|(t, v)| v.filter(|v| v.is_finite()).map(|v| (*t, v)))
+        .unzip();
     if times.is_empty() {
         return Ok(0);
     }
@@ -246,15 +308,20 @@ fn send_series(
     rec.send_columns(
         entity,
         [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
-        Scalars::new(vals).columns_of_unit_batches().map_err(publish_err)?,
+        Scalars::new(vals)
+            .columns_of_unit_batches()
+            .map_err(publish_err)?,
     )
     .map_err(publish_err)?;
     Ok(n)
 }
 
 fn style(rec: &RecordingStream, entity: &str, name: &str, rgb: [u8; 3]) -> Result<()> {
-    rec.log_static(entity, &SeriesLines::new().with_names([name]).with_colors([rgb]))
-        .map_err(publish_err)
+    rec.log_static(
+        entity,
+        &SeriesLines::new().with_names([name]).with_colors([rgb]),
+    )
+    .map_err(publish_err)
 }
 
 const MEASURED: [u8; 3] = [31, 119, 180];
@@ -271,8 +338,18 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
         let theta0 = s.initial_temperatures_c[j];
         style(rec, &format!("{root}/measured"), "measured", MEASURED)?;
         style(rec, &format!("{root}/model"), "model", MODEL)?;
-        send_series(rec, &format!("{root}/measured"), t, s.temperatures_c[j].iter().copied())?;
-        send_series(rec, &format!("{root}/model"), t, (0..s.len()).map(|k| Some(theta0 + base * sim[(k, j)])))?;
+        send_series(
+            rec,
+            &format!("{root}/measured"),
+            t,
+            s.temperatures_c[j].iter().copied(),
+        )?;
+        send_series(
+            rec,
+            &format!("{root}/model"),
+            t,
+            (0..s.len()).map(|k| Some(theta0 + base * sim[(k, j)])),
+        )?;
         let residual = format!("residual/{}", state.name());
         style(rec, &residual, state.name(), PALETTE[j])?;
         send_series(
@@ -286,11 +363,20 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
     for (j, source) in HeatSource::ALL.iter().enumerate() {
         let entity = format!("loss/{}", source.name());
         style(rec, &entity, source.name(), PALETTE[j])?;
-        send_series(rec, &entity, t, s.inputs_pu[j].iter().map(|v| v.map(|v| v * s_n_kw)))?;
+        send_series(
+            rec,
+            &entity,
+            t,
+            s.inputs_pu[j].iter().map(|v| v.map(|v| v * s_n_kw)),
+        )?;
     }
     for (i, series) in replay.decimated.series.values().enumerate() {
         let entity = format!("raw/{}", series.quantity.name());
-        let name = format!("{} [{}]", series.quantity.name(), series.quantity.canonical_unit());
+        let name = format!(
+            "{} [{}]",
+            series.quantity.name(),
+            series.quantity.canonical_unit()
+        );
         style(rec, &entity, &name, PALETTE[i % PALETTE.len()])?;
         send_series(rec, &entity, t, series.values.iter().copied())?;
     }
@@ -300,23 +386,39 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
             let entity = format!("sensitivity/T{}/{}", i + 1, state.name());
             style(rec, &entity, state.name(), PALETTE[k])?;
             // Sensitivities cover the instants the model was estimated on.
-            send_series(rec, &entity, &t[..response.nrows()], (0..response.nrows()).map(|r| Some(response[(r, k)])))?;
+            send_series(
+                rec,
+                &entity,
+                &t[..response.nrows()],
+                (0..response.nrows()).map(|r| Some(response[(r, k)])),
+            )?;
         }
     }
     log_residual_correlation(rec, replay)?;
     log_trajectory(rec, replay)?;
-    rec.log_static("summary", &rerun::TextDocument::new(summary_text.to_owned())).map_err(publish_err)?;
+    rec.log_static(
+        "summary",
+        &rerun::TextDocument::new(summary_text.to_owned()),
+    )
+    .map_err(publish_err)?;
     Ok(())
 }
 
 /// Name of the timeline of the correlation plots (lag in samples).
 pub const LAG_TIMELINE: &str = "lag";
 
-fn send_by_lag(rec: &RecordingStream, entity: &str, lags: Vec<i64>, values: Vec<f64>) -> Result<()> {
+fn send_by_lag(
+    rec: &RecordingStream,
+    entity: &str,
+    lags: Vec<i64>,
+    values: Vec<f64>,
+) -> Result<()> {
     rec.send_columns(
         entity,
         [TimeColumn::new_sequence(LAG_TIMELINE, lags)],
-        Scalars::new(values).columns_of_unit_batches().map_err(publish_err)?,
+        Scalars::new(values)
+            .columns_of_unit_batches()
+            .map_err(publish_err)?,
     )
     .map_err(publish_err)
 }
@@ -326,16 +428,41 @@ fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -> Result<()
     let lag = res.max_lag as i64;
     for (i, state) in ThermalState::ALL.iter().enumerate() {
         let root = format!("residual_correlation/{}", state.name());
-        style(rec, &format!("{root}/autocorrelation"), "autocorrelation", MEASURED)?;
-        send_by_lag(rec, &format!("{root}/autocorrelation"), (0..=lag).collect(), res.autocorrelation[i].clone())?;
+        style(
+            rec,
+            &format!("{root}/autocorrelation"),
+            "autocorrelation",
+            MEASURED,
+        )?;
+        send_by_lag(
+            rec,
+            &format!("{root}/autocorrelation"),
+            (0..=lag).collect(),
+            res.autocorrelation[i].clone(),
+        )?;
         for (bound, sign) in [("band99_upper", 1.0), ("band99_lower", -1.0)] {
-            style(rec, &format!("{root}/{bound}"), "99 % band", [128, 128, 128])?;
-            send_by_lag(rec, &format!("{root}/{bound}"), vec![-lag, lag], vec![sign * res.band99; 2])?;
+            style(
+                rec,
+                &format!("{root}/{bound}"),
+                "99 % band",
+                [128, 128, 128],
+            )?;
+            send_by_lag(
+                rec,
+                &format!("{root}/{bound}"),
+                vec![-lag, lag],
+                vec![sign * res.band99; 2],
+            )?;
         }
         for (j, source) in HeatSource::ALL.iter().enumerate() {
             let entity = format!("{root}/cross_{}", source.name());
             style(rec, &entity, &format!("× {}", source.name()), PALETTE[j])?;
-            send_by_lag(rec, &entity, (-lag..=lag).collect(), res.cross_correlation[i][j].clone())?;
+            send_by_lag(
+                rec,
+                &entity,
+                (-lag..=lag).collect(),
+                res.cross_correlation[i][j].clone(),
+            )?;
         }
     }
     Ok(())
@@ -349,27 +476,55 @@ fn log_trajectory(rec: &RecordingStream, replay: &Replay) -> Result<()> {
     let model = &replay.estimate.model;
     let (n, m) = (model.phi.nrows(), model.gamma.ncols());
     let p = n + m;
-    let t: Vec<i64> = traj.iter().map(|pt| replay.signals.time_ns[pt.instant]).collect();
+    let t: Vec<i64> = traj
+        .iter()
+        .map(|pt| replay.signals.time_ns[pt.instant])
+        .collect();
     for i in 0..n {
         for j in 0..p {
             let (entity, name) = if j < n {
-                (format!("rls/phi/{}{}", i + 1, j + 1), format!("Φ({},{})", i + 1, j + 1))
+                (
+                    format!("rls/phi/{}{}", i + 1, j + 1),
+                    format!("Φ({},{})", i + 1, j + 1),
+                )
             } else {
-                (format!("rls/gamma/{}{}", i + 1, j - n + 1), format!("Γ({},{})", i + 1, j - n + 1))
+                (
+                    format!("rls/gamma/{}{}", i + 1, j - n + 1),
+                    format!("Γ({},{})", i + 1, j - n + 1),
+                )
             };
             style(rec, &entity, &name, PALETTE[(i * p + j) % PALETTE.len()])?;
-            send_series(rec, &entity, &t, traj.iter().map(|pt| Some(pt.theta[i * p + j])))?;
+            send_series(
+                rec,
+                &entity,
+                &t,
+                traj.iter().map(|pt| Some(pt.theta[i * p + j])),
+            )?;
         }
     }
     // Time constants where the running estimate is a stable thermal system.
     let constants: Vec<Option<Vec<f64>>> = traj
         .iter()
-        .map(|pt| crate::model::Spectrum::of(&model.with_theta(&pt.theta)).ok().map(|s| s.time_constants_s))
+        .map(|pt| {
+            crate::model::Spectrum::of(&model.with_theta(&pt.theta))
+                .ok()
+                .map(|s| s.time_constants_s)
+        })
         .collect();
     for i in 0..n {
         let entity = format!("rls/time_constant/T{}", i + 1);
-        style(rec, &entity, &format!("T{}", i + 1), PALETTE[i % PALETTE.len()])?;
-        send_series(rec, &entity, &t, constants.iter().map(|c| c.as_ref().map(|c| c[i])))?;
+        style(
+            rec,
+            &entity,
+            &format!("T{}", i + 1),
+            PALETTE[i % PALETTE.len()],
+        )?;
+        send_series(
+            rec,
+            &entity,
+            &t,
+            constants.iter().map(|c| c.as_ref().map(|c| c[i])),
+        )?;
     }
     Ok(())
 }

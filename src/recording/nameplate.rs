@@ -86,7 +86,10 @@ impl NameplateEntries {
     /// Entries from a TOML machine file: a flat table of the profile's keys with
     /// number or string values.
     pub fn from_toml_file(path: &Path) -> Result<Self> {
-        let bad = |message: String| Error::BadMachineFile { path: path.to_owned(), message };
+        let bad = |message: String| Error::BadMachineFile {
+            path: path.to_owned(),
+            message,
+        };
         let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
         let table: toml::Table = text
             .parse()
@@ -131,11 +134,15 @@ impl NameplateEntries {
 
     /// The raw key/value pairs.
     pub fn iter(&self) -> impl Iterator<Item = (&str, &str)> {
-        self.entries.iter().map(|(k, (v, _))| (k.as_str(), v.as_str()))
+        self.entries
+            .iter()
+            .map(|(k, (v, _))| (k.as_str(), v.as_str()))
     }
 
     fn number(&self, key: &str, recording: &str) -> Result<Option<f64>> {
-        let Some((text, source)) = self.entries.get(key) else { return Ok(None) };
+        let Some((text, source)) = self.entries.get(key) else {
+            return Ok(None);
+        };
         let value: f64 = text.parse().map_err(|_| Error::BadRecording {
             path: source.into(),
             message: format!("nameplate key `{key}` is `{text}`, not a decimal number"),
@@ -163,7 +170,11 @@ impl NameplateEntries {
     fn positive(&self, key: &str, recording: &str) -> Result<f64> {
         let v = self.required(key, recording)?;
         if v <= 0.0 {
-            let source = self.entries.get(key).map(|(_, s)| s.clone()).unwrap_or_default();
+            let source = self
+                .entries
+                .get(key)
+                .map(|(_, s)| s.clone())
+                .unwrap_or_default();
             return Err(Error::BadRecording {
                 path: source.into(),
                 message: format!("nameplate key `{key}` must be positive, is {v}"),
@@ -195,7 +206,9 @@ impl NameplateEntries {
             armature_resistance_ref_temp_c: self.required("armature_resistance_ref_temp_c", r)?,
             field_resistance_ohm: self.positive("field_resistance_ohm", r)?,
             field_resistance_ref_temp_c: self.required("field_resistance_ref_temp_c", r)?,
-            armature_copper_losses_w: self.number("armature_copper_losses_kw", r)?.map(|v| v * 1e3),
+            armature_copper_losses_w: self
+                .number("armature_copper_losses_kw", r)?
+                .map(|v| v * 1e3),
             field_copper_losses_w: self.number("field_copper_losses_kw", r)?.map(|v| v * 1e3),
             iron_losses_w: nonneg("iron_losses_kw")? * 1e3,
             additional_losses_w: nonneg("additional_losses_kw")? * 1e3,
@@ -233,16 +246,25 @@ impl Nameplate {
         let mut put = |k: &str, v: f64| {
             m.insert(k.to_owned(), format!("{v}"));
         };
-        put("rated_apparent_power_mva", self.rated_apparent_power_va / 1e6);
+        put(
+            "rated_apparent_power_mva",
+            self.rated_apparent_power_va / 1e6,
+        );
         put("rated_voltage_kv", self.rated_voltage_v / 1e3);
         put("rated_current_a", self.rated_current_a);
         if let Some(v) = self.rated_field_current_a {
             put("rated_field_current_a", v);
         }
         put("armature_resistance_ohm", self.armature_resistance_ohm);
-        put("armature_resistance_ref_temp_c", self.armature_resistance_ref_temp_c);
+        put(
+            "armature_resistance_ref_temp_c",
+            self.armature_resistance_ref_temp_c,
+        );
         put("field_resistance_ohm", self.field_resistance_ohm);
-        put("field_resistance_ref_temp_c", self.field_resistance_ref_temp_c);
+        put(
+            "field_resistance_ref_temp_c",
+            self.field_resistance_ref_temp_c,
+        );
         if let Some(v) = self.armature_copper_losses_w {
             put("armature_copper_losses_kw", v / 1e3);
         }
@@ -274,16 +296,25 @@ mod tests {
     fn missing_key_is_named() {
         let mut rec = Nameplate::paper_table1().to_record();
         rec.remove("iron_losses_kw");
-        let err = NameplateEntries::from_map(&rec, "x.mcap").resolve("x.mcap").unwrap_err();
+        let err = NameplateEntries::from_map(&rec, "x.mcap")
+            .resolve("x.mcap")
+            .unwrap_err();
         let msg = err.to_string();
-        assert!(msg.contains("iron_losses_kw") && msg.starts_with("x.mcap"), "{msg}");
+        assert!(
+            msg.contains("iron_losses_kw") && msg.starts_with("x.mcap"),
+            "{msg}"
+        );
     }
 
     #[test]
     fn machine_file_overrides_keys() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("m.toml");
-        std::fs::write(&path, "temperature_base_k = 100\nrated_voltage_kv = \"16.0\"\n").unwrap();
+        std::fs::write(
+            &path,
+            "temperature_base_k = 100\nrated_voltage_kv = \"16.0\"\n",
+        )
+        .unwrap();
         let file = NameplateEntries::from_toml_file(&path).unwrap();
         let merged = NameplateEntries::from_map(&Nameplate::paper_table1().to_record(), "x.mcap")
             .overridden_by(&file);
@@ -298,7 +329,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("m.toml");
         std::fs::write(&path, "rated_power = 100\n").unwrap();
-        let err = NameplateEntries::from_toml_file(&path).unwrap_err().to_string();
+        let err = NameplateEntries::from_toml_file(&path)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("rated_power"), "{err}");
     }
 
@@ -306,7 +339,9 @@ mod tests {
     fn non_numeric_value_is_named() {
         let mut rec = Nameplate::paper_table1().to_record();
         rec.insert("rated_current_a".into(), "lots".into());
-        let err = NameplateEntries::from_map(&rec, "x.mcap").resolve("x.mcap").unwrap_err();
+        let err = NameplateEntries::from_map(&rec, "x.mcap")
+            .resolve("x.mcap")
+            .unwrap_err();
         assert!(err.to_string().contains("rated_current_a"));
     }
 }

@@ -178,7 +178,10 @@ mod tests {
     fn units_convert_to_canonical() {
         assert_eq!(Quantity::ArmatureCurrent.unit_scale("kA"), Some(1000.0));
         assert_eq!(Quantity::LineVoltage.unit_scale("kV"), Some(1000.0));
-        assert_eq!(Quantity::CoolingWaterFlow.unit_scale("l/min"), Some(1.0 / 60.0));
+        assert_eq!(
+            Quantity::CoolingWaterFlow.unit_scale("l/min"),
+            Some(1.0 / 60.0)
+        );
         // 3.6 m³/h is one litre per second.
         assert!((Quantity::CoolingWaterFlow.unit_scale("m3/h").unwrap() * 3.6 - 1.0).abs() < 1e-15);
         assert_eq!(Quantity::CoreTemp.unit_scale("degC"), Some(1.0));

@@ -158,7 +158,10 @@ struct Reader<'s, S: SampleSink> {
 /// message is not a sample. Damage after the start (a cut, a corrupt chunk) is
 /// recovered from and listed in [`RecordingSummary::data_loss`].
 pub fn read_recording<S: SampleSink>(path: &Path, sink: &mut S) -> Result<RecordingSummary> {
-    let file = std::fs::File::open(path).map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
+    let file = std::fs::File::open(path).map_err(|source| Error::ReadInput {
+        path: path.to_owned(),
+        source,
+    })?;
     let file_bytes = file.metadata().map(|m| m.len()).unwrap_or(0);
     read_stream(file, path, file_bytes, sink)
 }
@@ -172,17 +175,25 @@ pub fn read_stream<S: SampleSink>(
     sink: &mut S,
 ) -> Result<RecordingSummary> {
     let file_bytes = stream_bytes;
-    let bad = |message: String| Error::BadRecording { path: path.to_owned(), message };
+    let bad = |message: String| Error::BadRecording {
+        path: path.to_owned(),
+        message,
+    };
     let mut magic = [0u8; 8];
-    let got = read_full(&mut file, &mut magic)
-        .map_err(|source| Error::ReadInput { path: path.to_owned(), source })?;
+    let got = read_full(&mut file, &mut magic).map_err(|source| Error::ReadInput {
+        path: path.to_owned(),
+        source,
+    })?;
     if got == 0 {
         return Err(bad("the file is empty, not an MCAP recording".into()));
     }
     if magic.starts_with(b"version ") {
         let mut head = vec![0u8; 64];
         let n = read_full(&mut file, &mut head).unwrap_or(0);
-        if [&magic[..], &head[..n]].concat().starts_with(b"version https://git-lfs") {
+        if [&magic[..], &head[..n]]
+            .concat()
+            .starts_with(b"version https://git-lfs")
+        {
             return Err(bad(
                 "is a Git LFS pointer, not the MCAP data it stands for; fetch the data with `git lfs pull`".into(),
             ));
@@ -197,7 +208,11 @@ pub fn read_stream<S: SampleSink>(
     let mut merger = Reader {
         path: path.to_owned(),
         sink,
-        summary: RecordingSummary { path: path.to_owned(), file_bytes, ..Default::default() },
+        summary: RecordingSummary {
+            path: path.to_owned(),
+            file_bytes,
+            ..Default::default()
+        },
         schemas: HashMap::new(),
         routes: HashMap::new(),
         seen_data_end: false,
@@ -206,7 +221,9 @@ pub fn read_stream<S: SampleSink>(
     // cuts it into records and whole chunks; workers decompress chunks and parse their
     // messages; the merger (the calling thread) takes the results back in file order and
     // feeds the sink. Bounded queues keep memory constant whatever the file's length.
-    let workers = std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(1, 4);
+    let workers = std::thread::available_parallelism()
+        .map_or(2, |n| n.get())
+        .clamp(1, 4);
     let (work_tx, work_rx) = crossbeam_channel::bounded::<(u64, ChunkHeader, Vec<u8>)>(2 * workers);
     let (done_tx, done_rx) = crossbeam_channel::bounded::<Unit>(4 * workers);
     std::thread::scope(|scope| {
@@ -215,7 +232,11 @@ pub fn read_stream<S: SampleSink>(
             scope.spawn(move || {
                 for (seq, header, data) in work_rx {
                     let start = header.message_start_time;
-                    let unit = Unit::Decoded { seq, start, items: decode_chunk(&header, &data) };
+                    let unit = Unit::Decoded {
+                        seq,
+                        start,
+                        items: decode_chunk(&header, &data),
+                    };
                     if done_tx.send(unit).is_err() {
                         break;
                     }
@@ -235,7 +256,11 @@ pub fn read_stream<S: SampleSink>(
 /// Decoded pieces of the file, in file order by `seq`.
 enum Unit {
     /// Records outside chunks, or a chunk's records (`Err`: the chunk is damaged).
-    Decoded { seq: u64, start: u64, items: std::result::Result<Vec<Item>, String> },
+    Decoded {
+        seq: u64,
+        start: u64,
+        items: std::result::Result<Vec<Item>, String>,
+    },
     /// The end of the scan, and why it ended.
     End { seq: u64, end: ScanEnd },
 }
@@ -254,11 +279,20 @@ enum ScanEnd {
 
 /// One record's content, owned, as the merger needs it.
 enum Item {
-    Schema { id: u16, name: String, encoding: String },
+    Schema {
+        id: u16,
+        name: String,
+        encoding: String,
+    },
     Channel(mcap::records::Channel),
     /// A message with its payload parsed as a sample (or why not); `stray` when its time
     /// lies outside the time range its chunk declares (a damaged timestamp).
-    Message { channel_id: u16, log_time: u64, sample: std::result::Result<SampleMessage, String>, stray: bool },
+    Message {
+        channel_id: u16,
+        log_time: u64,
+        sample: std::result::Result<SampleMessage, String>,
+        stray: bool,
+    },
     Metadata(mcap::records::Metadata),
     DataEnd,
 }
@@ -269,13 +303,20 @@ enum Item {
 /// attachment body (found by fuzzing), so they are never handed to it.
 fn wanted(opcode: u8) -> bool {
     use mcap::records::op;
-    matches!(opcode, op::SCHEMA | op::CHANNEL | op::MESSAGE | op::CHUNK | op::METADATA | op::DATA_END)
+    matches!(
+        opcode,
+        op::SCHEMA | op::CHANNEL | op::MESSAGE | op::CHUNK | op::METADATA | op::DATA_END
+    )
 }
 
 /// The item of one parsed record outside or inside a chunk (`None`: not needed).
 fn item(record: Record<'_>) -> Option<Item> {
     Some(match record {
-        Record::Schema { header, .. } => Item::Schema { id: header.id, name: header.name, encoding: header.encoding },
+        Record::Schema { header, .. } => Item::Schema {
+            id: header.id,
+            name: header.name,
+            encoding: header.encoding,
+        },
         Record::Channel(c) => Item::Channel(c),
         Record::Message { header, data } => Item::Message {
             channel_id: header.channel_id,
@@ -300,7 +341,10 @@ fn decode_chunk(header: &ChunkHeader, data: &[u8]) -> std::result::Result<Vec<It
         }
         let record = mcap::parse_record(opcode, body).map_err(|e| e.to_string())?;
         let mut it = item(record);
-        if let Some(Item::Message { log_time, stray, .. }) = it.as_mut() {
+        if let Some(Item::Message {
+            log_time, stray, ..
+        }) = it.as_mut()
+        {
             *stray = *log_time < header.message_start_time || *log_time > header.message_end_time;
         }
         items.extend(it);
@@ -325,7 +369,9 @@ fn scan(
     let mut last_record_end: u64 = 8;
     let mut seq = 0u64;
     let end = loop {
-        let Some(event) = linear.next_event() else { break ScanEnd::Clean };
+        let Some(event) = linear.next_event() else {
+            break ScanEnd::Clean;
+        };
         match event {
             Ok(LinearReadEvent::ReadRequest(need)) => {
                 // Read in pieces of at most 1 MiB: a damaged length must not make us
@@ -346,9 +392,15 @@ fn scan(
                     continue;
                 }
                 let sent = match mcap::parse_record(opcode, data) {
-                    Ok(Record::Chunk { header, data }) => work.send((seq, header, data.into_owned())).is_ok(),
+                    Ok(Record::Chunk { header, data }) => {
+                        work.send((seq, header, data.into_owned())).is_ok()
+                    }
                     Ok(record) => done
-                        .send(Unit::Decoded { seq, start: 0, items: Ok(item(record).into_iter().collect()) })
+                        .send(Unit::Decoded {
+                            seq,
+                            start: 0,
+                            items: Ok(item(record).into_iter().collect()),
+                        })
                         .is_ok(),
                     Err(e) => {
                         break ScanEnd::Damaged {
@@ -363,8 +415,18 @@ fn scan(
                 seq += 1;
                 last_record_end += 9 + len;
             }
-            Err(mcap::McapError::UnexpectedEof) => break ScanEnd::Cut { consumed, last_record_end },
-            Err(e) => break ScanEnd::Damaged { last_record_end, what: e.to_string() },
+            Err(mcap::McapError::UnexpectedEof) => {
+                break ScanEnd::Cut {
+                    consumed,
+                    last_record_end,
+                }
+            }
+            Err(e) => {
+                break ScanEnd::Damaged {
+                    last_record_end,
+                    what: e.to_string(),
+                }
+            }
         }
     };
     let _ = done.send(Unit::End { seq, end });
@@ -386,7 +448,10 @@ fn read_full(file: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
 
 impl<S: SampleSink> Reader<'_, S> {
     fn bad(&self, message: String) -> Error {
-        Error::BadRecording { path: self.path.clone(), message }
+        Error::BadRecording {
+            path: self.path.clone(),
+            message,
+        }
     }
 
     /// Takes the decoded units back in file order and applies them.
@@ -423,25 +488,44 @@ impl<S: SampleSink> Reader<'_, S> {
         let file_bytes = self.summary.file_bytes;
         match end {
             ScanEnd::Clean => {}
-            ScanEnd::Io(source) => return Err(Error::ReadInput { path: self.path.clone(), source }),
-            ScanEnd::Cut { last_record_end, .. } if self.seen_data_end => {
+            ScanEnd::Io(source) => {
+                return Err(Error::ReadInput {
+                    path: self.path.clone(),
+                    source,
+                })
+            }
+            ScanEnd::Cut {
+                last_record_end, ..
+            } if self.seen_data_end => {
                 // Only the summary (indexes, statistics) is cut: every message was read.
                 self.summary.notes.push(format!(
                     "the summary section is cut short after byte {last_record_end}; no data were lost"
                 ));
             }
-            ScanEnd::Cut { consumed, last_record_end } => {
+            ScanEnd::Cut {
+                consumed,
+                last_record_end,
+            } => {
                 if self.summary.channels.is_empty() && self.summary.ignored_channels.is_empty() {
-                    return Err(self.bad(format!("the file ends after {consumed} bytes, before any channel was defined")));
+                    return Err(self.bad(format!(
+                        "the file ends after {consumed} bytes, before any channel was defined"
+                    )));
                 }
-                let last = self.summary.time_span_ns.map(|(_, b)| format_time(b)).unwrap_or_else(|| "none".into());
+                let last = self
+                    .summary
+                    .time_span_ns
+                    .map(|(_, b)| format_time(b))
+                    .unwrap_or_else(|| "none".into());
                 self.summary.data_loss.push(format!(
                     "the file is cut short: it ends mid-record after byte {last_record_end} of {file_bytes}, \
                      with no summary; the last {} bytes were not usable (last complete sample: {last})",
                     file_bytes.saturating_sub(last_record_end)
                 ));
             }
-            ScanEnd::Damaged { last_record_end, what } => {
+            ScanEnd::Damaged {
+                last_record_end,
+                what,
+            } => {
                 if last_record_end <= 8 {
                     return Err(self.bad(format!("not a readable MCAP file: {what}")));
                 }
@@ -459,7 +543,12 @@ impl<S: SampleSink> Reader<'_, S> {
                 self.schemas.insert(id, SchemaInfo { name, encoding });
             }
             Item::Channel(channel) => self.channel(channel)?,
-            Item::Message { channel_id, log_time, sample, stray } => {
+            Item::Message {
+                channel_id,
+                log_time,
+                sample,
+                stray,
+            } => {
                 if stray {
                     if let Some(ChannelRoute::Sensor(i)) = self.routes.get(&channel_id) {
                         let i = *i;
@@ -475,8 +564,10 @@ impl<S: SampleSink> Reader<'_, S> {
             }
             Item::Metadata(meta) => {
                 if meta.name == NAMEPLATE_RECORD {
-                    self.summary.nameplate =
-                        NameplateEntries::from_map(&meta.metadata, &self.path.display().to_string());
+                    self.summary.nameplate = NameplateEntries::from_map(
+                        &meta.metadata,
+                        &self.path.display().to_string(),
+                    );
                 } else {
                     self.summary.metadata.insert(meta.name, meta.metadata);
                 }
@@ -512,15 +603,17 @@ impl<S: SampleSink> Reader<'_, S> {
             } else {
                 "no `quantity` metadata and the topic names no quantity".to_owned()
             };
-            self.summary.ignored_channels.push(IgnoredChannel { topic: channel.topic, reason });
+            self.summary.ignored_channels.push(IgnoredChannel {
+                topic: channel.topic,
+                reason,
+            });
             self.routes.insert(channel.id, ChannelRoute::Ignored);
             return Ok(());
         };
         let topic = &channel.topic;
         let schema = self.schemas.get(&channel.schema_id);
-        let schema_ok = schema.is_some_and(|s| {
-            s.name == SAMPLE_SCHEMA_NAME && s.encoding == SAMPLE_SCHEMA_ENCODING
-        });
+        let schema_ok = schema
+            .is_some_and(|s| s.name == SAMPLE_SCHEMA_NAME && s.encoding == SAMPLE_SCHEMA_ENCODING);
         if !schema_ok {
             let found = match schema {
                 Some(s) => format!("schema `{}` ({})", s.name, s.encoding),
@@ -610,6 +703,10 @@ impl<S: SampleSink> Reader<'_, S> {
             }
             return Ok(None);
         }
-        Ok(Some(Sample { channel: index, log_time_ns: log_time, value }))
+        Ok(Some(Sample {
+            channel: index,
+            log_time_ns: log_time,
+            value,
+        }))
     }
 }

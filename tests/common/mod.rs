@@ -10,7 +10,11 @@ use heatrun::recording::Nameplate;
 
 /// Runs the heatrun binary.
 pub fn heatrun(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_heatrun")).args(args).current_dir(cwd).output().expect("heatrun runs")
+    Command::new(env!("CARGO_BIN_EXE_heatrun"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("heatrun runs")
 }
 
 /// A hand-built recording: channels with metadata and samples.
@@ -34,9 +38,19 @@ impl RecordingBuilder {
     }
 
     /// Adds a channel `/scada/<quantity>` with samples `value(t_s)` every `period_s` for `duration_s`.
-    pub fn channel(mut self, quantity: &str, unit: &str, period_s: f64, duration_s: f64, value: impl Fn(f64) -> f64) -> Self {
-        let meta: BTreeMap<String, String> =
-            [("quantity".to_owned(), quantity.to_owned()), ("unit".to_owned(), unit.to_owned())].into();
+    pub fn channel(
+        mut self,
+        quantity: &str,
+        unit: &str,
+        period_s: f64,
+        duration_s: f64,
+        value: impl Fn(f64) -> f64,
+    ) -> Self {
+        let meta: BTreeMap<String, String> = [
+            ("quantity".to_owned(), quantity.to_owned()),
+            ("unit".to_owned(), unit.to_owned()),
+        ]
+        .into();
         let n = (duration_s / period_s) as u64;
         let samples = (0..n)
             .map(|i| {
@@ -44,7 +58,8 @@ impl RecordingBuilder {
                 (T0 + (t * 1e9) as u64, format!("{{\"value\":{}}}", value(t)))
             })
             .collect();
-        self.channels.push((format!("/scada/{quantity}"), meta, samples));
+        self.channels
+            .push((format!("/scada/{quantity}"), meta, samples));
         self
     }
 
@@ -54,13 +69,41 @@ impl RecordingBuilder {
         let mut r = RecordingBuilder::new();
         let rise = |t: f64, tau: f64, k: f64| k * (1.0 - (-t / tau).exp());
         let all: Vec<(&str, &str, Box<dyn Fn(f64) -> f64>)> = vec![
-            ("armature_current", "A", Box::new(move |t| step(t, 2000.0, 3400.0) + 50.0 * (t / 300.0).sin())),
-            ("field_current", "A", Box::new(move |t| step(t, 900.0, 1150.0) + 30.0 * (t / 170.0).cos())),
-            ("line_voltage", "kV", Box::new(move |t| step(t, 15.6, 16.4) + 0.2 * (t / 230.0).sin())),
-            ("field_voltage", "V", Box::new(move |t| step(t, 140.0, 190.0))),
-            ("stator_winding_temp", "degC", Box::new(move |t| 30.0 + rise(t, 700.0, 25.0) + 0.3 * (t / 400.0).sin())),
-            ("core_temp", "degC", Box::new(move |t| 30.0 + rise(t, 3000.0, 17.0) + 0.2 * (t / 500.0).cos())),
-            ("cooling_water_outlet_temp", "degC", Box::new(move |t| 10.0 + rise(t, 30.0, 3.0) + 0.1 * (t / 90.0).sin())),
+            (
+                "armature_current",
+                "A",
+                Box::new(move |t| step(t, 2000.0, 3400.0) + 50.0 * (t / 300.0).sin()),
+            ),
+            (
+                "field_current",
+                "A",
+                Box::new(move |t| step(t, 900.0, 1150.0) + 30.0 * (t / 170.0).cos()),
+            ),
+            (
+                "line_voltage",
+                "kV",
+                Box::new(move |t| step(t, 15.6, 16.4) + 0.2 * (t / 230.0).sin()),
+            ),
+            (
+                "field_voltage",
+                "V",
+                Box::new(move |t| step(t, 140.0, 190.0)),
+            ),
+            (
+                "stator_winding_temp",
+                "degC",
+                Box::new(move |t| 30.0 + rise(t, 700.0, 25.0) + 0.3 * (t / 400.0).sin()),
+            ),
+            (
+                "core_temp",
+                "degC",
+                Box::new(move |t| 30.0 + rise(t, 3000.0, 17.0) + 0.2 * (t / 500.0).cos()),
+            ),
+            (
+                "cooling_water_outlet_temp",
+                "degC",
+                Box::new(move |t| 10.0 + rise(t, 30.0, 3.0) + 0.1 * (t / 90.0).sin()),
+            ),
         ];
         for (q, unit, f) in all {
             if q != skip {
@@ -75,7 +118,14 @@ impl RecordingBuilder {
     pub fn from_synth(duration_s: f64) -> Self {
         let dir = tempdir();
         let path = dir.path().join("synth.mcap");
-        heatrun::synth::write(&path, &heatrun::synth::SynthOptions { duration_s, ..Default::default() }).unwrap();
+        heatrun::synth::write(
+            &path,
+            &heatrun::synth::SynthOptions {
+                duration_s,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let bytes = std::fs::read(&path).unwrap();
         let mut r = RecordingBuilder::new();
         let mut index: BTreeMap<String, usize> = BTreeMap::new();
@@ -83,13 +133,21 @@ impl RecordingBuilder {
             let msg = msg.unwrap();
             let topic = msg.channel.topic.clone();
             let i = *index.entry(topic.clone()).or_insert_with(|| {
-                r.channels.push((topic.clone(), msg.channel.metadata.clone(), Vec::new()));
+                r.channels
+                    .push((topic.clone(), msg.channel.metadata.clone(), Vec::new()));
                 r.channels.len() - 1
             });
-            r.channels[i].2.push((msg.log_time, String::from_utf8(msg.data.to_vec()).unwrap()));
+            r.channels[i]
+                .2
+                .push((msg.log_time, String::from_utf8(msg.data.to_vec()).unwrap()));
         }
         // Synthetic runs start at their own epoch: rebase onto T0.
-        let start = r.channels.iter().flat_map(|c| c.2.iter().map(|s| s.0)).min().unwrap();
+        let start = r
+            .channels
+            .iter()
+            .flat_map(|c| c.2.iter().map(|s| s.0))
+            .min()
+            .unwrap();
         for c in r.channels.iter_mut() {
             for s in c.2.iter_mut() {
                 s.0 = s.0 - start + T0;
@@ -100,21 +158,48 @@ impl RecordingBuilder {
 
     /// Index of the channel of a quantity.
     pub fn channel_of(&self, quantity: &str) -> usize {
-        self.channels.iter().position(|c| c.0.ends_with(&format!("/{quantity}"))).unwrap()
+        self.channels
+            .iter()
+            .position(|c| c.0.ends_with(&format!("/{quantity}")))
+            .unwrap()
     }
 
     /// Writes the messages in the given order (arrival order, as a recorder would).
     pub fn write_in_order(&self, path: &Path, order: &[(usize, usize, u64)]) {
         let file = std::fs::File::create(path).unwrap();
-        let mut w = mcap::WriteOptions::new().create(BufWriter::new(file)).unwrap();
-        let schema = w.add_schema(&self.schema_name, "jsonschema", heatrun::synth::SAMPLE_SCHEMA.as_bytes()).unwrap();
-        let ids: Vec<u16> = self.channels.iter().map(|(topic, meta, _)| w.add_channel(schema, topic, &self.message_encoding, meta).unwrap()).collect();
+        let mut w = mcap::WriteOptions::new()
+            .create(BufWriter::new(file))
+            .unwrap();
+        let schema = w
+            .add_schema(
+                &self.schema_name,
+                "jsonschema",
+                heatrun::synth::SAMPLE_SCHEMA.as_bytes(),
+            )
+            .unwrap();
+        let ids: Vec<u16> = self
+            .channels
+            .iter()
+            .map(|(topic, meta, _)| {
+                w.add_channel(schema, topic, &self.message_encoding, meta)
+                    .unwrap()
+            })
+            .collect();
         if let Some(np) = &self.nameplate {
-            w.write_metadata(&mcap::records::Metadata { name: "heatrun.nameplate".into(), metadata: np.clone() }).unwrap();
+            w.write_metadata(&mcap::records::Metadata {
+                name: "heatrun.nameplate".into(),
+                metadata: np.clone(),
+            })
+            .unwrap();
         }
         for (seq, &(c, i, log_time)) in order.iter().enumerate() {
             w.write_to_known_channel(
-                &mcap::records::MessageHeader { channel_id: ids[c], sequence: seq as u32, log_time, publish_time: log_time },
+                &mcap::records::MessageHeader {
+                    channel_id: ids[c],
+                    sequence: seq as u32,
+                    log_time,
+                    publish_time: log_time,
+                },
                 self.channels[c].2[i].1.as_bytes(),
             )
             .unwrap();
@@ -130,13 +215,26 @@ impl RecordingBuilder {
     pub fn write_with(&self, path: &Path, options: mcap::WriteOptions, shuffle: Option<u64>) {
         let file = std::fs::File::create(path).unwrap();
         let mut w = options.create(BufWriter::new(file)).unwrap();
-        let schema = w.add_schema(&self.schema_name, "jsonschema", heatrun::synth::SAMPLE_SCHEMA.as_bytes()).unwrap();
+        let schema = w
+            .add_schema(
+                &self.schema_name,
+                "jsonschema",
+                heatrun::synth::SAMPLE_SCHEMA.as_bytes(),
+            )
+            .unwrap();
         let mut ids = Vec::new();
         for (topic, meta, _) in &self.channels {
-            ids.push(w.add_channel(schema, topic, &self.message_encoding, meta).unwrap());
+            ids.push(
+                w.add_channel(schema, topic, &self.message_encoding, meta)
+                    .unwrap(),
+            );
         }
         if let Some(np) = &self.nameplate {
-            w.write_metadata(&mcap::records::Metadata { name: "heatrun.nameplate".into(), metadata: np.clone() }).unwrap();
+            w.write_metadata(&mcap::records::Metadata {
+                name: "heatrun.nameplate".into(),
+                metadata: np.clone(),
+            })
+            .unwrap();
         }
         let mut all: Vec<(u64, usize, &String)> = Vec::new();
         for (c, (_, _, samples)) in self.channels.iter().enumerate() {
@@ -147,16 +245,25 @@ impl RecordingBuilder {
         all.sort_by_key(|x| x.0);
         if let Some(seed) = shuffle {
             // Fisher–Yates with a small LCG: deterministic without another dependency.
-            let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let mut state = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             for i in (1..all.len()).rev() {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 let j = (state >> 33) as usize % (i + 1);
                 all.swap(i, j);
             }
         }
         for (seq, (t, c, data)) in all.into_iter().enumerate() {
             w.write_to_known_channel(
-                &mcap::records::MessageHeader { channel_id: ids[c], sequence: seq as u32, log_time: t, publish_time: t },
+                &mcap::records::MessageHeader {
+                    channel_id: ids[c],
+                    sequence: seq as u32,
+                    log_time: t,
+                    publish_time: t,
+                },
                 data.as_bytes(),
             )
             .unwrap();
@@ -172,7 +279,10 @@ pub fn tempdir() -> tempfile::TempDir {
 
 /// The files in a directory.
 pub fn files_in(dir: &Path) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
     v.sort();
     v
 }
