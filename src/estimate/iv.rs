@@ -10,9 +10,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::wls::WeightedLeastSquares;
-use super::{
-    check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData,
-};
+use super::{check_enough_rows, DiscreteModel, Estimate, Estimator, IdentificationData};
 use crate::error::{Error, Result};
 
 /// Iterated instrumental-variable estimator.
@@ -60,44 +58,62 @@ pub fn lagged_output_iv(data: &IdentificationData) -> Result<DiscreteModel> {
         .filter(|&k| k >= 2 && data.outputs_known[k - 2])
         .collect();
     check_enough_rows(data, rows.len())?;
-    let z = instrument_matrix(data, &rows, |k, j| data.outputs[(k - 2, j)]);
-    Ok(solve(data, &rows, &z)?.0)
+    Ok(solve(data, &rows, |k, j| data.outputs[(k - 2, j)])?.0)
 }
 
-/// Z with rows [g(k, ·) u(k−1)ᵀ] for the given output instrument g.
-fn instrument_matrix(
+/// Solved IV system: the model, (ZᵀF)⁻¹, ZᵀZ and the condition number of the scaled moment.
+type IvSolution = (DiscreteModel, DMatrix<f64>, DMatrix<f64>, f64);
+
+/// θ_i = (ZᵀF)⁻¹ Zᵀ y_i for every output, with Z rows [g(k, ·) u(k−1)ᵀ]. The moments
+/// are accumulated row by row (O(p²) memory whatever the length) and the p×p system
+/// is solved with both sides scaled to unit column norms.
+fn solve(
     data: &IdentificationData,
     rows: &[usize],
     g: impl Fn(usize, usize) -> f64,
-) -> DMatrix<f64> {
+) -> Result<IvSolution> {
     let (n, m) = (data.states(), data.input_count());
-    DMatrix::from_fn(rows.len(), n + m, |r, j| {
-        let k = rows[r];
+    let p = n + m;
+    let f_of = |k: usize, j: usize| {
+        if j < n {
+            data.outputs[(k - 1, j)]
+        } else {
+            data.inputs[(k - 1, j - n)]
+        }
+    };
+    let z_of = |k: usize, j: usize| {
         if j < n {
             g(k, j)
         } else {
             data.inputs[(k - 1, j - n)]
         }
-    })
-}
-
-/// Solved IV system: the model, (ZsᵀFs)⁻¹, the scaled Z, F's column scale and the condition number.
-type IvSolution = (DiscreteModel, DMatrix<f64>, DMatrix<f64>, Vec<f64>, f64);
-
-/// θ_i = (ZᵀF)⁻¹ Zᵀ y_i for every output, with columns scaled to unit norm.
-fn solve(data: &IdentificationData, rows: &[usize], z: &DMatrix<f64>) -> Result<IvSolution> {
-    let (n, m) = (data.states(), data.input_count());
-    let p = n + m;
-    let (f, y) = regression(data, rows);
-    let f_scale: Vec<f64> = (0..p)
-        .map(|j| 1.0 / f.column(j).norm().max(1e-300))
-        .collect();
-    let fs = DMatrix::from_fn(f.nrows(), p, |r, j| f[(r, j)] * f_scale[j]);
+    };
+    let mut zf = DMatrix::<f64>::zeros(p, p);
+    let mut zz = DMatrix::<f64>::zeros(p, p);
+    let mut zy = DMatrix::<f64>::zeros(p, n);
+    let mut ff = vec![0.0; p];
+    let (mut f, mut z) = (vec![0.0; p], vec![0.0; p]);
+    for &k in rows {
+        for j in 0..p {
+            f[j] = f_of(k, j);
+            z[j] = z_of(k, j);
+            ff[j] += f[j] * f[j];
+        }
+        for a in 0..p {
+            for b in 0..p {
+                zf[(a, b)] += z[a] * f[b];
+                zz[(a, b)] += z[a] * z[b];
+            }
+            for i in 0..n {
+                zy[(a, i)] += z[a] * data.outputs[(k, i)];
+            }
+        }
+    }
+    let f_scale: Vec<f64> = ff.iter().map(|v| 1.0 / v.sqrt().max(1e-300)).collect();
     let z_scale: Vec<f64> = (0..p)
-        .map(|j| 1.0 / z.column(j).norm().max(1e-300))
+        .map(|j| 1.0 / zz[(j, j)].sqrt().max(1e-300))
         .collect();
-    let zs = DMatrix::from_fn(z.nrows(), p, |r, j| z[(r, j)] * z_scale[j]);
-    let moment = zs.transpose() * &fs;
+    let moment = DMatrix::from_fn(p, p, |a, b| zf[(a, b)] * z_scale[a] * f_scale[b]);
     let sv = moment.clone().singular_values();
     let (s_max, s_min) = (sv.max(), sv.min());
     if !(s_min > 1e-12 * s_max) {
@@ -107,22 +123,22 @@ fn solve(data: &IdentificationData, rows: &[usize], z: &DMatrix<f64>) -> Result<
                 .into(),
         ));
     }
-    let inv = moment
+    let inv_scaled = moment
         .try_inverse()
         .ok_or_else(|| Error::Estimation("singular IV moment matrix".into()))?;
+    // (ZᵀF)⁻¹ = D_f (E ZᵀF D_f)⁻¹ E.
+    let inv = DMatrix::from_fn(p, p, |a, b| f_scale[a] * inv_scaled[(a, b)] * z_scale[b]);
     let mut theta = vec![0.0; n * p];
     for i in 0..n {
-        let t = &inv * (zs.transpose() * y.column(i));
-        for j in 0..p {
-            theta[i * p + j] = t[j] * f_scale[j];
-        }
+        let t = &inv * zy.column(i);
+        theta[i * p..(i + 1) * p].copy_from_slice(t.as_slice());
     }
     let template = DiscreteModel {
         phi: DMatrix::zeros(n, n),
         gamma: DMatrix::zeros(n, m),
         ts_s: data.ts_s,
     };
-    Ok((template.with_theta(&theta), inv, zs, f_scale, s_max / s_min))
+    Ok((template.with_theta(&theta), inv, zz, s_max / s_min))
 }
 
 impl InstrumentalVariables {
@@ -147,8 +163,7 @@ impl InstrumentalVariables {
         for _ in 0..self.max_iterations {
             iterations += 1;
             let sim = model.simulate_segments(data, &segments);
-            let z = instrument_matrix(data, &rows, |k, j| sim[(k - 1, j)]);
-            let solved = solve(data, &rows, &z)?;
+            let solved = solve(data, &rows, |k, j| sim[(k - 1, j)])?;
             let old = DVector::from_vec(model.theta());
             let mut step = DVector::from_vec(solved.0.theta()) - &old;
             let mut next = model.with_theta((&old + &step).as_slice());
@@ -168,20 +183,31 @@ impl InstrumentalVariables {
                 break;
             }
         }
-        let (_, inv, zs, f_scale, condition_number) = last.ok_or_else(|| {
+        let (_, inv, zz, condition_number) = last.ok_or_else(|| {
             Error::Estimation("instrumental variables made no stable step".into())
         })?;
-        // Covariance σ_i² (ZᵀF)⁻¹ ZᵀZ (ZᵀF)⁻ᵀ, in the scaled variables and scaled back.
-        let d = DMatrix::from_diagonal(&DVector::from_column_slice(&f_scale));
-        let core = &d * &inv * (zs.transpose() * &zs) * inv.transpose() * &d;
-        let (f, y) = regression(data, &rows);
+        // Covariance σ_i² (ZᵀF)⁻¹ ZᵀZ (ZᵀF)⁻ᵀ, with σ_i² of the equation error.
+        let core = &inv * zz * inv.transpose();
         let theta = model.theta();
+        let mut sse = vec![0.0; n];
+        for &k in &rows {
+            for (i, acc) in sse.iter_mut().enumerate() {
+                let mut e = data.outputs[(k, i)];
+                for j in 0..p {
+                    let f = if j < n {
+                        data.outputs[(k - 1, j)]
+                    } else {
+                        data.inputs[(k - 1, j - n)]
+                    };
+                    e -= theta[i * p + j] * f;
+                }
+                *acc += e * e;
+            }
+        }
         let mut covariance = DMatrix::zeros(n * p, n * p);
         let mut noise_variance = vec![0.0; n];
         for i in 0..n {
-            let t = DVector::from_column_slice(&theta[i * p..(i + 1) * p]);
-            let e = y.column(i) - &f * t;
-            noise_variance[i] = e.norm_squared() / (rows.len() - p).max(1) as f64;
+            noise_variance[i] = sse[i] / (rows.len() - p).max(1) as f64;
             covariance
                 .view_mut((i * p, i * p), (p, p))
                 .copy_from(&(&core * noise_variance[i]));

@@ -14,6 +14,7 @@ use crate::losses::ThermalSignals;
 
 pub mod iv;
 pub mod oe;
+pub mod qr;
 pub mod rls;
 pub mod wls;
 

@@ -9,9 +9,7 @@
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use super::{
-    check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData,
-};
+use super::{check_enough_rows, DiscreteModel, Estimate, Estimator, IdentificationData};
 use crate::error::{Error, Result};
 
 /// Θ at one instant of the recursion.
@@ -56,12 +54,20 @@ impl RecursiveLeastSquares {
         let p = n + m;
         // A diffuse start: θ = 0 and P = 10⁸·diag(1/rms_j²) over the regressors' scales, so
         // the prior weighs like a hundred-millionth of one equation.
-        let (f_all, _) = regression(data, &rows);
         let mut pm = DMatrix::zeros(p, p);
         for j in 0..p {
-            let rms = (f_all.column(j).norm_squared() / rows.len() as f64)
-                .sqrt()
-                .max(1e-300);
+            let sum: f64 = rows
+                .iter()
+                .map(|&k| {
+                    if j < n {
+                        data.outputs[(k - 1, j)]
+                    } else {
+                        data.inputs[(k - 1, j - n)]
+                    }
+                    .powi(2)
+                })
+                .sum();
+            let rms = (sum / rows.len() as f64).sqrt().max(1e-300);
             pm[(j, j)] = 1e8 / (rms * rms);
         }
         let mut theta = DMatrix::zeros(p, n); // column i: θ_i

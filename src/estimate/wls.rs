@@ -1,12 +1,12 @@
-//! Weighted least squares (eqs. 3–7), solved by a singular value decomposition of
-//! the column-scaled regression matrix rather than the normal equations (F^T F)^{-1},
-//! whose condition number is the square of F's.
+//! Weighted least squares (eqs. 3–7), solved by a QR factorisation of the
+//! column-scaled regression matrix, updated block by block so memory does not grow
+//! with the recording — not by the normal equations (FᵀF)⁻¹, whose condition number
+//! is the square of F's.
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{
-    check_enough_rows, regression, DiscreteModel, Estimate, Estimator, IdentificationData,
-};
+use super::qr::StreamingQr;
+use super::{check_enough_rows, DiscreteModel, Estimate, Estimator, IdentificationData};
 use crate::error::{Error, Result};
 
 /// Smallest ratio σ_min/σ_max of the scaled regression matrix accepted as full rank.
@@ -36,32 +36,86 @@ impl Estimator for WeightedLeastSquares {
         check_enough_rows(data, rows.len())?;
         let (n, m) = (data.states(), data.input_count());
         let p = n + m;
-        let (f, y) = regression(data, &rows);
+        let regressor = |k: usize, j: usize| {
+            if j < n {
+                data.outputs[(k - 1, j)]
+            } else {
+                data.inputs[(k - 1, j - n)]
+            }
+        };
+        // Columns scaled to unit norm: the condition number then measures excitation,
+        // not the units (states ~0.3 pu, losses ~0.003 pu).
+        let mut norm2 = vec![0.0; p];
+        for &k in &rows {
+            for (j, acc) in norm2.iter_mut().enumerate() {
+                *acc += regressor(k, j).powi(2);
+            }
+        }
+        if let Some(j) = norm2.iter().position(|v| !(*v > 0.0 && v.is_finite())) {
+            return Err(Error::Estimation(format!(
+                "regressor {} is zero throughout: that signal never changes from zero, so its \
+                 parameters cannot be estimated",
+                j + 1
+            )));
+        }
+        let scale: Vec<f64> = norm2.iter().map(|v| 1.0 / v.sqrt()).collect();
+        // One factorisation for all outputs when they share the rows' weights, one each otherwise.
+        let groups: Vec<Vec<usize>> = if self.weights.is_some() {
+            (0..n).map(|i| vec![i]).collect()
+        } else {
+            vec![(0..n).collect()]
+        };
         let mut theta = vec![0.0; n * p];
         let mut covariance = DMatrix::zeros(n * p, n * p);
         let mut noise_variance = vec![0.0; n];
         let mut condition_number: f64 = 0.0;
-        for i in 0..n {
-            // Equation k is weighted by w_i(k); its row is scaled by √w_i(k).
-            let sqrt_w: Vec<f64> = rows
-                .iter()
-                .map(|&k| {
-                    self.weights
-                        .as_ref()
-                        .map_or(1.0, |w| w[(k, i)].max(0.0).sqrt())
-                })
-                .collect();
-            let fw = DMatrix::from_fn(rows.len(), p, |r, j| sqrt_w[r] * f[(r, j)]);
-            let yw = DVector::from_fn(rows.len(), |r, _| sqrt_w[r] * y[(r, i)]);
-            let solution = solve_scaled(fw.clone(), &yw)?;
-            condition_number = condition_number.max(solution.condition_number);
-            let residual = &yw - &fw * &solution.theta;
+        let mut f_row = vec![0.0; p];
+        let mut y_row = vec![0.0; n];
+        for outputs in groups {
+            let mut qr = StreamingQr::new(p, outputs.len());
+            for &k in &rows {
+                let sw = match (&self.weights, outputs.as_slice()) {
+                    (Some(w), [i]) => w[(k, *i)].max(0.0).sqrt(),
+                    _ => 1.0,
+                };
+                for j in 0..p {
+                    f_row[j] = sw * regressor(k, j) * scale[j];
+                }
+                for (slot, &i) in outputs.iter().enumerate() {
+                    y_row[slot] = sw * data.outputs[(k, i)];
+                }
+                qr.push(&f_row, &y_row[..outputs.len()]);
+            }
+            let (r, qty, rss) = qr.finish();
+            let sv = r.clone().singular_values();
+            let (s_max, s_min) = (sv.max(), sv.min());
+            if !(s_min > RANK_TOLERANCE * s_max) {
+                return Err(Error::Estimation(format!(
+                    "the regression is rank deficient (σ_min/σ_max = {:.1e}): the inputs are not \
+                     persistently exciting (constant, or proportional to each other), so Φ and Γ \
+                     cannot be told apart; use a heat run with load steps",
+                    s_min / s_max
+                )));
+            }
+            condition_number = condition_number.max(s_max / s_min);
+            let r_inv = r
+                .clone()
+                .try_inverse()
+                .ok_or_else(|| Error::Estimation("singular R".into()))?;
+            // (FᵀF)⁻¹ in the original units: D R⁻¹ R⁻ᵀ D.
+            let d = DMatrix::from_diagonal(&DVector::from_column_slice(&scale));
+            let inverse_gram = &d * &r_inv * r_inv.transpose() * &d;
             let dof = (rows.len() - p).max(1) as f64;
-            noise_variance[i] = residual.norm_squared() / dof;
-            theta[i * p..(i + 1) * p].copy_from_slice(solution.theta.as_slice());
-            covariance
-                .view_mut((i * p, i * p), (p, p))
-                .copy_from(&(&solution.inverse_gram * noise_variance[i]));
+            for (slot, &i) in outputs.iter().enumerate() {
+                let t = &r_inv * qty.column(slot);
+                for j in 0..p {
+                    theta[i * p + j] = t[j] * scale[j];
+                }
+                noise_variance[i] = rss[slot] / dof;
+                covariance
+                    .view_mut((i * p, i * p), (p, p))
+                    .copy_from(&(&inverse_gram * noise_variance[i]));
+            }
         }
         let template = DiscreteModel {
             phi: DMatrix::zeros(n, n),
@@ -79,64 +133,6 @@ impl Estimator for WeightedLeastSquares {
             output_offset: None,
         })
     }
-}
-
-/// A least-squares solution with what its uncertainty needs.
-#[derive(Debug, Clone)]
-pub struct ScaledSolution {
-    /// The minimiser θ.
-    pub theta: DVector<f64>,
-    /// Condition number of the column-scaled F.
-    pub condition_number: f64,
-    /// (FᵀF)⁻¹, from the SVD: D V Σ⁻² Vᵀ D with D the column scaling.
-    pub inverse_gram: DMatrix<f64>,
-}
-
-/// Solves min ‖F θ − y‖ by SVD after scaling F's columns to unit norm; returns θ and
-/// the condition number of the scaled F. Errors when F is rank deficient: the
-/// inputs did not excite the system enough to tell the parameters apart.
-pub fn solve_scaled(mut f: DMatrix<f64>, y: &DVector<f64>) -> Result<ScaledSolution> {
-    let p = f.ncols();
-    let mut scale = vec![1.0; p];
-    for (j, s) in scale.iter_mut().enumerate() {
-        let norm = f.column(j).norm();
-        if norm == 0.0 || !norm.is_finite() {
-            return Err(Error::Estimation(format!(
-                "regressor {} is zero throughout: that signal never changes from zero, so its \
-                 parameters cannot be estimated",
-                j + 1
-            )));
-        }
-        *s = 1.0 / norm;
-        f.column_mut(j).scale_mut(*s);
-    }
-    let svd = f.svd(true, true);
-    let s_max = svd.singular_values.max();
-    let s_min = svd.singular_values.min();
-    if !(s_min > RANK_TOLERANCE * s_max) {
-        return Err(Error::Estimation(format!(
-            "the regression is rank deficient (σ_min/σ_max = {:.1e}): the inputs are not \
-             persistently exciting (constant, or proportional to each other), so Φ and Γ \
-             cannot be told apart; use a heat run with load steps",
-            s_min / s_max
-        )));
-    }
-    let theta = svd
-        .solve(y, 0.0)
-        .map_err(|e| Error::Estimation(format!("least-squares solve failed: {e}")))?;
-    let theta = DVector::from_fn(p, |j, _| theta[j] * scale[j]);
-    let v_t = svd
-        .v_t
-        .as_ref()
-        .ok_or_else(|| Error::Estimation("SVD without V".into()))?;
-    let sigma_inv2 = DMatrix::from_diagonal(&svd.singular_values.map(|s| 1.0 / (s * s)));
-    let d = DMatrix::from_diagonal(&DVector::from_column_slice(&scale));
-    let inverse_gram = &d * v_t.transpose() * sigma_inv2 * v_t * &d;
-    Ok(ScaledSolution {
-        theta,
-        condition_number: s_max / s_min,
-        inverse_gram,
-    })
 }
 
 #[cfg(test)]
