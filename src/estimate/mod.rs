@@ -231,21 +231,6 @@ impl DiscreteModel {
     }
 }
 
-/// The regression of eq. 7 over `rows`: F with rows [y(k−1)ᵀ u(k−1)ᵀ] and Y with rows y(k)ᵀ.
-pub fn regression(data: &IdentificationData, rows: &[usize]) -> (DMatrix<f64>, DMatrix<f64>) {
-    let (n, m) = (data.states(), data.input_count());
-    let f = DMatrix::from_fn(rows.len(), n + m, |r, j| {
-        let k = rows[r];
-        if j < n {
-            data.outputs[(k - 1, j)]
-        } else {
-            data.inputs[(k - 1, j - n)]
-        }
-    });
-    let y = DMatrix::from_fn(rows.len(), n, |r, i| data.outputs[(rows[r], i)]);
-    (f, y)
-}
-
 /// An estimator's result.
 #[derive(Debug, Clone, Serialize)]
 pub struct Estimate {
