@@ -170,7 +170,7 @@ fn constant_inputs_are_not_persistently_exciting() {
 
 #[test]
 fn the_mcap_conformance_files_hold_no_heat_run() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/mcap-conformance/OneMessage");
+    let root = common::package_root().join("../shared/mcap-conformance/OneMessage");
     let Ok(entries) = std::fs::read_dir(&root) else {
         eprintln!("no conformance files at {}: skipped", root.display());
         return;

@@ -469,7 +469,7 @@ fn every_mcap_layout_gives_the_same_estimate() {
 #[test]
 fn fuzz_findings_stay_fixed() {
     // Inputs cargo-fuzz found crashing the recording path, kept as regressions.
-    let found = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let found = common::package_root().join("tests/data");
     for entry in std::fs::read_dir(found).unwrap() {
         let path = entry.unwrap().path();
         let dir = common::tempdir();

@@ -8,6 +8,14 @@ use std::process::{Command, Output};
 
 use heatrun::recording::Nameplate;
 
+/// The package root, read when the test runs: a test binary built from another
+/// clone sharing the target directory must not look in that clone's folder.
+pub fn package_root() -> PathBuf {
+    std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
+}
+
 /// Runs the heatrun binary.
 pub fn heatrun(args: &[&str], cwd: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_heatrun"))
