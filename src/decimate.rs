@@ -15,6 +15,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::recording::{Alignment, Quantity, Sample, SampleSink, SensorChannel};
+use crate::series::Series;
 
 /// Neighbouring samples further apart than this many nominal periods enclose a gap.
 pub const GAP_FACTOR: f64 = 1.5;
@@ -154,7 +155,7 @@ pub struct DecimatedSeries {
     /// The quantity.
     pub quantity: Quantity,
     /// The value at each grid instant in the canonical unit, `None` where no sensor has data.
-    pub values: Vec<Option<f64>>,
+    pub values: Series,
     /// How many sensors were combined.
     pub sensors: usize,
 }
@@ -255,7 +256,7 @@ impl Decimator {
         }
         let len = (hi - lo + 1) as usize;
         let mut grids = Vec::new();
-        let mut per_quantity: BTreeMap<Quantity, Vec<Vec<Option<f64>>>> = BTreeMap::new();
+        let mut per_quantity: BTreeMap<Quantity, Vec<Series>> = BTreeMap::new();
         let ts_ns = self.ts_ns;
         let quantities = self.quantities.clone();
         // One channel at a time: its windows are freed before the next is laid out.
@@ -282,7 +283,7 @@ impl Decimator {
                     .map(|i| {
                         let (sum, n) = sensors
                             .iter()
-                            .filter_map(|s| s[i])
+                            .filter_map(|s| s.get(i))
                             .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
                         (n > 0).then(|| sum / n as f64)
                     })
@@ -321,7 +322,7 @@ fn channel_on_grid(
     alignment: Alignment,
     lo: i64,
     len: usize,
-) -> (Vec<Option<f64>>, ChannelGrid) {
+) -> (Series, ChannelGrid) {
     let ts = ts_ns as f64 * 1e-9;
     // Occupied windows as points (grid index, mean time in s relative to grid start, mean).
     let points: Vec<(i64, f64, f64)> = windows
@@ -333,7 +334,7 @@ fn channel_on_grid(
             (k, t, w.sum / w.count as f64)
         })
         .collect();
-    let mut values = vec![None; len];
+    let mut values = Series::unknown(len);
     let empty = ChannelGrid {
         topic: String::new(),
         quantity: Quantity::CoreTemp,
@@ -358,7 +359,7 @@ fn channel_on_grid(
         let span_windows = (last_k - first_k + 1) as f64;
         nominal_period_s = ts * span_windows / total as f64;
         for &(k, _, v) in &points {
-            values[(k - lo) as usize] = Some(v);
+            values.set((k - lo) as usize, Some(v));
         }
         for p in points.windows(2) {
             if p[1].0 - p[0].0 > 1 {
@@ -377,7 +378,7 @@ fn channel_on_grid(
             Alignment::Interval => ts / 2.0,
         };
         let mut j = 0;
-        for (i, slot) in values.iter_mut().enumerate() {
+        for i in 0..len {
             let t = i as f64 * ts + offset;
             while j + 1 < points.len() && points[j + 1].1 < t {
                 j += 1;
@@ -387,7 +388,7 @@ fn channel_on_grid(
                 .iter()
                 .find(|p| (p.1 - t).abs() < 1e-9)
             {
-                *slot = Some(exact.2);
+                values.set(i, Some(exact.2));
                 continue;
             }
             if j + 1 >= points.len() || a.1 > t {
@@ -395,7 +396,7 @@ fn channel_on_grid(
             }
             let b = points[j + 1];
             if b.1 - a.1 <= limit {
-                *slot = Some(a.2 + (b.2 - a.2) * (t - a.1) / (b.1 - a.1));
+                values.set(i, Some(a.2 + (b.2 - a.2) * (t - a.1) / (b.1 - a.1)));
             } else {
                 gap_instants += 1;
             }
@@ -542,7 +543,7 @@ mod tests {
         assert_eq!(r.len, 71);
         for (i, x) in v.iter().enumerate() {
             if (40..60).contains(&i) && i != 40 {
-                assert_eq!(*x, None, "instant {i} lies in the gap");
+                assert_eq!(x, None, "instant {i} lies in the gap");
             } else {
                 assert!((x.unwrap() - i as f64).abs() < 1e-9, "instant {i}: {x:?}");
             }
@@ -594,7 +595,7 @@ mod tests {
         }
         let r = d.finish(&chans).unwrap();
         let v = &r.get(Quantity::LineVoltage).unwrap().values;
-        assert_eq!(v[3], None);
+        assert_eq!(v.get(3), None);
         assert_eq!(v.iter().filter(|x| x.is_some()).count(), 9);
         assert_eq!(r.channels[0].gaps, 1);
     }
@@ -625,9 +626,9 @@ mod tests {
         let r = d.finish(&chans).unwrap();
         let s = r.get(Quantity::StatorWindingTemp).unwrap();
         assert_eq!(s.sensors, 2);
-        assert_eq!(s.values[1], Some(51.0));
+        assert_eq!(s.values.get(1), Some(51.0));
         assert_eq!(
-            s.values[2],
+            s.values.get(2),
             Some(50.0),
             "one sensor missing: the other stands"
         );

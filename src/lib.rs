@@ -27,6 +27,7 @@ pub mod pipeline;
 pub mod publish;
 pub mod recording;
 pub mod report;
+pub mod series;
 pub mod synth;
 
 pub use error::{Error, Result};

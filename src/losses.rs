@@ -9,6 +9,7 @@ use serde::Serialize;
 use crate::decimate::DecimatedRecording;
 use crate::error::{Error, Result};
 use crate::recording::{Nameplate, Quantity};
+use crate::series::Series;
 
 /// The inverse temperature coefficient of copper, 235 K: R(θ) ∝ 235 + θ.
 pub const COPPER_INFERRED_ZERO_C: f64 = 235.0;
@@ -156,17 +157,15 @@ pub struct ThermalSignals {
     /// Time of each grid instant, ns since the epoch.
     pub time_ns: Vec<i64>,
     /// Measured temperatures θ (°C), per state, `None` where missing.
-    pub temperatures_c: [Vec<Option<f64>>; 3],
+    pub temperatures_c: [Series; 3],
     /// Initial temperatures θ_0 (°C) the rises are measured from.
     pub initial_temperatures_c: [f64; 3],
     /// Index of the instant the initial temperatures were taken at.
     pub initial_index: usize,
-    /// State temperature rises (θ − θ_0)/θ_base in pu, per state.
-    pub rises_pu: [Vec<Option<f64>>; 3],
     /// Heat sources in pu of S_n, per input (held over [t_k, t_k + Ts)).
-    pub inputs_pu: [Vec<Option<f64>>; 3],
+    pub inputs_pu: [Series; 3],
     /// Field winding temperature used for R_f (°C).
-    pub field_temperature_c: Vec<Option<f64>>,
+    pub field_temperature_c: Series,
     /// Where θ_f comes from.
     pub field_temperature_source: FieldTemperatureSource,
     /// Per-unit temperature base, K.
@@ -186,15 +185,22 @@ impl ThermalSignals {
         self.time_ns.is_empty()
     }
 
+    /// State j's temperature rise (θ_j(k) − θ_j,0)/θ_base at instant k, in pu.
+    pub fn rise_pu(&self, j: usize, k: usize) -> Option<f64> {
+        self.temperatures_c[j]
+            .get(k)
+            .map(|t| (t - self.initial_temperatures_c[j]) / self.temperature_base_k)
+    }
+
     /// The last instant at which every input is known, with those inputs (pu).
     pub fn last_inputs(&self) -> Option<(usize, [f64; 3])> {
         (0..self.len()).rev().find_map(|k| {
             Some((
                 k,
                 [
-                    self.inputs_pu[0][k]?,
-                    self.inputs_pu[1][k]?,
-                    self.inputs_pu[2][k]?,
+                    self.inputs_pu[0].get(k)?,
+                    self.inputs_pu[1].get(k)?,
+                    self.inputs_pu[2].get(k)?,
                 ],
             ))
         })
@@ -206,9 +212,9 @@ impl ThermalSignals {
             Some((
                 k,
                 [
-                    self.temperatures_c[0][k]?,
-                    self.temperatures_c[1][k]?,
-                    self.temperatures_c[2][k]?,
+                    self.temperatures_c[0].get(k)?,
+                    self.temperatures_c[1].get(k)?,
+                    self.temperatures_c[2].get(k)?,
                 ],
             ))
         })
@@ -248,20 +254,14 @@ pub fn compute(
     ];
     let n = decimated.len;
     let initial_index = (0..n)
-        .find(|&k| temps.iter().all(|t| t[k].is_some()))
+        .find(|&k| temps.iter().all(|t| t.get(k).is_some()))
         .ok_or_else(|| {
             Error::Estimation(format!(
                 "{recording}: the three temperatures are never known at the same instant"
             ))
         })?;
-    let theta0 = [0, 1, 2].map(|s| temps[s][initial_index].unwrap_or(f64::NAN));
+    let theta0 = [0, 1, 2].map(|s| temps[s].get(initial_index).unwrap_or(f64::NAN));
     let base = np.temperature_base_k;
-    let rises_pu = [0, 1, 2].map(|s| {
-        temps[s]
-            .iter()
-            .map(|t| t.map(|t| (t - theta0[s]) / base))
-            .collect::<Vec<_>>()
-    });
 
     // Field winding temperature, in the profile's order of preference.
     let (field_temperature_c, field_temperature_source) = if let Some(measured) =
@@ -269,8 +269,8 @@ pub fn compute(
     {
         (measured.values.clone(), FieldTemperatureSource::Measured)
     } else if let Some(u_f) = decimated.get(Quantity::FieldVoltage) {
-        let theta: Vec<Option<f64>> = (0..n)
-            .map(|k| match (u_f.values[k], i_f[k]) {
+        let theta: Series = (0..n)
+            .map(|k| match (u_f.values.get(k), i_f.get(k)) {
                 (Some(u), Some(i))
                     if i.abs() > 1e-3 * np.rated_field_current_a.unwrap_or(1000.0) =>
                 {
@@ -281,7 +281,10 @@ pub fn compute(
             .collect();
         (theta, FieldTemperatureSource::ResistanceMethod)
     } else if let Some(final_temp_c) = np.field_winding_final_temp_c {
-        let last_cu = (0..n).rev().find_map(|k| temps[0][k]).unwrap_or(theta0[0]);
+        let last_cu = (0..n)
+            .rev()
+            .find_map(|k| temps[0].get(k))
+            .unwrap_or(theta0[0]);
         let rise = last_cu - theta0[0];
         if rise < 1.0 {
             return Err(Error::Estimation(format!(
@@ -313,17 +316,23 @@ pub fn compute(
     };
 
     let s_n = np.rated_apparent_power_va;
-    let mut inputs_pu: [Vec<Option<f64>>; 3] = [vec![None; n], vec![None; n], vec![None; n]];
+    let mut inputs_pu: [Series; 3] = [Series::unknown(n), Series::unknown(n), Series::unknown(n)];
     for k in 0..n {
-        inputs_pu[0][k] = match (i_g[k], temps[0][k]) {
-            (Some(i), Some(t)) => Some(armature_copper_loss_w(np, i, t) / s_n),
-            _ => None,
-        };
-        inputs_pu[1][k] = match (i_f[k], field_temperature_c[k]) {
-            (Some(i), Some(t)) => Some(field_copper_loss_w(np, i, t) / s_n),
-            _ => None,
-        };
-        inputs_pu[2][k] = u_g[k].map(|u| iron_loss_w(np, u) / s_n);
+        inputs_pu[0].set(
+            k,
+            match (i_g.get(k), temps[0].get(k)) {
+                (Some(i), Some(t)) => Some(armature_copper_loss_w(np, i, t) / s_n),
+                _ => None,
+            },
+        );
+        inputs_pu[1].set(
+            k,
+            match (i_f.get(k), field_temperature_c.get(k)) {
+                (Some(i), Some(t)) => Some(field_copper_loss_w(np, i, t) / s_n),
+                _ => None,
+            },
+        );
+        inputs_pu[2].set(k, u_g.get(k).map(|u| iron_loss_w(np, u) / s_n));
     }
     Ok(ThermalSignals {
         ts_s: decimated.ts_s(),
@@ -331,7 +340,6 @@ pub fn compute(
         temperatures_c: temps,
         initial_temperatures_c: theta0,
         initial_index,
-        rises_pu,
         inputs_pu,
         field_temperature_c,
         field_temperature_source,

@@ -270,7 +270,12 @@ pub fn replay_with(
         }
         _ => 0..data.len(),
     };
-    let estimation_data = data.slice(estimation_range.clone());
+    // Borrowed unless a part is held out: a week's data are not copied for nothing.
+    let estimation_data = if estimation_range.len() == data.len() {
+        std::borrow::Cow::Borrowed(&data)
+    } else {
+        std::borrow::Cow::Owned(data.slice(estimation_range.clone()))
+    };
     let (mut estimate, trajectory) =
         estimate(&estimation_data, options).map_err(|e| with_file(e, &name))?;
     estimate.method = options.method.name().into();
@@ -285,7 +290,10 @@ pub fn replay_with(
     )
     .map_err(|e| with_file(e, &name))?;
     // Simulated traces over the whole recording (hold-out included) for publishing.
-    analysis.simulated = estimate.model.simulate_segments(&data, &data.segments());
+    if estimation_range.len() != data.len() {
+        drop(estimation_data);
+        analysis.simulated = estimate.model.simulate_segments(&data, &data.segments());
+    }
     let validation = match &options.validation {
         None => None,
         Some(ValidationSource::HoldOut(f)) => {

@@ -128,11 +128,11 @@ impl From<&ThermalSignals> for IdentificationData {
         let mut inputs_known = vec![true; n];
         for k in 0..n {
             for j in 0..3 {
-                match s.rises_pu[j][k] {
+                match s.rise_pu(j, k) {
                     Some(v) => outputs[(k, j)] = v,
                     None => outputs_known[k] = false,
                 }
-                match s.inputs_pu[j][k] {
+                match s.inputs_pu[j].get(k) {
                     Some(v) => inputs[(k, j)] = v,
                     None => inputs_known[k] = false,
                 }
@@ -168,12 +168,23 @@ impl DiscreteModel {
         if range.is_empty() {
             return out;
         }
-        let mut y = data.outputs.row(range.start).transpose();
-        out.set_row(0, &y.transpose());
+        let m = self.gamma.ncols();
+        for j in 0..n {
+            out[(0, j)] = data.outputs[(range.start, j)];
+        }
+        // Row by row in place: this runs once per instant of a week-long recording in
+        // every estimator iteration, so it must not allocate.
         for (i, k) in range.clone().enumerate().skip(1) {
-            let u = data.inputs.row(k - 1).transpose();
-            y = &self.phi * &y + &self.gamma * &u;
-            out.set_row(i, &y.transpose());
+            for r in 0..n {
+                let mut next = 0.0;
+                for c in 0..n {
+                    next += self.phi[(r, c)] * out[(i - 1, c)];
+                }
+                for c in 0..m {
+                    next += self.gamma[(r, c)] * data.inputs[(k - 1, c)];
+                }
+                out[(i, r)] = next;
+            }
         }
         out
     }

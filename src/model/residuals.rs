@@ -40,54 +40,58 @@ pub fn analyse(
         .map(|k| data.outputs_known[k] && simulated[(k, 0)].is_finite())
         .collect();
     let samples = valid.iter().filter(|v| **v).count();
-    let centred = |f: &dyn Fn(usize) -> f64, ok: &dyn Fn(usize) -> bool| -> Vec<Option<f64>> {
+    // The centred series are read on the fly rather than stored: a week at Ts = 1 s
+    // would otherwise hold n + m more series of 604,800 instants.
+    let mean = |f: &dyn Fn(usize) -> Option<f64>| {
         let (sum, count) = (0..len)
-            .filter(|&k| ok(k))
-            .fold((0.0, 0usize), |(s, c), k| (s + f(k), c + 1));
-        let mean = sum / count.max(1) as f64;
-        (0..len).map(|k| ok(k).then(|| f(k) - mean)).collect()
+            .filter_map(f)
+            .fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
+        sum / count.max(1) as f64
     };
-    let residuals: Vec<Vec<Option<f64>>> = (0..n)
-        .map(|i| centred(&|k| data.outputs[(k, i)] - simulated[(k, i)], &|k| valid[k]))
+    let residual_means: Vec<f64> = (0..n)
+        .map(|i| mean(&|k| valid[k].then(|| data.outputs[(k, i)] - simulated[(k, i)])))
         .collect();
-    let inputs: Vec<Vec<Option<f64>>> = (0..m)
-        .map(|j| centred(&|k| data.inputs[(k, j)], &|k| data.inputs_known[k]))
+    let input_means: Vec<f64> = (0..m)
+        .map(|j| mean(&|k| data.inputs_known[k].then(|| data.inputs[(k, j)])))
         .collect();
-    let correlate = |a: &[Option<f64>], b: &[Option<f64>], lag: i64| -> f64 {
-        let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-        for k in 0..len as i64 {
-            let kb = k - lag;
-            if kb < 0 || kb >= len as i64 {
-                continue;
-            }
-            if let (Some(x), Some(y)) = (a[k as usize], b[kb as usize]) {
-                sab += x * y;
-            }
-        }
-        for x in a.iter().flatten() {
-            saa += x * x;
-        }
-        for y in b.iter().flatten() {
-            sbb += y * y;
-        }
-        sab / (saa * sbb).sqrt().max(1e-300)
+    let residual = |i: usize, k: usize| {
+        valid[k].then(|| data.outputs[(k, i)] - simulated[(k, i)] - residual_means[i])
     };
-    let autocorrelation: Vec<Vec<f64>> = residuals
-        .iter()
-        .map(|e| {
+    let input =
+        |j: usize, k: usize| data.inputs_known[k].then(|| data.inputs[(k, j)] - input_means[j]);
+    let energy =
+        |f: &dyn Fn(usize) -> Option<f64>| (0..len).filter_map(f).map(|x| x * x).sum::<f64>();
+    let residual_energy: Vec<f64> = (0..n).map(|i| energy(&|k| residual(i, k))).collect();
+    let input_energy: Vec<f64> = (0..m).map(|j| energy(&|k| input(j, k))).collect();
+    // r_ab(lag) = Σ_k a(k) b(k − lag) / √(Σ a² Σ b²) over the instants where both are known.
+    let correlate = |a: &dyn Fn(usize) -> Option<f64>,
+                     b: &dyn Fn(usize) -> Option<f64>,
+                     energies: f64,
+                     lag: i64|
+     -> f64 {
+        let from = lag.max(0) as usize;
+        let to = (len as i64 + lag.min(0)).max(0) as usize;
+        let sab: f64 = (from..to)
+            .filter_map(|k| Some(a(k)? * b((k as i64 - lag) as usize)?))
+            .sum();
+        sab / energies.sqrt().max(1e-300)
+    };
+    let autocorrelation: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            let e = |k: usize| residual(i, k);
             (0..=max_lag)
-                .map(|lag| correlate(e, e, lag as i64))
+                .map(|lag| correlate(&e, &e, residual_energy[i] * residual_energy[i], lag as i64))
                 .collect()
         })
         .collect();
-    let cross_correlation = residuals
-        .iter()
-        .map(|e| {
-            inputs
-                .iter()
-                .map(|u| {
+    let cross_correlation = (0..n)
+        .map(|i| {
+            let e = |k: usize| residual(i, k);
+            (0..m)
+                .map(|j| {
+                    let u = |k: usize| input(j, k);
                     (-(max_lag as i64)..=max_lag as i64)
-                        .map(|lag| correlate(e, u, lag))
+                        .map(|lag| correlate(&e, &u, residual_energy[i] * input_energy[j], lag))
                         .collect()
                 })
                 .collect()

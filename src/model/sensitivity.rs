@@ -18,7 +18,10 @@ use super::matrix::eigenvector;
 use crate::error::{Error, Result};
 use crate::estimate::IdentificationData;
 
-/// The relative sensitivity responses T_i ∂y_k/∂T_i and their norms.
+/// The norms of the relative sensitivity responses T_i ∂y_k/∂T_i.
+///
+/// The responses themselves are not kept (a week at Ts = 1 s would be n² series of
+/// 604,800 instants); [`SensitivityModel::for_each_response`] regenerates them.
 #[derive(Debug, Clone, Serialize)]
 pub struct Sensitivities {
     /// Time constants T_i, ascending, in s.
@@ -26,9 +29,6 @@ pub struct Sensitivities {
     /// `norms[k][i]`: RMS over the simulated instants of T_i ∂y_k/∂T_i, in pu (the L2
     /// norm of eq. 11 divided by √N, so that it does not grow with the length).
     pub norms: Vec<Vec<f64>>,
-    /// `responses[i]`: N × n matrix of T_i ∂y/∂T_i per instant (NaN outside the segments).
-    #[serde(skip)]
-    pub responses: Vec<DMatrix<f64>>,
 }
 
 /// One time constant's assignment to a state.
@@ -44,7 +44,106 @@ pub struct Assignment {
     pub resolved_conflict: bool,
 }
 
-/// Computes the sensitivities over the simulation segments of `data`.
+/// The model in modal form, Φ(T) = V diag(μ_i) V⁻¹ and Γ(T) = V diag(g_i) V⁻¹ B_c, with
+/// the derivatives ∂Φ/∂T_i and ∂Γ/∂T_i the sensitivity recursion needs.
+#[derive(Debug, Clone)]
+pub struct SensitivityModel {
+    time_constants_s: Vec<f64>,
+    phi: DMatrix<f64>,
+    gamma: DMatrix<f64>,
+    d_phi: Vec<DMatrix<f64>>,
+    d_gamma: Vec<DMatrix<f64>>,
+}
+
+impl SensitivityModel {
+    /// The modal form of (A_c, B_c) with A_c's time constants `time_constants_s`
+    /// (ascending, s), discretised with sample time `ts_s`.
+    pub fn new(
+        model: &ContinuousModel,
+        time_constants_s: &[f64],
+        ts_s: f64,
+    ) -> Result<SensitivityModel> {
+        let n = model.a_c.nrows();
+        // Eigenvectors of A_c for λ_i = −1/T_i, in ascending T order.
+        let mut v = DMatrix::zeros(n, n);
+        for (i, t) in time_constants_s.iter().enumerate() {
+            v.set_column(i, &eigenvector(&model.a_c, -1.0 / t));
+        }
+        let v_inv = v.clone().try_inverse().ok_or_else(|| {
+            Error::Model("A_c is not diagonalisable (repeated time constants)".into())
+        })?;
+        let mu: Vec<f64> = time_constants_s.iter().map(|t| (-ts_s / t).exp()).collect();
+        let g: Vec<f64> = time_constants_s
+            .iter()
+            .zip(&mu)
+            .map(|(t, m)| t * (1.0 - m))
+            .collect();
+        let modal =
+            |d: &[f64]| &v * DMatrix::from_diagonal(&DVector::from_column_slice(d)) * &v_inv;
+        let mut d_phi = Vec::with_capacity(n);
+        let mut d_gamma = Vec::with_capacity(n);
+        for (i, t) in time_constants_s.iter().enumerate() {
+            let mut d_mu = vec![0.0; n];
+            let mut d_g = vec![0.0; n];
+            d_mu[i] = ts_s / (t * t) * mu[i];
+            d_g[i] = 1.0 - mu[i] - ts_s / t * mu[i];
+            d_phi.push(modal(&d_mu));
+            d_gamma.push(modal(&d_g) * &model.b_c);
+        }
+        Ok(SensitivityModel {
+            time_constants_s: time_constants_s.to_vec(),
+            phi: modal(&mu),
+            gamma: modal(&g) * &model.b_c,
+            d_phi,
+            d_gamma,
+        })
+    }
+
+    /// Calls `visit(k, T_i ∂ŷ(k)/∂T_i)` for every instant k of every segment, in
+    /// order: s_i(k) = Φ s_i(k−1) + ∂Φ/∂T_i ŷ(k−1) + ∂Γ/∂T_i u(k−1), s_i(start) = 0.
+    pub fn for_each_response(
+        &self,
+        i: usize,
+        data: &IdentificationData,
+        segments: &[Range<usize>],
+        mut visit: impl FnMut(usize, &DVector<f64>),
+    ) {
+        let (n, m) = (self.phi.nrows(), self.gamma.ncols());
+        let t = self.time_constants_s[i];
+        let (d_phi, d_gamma) = (&self.d_phi[i], &self.d_gamma[i]);
+        // Buffers reused across instants: no allocation per step.
+        let mut y = DVector::zeros(n);
+        let mut s = DVector::zeros(n);
+        let mut u = DVector::zeros(m);
+        let mut rel = DVector::zeros(n);
+        for seg in segments {
+            for j in 0..n {
+                y[j] = data.outputs[(seg.start, j)];
+            }
+            s.fill(0.0);
+            rel.fill(0.0);
+            visit(seg.start, &rel);
+            for k in seg.start + 1..seg.end {
+                for j in 0..m {
+                    u[j] = data.inputs[(k - 1, j)];
+                }
+                // s ← Φ s + ∂Φ/∂T_i y + ∂Γ/∂T_i u, then y ← Φ y + Γ u (old y in both).
+                rel.copy_from(&s);
+                s.gemv(1.0, &self.phi, &rel, 0.0);
+                s.gemv(1.0, d_phi, &y, 1.0);
+                s.gemv(1.0, d_gamma, &u, 1.0);
+                rel.copy_from(&y);
+                y.gemv(1.0, &self.phi, &rel, 0.0);
+                y.gemv(1.0, &self.gamma, &u, 1.0);
+                rel.copy_from(&s);
+                rel *= t;
+                visit(k, &rel);
+            }
+        }
+    }
+}
+
+/// Computes the sensitivity norms over the simulation segments of `data`.
 pub fn sensitivities(
     model: &ContinuousModel,
     time_constants_s: &[f64],
@@ -53,61 +152,23 @@ pub fn sensitivities(
     segments: &[Range<usize>],
 ) -> Result<Sensitivities> {
     let n = model.a_c.nrows();
-    // Eigenvectors of A_c for λ_i = −1/T_i, in ascending T order.
-    let mut v = DMatrix::zeros(n, n);
-    for (i, t) in time_constants_s.iter().enumerate() {
-        v.set_column(i, &eigenvector(&model.a_c, -1.0 / t));
-    }
-    let v_inv = v.clone().try_inverse().ok_or_else(|| {
-        Error::Model("A_c is not diagonalisable (repeated time constants)".into())
-    })?;
-    let mu: Vec<f64> = time_constants_s.iter().map(|t| (-ts_s / t).exp()).collect();
-    let g: Vec<f64> = time_constants_s
-        .iter()
-        .zip(&mu)
-        .map(|(t, m)| t * (1.0 - m))
-        .collect();
-    let modal = |d: &[f64]| &v * DMatrix::from_diagonal(&DVector::from_column_slice(d)) * &v_inv;
-    let phi = modal(&mu);
-    let gamma = modal(&g) * &model.b_c;
-
-    let len = data.len();
-    let mut responses = Vec::with_capacity(n);
-    let mut norms = vec![vec![0.0; n]; n];
+    let recursion = SensitivityModel::new(model, time_constants_s, ts_s)?;
     let simulated: usize = segments.iter().map(|s| s.len()).sum();
-    for (i, t) in time_constants_s.iter().enumerate() {
-        let mut d_mu = vec![0.0; n];
-        let mut d_g = vec![0.0; n];
-        d_mu[i] = ts_s / (t * t) * mu[i];
-        d_g[i] = 1.0 - mu[i] - ts_s / t * mu[i];
-        let d_phi = modal(&d_mu);
-        let d_gamma = modal(&d_g) * &model.b_c;
-        let mut out = DMatrix::from_element(len, n, f64::NAN);
+    let mut norms = vec![vec![0.0; n]; n];
+    for i in 0..n {
         let mut sum_sq = vec![0.0; n];
-        for seg in segments {
-            let mut y = data.outputs.row(seg.start).transpose();
-            let mut s = DVector::zeros(n);
-            out.set_row(seg.start, &s.transpose());
-            for k in seg.start + 1..seg.end {
-                let u = data.inputs.row(k - 1).transpose();
-                s = &phi * &s + &d_phi * &y + &d_gamma * &u;
-                y = &phi * &y + &gamma * &u;
-                let rel = &s * *t;
-                for (kk, acc) in sum_sq.iter_mut().enumerate() {
-                    *acc += rel[kk] * rel[kk];
-                }
-                out.set_row(k, &rel.transpose());
+        recursion.for_each_response(i, data, segments, |_, rel| {
+            for (kk, acc) in sum_sq.iter_mut().enumerate() {
+                *acc += rel[kk] * rel[kk];
             }
-        }
+        });
         for kk in 0..n {
             norms[kk][i] = (sum_sq[kk] / simulated.max(1) as f64).sqrt();
         }
-        responses.push(out);
     }
     Ok(Sensitivities {
         time_constants_s: time_constants_s.to_vec(),
         norms,
-        responses,
     })
 }
 
@@ -184,14 +245,28 @@ mod tests {
             DMatrix::zeros(n, 1),
             DMatrix::from_element(n, 1, 1.0),
         );
-        let s = sensitivities(&model, &[t_c], ts, &data, &[0..n]).unwrap();
-        for k in 0..n {
+        let closed_form = |k: usize| {
             let t = k as f64 * ts;
             let e = (-t / t_c).exp();
-            let expect = t_c * b * ((1.0 - e) - t / t_c * e);
-            let got = s.responses[0][(k, 0)];
-            assert!((got - expect).abs() < 1e-12, "k={k}: {got} vs {expect}");
-        }
+            t_c * b * ((1.0 - e) - t / t_c * e)
+        };
+        let recursion = SensitivityModel::new(&model, &[t_c], ts).unwrap();
+        let mut visited = 0;
+        recursion.for_each_response(0, &data, &[0..n], |k, rel| {
+            assert_eq!(k, visited);
+            let expect = closed_form(k);
+            assert!(
+                (rel[0] - expect).abs() < 1e-12,
+                "k={k}: {} vs {expect}",
+                rel[0]
+            );
+            visited += 1;
+        });
+        assert_eq!(visited, n);
+        // The norm is the RMS of the response over the simulated instants.
+        let rms = ((0..n).map(|k| closed_form(k).powi(2)).sum::<f64>() / n as f64).sqrt();
+        let s = sensitivities(&model, &[t_c], ts, &data, &[0..n]).unwrap();
+        assert!((s.norms[0][0] - rms).abs() < 1e-12 * rms);
     }
 
     #[test]
@@ -199,7 +274,6 @@ mod tests {
         let s = Sensitivities {
             time_constants_s: vec![1.0, 2.0],
             norms: vec![vec![0.9, 0.6], vec![0.1, 0.4]],
-            responses: vec![],
         };
         let a = assign(&s);
         assert_eq!(a[0].state, 0);

@@ -19,6 +19,7 @@ use crate::recording::SampleSink as _;
 use crate::atomic::PendingOutput;
 use crate::error::{Error, Result};
 use crate::losses::{HeatSource, ThermalState};
+use crate::model::sensitivity::SensitivityModel;
 use crate::pipeline::Replay;
 
 /// Name of the timeline: the recording's own clock (log_time).
@@ -289,31 +290,44 @@ impl crate::recording::SampleSink for FullRatePublisher {
     }
 }
 
-/// Sends one series as columns: only the instants where it has a value.
+/// Rows per column chunk of a decimated series.
+const SERIES_SLICE: usize = 1 << 16;
+
+/// Sends one series as columns, `(time ns, value)` pairs in time order, skipping
+/// non-finite values. It goes out in slices of [`SERIES_SLICE`] rows, each waited for
+/// before the next is built, so a week-long series never sits in memory twice.
 fn send_series(
     rec: &RecordingStream,
     entity: &str,
-    time_ns: &[i64],
-    values: impl Iterator<Item = Option<f64>>,
+    points: impl Iterator<Item = (i64, f64)>,
 ) -> Result<usize> {
-    let (times, vals): (Vec<i64>, Vec<f64>) = time_ns
+    let mut points = points.filter(|(_, v)| v.is_finite()).peekable();
+    let mut sent = 0;
+    while points.peek().is_some() {
+        let (times, values): (Vec<i64>, Vec<f64>) = points.by_ref().take(SERIES_SLICE).unzip();
+        sent += times.len();
+        rec.send_columns(
+            entity,
+            [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
+            Scalars::new(values)
+                .columns_of_unit_batches()
+                .map_err(publish_err)?,
+        )
+        .map_err(publish_err)?;
+        rec.flush_blocking().map_err(publish_err)?;
+    }
+    Ok(sent)
+}
+
+/// Pairs a grid series with the grid's times, keeping the instants where it is known.
+fn on_grid<'a>(
+    time_ns: &'a [i64],
+    values: impl Iterator<Item = Option<f64>> + 'a,
+) -> impl Iterator<Item = (i64, f64)> + 'a {
+    time_ns
         .iter()
         .zip(values)
-        .filter_map(|(t, v)| v.filter(|v| v.is_finite()).map(|v| (*t, v)))
-        .unzip();
-    if times.is_empty() {
-        return Ok(0);
-    }
-    let n = times.len();
-    rec.send_columns(
-        entity,
-        [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
-        Scalars::new(vals)
-            .columns_of_unit_batches()
-            .map_err(publish_err)?,
-    )
-    .map_err(publish_err)?;
-    Ok(n)
+        .filter_map(|(t, v)| v.map(|v| (*t, v)))
 }
 
 fn style(rec: &RecordingStream, entity: &str, name: &str, rgb: [u8; 3]) -> Result<()> {
@@ -341,22 +355,22 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
         send_series(
             rec,
             &format!("{root}/measured"),
-            t,
-            s.temperatures_c[j].iter().copied(),
+            on_grid(t, s.temperatures_c[j].iter()),
         )?;
         send_series(
             rec,
             &format!("{root}/model"),
-            t,
-            (0..s.len()).map(|k| Some(theta0 + base * sim[(k, j)])),
+            on_grid(t, (0..s.len()).map(|k| Some(theta0 + base * sim[(k, j)]))),
         )?;
         let residual = format!("residual/{}", state.name());
         style(rec, &residual, state.name(), PALETTE[j])?;
         send_series(
             rec,
             &residual,
-            t,
-            (0..s.len()).map(|k| s.rises_pu[j][k].map(|y| base * (y - sim[(k, j)]))),
+            on_grid(
+                t,
+                (0..s.len()).map(|k| s.rise_pu(j, k).map(|y| base * (y - sim[(k, j)]))),
+            ),
         )?;
     }
     let s_n_kw = s.power_base_va / 1e3;
@@ -366,8 +380,7 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
         send_series(
             rec,
             &entity,
-            t,
-            s.inputs_pu[j].iter().map(|v| v.map(|v| v * s_n_kw)),
+            on_grid(t, s.inputs_pu[j].iter().map(|v| v.map(|v| v * s_n_kw))),
         )?;
     }
     for (i, series) in replay.decimated.series.values().enumerate() {
@@ -378,22 +391,9 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
             series.quantity.canonical_unit()
         );
         style(rec, &entity, &name, PALETTE[i % PALETTE.len()])?;
-        send_series(rec, &entity, t, series.values.iter().copied())?;
+        send_series(rec, &entity, on_grid(t, series.values.iter()))?;
     }
-    let sens = &replay.analysis.sensitivities;
-    for (i, response) in sens.responses.iter().enumerate() {
-        for (k, state) in ThermalState::ALL.iter().enumerate() {
-            let entity = format!("sensitivity/T{}/{}", i + 1, state.name());
-            style(rec, &entity, state.name(), PALETTE[k])?;
-            // Sensitivities cover the instants the model was estimated on.
-            send_series(
-                rec,
-                &entity,
-                &t[..response.nrows()],
-                (0..response.nrows()).map(|r| Some(response[(r, k)])),
-            )?;
-        }
-    }
+    log_sensitivities(rec, replay)?;
     log_residual_correlation(rec, replay)?;
     log_trajectory(rec, replay)?;
     rec.log_static(
@@ -401,6 +401,42 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
         &rerun::TextDocument::new(summary_text.to_owned()),
     )
     .map_err(publish_err)?;
+    Ok(())
+}
+
+/// The sensitivity responses T_i ∂ŷ/∂T_i behind the assignment, regenerated from the
+/// model over the instants it was estimated on, one state at a time.
+fn log_sensitivities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let analysis = &replay.analysis;
+    let tcs = &analysis.spectrum.time_constants_s;
+    let recursion = SensitivityModel::new(&analysis.continuous, tcs, replay.signals.ts_s)?;
+    let end = replay.estimation_range.end;
+    let segments: Vec<_> = replay
+        .data
+        .segments()
+        .into_iter()
+        .map(|s| s.start..s.end.min(end))
+        .filter(|s| s.len() >= 2)
+        .collect();
+    let t = &replay.signals.time_ns;
+    for i in 0..tcs.len() {
+        for (k, state) in ThermalState::ALL.iter().enumerate() {
+            let entity = format!("sensitivity/T{}/{}", i + 1, state.name());
+            style(rec, &entity, state.name(), PALETTE[k])?;
+            let mut points = Vec::with_capacity(SERIES_SLICE);
+            let mut failed = None;
+            recursion.for_each_response(i, &replay.data, &segments, |instant, rel| {
+                points.push((t[instant], rel[k]));
+                if points.len() == SERIES_SLICE && failed.is_none() {
+                    failed = send_series(rec, &entity, points.drain(..)).err();
+                }
+            });
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            send_series(rec, &entity, points.into_iter())?;
+        }
+    }
     Ok(())
 }
 
@@ -497,8 +533,7 @@ fn log_trajectory(rec: &RecordingStream, replay: &Replay) -> Result<()> {
             send_series(
                 rec,
                 &entity,
-                &t,
-                traj.iter().map(|pt| Some(pt.theta[i * p + j])),
+                on_grid(&t, traj.iter().map(|pt| Some(pt.theta[i * p + j]))),
             )?;
         }
     }
@@ -522,8 +557,7 @@ fn log_trajectory(rec: &RecordingStream, replay: &Replay) -> Result<()> {
         send_series(
             rec,
             &entity,
-            &t,
-            constants.iter().map(|c| c.as_ref().map(|c| c[i])),
+            on_grid(&t, constants.iter().map(|c| c.as_ref().map(|c| c[i]))),
         )?;
     }
     Ok(())
