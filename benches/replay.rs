@@ -15,7 +15,6 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-use heatrun::synth::{self, SynthOptions};
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader};
 
 /// Iterates every message of the file with the mcap crate; returns the count.
@@ -70,18 +69,24 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Makes a workload with `heatrun synth` in a child process: synthesising in this
+/// process would grow its memory, and a child's peak RSS as `wait4` reports it can
+/// include pages of the parent it was forked from.
 fn workload(dir: &Path, name: &str, duration_s: f64) -> PathBuf {
     let path = dir.join(format!("{name}.mcap"));
     if !path.exists() {
-        let options = SynthOptions {
-            duration_s,
-            electrical_rate_hz: 100.0,
-            temperature_rate_hz: 10.0,
-            ..SynthOptions::default()
-        }
-        .with_noise_level(1.0);
         let t = Instant::now();
-        synth::write(&path, &options).expect("workload written");
+        // The paper's heat run at full rate with PT100-like noise (noise level 1).
+        let status = Command::new(env!("CARGO_BIN_EXE_heatrun"))
+            .arg("synth")
+            .arg(&path)
+            .args(["--duration", &duration_s.to_string()])
+            .args(["--electrical-rate", "100", "--temperature-rate", "10"])
+            .args(["--temperature-noise", "0.05", "--resolution", "0.01"])
+            .args(["--electrical-noise", "0.0005"])
+            .status()
+            .expect("heatrun synth runs");
+        assert!(status.success(), "heatrun synth failed");
         eprintln!(
             "made {} in {:.1} s",
             path.display(),

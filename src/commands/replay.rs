@@ -157,6 +157,16 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
     })
 }
 
+/// A CSV field (RFC 4180): quoted, with quotes doubled, when it holds a comma, a
+/// quote or a line break.
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_owned()
+    }
+}
+
 /// One line of the fleet summary.
 struct FleetRow {
     file: PathBuf,
@@ -250,16 +260,26 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
                     f3(ss, 2)
                 );
                 csv.push_str(&format!(
-                    "{name},{status},{},{},{},{},{},{},{},{},{}\n",
-                    t[0], t[1], t[2], fit[0], fit[1], fit[2], ss[0], ss[1], ss[2]
+                    "{},{status},{},{},{},{},{},{},{},{},{}\n",
+                    csv_field(&name),
+                    t[0],
+                    t[1],
+                    t[2],
+                    fit[0],
+                    fit[1],
+                    fit[2],
+                    ss[0],
+                    ss[1],
+                    ss[2]
                 ));
             }
             Err(e) => {
                 failed += 1;
                 println!("{name:<32} failed: {e}");
                 csv.push_str(&format!(
-                    "{name},failed: {},,,,,,,,,\n",
-                    e.replace(',', ";")
+                    "{},{},,,,,,,,,\n",
+                    csv_field(&name),
+                    csv_field(&format!("failed: {e}"))
                 ));
             }
         }
@@ -286,4 +306,16 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
     } else {
         Outcome::Complete
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::csv_field;
+
+    #[test]
+    fn csv_fields_are_quoted_only_when_needed() {
+        assert_eq!(csv_field("run-1.mcap"), "run-1.mcap");
+        assert_eq!(csv_field("unit 3, run 1.mcap"), "\"unit 3, run 1.mcap\"");
+        assert_eq!(csv_field("say \"hi\""), "\"say \"\"hi\"\"\"");
+    }
 }
