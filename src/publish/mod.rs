@@ -245,7 +245,9 @@ impl FullRatePublisher {
                         cols,
                     )
                     .map_err(publish_err)
-            });
+            })
+            // Waited for, so that rerun's queue holds one batch, not a week of them.
+            .and_then(|()| self.rec.flush_blocking().map_err(publish_err));
         if let Err(e) = result {
             self.failed.get_or_insert(e.to_string());
         }
