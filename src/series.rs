@@ -21,18 +21,6 @@ impl Series {
         }
     }
 
-    /// An empty series with room for `capacity` instants.
-    pub fn with_capacity(capacity: usize) -> Series {
-        Series {
-            values: Vec::with_capacity(capacity),
-        }
-    }
-
-    /// Appends x(len); `None` or a non-finite value is unknown.
-    pub fn push(&mut self, value: Option<f64>) {
-        self.values.push(value.unwrap_or(f64::NAN));
-    }
-
     /// Sets x(k); `None` or a non-finite value is unknown.
     ///
     /// # Panics
@@ -61,11 +49,6 @@ impl Series {
         self.values
             .iter()
             .map(|v| Some(*v).filter(|v| v.is_finite()))
-    }
-
-    /// How many instants are known.
-    pub fn known(&self) -> usize {
-        self.values.iter().filter(|v| v.is_finite()).count()
     }
 }
 
@@ -113,21 +96,18 @@ mod tests {
         );
         assert_eq!(s.get(3), Some(-2.0));
         assert_eq!(s.get(4), None);
-        assert_eq!(s.known(), 2);
         assert_eq!(s, vec![Some(1.5), None, None, Some(-2.0)]);
         assert_eq!(s, Series::from(vec![Some(1.5), None, None, Some(-2.0)]));
         assert_ne!(s, vec![Some(1.5), None, Some(0.0), Some(-2.0)]);
     }
 
     #[test]
-    fn set_and_push() {
-        let mut s = Series::unknown(2);
+    fn set_marks_known_and_unknown() {
+        let mut s = Series::unknown(3);
         s.set(1, Some(3.0));
-        s.push(Some(4.0));
-        s.push(None);
-        assert_eq!(
-            s.iter().collect::<Vec<_>>(),
-            vec![None, Some(3.0), Some(4.0), None]
-        );
+        s.set(2, Some(f64::NAN));
+        assert_eq!(s.iter().collect::<Vec<_>>(), vec![None, Some(3.0), None]);
+        s.set(1, None);
+        assert_eq!(s.get(1), None);
     }
 }

@@ -172,12 +172,20 @@ impl RecordingBuilder {
             .unwrap()
     }
 
-    /// Writes the messages in the given order (arrival order, as a recorder would).
+    /// Writes the messages in the given order (arrival order, as a recorder would):
+    /// `(channel, sample index, log time)` each.
     pub fn write_in_order(&self, path: &Path, order: &[(usize, usize, u64)]) {
+        self.write_ordered(path, mcap::WriteOptions::new(), order);
+    }
+
+    fn write_ordered(
+        &self,
+        path: &Path,
+        options: mcap::WriteOptions,
+        order: &[(usize, usize, u64)],
+    ) {
         let file = std::fs::File::create(path).unwrap();
-        let mut w = mcap::WriteOptions::new()
-            .create(BufWriter::new(file))
-            .unwrap();
+        let mut w = options.create(BufWriter::new(file)).unwrap();
         let schema = w
             .add_schema(
                 &self.schema_name,
@@ -219,64 +227,30 @@ impl RecordingBuilder {
         self.write_with(path, mcap::WriteOptions::new(), None);
     }
 
-    /// Writes with the given MCAP options; `shuffle` stores the messages in a seeded random order.
+    /// Writes with the given MCAP options, messages in time order; `shuffle` stores
+    /// them in a seeded random order instead.
     pub fn write_with(&self, path: &Path, options: mcap::WriteOptions, shuffle: Option<u64>) {
-        let file = std::fs::File::create(path).unwrap();
-        let mut w = options.create(BufWriter::new(file)).unwrap();
-        let schema = w
-            .add_schema(
-                &self.schema_name,
-                "jsonschema",
-                heatrun::synth::SAMPLE_SCHEMA.as_bytes(),
-            )
-            .unwrap();
-        let mut ids = Vec::new();
-        for (topic, meta, _) in &self.channels {
-            ids.push(
-                w.add_channel(schema, topic, &self.message_encoding, meta)
-                    .unwrap(),
-            );
-        }
-        if let Some(np) = &self.nameplate {
-            w.write_metadata(&mcap::records::Metadata {
-                name: "heatrun.nameplate".into(),
-                metadata: np.clone(),
-            })
-            .unwrap();
-        }
-        let mut all: Vec<(u64, usize, &String)> = Vec::new();
+        let mut order: Vec<(usize, usize, u64)> = Vec::new();
         for (c, (_, _, samples)) in self.channels.iter().enumerate() {
-            for (t, data) in samples {
-                all.push((*t, c, data));
+            for (i, (t, _)) in samples.iter().enumerate() {
+                order.push((c, i, *t));
             }
         }
-        all.sort_by_key(|x| x.0);
+        order.sort_by_key(|x| x.2);
         if let Some(seed) = shuffle {
             // Fisher–Yates with a small LCG: deterministic without another dependency.
             let mut state = seed
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
-            for i in (1..all.len()).rev() {
+            for i in (1..order.len()).rev() {
                 state = state
                     .wrapping_mul(6364136223846793005)
                     .wrapping_add(1442695040888963407);
                 let j = (state >> 33) as usize % (i + 1);
-                all.swap(i, j);
+                order.swap(i, j);
             }
         }
-        for (seq, (t, c, data)) in all.into_iter().enumerate() {
-            w.write_to_known_channel(
-                &mcap::records::MessageHeader {
-                    channel_id: ids[c],
-                    sequence: seq as u32,
-                    log_time: t,
-                    publish_time: t,
-                },
-                data.as_bytes(),
-            )
-            .unwrap();
-        }
-        w.finish().unwrap();
+        self.write_ordered(path, options, &order);
     }
 }
 
