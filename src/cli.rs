@@ -45,15 +45,20 @@ pub struct ReplayArgs {
     /// Recordings (MCAP, heatrun SCADA profile), or folders of them. Default: the shipped
     /// fixture. More than one recording (or a folder) replays a fleet in parallel.
     pub files: Vec<PathBuf>,
-    /// Sample time Ts of the model in seconds.
-    #[arg(long, default_value_t = 1.0)]
-    pub ts: f64,
+    /// Sample time Ts of the model in seconds [default: the spec's, else 1].
+    #[arg(long)]
+    pub ts: Option<f64>,
+    /// Model spec (TOML): the states, inputs and sample time of any thermal system
+    /// [default: the hydro generator of the profile and its loss model].
+    #[arg(long, value_name = "SPEC.toml")]
+    pub spec: Option<PathBuf>,
     /// Machine file (TOML) whose keys override the recording's nameplate.
     #[arg(long, value_name = "FILE.toml")]
     pub machine: Option<PathBuf>,
-    /// Identification method (oe: unbiased under sensor noise, the most accurate).
-    #[arg(long, value_enum, default_value_t = MethodArg::Oe)]
-    pub method: MethodArg,
+    /// Identification method (oe: unbiased under sensor noise, the most accurate)
+    /// [default: the spec's, else oe].
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
     /// Per-state weights w_i of wls and oe, comma-separated (oe default: 1/noise variance).
     #[arg(long, value_delimiter = ',', value_name = "W1,W2,W3")]
     pub weights: Option<Vec<f64>>,

@@ -35,6 +35,54 @@ pub enum Error {
         /// What is wrong, naming the key.
         message: String,
     },
+    /// A model spec (`--spec FILE.toml`) is unusable.
+    #[error("{path}: {source}")]
+    BadSpec {
+        /// The spec file.
+        path: PathBuf,
+        /// What is wrong, naming the key, state or input.
+        source: crate::spec::SpecError,
+    },
+    /// A channel the model needs is not in the recording.
+    #[error("no channel carries `{channel}` (metadata `quantity` or a topic ending in /{channel})")]
+    MissingChannel {
+        /// The quantity or free channel name.
+        channel: String,
+    },
+    /// The model's states are never all known at one instant.
+    #[error("{what} are never all known at the same instant")]
+    NoCommonInstant {
+        /// What was looked for.
+        what: String,
+    },
+    /// The model description needs a nameplate and none was resolved (a library misuse).
+    #[error("the model's loss model and per-unit scaling need the machine's nameplate")]
+    NameplateNeeded,
+    /// No source of the generator's field winding temperature.
+    #[error(
+        "no field winding temperature: the recording has neither a `field_winding_temp` \
+         nor a `field_voltage` channel, and nameplate key `field_winding_final_temp_c` is missing"
+    )]
+    NoFieldTemperature,
+    /// The paper's field-temperature scaling needs a stator rise to scale.
+    #[error(
+        "the stator winding rises only {rise_k:.2} K, too little to scale the field \
+         winding temperature to {final_temp_c} °C; record field_voltage or field_winding_temp"
+    )]
+    FieldScalingRise {
+        /// The stator winding's rise over the recording, K.
+        rise_k: f64,
+        /// The nameplate's final field winding temperature, °C.
+        final_temp_c: f64,
+    },
+    /// A stage after reading failed on this recording: the error, with the file it is about.
+    #[error("{path}: {source}")]
+    InRecording {
+        /// The recording.
+        path: PathBuf,
+        /// The stage's error.
+        source: Box<Error>,
+    },
     /// A channel's clock jumps back over its own earlier data.
     #[error("{0}")]
     ClockJump(String),
@@ -44,6 +92,20 @@ pub enum Error {
     /// The estimated model cannot be analysed (no real logarithm, singular matrix).
     #[error("{0}")]
     Model(String),
+    /// The held-out fraction of a recording is outside (0, 0.9).
+    #[error("the held-out fraction {fraction} must be in (0, 0.9)")]
+    HoldOutFraction {
+        /// The fraction asked for.
+        fraction: f64,
+    },
+    /// Per-state weights that do not fit the model.
+    #[error("the weights want {states} positive numbers, one per state ({given} given)")]
+    Weights {
+        /// States of the model.
+        states: usize,
+        /// Weights given.
+        given: usize,
+    },
     /// A command-line value is out of its range.
     #[error("{0}")]
     Usage(String),
@@ -63,18 +125,47 @@ pub enum Error {
 impl Error {
     /// Whether the error is the input's fault (exit status 2) rather than the machine's (1).
     pub fn is_bad_input(&self) -> bool {
+        if let Error::InRecording { source, .. } = self {
+            return source.is_bad_input();
+        }
         matches!(
             self,
             Error::ReadInput { .. }
                 | Error::BadRecording { .. }
                 | Error::BadMachineFile { .. }
+                | Error::BadSpec { .. }
+                | Error::MissingChannel { .. }
+                | Error::NoCommonInstant { .. }
+                | Error::NoFieldTemperature
+                | Error::FieldScalingRise { .. }
                 | Error::Estimation(_)
                 | Error::ClockJump(_)
                 | Error::Model(_)
                 | Error::Usage(_)
+                | Error::HoldOutFraction { .. }
+                | Error::Weights { .. }
         )
     }
 }
 
 /// Result alias for the library.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// The error as a stage's error on the recording at `path` (named in the message).
+    pub fn in_recording(self, path: &std::path::Path) -> Error {
+        match self {
+            // Already about a file.
+            e @ (Error::ReadInput { .. }
+            | Error::BadRecording { .. }
+            | Error::BadMachineFile { .. }
+            | Error::BadSpec { .. }
+            | Error::InRecording { .. }
+            | Error::WriteOutput { .. }) => e,
+            e => Error::InRecording {
+                path: path.to_owned(),
+                source: Box::new(e),
+            },
+        }
+    }
+}

@@ -8,7 +8,7 @@
 //! |---|---|---|
 //! | recording | [`recording`] | MCAP file → [`recording::Sample`]s, nameplate |
 //! | decimation | [`decimate`] | samples → [`decimate::DecimatedRecording`] on a grid of Ts |
-//! | losses | [`losses`] | decimated quantities + nameplate → [`losses::ThermalSignals`] (pu) |
+//! | signals | [`signals`] | decimated channels + [`spec::ModelDescription`] (+ the generator's [`losses`]) → [`signals::ModelSignals`] |
 //! | estimation | [`estimate`] | [`estimate::IdentificationData`] → [`estimate::Estimate`] (Φ, Γ) |
 //! | model analysis | [`model`] | estimate → [`model::ModelAnalysis`] (A_c, B_c, T_i, fit, …) |
 //! | publishing | [`publish`] | everything → a rerun recording |
@@ -28,6 +28,9 @@ pub mod publish;
 pub mod recording;
 pub mod report;
 pub mod series;
+pub mod signals;
+pub mod spec;
 pub mod synth;
+pub mod warnings;
 
 pub use error::{Error, Result};

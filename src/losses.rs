@@ -1,8 +1,9 @@
-//! Loss calculation stage: decimated currents, voltages and temperatures → the
-//! thermal model's inputs (heat sources, pu of S_n) and states (temperature rises,
-//! pu of the temperature base), following the profile's loss model.
+//! The generator's loss model: decimated currents, voltages and temperatures → the
+//! heat sources (pu of S_n) of the profile's "Loss model", with temperature-corrected
+//! resistances and the field winding temperature methods.
 //!
-//! Input: a [`DecimatedRecording`] and a [`Nameplate`]. Output: [`ThermalSignals`].
+//! Input: a [`DecimatedRecording`] and a [`Nameplate`]. Output: [`GeneratorLosses`],
+//! which the signal stage ([`crate::signals`]) reads for the generator's inputs.
 
 use serde::Serialize;
 
@@ -13,50 +14,6 @@ use crate::series::Series;
 
 /// The inverse temperature coefficient of copper, 235 K: R(θ) ∝ 235 + θ.
 pub const COPPER_INFERRED_ZERO_C: f64 = 235.0;
-
-/// The thermal model's states, in the profile's order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ThermalState {
-    /// Armature (stator) winding copper temperature rise Δθ_Cu.
-    StatorWinding,
-    /// Stator iron core temperature rise Δθ_Fe.
-    Core,
-    /// Cooler outlet water temperature rise Δθ_cw.
-    CoolingWaterOutlet,
-}
-
-impl ThermalState {
-    /// The states in model order.
-    pub const ALL: [ThermalState; 3] = [
-        ThermalState::StatorWinding,
-        ThermalState::Core,
-        ThermalState::CoolingWaterOutlet,
-    ];
-
-    /// The measured quantity the state is the rise of (also its name in the report).
-    pub fn quantity(self) -> Quantity {
-        match self {
-            ThermalState::StatorWinding => Quantity::StatorWindingTemp,
-            ThermalState::Core => Quantity::CoreTemp,
-            ThermalState::CoolingWaterOutlet => Quantity::CoolingWaterOutletTemp,
-        }
-    }
-
-    /// The profile's name of the state (`stator_winding_temp`, …).
-    pub fn name(self) -> &'static str {
-        self.quantity().name()
-    }
-
-    /// The physical part the state stands for, for people.
-    pub fn part(self) -> &'static str {
-        match self {
-            ThermalState::StatorWinding => "stator winding (copper)",
-            ThermalState::Core => "iron core",
-            ThermalState::CoolingWaterOutlet => "cooling water (cooler)",
-        }
-    }
-}
 
 /// The thermal model's inputs (heat sources), in the profile's order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -149,203 +106,114 @@ pub fn field_temp_from_resistance(
         - COPPER_INFERRED_ZERO_C
 }
 
-/// The thermal model's signals on the grid: the loss stage's output.
+/// The generator's heat sources on the grid: the loss model's output.
 #[derive(Debug, Clone)]
-pub struct ThermalSignals {
-    /// Sample time in s.
-    pub ts_s: f64,
-    /// Time of each grid instant, ns since the epoch.
-    pub time_ns: Vec<i64>,
-    /// Measured temperatures θ (°C), per state, `None` where missing.
-    pub temperatures_c: [Series; 3],
-    /// Initial temperatures θ_0 (°C) the rises are measured from.
-    pub initial_temperatures_c: [f64; 3],
-    /// Index of the instant the initial temperatures were taken at.
-    pub initial_index: usize,
-    /// Heat sources in pu of S_n, per input (held over [t_k, t_k + Ts)).
+pub struct GeneratorLosses {
+    /// Armature copper, field copper and iron loss in pu of S_n, in [`HeatSource::ALL`]'s
+    /// order, held over [t_k, t_k + Ts).
     pub inputs_pu: [Series; 3],
     /// Field winding temperature used for R_f (°C).
     pub field_temperature_c: Series,
     /// Where θ_f comes from.
     pub field_temperature_source: FieldTemperatureSource,
-    /// Per-unit temperature base, K.
-    pub temperature_base_k: f64,
-    /// Power base S_n, VA.
-    pub power_base_va: f64,
 }
 
-impl ThermalSignals {
-    /// Number of grid instants.
-    pub fn len(&self) -> usize {
-        self.time_ns.len()
-    }
-
-    /// Whether there are no instants.
-    pub fn is_empty(&self) -> bool {
-        self.time_ns.is_empty()
-    }
-
-    /// State j's temperature rise (θ_j(k) − θ_j,0)/θ_base at instant k, in pu.
-    pub fn rise_pu(&self, j: usize, k: usize) -> Option<f64> {
-        self.temperatures_c[j]
-            .get(k)
-            .map(|t| (t - self.initial_temperatures_c[j]) / self.temperature_base_k)
-    }
-
-    /// The last instant at which every input is known, with those inputs (pu).
-    pub fn last_inputs(&self) -> Option<(usize, [f64; 3])> {
-        (0..self.len()).rev().find_map(|k| {
-            Some((
-                k,
-                [
-                    self.inputs_pu[0].get(k)?,
-                    self.inputs_pu[1].get(k)?,
-                    self.inputs_pu[2].get(k)?,
-                ],
-            ))
-        })
-    }
-
-    /// The last instant at which every temperature is known, with those temperatures (°C).
-    pub fn last_temperatures(&self) -> Option<(usize, [f64; 3])> {
-        (0..self.len()).rev().find_map(|k| {
-            Some((
-                k,
-                [
-                    self.temperatures_c[0].get(k)?,
-                    self.temperatures_c[1].get(k)?,
-                    self.temperatures_c[2].get(k)?,
-                ],
-            ))
-        })
+impl GeneratorLosses {
+    /// The series of one heat source, pu of S_n.
+    pub fn heat_source(&self, source: HeatSource) -> &Series {
+        &self.inputs_pu[source as usize]
     }
 }
 
-/// Computes the model's states and inputs from a decimated recording.
+/// Computes the loss model's heat sources from a decimated recording (the profile's
+/// "Loss model"): u_1 = (3·I_g²·R_a(θ_Cu) + ½·P_add·(I_g/I_n)²)/S_n,
+/// u_2 = I_f²·R_f(θ_f)/S_n, u_3 = (P_Fe + ½·P_add)·(U_g/U_n)²/S_n.
 ///
-/// `recording` names the file in messages. Errors when a required quantity is
-/// missing, or when no field temperature source is available.
+/// `initial_index` is the instant the model's rises start from (the paper's field
+/// scaling is relative to the stator temperature there). Errors when a required
+/// quantity is missing, or when no field temperature source is available.
 pub fn compute(
     decimated: &DecimatedRecording,
     np: &Nameplate,
-    recording: &str,
-) -> Result<ThermalSignals> {
-    let missing = |q: Quantity| {
-        Error::BadRecording {
-        path: recording.into(),
-        message: format!(
-            "no channel carries the required quantity `{q}` (metadata `quantity` or a topic ending in /{q})"
-        ),
-    }
-    };
+    initial_index: usize,
+) -> Result<GeneratorLosses> {
     let series = |q: Quantity| {
         decimated
             .get(q)
             .map(|s| &s.values)
-            .ok_or_else(|| missing(q))
+            .ok_or_else(|| Error::MissingChannel {
+                channel: q.name().into(),
+            })
     };
     let i_g = series(Quantity::ArmatureCurrent)?;
     let i_f = series(Quantity::FieldCurrent)?;
     let u_g = series(Quantity::LineVoltage)?;
-    let temps = [
-        series(Quantity::StatorWindingTemp)?.clone(),
-        series(Quantity::CoreTemp)?.clone(),
-        series(Quantity::CoolingWaterOutletTemp)?.clone(),
-    ];
-    let n = decimated.len;
-    let initial_index = (0..n)
-        .find(|&k| temps.iter().all(|t| t.get(k).is_some()))
-        .ok_or_else(|| {
-            Error::Estimation(format!(
-                "{recording}: the three temperatures are never known at the same instant"
-            ))
-        })?;
-    let theta0 = [0, 1, 2].map(|s| temps[s].get(initial_index).unwrap_or(f64::NAN));
-    let base = np.temperature_base_k;
-
-    // Field winding temperature, in the profile's order of preference.
-    let (field_temperature_c, field_temperature_source) = if let Some(measured) =
-        decimated.get(Quantity::FieldWindingTemp)
-    {
-        (measured.values.clone(), FieldTemperatureSource::Measured)
-    } else if let Some(u_f) = decimated.get(Quantity::FieldVoltage) {
-        let theta: Series = (0..n)
-            .map(|k| match (u_f.values.get(k), i_f.get(k)) {
-                (Some(u), Some(i))
-                    if i.abs() > 1e-3 * np.rated_field_current_a.unwrap_or(1000.0) =>
-                {
-                    Some(field_temp_from_resistance(np, u, i))
-                }
-                _ => None,
-            })
-            .collect();
-        (theta, FieldTemperatureSource::ResistanceMethod)
-    } else if let Some(final_temp_c) = np.field_winding_final_temp_c {
-        let last_cu = (0..n)
-            .rev()
-            .find_map(|k| temps[0].get(k))
-            .unwrap_or(theta0[0]);
-        let rise = last_cu - theta0[0];
-        if rise < 1.0 {
-            return Err(Error::Estimation(format!(
-                "{recording}: the stator winding rises only {rise:.2} K, too little to scale \
-                     the field winding temperature to {final_temp_c} °C; record field_voltage or \
-                     field_winding_temp"
-            )));
-        }
-        let scale = (final_temp_c - theta0[0]) / rise;
-        let theta = temps[0]
-            .iter()
-            .map(|t| t.map(|t| theta0[0] + scale * (t - theta0[0])))
-            .collect();
-        (
-            theta,
-            FieldTemperatureSource::ScaledArmatureRise {
-                scale,
-                final_temp_c,
-            },
-        )
-    } else {
-        return Err(Error::BadRecording {
-                path: recording.into(),
-                message: "no field winding temperature: the recording has neither a `field_winding_temp` \
-                          nor a `field_voltage` channel, and nameplate key `field_winding_final_temp_c` \
-                          is missing (give it with --machine FILE.toml)"
-                    .into(),
-            });
-    };
-
+    let theta_cu = series(Quantity::StatorWindingTemp)?;
+    let (field_temperature_c, field_temperature_source) =
+        field_temperature(decimated, np, (theta_cu, initial_index), i_f)?;
     let s_n = np.rated_apparent_power_va;
+    let n = decimated.len;
     let mut inputs_pu: [Series; 3] = [Series::unknown(n), Series::unknown(n), Series::unknown(n)];
     for k in 0..n {
-        inputs_pu[0].set(
-            k,
-            match (i_g.get(k), temps[0].get(k)) {
-                (Some(i), Some(t)) => Some(armature_copper_loss_w(np, i, t) / s_n),
-                _ => None,
-            },
-        );
-        inputs_pu[1].set(
-            k,
-            match (i_f.get(k), field_temperature_c.get(k)) {
-                (Some(i), Some(t)) => Some(field_copper_loss_w(np, i, t) / s_n),
-                _ => None,
-            },
-        );
+        let armature = i_g.get(k).zip(theta_cu.get(k));
+        let field = i_f.get(k).zip(field_temperature_c.get(k));
+        inputs_pu[0].set(k, armature.map(|(i, t)| armature_copper_loss_w(np, i, t) / s_n));
+        inputs_pu[1].set(k, field.map(|(i, t)| field_copper_loss_w(np, i, t) / s_n));
         inputs_pu[2].set(k, u_g.get(k).map(|u| iron_loss_w(np, u) / s_n));
     }
-    Ok(ThermalSignals {
-        ts_s: decimated.ts_s(),
-        time_ns: (0..n).map(|i| decimated.time_ns(i)).collect(),
-        temperatures_c: temps,
-        initial_temperatures_c: theta0,
-        initial_index,
+    Ok(GeneratorLosses {
         inputs_pu,
         field_temperature_c,
         field_temperature_source,
-        temperature_base_k: base,
-        power_base_va: s_n,
     })
+}
+
+/// The field winding temperature θ_f, in the profile's order of preference: measured,
+/// the resistance method U_f / I_f, or the paper's scaling of the armature rise.
+fn field_temperature(
+    decimated: &DecimatedRecording,
+    np: &Nameplate,
+    (theta_cu, initial_index): (&Series, usize),
+    i_f: &Series,
+) -> Result<(Series, FieldTemperatureSource)> {
+    if let Some(measured) = decimated.get(Quantity::FieldWindingTemp) {
+        return Ok((measured.values.clone(), FieldTemperatureSource::Measured));
+    }
+    if let Some(u_f) = decimated.get(Quantity::FieldVoltage) {
+        // Below 0.1 % of the rated field current U_f / I_f is noise over noise.
+        let floor = 1e-3 * np.rated_field_current_a.unwrap_or(1000.0);
+        let theta: Series = (0..decimated.len)
+            .map(|k| match (u_f.values.get(k), i_f.get(k)) {
+                (Some(u), Some(i)) if i.abs() > floor => Some(field_temp_from_resistance(np, u, i)),
+                _ => None,
+            })
+            .collect();
+        return Ok((theta, FieldTemperatureSource::ResistanceMethod));
+    }
+    let final_temp_c = np
+        .field_winding_final_temp_c
+        .ok_or(Error::NoFieldTemperature)?;
+    let theta0 = theta_cu.get(initial_index).unwrap_or(f64::NAN);
+    let last_cu = theta_cu.iter().flatten().last().unwrap_or(theta0);
+    let rise = last_cu - theta0;
+    if !(rise >= 1.0) {
+        return Err(Error::FieldScalingRise {
+            rise_k: rise,
+            final_temp_c,
+        });
+    }
+    let scale = (final_temp_c - theta0) / rise;
+    let theta = theta_cu
+        .iter()
+        .map(|t| t.map(|t| theta0 + scale * (t - theta0)))
+        .collect();
+    Ok((
+        theta,
+        FieldTemperatureSource::ScaledArmatureRise {
+            scale,
+            final_temp_c,
+        },
+    ))
 }
 
 #[cfg(test)]

@@ -1,20 +1,28 @@
-//! The replay pipeline: recording → decimation → losses → estimation → analysis.
+//! The replay pipeline: recording → decimation → signals → estimation → analysis.
 //!
-//! This is the one place that knows the order of the stages; publishing and the
-//! report read its output, a [`Replay`].
+//! This is the one place that knows the order of the stages; each stage returns what it
+//! owns, and publishing and the report read their outputs, gathered in a [`Replay`].
+//! What the model is — states, inputs, alignment, scaling — comes from the
+//! [`ModelDescription`] in the options (the generator by default).
 
+use std::ops::Range;
 use std::path::{Path, PathBuf};
+
+use std::borrow::Cow;
 
 use crate::decimate::{DecimatedRecording, Decimator};
 use crate::error::{Error, Result};
-use crate::estimate::rls::TrajectoryPoint;
 use crate::estimate::{
     Estimate, Estimator, IdentificationData, InstrumentalVariables, OutputError,
     RecursiveLeastSquares, WeightedLeastSquares,
 };
-use crate::losses::{self, ThermalSignals};
 use crate::model::{self, ModelAnalysis};
-use crate::recording::{self, Nameplate, NameplateEntries, RecordingSummary, SampleSink};
+use crate::recording::{
+    self, Nameplate, NameplateEntries, ReadOptions, RecordingSummary, SampleSink,
+};
+use crate::signals::{self, ModelSignals};
+use crate::spec::ModelDescription;
+use crate::warnings;
 
 /// An identification method selectable on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -63,6 +71,8 @@ pub struct ReplayOptions {
     pub forgetting: f64,
     /// Where to validate the model, if anywhere.
     pub validation: Option<ValidationSource>,
+    /// The thermal system: its states, inputs and scaling.
+    pub model: ModelDescription,
 }
 
 /// Data the model is validated on, not estimated from.
@@ -92,6 +102,7 @@ impl Default for ReplayOptions {
             weights: None,
             forgetting: 1.0,
             validation: None,
+            model: ModelDescription::generator(),
         }
     }
 }
@@ -101,24 +112,25 @@ impl Default for ReplayOptions {
 pub struct Replay {
     /// The recording replayed.
     pub path: PathBuf,
+    /// The model description the replay identified.
+    pub model: ModelDescription,
     /// What the recording stage found.
     pub recording: RecordingSummary,
-    /// The nameplate used (recording's record, overridden by the machine file).
-    pub nameplate: Nameplate,
+    /// The nameplate used (recording's record, overridden by the machine file), where the
+    /// model needs one.
+    pub nameplate: Option<Nameplate>,
     /// The decimated quantities.
     pub decimated: DecimatedRecording,
-    /// States and inputs in pu.
-    pub signals: ThermalSignals,
+    /// The model's states and inputs on the grid.
+    pub signals: ModelSignals,
     /// The identification data of the whole recording.
     pub data: IdentificationData,
     /// The instants the estimator saw (all, or those before a hold-out).
-    pub estimation_range: std::ops::Range<usize>,
+    pub estimation_range: Range<usize>,
     /// The model's fit on held-out data or another recording.
     pub validation: Option<Validation>,
-    /// The estimate.
+    /// The estimate (with its method's own details, e.g. the RLS trajectory).
     pub estimate: Estimate,
-    /// The recursion's trajectory of Θ (`rls` only).
-    pub trajectory: Vec<TrajectoryPoint>,
     /// The analysis of the estimate.
     pub analysis: ModelAnalysis,
     /// Warnings for the user (data loss, gaps).
@@ -137,17 +149,17 @@ impl Replay {
 pub struct Prepared {
     /// What the recording stage found.
     pub recording: RecordingSummary,
-    /// The nameplate used.
-    pub nameplate: Nameplate,
+    /// The nameplate used, where the model needs one.
+    pub nameplate: Option<Nameplate>,
     /// The decimated quantities.
     pub decimated: DecimatedRecording,
-    /// States and inputs in pu.
-    pub signals: ThermalSignals,
+    /// The model's states and inputs.
+    pub signals: ModelSignals,
     /// The estimator's input.
     pub data: IdentificationData,
 }
 
-/// Reads, decimates and computes the losses of one recording.
+/// Reads, decimates and computes the signals of one recording.
 pub fn prepare(path: &Path, options: &ReplayOptions) -> Result<Prepared> {
     prepare_with(path, options, None)
 }
@@ -176,61 +188,36 @@ pub fn prepare_with(
     options: &ReplayOptions,
     also: Option<&mut dyn SampleSink>,
 ) -> Result<Prepared> {
-    let name = path.display().to_string();
-    let mut decimator = Decimator::new(options.ts_s)?;
+    let model = &options.model;
+    let mut decimator = Decimator::new(options.ts_s, model.alignments())?;
+    let read = ReadOptions {
+        free_channels: model.free_channels(),
+    };
     let summary = match also {
-        Some(also) => recording::read_recording(
+        Some(also) => recording::read_recording_with(
             path,
             &mut Tee {
                 decimator: &mut decimator,
                 also,
             },
+            &read,
         )?,
-        None => recording::read_recording(path, &mut decimator)?,
+        None => recording::read_recording_with(path, &mut decimator, &read)?,
     };
     if summary.channels.is_empty() {
-        let ignored = if summary.ignored_channels.is_empty() {
-            "it has no channels at all".to_owned()
-        } else {
-            format!(
-                "its {} channel(s) ({}) carry no quantity of the profile",
-                summary.ignored_channels.len(),
-                summary
-                    .ignored_channels
-                    .iter()
-                    .map(|c| c.topic.as_str())
-                    .take(5)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        };
-        return Err(Error::BadRecording {
-            path: path.to_owned(),
-            message: format!("holds no heat-run data: {ignored}"),
-        });
+        return Err(no_heat_run_data(path, &summary));
     }
-    let overrides = match &options.machine {
-        Some(file) => Some(NameplateEntries::from_toml_file(file)?),
-        None => None,
+    let nameplate = if model.needs_nameplate() {
+        Some(resolve_nameplate(path, &summary, options)?)
+    } else {
+        None
     };
-    let entries = match &overrides {
-        Some(o) => summary.nameplate.clone().overridden_by(o),
-        None => summary.nameplate.clone(),
-    };
-    let nameplate = entries.resolve(&name)?;
-    let decimated = decimator.finish(&summary.channels).map_err(|e| match e {
-        Error::ClockJump(m) => Error::BadRecording {
-            path: path.to_owned(),
-            message: m,
-        },
-        Error::Estimation(m) => Error::BadRecording {
-            path: path.to_owned(),
-            message: m,
-        },
-        other => other,
-    })?;
-    let signals = losses::compute(&decimated, &nameplate, &name)?;
-    let data = IdentificationData::from(&signals);
+    let decimated = decimator
+        .finish(&summary.channels)
+        .map_err(|e| e.in_recording(path))?;
+    let signals = signals::compute(model, &decimated, nameplate.as_ref())
+        .map_err(|e| e.in_recording(path))?;
+    let data = signals.identification_data();
     Ok(Prepared {
         recording: summary,
         nameplate,
@@ -238,6 +225,45 @@ pub fn prepare_with(
         signals,
         data,
     })
+}
+
+/// The error of a recording none of whose channels the model can read.
+fn no_heat_run_data(path: &Path, summary: &RecordingSummary) -> Error {
+    let ignored = if summary.ignored_channels.is_empty() {
+        "it has no channels at all".to_owned()
+    } else {
+        let topics: Vec<&str> = summary
+            .ignored_channels
+            .iter()
+            .map(|c| c.topic.as_str())
+            .take(5)
+            .collect();
+        format!(
+            "its {} channel(s) ({}) carry no quantity of the profile",
+            summary.ignored_channels.len(),
+            topics.join(", ")
+        )
+    };
+    Error::BadRecording {
+        path: path.to_owned(),
+        message: format!("holds no heat-run data: {ignored}"),
+    }
+}
+
+/// The recording's nameplate record, overridden by the machine file's keys.
+fn resolve_nameplate(
+    path: &Path,
+    summary: &RecordingSummary,
+    options: &ReplayOptions,
+) -> Result<Nameplate> {
+    let entries = match &options.machine {
+        Some(file) => summary
+            .nameplate
+            .clone()
+            .overridden_by(&NameplateEntries::from_toml_file(file)?),
+        None => summary.nameplate.clone(),
+    };
+    entries.resolve(&path.display().to_string())
 }
 
 /// Replays one recording through every stage.
@@ -251,189 +277,121 @@ pub fn replay_with(
     options: &ReplayOptions,
     also: Option<&mut dyn SampleSink>,
 ) -> Result<Replay> {
-    let name = path.display().to_string();
-    let Prepared {
-        recording: summary,
-        nameplate,
-        decimated,
-        signals,
-        data,
-    } = prepare_with(path, options, also)?;
-    let estimation_range = match &options.validation {
-        Some(ValidationSource::HoldOut(f)) => {
-            if !(*f > 0.0 && *f < 0.9) {
-                return Err(Error::Usage(format!(
-                    "--holdout {f}: the held-out fraction must be in (0, 0.9)"
-                )));
-            }
-            0..((data.len() as f64 * (1.0 - f)).round() as usize)
-        }
-        _ => 0..data.len(),
+    let prepared = prepare_with(path, options, also)?;
+    let estimation_range = estimation_range(prepared.data.len(), options)?;
+    let in_file = |e: Error| e.in_recording(path);
+    let estimate = {
+        // Borrowed unless a part is held out: a week's data are not copied for nothing.
+        let estimation_data = if estimation_range.len() == prepared.data.len() {
+            Cow::Borrowed(&prepared.data)
+        } else {
+            Cow::Owned(prepared.data.slice(estimation_range.clone()))
+        };
+        estimate(&estimation_data, options).map_err(in_file)?
     };
-    // Borrowed unless a part is held out: a week's data are not copied for nothing.
-    let estimation_data = if estimation_range.len() == data.len() {
-        std::borrow::Cow::Borrowed(&data)
-    } else {
-        std::borrow::Cow::Owned(data.slice(estimation_range.clone()))
-    };
-    let (mut estimate, trajectory) =
-        estimate(&estimation_data, options).map_err(|e| with_file(e, &name))?;
-    estimate.method = options.method.name().into();
-    let (_, last_input) = signals
+    let (_, steady_input) = prepared
+        .signals
         .last_inputs()
-        .ok_or_else(|| Error::Estimation(format!("{name}: the inputs are never all known")))?;
-    let mut analysis = model::analyse(
+        .ok_or_else(|| in_file(Error::NoCommonInstant {
+            what: "the inputs".into(),
+        }))?;
+    let analysis = model::analyse(
         &estimate,
-        &estimation_data,
-        signals.temperature_base_k,
-        &last_input,
+        &prepared.data,
+        estimation_range.clone(),
+        prepared.signals.temperature_base_k,
+        &steady_input,
     )
-    .map_err(|e| with_file(e, &name))?;
-    // Simulated traces over the whole recording (hold-out included) for publishing.
-    if estimation_range.len() != data.len() {
-        drop(estimation_data);
-        analysis.simulated = estimate.model.simulate_segments(&data, &data.segments());
-    }
-    let validation = match &options.validation {
-        None => None,
-        Some(ValidationSource::HoldOut(f)) => {
-            let held = data.slice(estimation_range.end..data.len());
-            let sim = estimate.model.simulate_segments(&held, &held.segments());
-            Some(Validation {
-                source: format!("hold-out of the last {:.0} % of the recording", f * 100.0),
-                fit: model::fit::fit(&held, &sim, signals.temperature_base_k),
-            })
-        }
-        Some(ValidationSource::Recording(other)) => {
-            let prepared = prepare(other, options)?;
-            let sim = estimate
-                .model
-                .simulate_segments(&prepared.data, &prepared.data.segments());
-            Some(Validation {
-                source: other.display().to_string(),
-                fit: model::fit::fit(&prepared.data, &sim, prepared.signals.temperature_base_k),
-            })
-        }
-    };
-
-    let mut warnings: Vec<String> = summary
-        .data_loss
-        .iter()
-        .map(|l| format!("data lost: {l}"))
-        .collect();
-    for ch in &decimated.channels {
-        if ch.gaps > 0 {
-            warnings.push(format!(
-                "channel {} has {} gap(s) ({} instants without data); no equation bridges them",
-                ch.topic, ch.gaps, ch.gap_instants
-            ));
-        }
-    }
-    for (i, ch) in summary.channels.iter().enumerate() {
-        if let Some((t, v)) = summary.first_implausible[i] {
-            warnings.push(format!(
-                "channel {}: {} sample(s) outside the physical range of {} were dropped, the first {} {} at {}",
-                ch.topic,
-                summary.implausible_per_channel[i],
-                ch.quantity,
-                v,
-                ch.quantity.canonical_unit(),
-                crate::recording::format_time(t)
-            ));
-        }
-    }
-    // A required channel that stops well before the others.
-    if let Some((_, end)) = summary.time_span_ns {
-        for series in decimated.series.values() {
-            if let Some(last) = series.values.iter().rposition(|v| v.is_some()) {
-                let stop_ns = decimated.time_ns(last);
-                let early_s = (end as i64 - stop_ns) as f64 * 1e-9;
-                if early_s > 600.0 {
-                    warnings.push(format!(
-                        "{} stops at {}, {:.0} s before the recording ends; the rest is not used",
-                        series.quantity,
-                        crate::recording::format_time(stop_ns.max(0) as u64),
-                        early_s
-                    ));
-                }
-            }
-        }
-    }
-    if summary.bad_quality_dropped > 0 {
-        warnings.push(format!(
-            "{} samples marked `bad` were dropped",
-            summary.bad_quality_dropped
-        ));
-    }
-    for a in &analysis.assignment {
-        if a.resolved_conflict {
-            warnings.push(format!(
-                "the time constant {:.1} s was claimed by two states; it was assigned one-to-one",
-                a.time_constant_s
-            ));
-        }
-    }
+    .map_err(in_file)?;
+    let validation = validate(&prepared, &estimate, &estimation_range, options)?;
+    let warnings = warnings::collect(&prepared, &analysis);
     Ok(Replay {
         path: path.to_owned(),
-        recording: summary,
-        nameplate,
-        decimated,
-        signals,
-        data,
+        model: options.model.clone(),
+        recording: prepared.recording,
+        nameplate: prepared.nameplate,
+        decimated: prepared.decimated,
+        signals: prepared.signals,
+        data: prepared.data,
         estimation_range,
         validation,
         estimate,
-        trajectory,
         analysis,
         warnings,
     })
 }
 
-/// Runs the chosen estimator on the data.
-pub fn estimate(
-    data: &IdentificationData,
+/// The instants the estimator sees: all, or those before the held-out fraction.
+fn estimation_range(len: usize, options: &ReplayOptions) -> Result<Range<usize>> {
+    match &options.validation {
+        Some(ValidationSource::HoldOut(f)) => {
+            if !(*f > 0.0 && *f < 0.9) {
+                return Err(Error::HoldOutFraction { fraction: *f });
+            }
+            Ok(0..((len as f64 * (1.0 - f)).round() as usize))
+        }
+        _ => Ok(0..len),
+    }
+}
+
+/// The model's fit on the held-out instants or on another recording, simulated from
+/// that data's own measured state at the start of each segment.
+fn validate(
+    prepared: &Prepared,
+    estimate: &Estimate,
+    estimation_range: &Range<usize>,
     options: &ReplayOptions,
-) -> Result<(Estimate, Vec<TrajectoryPoint>)> {
+) -> Result<Option<Validation>> {
+    let fit_on = |data: &IdentificationData, base: f64| {
+        let sim = estimate.model.simulate_segments(data, &data.segments());
+        model::fit::fit(data, &sim, base)
+    };
+    Ok(match &options.validation {
+        None => None,
+        Some(ValidationSource::HoldOut(f)) => {
+            let held = prepared
+                .data
+                .slice(estimation_range.end..prepared.data.len());
+            Some(Validation {
+                source: format!("hold-out of the last {:.0} % of the recording", f * 100.0),
+                fit: fit_on(&held, prepared.signals.temperature_base_k),
+            })
+        }
+        Some(ValidationSource::Recording(other)) => {
+            let other_data = prepare(other, options)?;
+            Some(Validation {
+                source: other.display().to_string(),
+                fit: fit_on(&other_data.data, other_data.signals.temperature_base_k),
+            })
+        }
+    })
+}
+
+/// Runs the chosen estimator on the data.
+pub fn estimate(data: &IdentificationData, options: &ReplayOptions) -> Result<Estimate> {
     if let Some(w) = &options.weights {
         if w.len() != data.states() || w.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
-            return Err(Error::Usage(format!(
-                "--weights wants {} positive numbers, one per state",
-                data.states()
-            )));
+            return Err(Error::Weights {
+                states: data.states(),
+                given: w.len(),
+            });
         }
     }
     let per_instant =
         |w: &Vec<f64>| nalgebra::DMatrix::from_fn(data.len(), data.states(), |_, j| w[j]);
-    Ok(match options.method {
-        Method::Ls => (WeightedLeastSquares::default().estimate(data)?, Vec::new()),
-        Method::Wls => (
-            WeightedLeastSquares {
-                weights: options.weights.as_ref().map(per_instant),
-            }
-            .estimate(data)?,
-            Vec::new(),
-        ),
-        Method::Rls => RecursiveLeastSquares {
+    let estimator: Box<dyn Estimator> = match options.method {
+        Method::Ls => Box::new(WeightedLeastSquares::default()),
+        Method::Wls => Box::new(WeightedLeastSquares {
+            weights: options.weights.as_ref().map(per_instant),
+        }),
+        Method::Rls => Box::new(RecursiveLeastSquares {
             forgetting: options.forgetting,
             keep_every: 10,
-        }
-        .run(data)?,
-        Method::Iv => (InstrumentalVariables::default().estimate(data)?, Vec::new()),
-        Method::Oe => (
-            OutputError {
-                weights: options.weights.clone(),
-            }
-            .estimate(data)?,
-            Vec::new(),
-        ),
-    })
-}
-
-/// Prefixes an estimation or model error with the recording's name.
-fn with_file(e: Error, name: &str) -> Error {
-    match e {
-        Error::Estimation(m) => Error::Estimation(format!("{name}: {m}")),
-        Error::Model(m) => Error::Model(format!("{name}: {m}")),
-        other => other,
-    }
+        }),
+        Method::Iv => Box::new(InstrumentalVariables::default()),
+        Method::Oe => Box::new(OutputError {
+            weights: options.weights.clone(),
+        }),
+    };
+    estimator.estimate(data)
 }

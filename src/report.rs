@@ -7,9 +7,10 @@ use std::fmt::Write as _;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-use crate::losses::{FieldTemperatureSource, HeatSource, ThermalState};
+use crate::losses::FieldTemperatureSource;
 use crate::pipeline::Replay;
 use crate::recording::format_time;
+use crate::spec::{ModelDescription, Scaling};
 
 /// The profile identifier written into every report.
 pub const PROFILE: &str = "heatrun-scada/1";
@@ -167,11 +168,13 @@ pub struct EstimationEntry {
     /// Time of the initial temperatures, RFC 3339.
     pub initial_time: String,
     /// Source of the field winding temperature.
-    pub field_temperature: FieldTemperatureSource,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field_temperature: Option<FieldTemperatureSource>,
     /// Temperature base, K.
     pub temperature_base_k: f64,
     /// Power base, MVA.
-    pub power_base_mva: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub power_base_mva: Option<f64>,
 }
 
 /// The report of `heatrun replay --report` (profile section "Report").
@@ -213,8 +216,12 @@ pub struct Report {
     pub steady_state: SteadyStateEntry,
     /// The recording.
     pub recording: RecordingEntry,
-    /// The nameplate used.
-    pub nameplate: crate::recording::Nameplate,
+    /// The nameplate used, where the model needs one (the generator's loss model).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nameplate: Option<crate::recording::Nameplate>,
+    /// The model description: states (channel, reference, part), inputs (source, unit,
+    /// kind) and scaling — what later commands need to use the model.
+    pub model: ModelDescription,
     /// Estimation details.
     pub estimation: EstimationEntry,
     /// 95 % intervals, where the method gives a covariance.
@@ -233,31 +240,104 @@ fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
         .collect()
 }
 
+impl SteadyStateEntry {
+    /// The steady state of eqs. 30-35: the rise −A_c⁻¹B_c·u (eq. 31) in K, and the
+    /// temperature it means over each state's reference at the end of the recording
+    /// (the initial temperature in the paper, eq. 34).
+    fn new(r: &Replay) -> SteadyStateEntry {
+        let a = &r.analysis;
+        let s = &r.signals;
+        let rise_k: Vec<f64> = a
+            .steady_state
+            .iter()
+            .map(|y| y * s.temperature_base_k)
+            .collect();
+        let (last, measured_final) = s.last_measured().unwrap_or_default();
+        let reference_final: Vec<f64> = s
+            .states
+            .iter()
+            .map(|st| st.reference_at(last).unwrap_or(f64::NAN))
+            .collect();
+        SteadyStateEntry {
+            input_pu: a.steady_state_input.clone(),
+            temperature_c: rise_k.iter().zip(&reference_final).map(|(r, t)| t + r).collect(),
+            rise_k,
+            measured_final_rise_k: measured_final
+                .iter()
+                .zip(&reference_final)
+                .map(|(m, t)| m - t)
+                .collect(),
+            measured_final_temperature_c: measured_final,
+        }
+    }
+}
+
+impl RecordingEntry {
+    fn new(r: &Replay) -> RecordingEntry {
+        RecordingEntry {
+            path: r.path.display().to_string(),
+            file_bytes: r.recording.file_bytes,
+            start: r.recording.time_span_ns.map(|(a, _)| format_time(a)),
+            end: r.recording.time_span_ns.map(|(_, b)| format_time(b)),
+            channels: r
+                .recording
+                .channels
+                .iter()
+                .zip(&r.decimated.channels)
+                .map(|(c, g)| ChannelEntry {
+                    topic: c.topic.clone(),
+                    quantity: c.signal.name().into(),
+                    sensor: c.sensor.clone(),
+                    unit: c.unit.clone(),
+                    samples: r.recording.samples_per_channel[c.index],
+                    nominal_period_s: g.nominal_period_s,
+                    gaps: g.gaps,
+                })
+                .collect(),
+            ignored_channels: r.recording.ignored_channels.clone(),
+            bad_quality_dropped: r.recording.bad_quality_dropped,
+            data_loss: r.recording.data_loss.clone(),
+            metadata: r.recording.metadata.clone(),
+        }
+    }
+}
+
+impl EstimationEntry {
+    fn new(r: &Replay) -> EstimationEntry {
+        let s = &r.signals;
+        let k0 = s.initial_index;
+        EstimationEntry {
+            instants: r.data.len(),
+            equations_used: r.estimate.rows_used,
+            segments: r.data.segments().len(),
+            condition_number: r.estimate.condition_number,
+            initial_temperature_c: s
+                .states
+                .iter()
+                .map(|st| st.measured.get(k0).unwrap_or(f64::NAN))
+                .collect(),
+            initial_time: format_time(s.time_ns[k0].max(0) as u64),
+            field_temperature: s.field_temperature.as_ref().map(|f| f.source.clone()),
+            temperature_base_k: s.temperature_base_k,
+            power_base_mva: (r.model.scaling == Scaling::NameplatePerUnit)
+                .then(|| s.power_base / 1e6),
+        }
+    }
+}
+
 impl Report {
     /// Builds the report of a replay.
     pub fn new(r: &Replay) -> Report {
         let a = &r.analysis;
         let base = r.signals.temperature_base_k;
-        let theta0 = r.signals.initial_temperatures_c;
-        let rise_k: Vec<f64> = a.steady_state.iter().map(|y| y * base).collect();
-        let measured_final = r
-            .signals
-            .last_temperatures()
-            .map(|(_, t)| t.to_vec())
-            .unwrap_or_default();
+        let states = &r.signals.states;
         Report {
             profile: PROFILE.into(),
             heatrun_version: env!("CARGO_PKG_VERSION").into(),
             sample_time_s: r.signals.ts_s,
             method: r.estimate.method.clone(),
-            states: ThermalState::ALL
-                .iter()
-                .map(|s| s.name().to_owned())
-                .collect(),
-            inputs: HeatSource::ALL
-                .iter()
-                .map(|s| s.name().to_owned())
-                .collect(),
+            states: states.iter().map(|s| s.name.clone()).collect(),
+            inputs: r.signals.inputs.iter().map(|i| i.name.clone()).collect(),
             phi: rows(&r.estimate.model.phi),
             gamma: rows(&r.estimate.model.gamma),
             a_c: rows(&a.continuous.a_c),
@@ -270,61 +350,18 @@ impl Report {
                 .iter()
                 .map(|x| AssignmentEntry {
                     time_constant_s: x.time_constant_s,
-                    state: ThermalState::ALL[x.state].name().into(),
+                    state: states[x.state].name.clone(),
                     sensitivity_norm: x.sensitivity_norm,
-                    part: ThermalState::ALL[x.state].part().into(),
+                    part: states[x.state].part.clone(),
                 })
                 .collect(),
             sensitivity_norms: a.sensitivities.norms.clone(),
             fit: FitEntry::from(&a.fit),
-            steady_state: SteadyStateEntry {
-                input_pu: a.steady_state_input.clone(),
-                temperature_c: rise_k.iter().zip(theta0).map(|(r, t)| t + r).collect(),
-                rise_k,
-                measured_final_rise_k: measured_final
-                    .iter()
-                    .zip(theta0)
-                    .map(|(m, t)| m - t)
-                    .collect(),
-                measured_final_temperature_c: measured_final,
-            },
-            recording: RecordingEntry {
-                path: r.path.display().to_string(),
-                file_bytes: r.recording.file_bytes,
-                start: r.recording.time_span_ns.map(|(a, _)| format_time(a)),
-                end: r.recording.time_span_ns.map(|(_, b)| format_time(b)),
-                channels: r
-                    .recording
-                    .channels
-                    .iter()
-                    .zip(&r.decimated.channels)
-                    .map(|(c, g)| ChannelEntry {
-                        topic: c.topic.clone(),
-                        quantity: c.quantity.name().into(),
-                        sensor: c.sensor.clone(),
-                        unit: c.unit.clone(),
-                        samples: r.recording.samples_per_channel[c.index],
-                        nominal_period_s: g.nominal_period_s,
-                        gaps: g.gaps,
-                    })
-                    .collect(),
-                ignored_channels: r.recording.ignored_channels.clone(),
-                bad_quality_dropped: r.recording.bad_quality_dropped,
-                data_loss: r.recording.data_loss.clone(),
-                metadata: r.recording.metadata.clone(),
-            },
+            steady_state: SteadyStateEntry::new(r),
+            recording: RecordingEntry::new(r),
             nameplate: r.nameplate.clone(),
-            estimation: EstimationEntry {
-                instants: r.data.len(),
-                equations_used: r.estimate.rows_used,
-                segments: r.data.segments().len(),
-                condition_number: r.estimate.condition_number,
-                initial_temperature_c: theta0.to_vec(),
-                initial_time: format_time(r.signals.time_ns[r.signals.initial_index].max(0) as u64),
-                field_temperature: r.signals.field_temperature_source.clone(),
-                temperature_base_k: base,
-                power_base_mva: r.signals.power_base_va / 1e6,
-            },
+            model: r.model.clone(),
+            estimation: EstimationEntry::new(r),
             uncertainty: a.uncertainty.as_ref().map(|u| {
                 let p = r.estimate.model.phi.nrows() + r.estimate.model.gamma.ncols();
                 UncertaintyEntry {
@@ -372,10 +409,36 @@ impl Report {
     /// A summary that reads like the paper's results section.
     pub fn summary(&self) -> String {
         let mut s = String::new();
-        let names = ["stator winding", "iron core", "cooling water"];
+        self.summary_recording(&mut s);
+        self.summary_model(&mut s);
+        self.summary_time_constants(&mut s);
+        self.summary_fit(&mut s);
+        self.summary_steady_state(&mut s);
+        self.summary_residuals(&mut s);
+        for w in &self.warnings {
+            let _ = writeln!(s, "warning: {w}");
+        }
+        s
+    }
+
+    /// Short labels of the states for table columns: the part up to a parenthesis
+    /// ("stator winding (copper)" → "stator winding").
+    fn state_labels(&self) -> Vec<&str> {
+        self.model
+            .states
+            .iter()
+            .map(|st| st.part.split(" (").next().unwrap_or(&st.part))
+            .collect()
+    }
+
+    fn summary_recording(&self, s: &mut String) {
         let rec = &self.recording;
         let duration = self.estimation.instants as f64 * self.sample_time_s;
-        let _ = writeln!(s, "heat run {}", rec.path);
+        let what = match self.model.scaling {
+            Scaling::NameplatePerUnit => "heat run",
+            Scaling::AsRecorded => self.model.name.as_str(),
+        };
+        let _ = writeln!(s, "{what} {}", rec.path);
         let _ = writeln!(
             s,
             "  {} to {} ({:.0} s, {:.1} h), {} channels, Ts = {} s: {} instants, {} equations, {} segment(s)",
@@ -389,38 +452,47 @@ impl Report {
             self.estimation.equations_used,
             self.estimation.segments
         );
+        let field = match &self.estimation.field_temperature {
+            None => String::new(),
+            Some(FieldTemperatureSource::Measured) => "; field temperature: measured".to_owned(),
+            Some(FieldTemperatureSource::ResistanceMethod) => {
+                "; field temperature: resistance method U_f/I_f".to_owned()
+            }
+            Some(FieldTemperatureSource::ScaledArmatureRise {
+                scale,
+                final_temp_c,
+            }) => format!(
+                "; field temperature: armature rise × {scale:.4} (final {final_temp_c} °C)"
+            ),
+        };
         let _ = writeln!(
             s,
-            "  method {} (condition number {:.3e}); θ_0 = [{}] °C; field temperature: {}",
+            "  method {} (condition number {:.3e}); θ_0 = [{}] °C{field}",
             self.method,
             self.estimation.condition_number,
-            join(&self.estimation.initial_temperature_c, |v| format!(
-                "{v:.2}"
-            )),
-            match &self.estimation.field_temperature {
-                FieldTemperatureSource::Measured => "measured".to_owned(),
-                FieldTemperatureSource::ResistanceMethod => "resistance method U_f/I_f".to_owned(),
-                FieldTemperatureSource::ScaledArmatureRise {
-                    scale,
-                    final_temp_c,
-                } => format!("armature rise × {scale:.4} (final {final_temp_c} °C)"),
-            }
+            join(&self.estimation.initial_temperature_c, |v| format!("{v:.2}")),
         );
         let _ = writeln!(s);
-        matrix(&mut s, "Φ (eq. 19)", &self.phi, 8);
-        matrix(&mut s, "Γ (eq. 20)", &self.gamma, 7);
+    }
+
+    fn summary_model(&self, s: &mut String) {
+        matrix(s, "Φ (eq. 19)", &self.phi, 8);
+        matrix(s, "Γ (eq. 20)", &self.gamma, 7);
         let _ = writeln!(
             s,
             "eigenvalues of Φ (eq. 21): [{}]",
             join(&self.eigenvalues_discrete, |v| format!("{v:.5}"))
         );
-        matrix(&mut s, "A_c (eq. 22), 1/s", &self.a_c, 8);
-        matrix(&mut s, "B_c (eq. 23), 1/s", &self.b_c, 7);
+        matrix(s, "A_c (eq. 22), 1/s", &self.a_c, 8);
+        matrix(s, "B_c (eq. 23), 1/s", &self.b_c, 7);
         let _ = writeln!(
             s,
             "eigenvalues of A_c (eq. 24): [{}] 1/s",
             join(&self.eigenvalues_continuous, |v| format!("{v:.6}"))
         );
+    }
+
+    fn summary_time_constants(&self, s: &mut String) {
         let _ = writeln!(
             s,
             "time constants (eq. 26), 95 % intervals, and the part each belongs to (eqs. 27-29):"
@@ -433,64 +505,75 @@ impl Report {
                 .unwrap_or_else(|| " ".repeat(10));
             let _ = writeln!(
                 s,
-                "  T{} = {:>9.2} s {ci} -> {:<24} ‖T ∂y/∂T‖ = {:.3e} pu",
+                "  T{} = {:>9.2} s {ci} -> {:<24} ‖T ∂y/∂T‖ = {:.3e} {}",
                 i + 1,
                 a.time_constant_s,
                 a.part,
-                a.sensitivity_norm
+                a.sensitivity_norm,
+                self.state_unit()
             );
         }
         let _ = writeln!(
             s,
-            "sensitivity norms ‖T_i ∂y_k/∂T_i‖, pu (rows: states; columns: T1..Tn):"
+            "sensitivity norms ‖T_i ∂y_k/∂T_i‖, {} (rows: states; columns: T1..Tn):",
+            self.state_unit()
         );
-        for (k, row) in self.sensitivity_norms.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                "  {:<16}{}",
-                names.get(k).unwrap_or(&"?"),
-                join(row, |v| format!("{v:>11.3e}"))
-            );
+        for (label, row) in self.state_labels().iter().zip(&self.sensitivity_norms) {
+            let _ = writeln!(s, "  {label:<16}{}", join(row, |v| format!("{v:>11.3e}")));
         }
         let _ = writeln!(s);
-        let _ = writeln!(
-            s,
-            "fit of the simulated model (eq. 8) {:>16}{:>16}{:>16}",
-            names[0], names[1], names[2]
-        );
-        row(&mut s, "  SNR, dB (eq. 25)", &self.fit.snr_db, 3);
-        row(&mut s, "  NRMSE fit, %", &self.fit.nrmse_fit_percent, 2);
-        row(&mut s, "  RMSE, K", &self.fit.rmse_k, 3);
-        row(&mut s, "  largest error, K", &self.fit.max_abs_error_k, 3);
+    }
+
+    /// The unit of the states in the model's scaling.
+    fn state_unit(&self) -> &'static str {
+        match self.model.scaling {
+            Scaling::NameplatePerUnit => "pu",
+            Scaling::AsRecorded => "K",
+        }
+    }
+
+    fn summary_fit(&self, s: &mut String) {
+        let header: String = self
+            .state_labels()
+            .iter()
+            .map(|l| format!("{l:>16}"))
+            .collect();
+        let _ = writeln!(s, "fit of the simulated model (eq. 8) {header}");
+        row(s, "  SNR, dB (eq. 25)", &self.fit.snr_db, 3);
+        row(s, "  NRMSE fit, %", &self.fit.nrmse_fit_percent, 2);
+        row(s, "  RMSE, K", &self.fit.rmse_k, 3);
+        row(s, "  largest error, K", &self.fit.max_abs_error_k, 3);
+    }
+
+    fn summary_steady_state(&self, s: &mut String) {
         let ss = &self.steady_state;
+        let units: Vec<&str> = self.model.inputs.iter().map(|i| i.unit.as_str()).collect();
+        let unit = if units.iter().all(|u| *u == units[0]) {
+            units[0].to_owned()
+        } else {
+            format!("({})", units.join(", "))
+        };
         let _ = writeln!(s);
         let _ = writeln!(
             s,
-            "steady state for u = [{}] pu (eqs. 30-35)",
+            "steady state for u = [{}] {unit} (eqs. 30-35)",
             join(&ss.input_pu, |v| format!("{v:.7}"))
         );
-        row(&mut s, "  predicted rise, K (eq. 32)", &ss.rise_k, 3);
+        row(s, "  predicted rise, K (eq. 32)", &ss.rise_k, 3);
         if let Some(u) = &self.uncertainty {
-            row(&mut s, "    95 % interval, ± K", &u.steady_state_ci95_k, 3);
+            row(s, "    95 % interval, ± K", &u.steady_state_ci95_k, 3);
         }
+        row(s, "  measured final rise, K (eq. 33)", &ss.measured_final_rise_k, 3);
+        row(s, "  predicted temperature, °C (eq. 34)", &ss.temperature_c, 3);
         row(
-            &mut s,
-            "  measured final rise, K (eq. 33)",
-            &ss.measured_final_rise_k,
-            3,
-        );
-        row(
-            &mut s,
-            "  predicted temperature, °C (eq. 34)",
-            &ss.temperature_c,
-            3,
-        );
-        row(
-            &mut s,
+            s,
             "  measured final temperature, °C (35)",
             &ss.measured_final_temperature_c,
             3,
         );
+    }
+
+    fn summary_residuals(&self, s: &mut String) {
         let res = &self.residuals;
         let _ = writeln!(s);
         let _ = writeln!(
@@ -498,32 +581,25 @@ impl Report {
             "residuals (simulation error): lags 1-{} outside the 99 % band ±{:.4}, % of lags",
             res.max_lag, res.band99
         );
-        row(
-            &mut s,
-            "  autocorrelation",
-            &res.autocorrelation_outside_band
-                .iter()
-                .map(|v| v * 100.0)
-                .collect::<Vec<_>>(),
-            1,
-        );
+        let outside: Vec<f64> = res
+            .autocorrelation_outside_band
+            .iter()
+            .map(|v| v * 100.0)
+            .collect();
+        row(s, "  autocorrelation", &outside, 1);
         let worst: Vec<f64> = res
             .max_abs_cross_correlation
             .iter()
             .map(|r| r.iter().fold(0.0_f64, |m, v| m.max(*v)))
             .collect();
-        row(&mut s, "  largest |cross-correlation| with u", &worst, 3);
+        row(s, "  largest |cross-correlation| with u", &worst, 3);
         if let Some(v) = &self.validation {
             let _ = writeln!(s);
             let _ = writeln!(s, "validation on {} ({} instants)", v.source, v.fit.samples);
-            row(&mut s, "  NRMSE fit, %", &v.fit.nrmse_fit_percent, 2);
-            row(&mut s, "  MSE, K²", &v.fit.mse_k2, 4);
-            row(&mut s, "  largest error, K", &v.fit.max_abs_error_k, 3);
+            row(s, "  NRMSE fit, %", &v.fit.nrmse_fit_percent, 2);
+            row(s, "  MSE, K²", &v.fit.mse_k2, 4);
+            row(s, "  largest error, K", &v.fit.max_abs_error_k, 3);
         }
-        for w in &self.warnings {
-            let _ = writeln!(s, "warning: {w}");
-        }
-        s
     }
 }
 

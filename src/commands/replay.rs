@@ -4,10 +4,12 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
+use clap::ValueEnum;
 use heatrun::atomic::write_atomically;
 use heatrun::pipeline::{self, Method, Replay, ReplayOptions, ValidationSource};
 use heatrun::publish::{Publisher, RerunSink};
 use heatrun::report::Report;
+use heatrun::spec::ModelDescription;
 
 use super::Outcome;
 use crate::cli::{MethodArg, ReplayArgs};
@@ -23,11 +25,27 @@ fn default_fixture() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_FIXTURE)
 }
 
-fn options(args: &ReplayArgs) -> ReplayOptions {
-    ReplayOptions {
-        ts_s: args.ts,
+/// The replay's options: the command line first, then the spec's own sample time and
+/// method, then the defaults (1 s, `oe`).
+fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
+    let model = match &args.spec {
+        Some(path) => ModelDescription::from_toml_file(path)?,
+        None => ModelDescription::generator(),
+    };
+    let method = match (args.method, model.method.as_deref()) {
+        (Some(m), _) => m,
+        (None, Some(name)) => MethodArg::from_str(name, true).map_err(|_| {
+            anyhow::anyhow!(
+                "{}: method = \"{name}\" is not one of oe, iv, rls, wls, ls",
+                args.spec.as_deref().unwrap_or(Path::new("spec")).display()
+            )
+        })?,
+        (None, None) => MethodArg::Oe,
+    };
+    Ok(ReplayOptions {
+        ts_s: args.ts.or(model.sample_time_s).unwrap_or(1.0),
         machine: args.machine.clone(),
-        method: match args.method {
+        method: match method {
             MethodArg::Ls => Method::Ls,
             MethodArg::Wls => Method::Wls,
             MethodArg::Rls => Method::Rls,
@@ -41,7 +59,8 @@ fn options(args: &ReplayArgs) -> ReplayOptions {
             (None, Some(file)) => Some(ValidationSource::Recording(file.clone())),
             (None, None) => None,
         },
-    }
+        model,
+    })
 }
 
 /// The recordings named: files as given, folders expanded to their .mcap files.
@@ -89,7 +108,7 @@ fn replay_one(
     sink: &RerunSink,
     report: Option<&Path>,
 ) -> anyhow::Result<(Replay, String)> {
-    let options = options(args);
+    let options = options(args)?;
     let name = file
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

@@ -18,7 +18,6 @@ use crate::recording::SampleSink as _;
 
 use crate::atomic::PendingOutput;
 use crate::error::{Error, Result};
-use crate::losses::{HeatSource, ThermalState};
 use crate::model::sensitivity::SensitivityModel;
 use crate::pipeline::Replay;
 
@@ -41,17 +40,18 @@ fn publish_err(e: impl std::fmt::Display) -> Error {
 }
 
 /// Entity path of a state's temperature plot.
-pub fn temperature_entity(state: ThermalState) -> String {
-    format!("temperature/{}", state.name())
+pub fn temperature_entity(state: &str) -> String {
+    format!("temperature/{state}")
 }
 
 /// The viewer layout.
 pub fn blueprint(replay: &Replay, full_rate: bool) -> Blueprint {
-    let per_state: Vec<ContainerLike> = ThermalState::ALL
+    let states = &replay.signals.states;
+    let per_state: Vec<ContainerLike> = states
         .iter()
         .map(|s| {
-            TimeSeriesView::new(format!("{} temperature, °C", s.part()))
-                .with_origin(temperature_entity(*s))
+            TimeSeriesView::new(format!("{} temperature, °C", s.part))
+                .with_origin(temperature_entity(&s.name))
                 .into()
         })
         .collect();
@@ -67,11 +67,11 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Blueprint {
                 .into()
         })
         .collect();
-    let correlation_views: Vec<ContainerLike> = ThermalState::ALL
+    let correlation_views: Vec<ContainerLike> = states
         .iter()
         .map(|st| {
-            TimeSeriesView::new(format!("{}: residual correlation (x: lag)", st.part()))
-                .with_origin(format!("residual_correlation/{}", st.name()))
+            TimeSeriesView::new(format!("{}: residual correlation (x: lag)", st.part))
+                .with_origin(format!("residual_correlation/{}", st.name))
                 .into()
         })
         .collect();
@@ -80,7 +80,7 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Blueprint {
             TimeSeriesView::new("residual y − ŷ, K")
                 .with_origin("residual")
                 .into(),
-            TimeSeriesView::new("heat sources, kW")
+            TimeSeriesView::new(input_title(replay))
                 .with_origin("loss")
                 .into(),
         ])
@@ -107,7 +107,7 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Blueprint {
                 .into(),
         );
     }
-    if !replay.trajectory.is_empty() {
+    if replay.estimate.trajectory.is_some() {
         tabs.insert(
             1,
             Horizontal::new([
@@ -275,8 +275,11 @@ impl crate::recording::SampleSink for FullRatePublisher {
             entity.as_str(),
             &SeriesLines::new().with_names([format!(
                 "{} [{}]",
-                channel.quantity,
-                channel.quantity.canonical_unit()
+                channel.signal,
+                channel
+                    .signal
+                    .quantity()
+                    .map_or(channel.unit.as_str(), |q| q.canonical_unit())
             )]),
         );
         self.channels[channel.index].0 = entity;
@@ -344,28 +347,49 @@ const MEASURED: [u8; 3] = [31, 119, 180];
 const MODEL: [u8; 3] = [255, 127, 14];
 const PALETTE: [[u8; 3]; 4] = [[214, 39, 40], [44, 160, 44], [148, 103, 189], [140, 86, 75]];
 
+/// Title of the inputs' plot: the generator's heat sources in kW, or a spec's inputs.
+fn input_title(replay: &Replay) -> String {
+    match replay.model.scaling {
+        crate::spec::Scaling::NameplatePerUnit => "heat sources, kW".into(),
+        crate::spec::Scaling::AsRecorded => {
+            let units: Vec<&str> = replay.signals.inputs.iter().map(|i| i.unit.as_str()).collect();
+            format!("inputs, {}", units.join(", "))
+        }
+    }
+}
+
+/// Factor from an input in the model's scaling to the plotted unit (kW for pu of S_n).
+fn input_plot_scale(replay: &Replay) -> f64 {
+    match replay.model.scaling {
+        crate::spec::Scaling::NameplatePerUnit => replay.signals.power_base / 1e3,
+        crate::spec::Scaling::AsRecorded => replay.signals.power_base,
+    }
+}
+
 fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result<()> {
     let s = &replay.signals;
     let t = &s.time_ns;
     let base = s.temperature_base_k;
     let sim = &replay.analysis.simulated;
-    for (j, state) in ThermalState::ALL.iter().enumerate() {
-        let root = temperature_entity(*state);
-        let theta0 = s.initial_temperatures_c[j];
+    for (j, state) in s.states.iter().enumerate() {
+        let root = temperature_entity(&state.name);
         style(rec, &format!("{root}/measured"), "measured", MEASURED)?;
         style(rec, &format!("{root}/model"), "model", MODEL)?;
         send_series(
             rec,
             &format!("{root}/measured"),
-            on_grid(t, s.temperatures_c[j].iter()),
+            on_grid(t, state.measured.iter()),
         )?;
         send_series(
             rec,
             &format!("{root}/model"),
-            on_grid(t, (0..s.len()).map(|k| Some(theta0 + base * sim[(k, j)]))),
+            on_grid(
+                t,
+                (0..s.len()).map(|k| Some(state.reference_at(k)? + base * sim[(k, j)])),
+            ),
         )?;
-        let residual = format!("residual/{}", state.name());
-        style(rec, &residual, state.name(), PALETTE[j])?;
+        let residual = format!("residual/{}", state.name);
+        style(rec, &residual, &state.name, PALETTE[j % PALETTE.len()])?;
         send_series(
             rec,
             &residual,
@@ -375,23 +399,22 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
             ),
         )?;
     }
-    let s_n_kw = s.power_base_va / 1e3;
-    for (j, source) in HeatSource::ALL.iter().enumerate() {
-        let entity = format!("loss/{}", source.name());
-        style(rec, &entity, source.name(), PALETTE[j])?;
+    let scale = input_plot_scale(replay);
+    for (j, input) in s.inputs.iter().enumerate() {
+        let entity = format!("loss/{}", input.name);
+        style(rec, &entity, &input.name, PALETTE[j % PALETTE.len()])?;
         send_series(
             rec,
             &entity,
-            on_grid(t, s.inputs_pu[j].iter().map(|v| v.map(|v| v * s_n_kw))),
+            on_grid(t, input.values.iter().map(|v| v.map(|v| v * scale))),
         )?;
     }
     for (i, series) in replay.decimated.series.values().enumerate() {
-        let entity = format!("raw/{}", series.quantity.name());
-        let name = format!(
-            "{} [{}]",
-            series.quantity.name(),
-            series.quantity.canonical_unit()
-        );
+        let entity = format!("raw/{}", series.signal.name());
+        let name = match series.signal.quantity() {
+            Some(q) => format!("{} [{}]", q.name(), q.canonical_unit()),
+            None => series.signal.name().to_owned(),
+        };
         style(rec, &entity, &name, PALETTE[i % PALETTE.len()])?;
         send_series(rec, &entity, on_grid(t, series.values.iter()))?;
     }
@@ -422,9 +445,9 @@ fn log_sensitivities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
         .collect();
     let t = &replay.signals.time_ns;
     for i in 0..tcs.len() {
-        for (k, state) in ThermalState::ALL.iter().enumerate() {
-            let entity = format!("sensitivity/T{}/{}", i + 1, state.name());
-            style(rec, &entity, state.name(), PALETTE[k])?;
+        for (k, state) in replay.signals.states.iter().enumerate() {
+            let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
+            style(rec, &entity, &state.name, PALETTE[k % PALETTE.len()])?;
             let mut points = Vec::with_capacity(SERIES_SLICE);
             let mut failed = None;
             recursion.for_each_response(i, &replay.data, &segments, |instant, rel| {
@@ -464,8 +487,8 @@ fn send_by_lag(
 fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -> Result<()> {
     let res = &replay.analysis.residuals;
     let lag = res.max_lag as i64;
-    for (i, state) in ThermalState::ALL.iter().enumerate() {
-        let root = format!("residual_correlation/{}", state.name());
+    for (i, state) in replay.signals.states.iter().enumerate() {
+        let root = format!("residual_correlation/{}", state.name);
         style(
             rec,
             &format!("{root}/autocorrelation"),
@@ -492,9 +515,9 @@ fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -> Result<()
                 vec![sign * res.band99; 2],
             )?;
         }
-        for (j, source) in HeatSource::ALL.iter().enumerate() {
-            let entity = format!("{root}/cross_{}", source.name());
-            style(rec, &entity, &format!("× {}", source.name()), PALETTE[j])?;
+        for (j, input) in replay.signals.inputs.iter().enumerate() {
+            let entity = format!("{root}/cross_{}", input.name);
+            style(rec, &entity, &format!("× {}", input.name), PALETTE[j % PALETTE.len()])?;
             send_by_lag(
                 rec,
                 &entity,
@@ -507,10 +530,9 @@ fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -> Result<()
 }
 
 fn log_trajectory(rec: &RecordingStream, replay: &Replay) -> Result<()> {
-    let traj = &replay.trajectory;
-    if traj.is_empty() {
+    let Some(traj) = &replay.estimate.trajectory else {
         return Ok(());
-    }
+    };
     let model = &replay.estimate.model;
     let (n, m) = (model.phi.nrows(), model.gamma.ncols());
     let p = n + m;

@@ -1,0 +1,307 @@
+//! Signal stage: decimated channels → the model's states and inputs on the grid, as the
+//! [`ModelDescription`] says.
+//!
+//! Input: a [`DecimatedRecording`], the description, and the nameplate where the
+//! description needs one (the generator's loss model and per-unit bases). Output:
+//! [`ModelSignals`], whose [`ModelSignals::identification_data`] is the estimator's input.
+//!
+//! A state is the rise x_j(k) = (θ_j(k) − θ_ref,j(k)) / θ_base of its channel above its
+//! reference; an input is u_i(k) = P_i(k) / P_base, P_i a channel, an expression of
+//! channels, or a heat source of the profile's loss model.
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+use crate::decimate::{DecimatedRecording, DecimatedSeries};
+use crate::error::{Error, Result};
+use crate::estimate::IdentificationData;
+use crate::losses::{self, FieldTemperatureSource, GeneratorLosses};
+use crate::recording::{Nameplate, Signal};
+use crate::series::Series;
+use crate::spec::{
+    InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
+    StateDescription,
+};
+
+/// What a state's rise is measured from, on the grid.
+#[derive(Debug, Clone)]
+pub enum ReferenceValues {
+    /// A constant: the state's initial value (the paper), or 0 for an absolute state.
+    Constant(f64),
+    /// Another channel's value at each instant.
+    Channel(Series),
+}
+
+/// One state on the grid.
+#[derive(Debug, Clone)]
+pub struct StateSignal {
+    /// The state's name.
+    pub name: String,
+    /// The physical part, for people.
+    pub part: String,
+    /// The measured value θ_j(k) (°C for temperatures), `None` where unknown.
+    pub measured: Series,
+    /// θ_ref,j: what the rise is measured from.
+    pub reference: ReferenceValues,
+    /// For channels stored by exception: the instants that hold a stored sample (exact
+    /// values); between them `measured` is interpolated and not used as an output.
+    pub observed: Option<Vec<bool>>,
+}
+
+impl StateSignal {
+    /// θ_ref,j(k).
+    pub fn reference_at(&self, k: usize) -> Option<f64> {
+        match &self.reference {
+            ReferenceValues::Constant(c) => Some(*c),
+            ReferenceValues::Channel(s) => s.get(k),
+        }
+    }
+
+    /// The rise θ_j(k) − θ_ref,j(k), in the channel's unit (K).
+    pub fn rise(&self, k: usize) -> Option<f64> {
+        Some(self.measured.get(k)? - self.reference_at(k)?)
+    }
+}
+
+/// One input on the grid.
+#[derive(Debug, Clone)]
+pub struct InputSignal {
+    /// The input's name.
+    pub name: String,
+    /// Its unit before scaling, for people (`W`).
+    pub unit: String,
+    /// Heat, or another exogenous input.
+    pub kind: InputKind,
+    /// u_i(k) in the model's scaling (pu of the power base, or as recorded), held over
+    /// [t_k, t_k + Ts).
+    pub values: Series,
+}
+
+/// Where the generator's field winding temperature came from, and its values.
+#[derive(Debug, Clone)]
+pub struct FieldTemperature {
+    /// θ_f on the grid, °C.
+    pub values: Series,
+    /// The method.
+    pub source: FieldTemperatureSource,
+}
+
+/// The model's signals on the grid: the signal stage's output.
+#[derive(Debug, Clone)]
+pub struct ModelSignals {
+    /// Sample time in s.
+    pub ts_s: f64,
+    /// Time of each grid instant, ns since the epoch.
+    pub time_ns: Vec<i64>,
+    /// The states, in model order.
+    pub states: Vec<StateSignal>,
+    /// The inputs, in model order.
+    pub inputs: Vec<InputSignal>,
+    /// The first instant at which every state is known (initial references are taken there).
+    pub initial_index: usize,
+    /// Kelvin per unit of a state: θ_base (pu) or 1 (as recorded).
+    pub temperature_base_k: f64,
+    /// Input unit per unit of an input: S_n in VA (pu) or 1 (as recorded).
+    pub power_base: f64,
+    /// The generator's field winding temperature (loss model only).
+    pub field_temperature: Option<FieldTemperature>,
+}
+
+impl ModelSignals {
+    /// Number of grid instants.
+    pub fn len(&self) -> usize {
+        self.time_ns.len()
+    }
+
+    /// Whether there are no instants.
+    pub fn is_empty(&self) -> bool {
+        self.time_ns.is_empty()
+    }
+
+    /// State j's rise at instant k in the model's scaling: (θ_j − θ_ref,j) / θ_base.
+    pub fn rise_pu(&self, j: usize, k: usize) -> Option<f64> {
+        self.states[j]
+            .rise(k)
+            .map(|r| r / self.temperature_base_k)
+    }
+
+    /// Each state's reference at the initial instant (the paper's θ_0).
+    pub fn initial_references(&self) -> Vec<f64> {
+        self.states
+            .iter()
+            .map(|s| s.reference_at(self.initial_index).unwrap_or(f64::NAN))
+            .collect()
+    }
+
+    /// The last instant at which every input is known, with those inputs.
+    pub fn last_inputs(&self) -> Option<(usize, Vec<f64>)> {
+        (0..self.len()).rev().find_map(|k| {
+            let u: Option<Vec<f64>> = self.inputs.iter().map(|i| i.values.get(k)).collect();
+            Some((k, u?))
+        })
+    }
+
+    /// The last instant at which every state is measured, with the measured values.
+    pub fn last_measured(&self) -> Option<(usize, Vec<f64>)> {
+        (0..self.len()).rev().find_map(|k| {
+            let y: Option<Vec<f64>> = self.states.iter().map(|s| s.measured.get(k)).collect();
+            Some((k, y?))
+        })
+    }
+
+    /// The estimator's input: the rises as outputs y (N × n), the inputs as u (N × m).
+    /// Entries of states stored by exception count as known only where a sample was stored.
+    pub fn identification_data(&self) -> IdentificationData {
+        let (len, n, m) = (self.len(), self.states.len(), self.inputs.len());
+        let mut outputs = DMatrix::zeros(len, n);
+        let mut inputs = DMatrix::zeros(len, m);
+        let mut observed = DMatrix::from_element(len, n, true);
+        let mut outputs_known = vec![true; len];
+        let mut inputs_known = vec![true; len];
+        for k in 0..len {
+            for j in 0..n {
+                let seen = self.states[j].observed.as_ref().is_none_or(|o| o[k]);
+                match self.rise_pu(j, k).filter(|_| seen) {
+                    Some(v) => outputs[(k, j)] = v,
+                    None => {
+                        observed[(k, j)] = false;
+                        outputs_known[k] = false;
+                    }
+                }
+            }
+            for i in 0..m {
+                match self.inputs[i].values.get(k) {
+                    Some(v) => inputs[(k, i)] = v,
+                    None => inputs_known[k] = false,
+                }
+            }
+        }
+        let by_exception = self.states.iter().any(|s| s.observed.is_some());
+        IdentificationData::new(
+            self.ts_s,
+            outputs,
+            inputs,
+            outputs_known,
+            inputs_known,
+            by_exception.then_some(observed),
+        )
+    }
+}
+
+/// Computes the description's states and inputs from a decimated recording.
+pub fn compute(
+    description: &ModelDescription,
+    decimated: &DecimatedRecording,
+    nameplate: Option<&Nameplate>,
+) -> Result<ModelSignals> {
+    let series = |s: &Signal| {
+        decimated.get_signal(s).ok_or_else(|| Error::MissingChannel {
+            channel: s.name().to_owned(),
+        })
+    };
+    let mut states = Vec::with_capacity(description.states.len());
+    for s in &description.states {
+        states.push(state_signal(s, series(&s.channel)?, &series)?);
+    }
+    let n = decimated.len;
+    let initial_index = (0..n)
+        .find(|&k| states.iter().all(|s| s.rise(k).is_some()))
+        .ok_or_else(|| Error::NoCommonInstant {
+            what: "the states and their references".into(),
+        })?;
+    for s in &mut states {
+        if let ReferenceValues::Constant(c) = &mut s.reference {
+            if c.is_nan() {
+                *c = s.measured.get(initial_index).unwrap_or(f64::NAN);
+            }
+        }
+    }
+    let (temperature_base_k, power_base) = match (description.scaling, nameplate) {
+        (Scaling::NameplatePerUnit, Some(np)) => {
+            (np.temperature_base_k, np.rated_apparent_power_va)
+        }
+        (Scaling::NameplatePerUnit, None) => return Err(Error::NameplateNeeded),
+        (Scaling::AsRecorded, _) => (1.0, 1.0),
+    };
+    let generator = match (description.inputs.iter().any(|i| matches!(i.source, InputSource::Loss(_))), nameplate) {
+        (true, Some(np)) => Some(losses::compute(decimated, np, initial_index)?),
+        (true, None) => return Err(Error::NameplateNeeded),
+        (false, _) => None,
+    };
+    let inputs = description
+        .inputs
+        .iter()
+        .map(|i| input_signal(i, decimated, generator.as_ref(), power_base, &series))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(ModelSignals {
+        ts_s: decimated.ts_s(),
+        time_ns: (0..n).map(|i| decimated.time_ns(i)).collect(),
+        states,
+        inputs,
+        initial_index,
+        temperature_base_k,
+        power_base,
+        field_temperature: generator.map(|g| FieldTemperature {
+            values: g.field_temperature_c,
+            source: g.field_temperature_source,
+        }),
+    })
+}
+
+fn state_signal<'a>(
+    s: &StateDescription,
+    measured: &DecimatedSeries,
+    series: &impl Fn(&Signal) -> Result<&'a DecimatedSeries>,
+) -> Result<StateSignal> {
+    let reference = match &s.reference {
+        // NaN until the initial instant is known.
+        Reference::Initial => ReferenceValues::Constant(f64::NAN),
+        Reference::Absolute => ReferenceValues::Constant(0.0),
+        Reference::Channel(c) => ReferenceValues::Channel(series(c)?.values.clone()),
+    };
+    Ok(StateSignal {
+        name: s.name.clone(),
+        part: s.part.clone(),
+        measured: measured.values.clone(),
+        reference,
+        observed: measured.observed.clone(),
+    })
+}
+
+fn input_signal<'a>(
+    i: &InputDescription,
+    decimated: &DecimatedRecording,
+    generator: Option<&GeneratorLosses>,
+    power_base: f64,
+    series: &impl Fn(&Signal) -> Result<&'a DecimatedSeries>,
+) -> Result<InputSignal> {
+    let values: Series = match &i.source {
+        InputSource::Channel(c) => series(c)?.values.iter().map(|v| v.map(|v| v / power_base)).collect(),
+        InputSource::Expression(e) => {
+            let channels = e
+                .channels()
+                .iter()
+                .map(|c| series(c).map(|s| &s.values))
+                .collect::<Result<Vec<_>>>()?;
+            let mut args = vec![0.0; channels.len()];
+            (0..decimated.len)
+                .map(|k| {
+                    for (a, c) in args.iter_mut().zip(&channels) {
+                        *a = c.get(k)?;
+                    }
+                    e.eval(&args).map(|v| v / power_base)
+                })
+                .collect()
+        }
+        InputSource::Loss(h) => generator
+            .ok_or(Error::NameplateNeeded)?
+            .heat_source(*h)
+            .clone(),
+    };
+    Ok(InputSignal {
+        name: i.name.clone(),
+        unit: i.unit.clone(),
+        kind: i.kind,
+        values,
+    })
+}

@@ -1,0 +1,470 @@
+//! The model description: which channels are the thermal model's states, how its inputs
+//! are computed, and how each channel is placed on the grid.
+//!
+//! Every stage after the recording reads this one description instead of knowing the
+//! hydro generator: the decimator takes its [`ModelDescription::alignments`], the signal
+//! stage ([`crate::signals`]) computes the states and inputs it names, and the report,
+//! the summary and rerun name states and inputs as it does. The generator of the profile
+//! is one description ([`ModelDescription::generator`]: three rises, the loss model's
+//! three heat sources); a TOML spec ([`ModelDescription::from_toml_file`]) describes any
+//! other thermal system of n states and m inputs.
+
+pub mod expression;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+pub use expression::InputExpression;
+
+use crate::losses::HeatSource;
+use crate::recording::{Alignment, Quantity, Signal};
+
+/// What a state's value is measured from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Reference {
+    /// The rise above the state's own first known value (the paper's formulation).
+    Initial,
+    /// The value itself.
+    Absolute,
+    /// The rise above another channel at the same instant (an ambient or coolant inlet).
+    Channel(Signal),
+}
+
+/// One state of the model: a temperature channel, as a rise above its reference.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StateDescription {
+    /// The state's name (report, summary, rerun entity).
+    pub name: String,
+    /// The channel that measures it.
+    pub channel: Signal,
+    /// What the rise is measured from.
+    pub reference: Reference,
+    /// The physical part it stands for, for people ("stator winding (copper)").
+    pub part: String,
+    /// Unit of the measured value (°C for temperatures).
+    pub unit: String,
+}
+
+/// Whether an input is a heat source (the network is defined) or another exogenous input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum InputKind {
+    /// A heat flow into the system (W, or pu of a power base).
+    #[default]
+    Heat,
+    /// Not heat (a fan speed, a flow): the model is identified, but no thermal network.
+    Exogenous,
+}
+
+/// How an input's value at an instant is computed.
+#[derive(Debug, Clone, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InputSource {
+    /// A channel's value as recorded.
+    Channel(Signal),
+    /// An arithmetic expression of channels and constants.
+    Expression(InputExpression),
+    /// One of the profile's loss model's heat sources (the generator).
+    Loss(HeatSource),
+}
+
+/// One input of the model.
+#[derive(Debug, Clone, Serialize)]
+pub struct InputDescription {
+    /// The input's name (report, summary, rerun entity).
+    pub name: String,
+    /// How it is computed.
+    pub source: InputSource,
+    /// Its unit, for people (`W`, `pu`).
+    pub unit: String,
+    /// Heat or another exogenous input.
+    pub kind: InputKind,
+}
+
+/// How the signals are scaled for estimation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Scaling {
+    /// The profile's per-unit system: rises in pu of the nameplate's `temperature_base_k`,
+    /// heat sources in pu of S_n (the paper's units).
+    NameplatePerUnit,
+    /// The values as recorded: rises in the channel's unit (K), inputs in theirs.
+    AsRecorded,
+}
+
+/// The thermal system to identify: its states, its inputs and how they are scaled.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelDescription {
+    /// Name for people ("hydro generator (heatrun-scada/1)").
+    pub name: String,
+    /// The states x, in model order.
+    pub states: Vec<StateDescription>,
+    /// The inputs u, in model order.
+    pub inputs: Vec<InputDescription>,
+    /// Scaling of states and inputs.
+    pub scaling: Scaling,
+    /// The model grid's sample time the spec asks for, s (`None`: the caller's).
+    pub sample_time_s: Option<f64>,
+    /// The estimation method the spec asks for (`None`: the caller's).
+    pub method: Option<String>,
+}
+
+/// A spec file that cannot be used, with the key at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum SpecError {
+    /// The file is not TOML of the spec's form.
+    #[error("{message}")]
+    Syntax {
+        /// The TOML parser's message (it names the line and key).
+        message: String,
+    },
+    /// A state or input names no channel, or two things share a name.
+    #[error("{what} `{name}`: {problem}")]
+    Entry {
+        /// `state` or `input`.
+        what: &'static str,
+        /// Its name.
+        name: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The spec has no states or no inputs.
+    #[error("a spec needs at least one [[state]] and one [[input]]")]
+    Empty,
+}
+
+impl ModelDescription {
+    /// The hydro generator of the profile: the rises of stator winding, core and cooling
+    /// water outlet above their initial values (pu of `temperature_base_k`), driven by the
+    /// loss model's armature copper, field copper and iron losses (pu of S_n).
+    pub fn generator() -> ModelDescription {
+        let state = |q: Quantity, part: &str| StateDescription {
+            name: q.name().into(),
+            channel: Signal::Profile(q),
+            reference: Reference::Initial,
+            part: part.into(),
+            unit: "degC".into(),
+        };
+        ModelDescription {
+            name: "hydro generator (heatrun-scada/1)".into(),
+            states: vec![
+                state(Quantity::StatorWindingTemp, "stator winding (copper)"),
+                state(Quantity::CoreTemp, "iron core"),
+                state(Quantity::CoolingWaterOutletTemp, "cooling water (cooler)"),
+            ],
+            inputs: HeatSource::ALL
+                .iter()
+                .map(|&h| InputDescription {
+                    name: h.name().into(),
+                    source: InputSource::Loss(h),
+                    unit: "pu".into(),
+                    kind: InputKind::Heat,
+                })
+                .collect(),
+            scaling: Scaling::NameplatePerUnit,
+            sample_time_s: None,
+            method: None,
+        }
+    }
+
+    /// Reads a TOML spec (format: README, "Any thermal system").
+    pub fn from_toml_file(path: &Path) -> crate::Result<ModelDescription> {
+        let text = std::fs::read_to_string(path).map_err(|source| crate::Error::ReadInput {
+            path: path.to_owned(),
+            source,
+        })?;
+        ModelDescription::from_toml(&text).map_err(|source| crate::Error::BadSpec {
+            path: path.to_owned(),
+            source,
+        })
+    }
+
+    /// Parses a TOML spec.
+    pub fn from_toml(text: &str) -> Result<ModelDescription, SpecError> {
+        let file: SpecFile = toml::from_str(text).map_err(|e| SpecError::Syntax {
+            message: e.to_string().replace('\n', " ").trim().to_owned(),
+        })?;
+        file.into_description()
+    }
+
+    /// Number of states n.
+    pub fn state_count(&self) -> usize {
+        self.states.len()
+    }
+
+    /// Number of inputs m.
+    pub fn input_count(&self) -> usize {
+        self.inputs.len()
+    }
+
+    /// Whether every input is heat, so that a thermal network can be drawn from the model.
+    pub fn inputs_are_heat(&self) -> bool {
+        self.inputs.iter().all(|i| i.kind == InputKind::Heat)
+    }
+
+    /// Whether the signals need the machine's nameplate (the loss model, the pu bases).
+    pub fn needs_nameplate(&self) -> bool {
+        self.scaling == Scaling::NameplatePerUnit
+            || self
+                .inputs
+                .iter()
+                .any(|i| matches!(i.source, InputSource::Loss(_)))
+    }
+
+    /// How each channel the model reads is placed on the grid. The discrete model
+    /// x(k) = Φ x(k−1) + Γ u(k−1) relates point values of the states at t_k to inputs
+    /// held over [t_{k−1}, t_k): temperatures (states, their references, and the
+    /// temperatures the loss model reads) are [`Alignment::Instant`]; everything else,
+    /// the inputs' channels, [`Alignment::Interval`].
+    pub fn alignments(&self) -> BTreeMap<Signal, Alignment> {
+        let mut map = BTreeMap::new();
+        for s in &self.states {
+            map.insert(s.channel.clone(), Alignment::Instant);
+            if let Reference::Channel(r) = &s.reference {
+                map.insert(r.clone(), Alignment::Instant);
+            }
+        }
+        for i in &self.inputs {
+            match &i.source {
+                InputSource::Channel(c) => {
+                    map.entry(c.clone()).or_insert(Alignment::Interval);
+                }
+                InputSource::Expression(e) => {
+                    for c in e.channels() {
+                        map.entry(c.clone()).or_insert(Alignment::Interval);
+                    }
+                }
+                InputSource::Loss(_) => {}
+            }
+        }
+        if self.inputs.iter().any(|i| matches!(i.source, InputSource::Loss(_))) {
+            // The loss model's temperatures (resistance corrections) are point values too.
+            for q in Quantity::ALL.into_iter().filter(|q| q.is_temperature()) {
+                map.insert(Signal::Profile(q), Alignment::Instant);
+            }
+        }
+        map
+    }
+
+    /// The channels the model reads that are not quantities of the profile: the reader
+    /// is asked for them by name.
+    pub fn free_channels(&self) -> BTreeSet<String> {
+        self.alignments()
+            .into_keys()
+            .filter_map(|s| match s {
+                Signal::Free(name) => Some(name),
+                Signal::Profile(_) => None,
+            })
+            .collect()
+    }
+}
+
+/// The TOML form of a spec.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SpecFile {
+    name: Option<String>,
+    sample_time_s: Option<f64>,
+    method: Option<String>,
+    #[serde(default, rename = "state")]
+    states: Vec<StateFile>,
+    #[serde(default, rename = "input")]
+    inputs: Vec<InputFile>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StateFile {
+    name: String,
+    channel: Option<String>,
+    reference: Option<String>,
+    part: Option<String>,
+    unit: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InputFile {
+    name: String,
+    channel: Option<String>,
+    expression: Option<String>,
+    unit: Option<String>,
+    #[serde(default)]
+    kind: InputKind,
+}
+
+impl SpecFile {
+    fn into_description(self) -> Result<ModelDescription, SpecError> {
+        if self.states.is_empty() || self.inputs.is_empty() {
+            return Err(SpecError::Empty);
+        }
+        if let Some(ts) = self.sample_time_s {
+            if !(ts.is_finite() && ts > 0.0) {
+                return Err(SpecError::Syntax {
+                    message: format!("sample_time_s = {ts}: must be a positive number of seconds"),
+                });
+            }
+        }
+        let mut names = BTreeSet::new();
+        let states = self
+            .states
+            .into_iter()
+            .map(|s| {
+                unique(&mut names, "state", &s.name)?;
+                s.into_description()
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut names = BTreeSet::new();
+        let inputs = self
+            .inputs
+            .into_iter()
+            .map(|i| {
+                unique(&mut names, "input", &i.name)?;
+                i.into_description()
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(ModelDescription {
+            name: self.name.unwrap_or_else(|| "thermal system (spec)".into()),
+            states,
+            inputs,
+            scaling: Scaling::AsRecorded,
+            sample_time_s: self.sample_time_s,
+            method: self.method,
+        })
+    }
+}
+
+fn unique(names: &mut BTreeSet<String>, what: &'static str, name: &str) -> Result<(), SpecError> {
+    if name.trim().is_empty() || !names.insert(name.to_owned()) {
+        return Err(SpecError::Entry {
+            what,
+            name: name.into(),
+            problem: "names must be non-empty and unique".into(),
+        });
+    }
+    Ok(())
+}
+
+impl StateFile {
+    fn into_description(self) -> Result<StateDescription, SpecError> {
+        let channel = self.channel.unwrap_or_else(|| self.name.clone());
+        let reference = match self.reference.as_deref() {
+            None | Some("initial") => Reference::Initial,
+            Some("none") => Reference::Absolute,
+            Some(other) if other == channel => {
+                return Err(SpecError::Entry {
+                    what: "state",
+                    name: self.name,
+                    problem: "its reference is its own channel".into(),
+                })
+            }
+            Some(other) => Reference::Channel(Signal::from_name(other)),
+        };
+        Ok(StateDescription {
+            part: self.part.unwrap_or_else(|| self.name.clone()),
+            unit: self.unit.unwrap_or_else(|| "degC".into()),
+            name: self.name,
+            channel: Signal::from_name(&channel),
+            reference,
+        })
+    }
+}
+
+impl InputFile {
+    fn into_description(self) -> Result<InputDescription, SpecError> {
+        let source = match (self.channel, self.expression) {
+            (Some(c), None) => InputSource::Channel(Signal::from_name(&c)),
+            (None, Some(e)) => {
+                InputSource::Expression(InputExpression::parse(&e).map_err(|problem| {
+                    SpecError::Entry {
+                        what: "input",
+                        name: self.name.clone(),
+                        problem,
+                    }
+                })?)
+            }
+            _ => {
+                return Err(SpecError::Entry {
+                    what: "input",
+                    name: self.name,
+                    problem: "give exactly one of `channel` or `expression`".into(),
+                })
+            }
+        };
+        Ok(InputDescription {
+            name: self.name,
+            source,
+            unit: self.unit.unwrap_or_else(|| "W".into()),
+            kind: self.kind,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TCLAB: &str = r#"
+        name = "TCLab"
+        sample_time_s = 1.0
+        [[state]]
+        name = "T1"
+        [[state]]
+        name = "T2"
+        channel = "T2"
+        reference = "ambient"
+        [[input]]
+        name = "heater_1"
+        expression = "0.01 * Q1 * 3.0"
+        [[input]]
+        name = "fan"
+        channel = "fan_speed"
+        kind = "exogenous"
+    "#;
+
+    #[test]
+    fn a_spec_names_states_inputs_and_their_channels() {
+        let d = ModelDescription::from_toml(TCLAB).unwrap();
+        assert_eq!((d.state_count(), d.input_count()), (2, 2));
+        assert_eq!(d.states[0].channel, Signal::Free("T1".into()));
+        assert_eq!(d.states[1].reference, Reference::Channel(Signal::Free("ambient".into())));
+        assert!(!d.inputs_are_heat());
+        assert!(!d.needs_nameplate());
+        let a = d.alignments();
+        assert_eq!(a[&Signal::Free("T1".into())], Alignment::Instant);
+        assert_eq!(a[&Signal::Free("ambient".into())], Alignment::Instant);
+        assert_eq!(a[&Signal::Free("Q1".into())], Alignment::Interval);
+        assert_eq!(a[&Signal::Free("fan_speed".into())], Alignment::Interval);
+        let free: Vec<_> = d.free_channels().into_iter().collect();
+        assert_eq!(free, ["Q1", "T1", "T2", "ambient", "fan_speed"]);
+    }
+
+    #[test]
+    fn the_generator_is_three_rises_and_the_loss_model() {
+        let d = ModelDescription::generator();
+        let names: Vec<_> = d.states.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["stator_winding_temp", "core_temp", "cooling_water_outlet_temp"]);
+        assert!(d.needs_nameplate() && d.inputs_are_heat());
+        let a = d.alignments();
+        assert_eq!(a[&Signal::Profile(Quantity::FieldWindingTemp)], Alignment::Instant);
+        assert!(!a.contains_key(&Signal::Profile(Quantity::ArmatureCurrent)));
+        assert!(d.free_channels().is_empty());
+    }
+
+    #[test]
+    fn bad_specs_name_the_entry() {
+        let bad = |t: &str| ModelDescription::from_toml(t).unwrap_err().to_string();
+        assert!(bad("[[state]]\nname = \"a\"").contains("at least one"));
+        let both = "[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"\nexpression=\"x\"";
+        assert!(bad(both).contains("input `p`"), "{}", bad(both));
+        let dup = "[[state]]\nname=\"a\"\n[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"";
+        assert!(bad(dup).contains("state `a`"));
+        let unknown = "colour = 1\n[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"";
+        assert!(bad(unknown).contains("colour"), "{}", bad(unknown));
+        let expr = "[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nexpression=\"3 * (x\"";
+        assert!(bad(expr).contains("input `p`"), "{}", bad(expr));
+    }
+}

@@ -1,0 +1,85 @@
+//! The warnings a replay gives its user, built by one pure function from what the stages
+//! returned: data lost to damage, gaps, implausible or dropped samples, channels that stop
+//! early, and time constants that two states claimed.
+
+use crate::model::ModelAnalysis;
+use crate::pipeline::Prepared;
+use crate::recording::format_time;
+
+/// A channel that stops this long before the recording ends gets a warning, s.
+const EARLY_STOP_S: f64 = 600.0;
+
+/// Every warning for a prepared recording and its model's analysis, in a stable order.
+pub fn collect(prepared: &Prepared, analysis: &ModelAnalysis) -> Vec<String> {
+    let mut out = Vec::new();
+    data_loss(prepared, &mut out);
+    gaps(prepared, &mut out);
+    implausible(prepared, &mut out);
+    early_stops(prepared, &mut out);
+    if prepared.recording.bad_quality_dropped > 0 {
+        out.push(format!(
+            "{} samples marked `bad` were dropped",
+            prepared.recording.bad_quality_dropped
+        ));
+    }
+    for a in &analysis.assignment {
+        if a.resolved_conflict {
+            out.push(format!(
+                "the time constant {:.1} s was claimed by two states; it was assigned one-to-one",
+                a.time_constant_s
+            ));
+        }
+    }
+    out
+}
+
+fn data_loss(p: &Prepared, out: &mut Vec<String>) {
+    out.extend(p.recording.data_loss.iter().map(|l| format!("data lost: {l}")));
+}
+
+fn gaps(p: &Prepared, out: &mut Vec<String>) {
+    for ch in p.decimated.channels.iter().filter(|c| c.gaps > 0) {
+        out.push(format!(
+            "channel {} has {} gap(s) ({} instants without data); no equation bridges them",
+            ch.topic, ch.gaps, ch.gap_instants
+        ));
+    }
+}
+
+fn implausible(p: &Prepared, out: &mut Vec<String>) {
+    let summary = &p.recording;
+    for (i, ch) in summary.channels.iter().enumerate() {
+        if let Some((t, v)) = summary.first_implausible[i] {
+            out.push(format!(
+                "channel {}: {} sample(s) outside the physical range of {} were dropped, the first {} {} at {}",
+                ch.topic,
+                summary.implausible_per_channel[i],
+                ch.signal,
+                v,
+                ch.signal.quantity().map_or("", |q| q.canonical_unit()),
+                format_time(t)
+            ));
+        }
+    }
+}
+
+/// A channel that stops well before the others.
+fn early_stops(p: &Prepared, out: &mut Vec<String>) {
+    let Some((_, end)) = p.recording.time_span_ns else {
+        return;
+    };
+    for series in p.decimated.series.values() {
+        if let Some(last) = series.values.iter().rposition(|v| v.is_some()) {
+            let stop_ns = p.decimated.time_ns(last);
+            let early_s = (end as i64 - stop_ns) as f64 * 1e-9;
+            if early_s > EARLY_STOP_S {
+                out.push(format!(
+                    "{} stops at {}, {:.0} s before the recording ends; the rest is not used",
+                    series.signal,
+                    format_time(stop_ns.max(0) as u64),
+                    early_s
+                ));
+            }
+        }
+    }
+}
