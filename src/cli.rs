@@ -66,8 +66,12 @@ pub struct ReplayArgs {
     #[arg(long, default_value_t = 1.0)]
     pub forgetting: f64,
     /// Hold out the last FRACTION of the recording and report the model's fit on it.
-    #[arg(long, value_name = "FRACTION", conflicts_with = "validate")]
+    #[arg(long, value_name = "FRACTION", conflicts_with_all = ["validate", "split_at"])]
     pub holdout: Option<f64>,
+    /// Estimate on the recording before SECONDS (from its start) and report the fit on the
+    /// rest, simulated from the measured state there.
+    #[arg(long, value_name = "SECONDS", conflicts_with = "validate")]
+    pub split_at: Option<f64>,
     /// Report the model's fit on another recording of the same machine.
     #[arg(long, value_name = "FILE")]
     pub validate: Option<PathBuf>,

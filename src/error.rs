@@ -98,6 +98,14 @@ pub enum Error {
         /// The fraction asked for.
         fraction: f64,
     },
+    /// A split point outside the recording.
+    #[error("the split at {split_s} s leaves nothing to estimate or validate on (the grid spans {span_s} s)")]
+    SplitOutside {
+        /// The split asked for, s from the first instant.
+        split_s: f64,
+        /// The grid's span, s.
+        span_s: f64,
+    },
     /// Per-state weights that do not fit the model.
     #[error("the weights want {states} positive numbers, one per state ({given} given)")]
     Weights {
@@ -144,6 +152,7 @@ impl Error {
                 | Error::Usage(_)
                 | Error::HoldOutFraction { .. }
                 | Error::Weights { .. }
+                | Error::SplitOutside { .. }
         )
     }
 }

@@ -80,6 +80,10 @@ pub struct ReplayOptions {
 pub enum ValidationSource {
     /// The last fraction (0, 1) of the recording is held out of the estimation.
     HoldOut(f64),
+    /// The recording is estimated on before this many seconds from its first grid instant
+    /// and validated on from there (a data set's published split, e.g. "the first 400
+    /// samples").
+    SplitAt(f64),
     /// Another recording of the same machine.
     Recording(PathBuf),
 }
@@ -330,6 +334,16 @@ fn estimation_range(len: usize, options: &ReplayOptions) -> Result<Range<usize>>
             }
             Ok(0..((len as f64 * (1.0 - f)).round() as usize))
         }
+        Some(ValidationSource::SplitAt(t)) => {
+            let k = (t / options.ts_s).round();
+            if !(k >= 1.0 && (k as usize) < len.saturating_sub(1)) {
+                return Err(Error::SplitOutside {
+                    split_s: *t,
+                    span_s: len as f64 * options.ts_s,
+                });
+            }
+            Ok(0..k as usize)
+        }
         _ => Ok(0..len),
     }
 }
@@ -348,13 +362,25 @@ fn validate(
     };
     Ok(match &options.validation {
         None => None,
-        Some(ValidationSource::HoldOut(f)) => {
-            let held = prepared
-                .data
-                .slice(estimation_range.end..prepared.data.len());
+        Some(held @ (ValidationSource::HoldOut(_) | ValidationSource::SplitAt(_))) => {
+            let rest = estimation_range.end..prepared.data.len();
+            let source = match held {
+                ValidationSource::HoldOut(f) => {
+                    format!("hold-out of the last {:.0} % of the recording", f * 100.0)
+                }
+                _ => format!(
+                    "the recording from {} s on (instants {}..{})",
+                    rest.start as f64 * options.ts_s,
+                    rest.start,
+                    rest.end
+                ),
+            };
             Some(Validation {
-                source: format!("hold-out of the last {:.0} % of the recording", f * 100.0),
-                fit: fit_on(&held, prepared.signals.temperature_base_k),
+                source,
+                fit: fit_on(
+                    &prepared.data.slice(rest),
+                    prepared.signals.temperature_base_k,
+                ),
             })
         }
         Some(ValidationSource::Recording(other)) => {

@@ -54,10 +54,11 @@ fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
         },
         weights: args.weights.clone(),
         forgetting: args.forgetting,
-        validation: match (&args.holdout, &args.validate) {
-            (Some(f), _) => Some(ValidationSource::HoldOut(*f)),
-            (None, Some(file)) => Some(ValidationSource::Recording(file.clone())),
-            (None, None) => None,
+        validation: match (&args.holdout, &args.split_at, &args.validate) {
+            (Some(f), _, _) => Some(ValidationSource::HoldOut(*f)),
+            (None, Some(t), _) => Some(ValidationSource::SplitAt(*t)),
+            (None, None, Some(file)) => Some(ValidationSource::Recording(file.clone())),
+            (None, None, None) => None,
         },
         model,
     })
