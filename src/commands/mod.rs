@@ -1,5 +1,6 @@
 //! One handler per command, behind [`dispatch`].
 
+pub mod hint;
 mod info;
 mod replay;
 mod synth;
