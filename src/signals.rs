@@ -298,6 +298,12 @@ fn input_signal<'a>(
             .heat_source(*h)
             .clone(),
     };
+    let values = if i.from_initial {
+        let first = values.iter().flatten().next().unwrap_or(0.0);
+        values.iter().map(|v| v.map(|v| v - first)).collect()
+    } else {
+        values
+    };
     Ok(InputSignal {
         name: i.name.clone(),
         unit: i.unit.clone(),

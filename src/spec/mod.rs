@@ -82,6 +82,9 @@ pub struct InputDescription {
     pub unit: String,
     /// Heat or another exogenous input.
     pub kind: InputKind,
+    /// Whether the input is taken as its change from its first known value (a boundary
+    /// temperature or a drive whose starting value is the equilibrium), or as it is.
+    pub from_initial: bool,
 }
 
 /// How the signals are scaled for estimation.
@@ -162,6 +165,7 @@ impl ModelDescription {
                     source: InputSource::Loss(h),
                     unit: "pu".into(),
                     kind: InputKind::Heat,
+                    from_initial: false,
                 })
                 .collect(),
             scaling: Scaling::NameplatePerUnit,
@@ -294,6 +298,7 @@ struct InputFile {
     unit: Option<String>,
     #[serde(default)]
     kind: InputKind,
+    reference: Option<String>,
 }
 
 impl SpecFile {
@@ -394,11 +399,23 @@ impl InputFile {
                 })
             }
         };
+        let from_initial = match self.reference.as_deref() {
+            None | Some("none") => false,
+            Some("initial") => true,
+            Some(other) => {
+                return Err(SpecError::Entry {
+                    what: "input",
+                    name: self.name,
+                    problem: format!("reference = \"{other}\": an input's reference is \"initial\" or \"none\""),
+                })
+            }
+        };
         Ok(InputDescription {
             name: self.name,
             source,
             unit: self.unit.unwrap_or_else(|| "W".into()),
             kind: self.kind,
+            from_initial,
         })
     }
 }
@@ -423,6 +440,7 @@ mod tests {
         name = "fan"
         channel = "fan_speed"
         kind = "exogenous"
+        reference = "initial"
     "#;
 
     #[test]
@@ -432,6 +450,7 @@ mod tests {
         assert_eq!(d.states[0].channel, Signal::Free("T1".into()));
         assert_eq!(d.states[1].reference, Reference::Channel(Signal::Free("ambient".into())));
         assert!(!d.inputs_are_heat());
+        assert!(d.inputs[1].from_initial && !d.inputs[0].from_initial);
         assert!(!d.needs_nameplate());
         let a = d.alignments();
         assert_eq!(a[&Signal::Free("T1".into())], Alignment::Instant);
