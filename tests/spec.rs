@@ -1,0 +1,173 @@
+//! `replay --spec`: any thermal system of n states and m inputs, named by its channels.
+
+mod common;
+
+use std::path::Path;
+
+use common::{heatrun, tempdir, RecordingBuilder};
+use heatrun::model::matrix::discretize;
+use nalgebra::DMatrix;
+use serde_json::Value;
+
+/// A two-node network (heater plate and sensor block) in physical units:
+/// C = [40, 120] J/K, G_12 = 0.8 W/K, G_10 = 0.5 W/K, G_20 = 0.3 W/K, heater 1 into node 1,
+/// heater 2 split 30/70 between the nodes.
+fn two_node() -> (DMatrix<f64>, DMatrix<f64>) {
+    let c = [40.0, 120.0];
+    let (g12, g10, g20) = (0.8, 0.5, 0.3);
+    let l = DMatrix::from_row_slice(2, 2, &[g12 + g10, -g12, -g12, g12 + g20]);
+    let k = DMatrix::from_row_slice(2, 2, &[1.0, 0.3, 0.0, 0.7]);
+    let cinv = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![1.0 / c[0], 1.0 / c[1]]));
+    (-&cinv * l, cinv * k)
+}
+
+const AMBIENT_C: f64 = 21.0;
+const DURATION_S: usize = 4000;
+
+/// Heater commands (%) that step every few minutes, seeded, deterministic.
+fn heater_command(seed: u64, k: usize) -> f64 {
+    let block = (k / 240) as u64;
+    let h = (block.wrapping_add(1) * 0x9E37_79B9_7F4A_7C15) ^ seed.wrapping_mul(0xD1B5_4A32_D192_ED03);
+    (h >> 40) as f64 / (1u64 << 24) as f64 * 100.0
+}
+
+/// A recording of the two-node network: heater commands Q1 (%) and power P2 (W), the two
+/// temperatures and a constant ambient, every channel at 1 Hz on the grid instants.
+fn recording(path: &Path) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (a, b) = two_node();
+    let (phi, gamma) = discretize(&a, &b, 1.0);
+    let q1: Vec<f64> = (0..DURATION_S).map(|k| heater_command(1, k)).collect();
+    let p2: Vec<f64> = (0..DURATION_S).map(|k| 0.02 * heater_command(2, k)).collect();
+    let mut x = vec![[0.0, 0.0]; DURATION_S];
+    for k in 1..DURATION_S {
+        let u = [0.01 * q1[k - 1] * 3.0, p2[k - 1]];
+        for i in 0..2 {
+            x[k][i] = (0..2).map(|j| phi[(i, j)] * x[k - 1][j]).sum::<f64>()
+                + (0..2).map(|j| gamma[(i, j)] * u[j]).sum::<f64>();
+        }
+    }
+    let at = |v: Vec<f64>| move |t: f64| v[t.round() as usize];
+    let t1: Vec<f64> = x.iter().map(|x| AMBIENT_C + x[0]).collect();
+    let t2: Vec<f64> = x.iter().map(|x| AMBIENT_C + x[1]).collect();
+    let mut r = RecordingBuilder::new()
+        .channel("Q1", "%", 1.0, DURATION_S as f64, at(q1))
+        .channel("P2", "W", 1.0, DURATION_S as f64, at(p2))
+        .channel("T1", "degC", 1.0, DURATION_S as f64, at(t1))
+        .channel("T2", "degC", 1.0, DURATION_S as f64, at(t2))
+        .channel("ambient", "degC", 1.0, DURATION_S as f64, |_| AMBIENT_C);
+    r.nameplate = None;
+    r.write(path);
+    (phi, gamma)
+}
+
+const SPEC: &str = r#"
+name = "two-node test rig"
+sample_time_s = 1.0
+
+[[state]]
+name = "plate"
+channel = "T1"
+reference = "ambient"
+part = "heater plate"
+
+[[state]]
+name = "block"
+channel = "T2"
+reference = "ambient"
+part = "sensor block"
+
+[[input]]
+name = "heater_1_power"
+expression = "0.01 * Q1 * 3.0"
+unit = "W"
+
+[[input]]
+name = "heater_2_power"
+channel = "P2"
+unit = "W"
+"#;
+
+fn matrix(v: &Value) -> Vec<Vec<f64>> {
+    v.as_array()
+        .expect("a matrix")
+        .iter()
+        .map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect())
+        .collect()
+}
+
+#[test]
+fn a_spec_identifies_a_known_two_node_network() {
+    let dir = tempdir();
+    let rec = dir.path().join("rig.mcap");
+    let (phi, gamma) = recording(&rec);
+    let spec = dir.path().join("rig.toml");
+    std::fs::write(&spec, SPEC).unwrap();
+    let out = heatrun(
+        &[
+            "replay",
+            rec.to_str().unwrap(),
+            "--spec",
+            spec.to_str().unwrap(),
+            "--report",
+            "r.json",
+            "--rrd",
+            "r.rrd",
+        ],
+        dir.path(),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}\n{stdout}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.starts_with("two-node test rig"), "{stdout}");
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
+    assert_eq!(report["states"], serde_json::json!(["plate", "block"]));
+    assert_eq!(report["inputs"], serde_json::json!(["heater_1_power", "heater_2_power"]));
+    let (got_phi, got_gamma) = (matrix(&report["phi"]), matrix(&report["gamma"]));
+    for i in 0..2 {
+        for j in 0..2 {
+            assert!((got_phi[i][j] - phi[(i, j)]).abs() < 1e-6, "Φ {got_phi:?} vs {phi}");
+            let rel = (got_gamma[i][j] - gamma[(i, j)]).abs() / gamma.amax();
+            assert!(rel < 1e-5, "Γ {got_gamma:?} vs {gamma}");
+        }
+    }
+    // The steady state in K over the ambient, for the last input: −A⁻¹B u by hand.
+    let (a, b) = two_node();
+    let u: Vec<f64> = report["steady_state"]["input_pu"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let ss = -a.try_inverse().unwrap() * b * nalgebra::DVector::from_vec(u);
+    let rise = report["steady_state"]["rise_k"].as_array().unwrap();
+    let temp = report["steady_state"]["temperature_c"].as_array().unwrap();
+    for i in 0..2 {
+        assert!((rise[i].as_f64().unwrap() - ss[i]).abs() < 1e-3 * ss[i].abs().max(1.0));
+        assert!((temp[i].as_f64().unwrap() - (AMBIENT_C + ss[i])).abs() < 1e-2);
+    }
+    assert!(report.get("nameplate").is_none(), "a spec needs no nameplate");
+    assert_eq!(report["model"]["states"][0]["part"], "heater plate");
+}
+
+#[test]
+fn a_spec_naming_an_absent_channel_or_a_bad_key_stops_with_one_line() {
+    let dir = tempdir();
+    let rec = dir.path().join("rig.mcap");
+    recording(&rec);
+    for (spec, expect) in [
+        (SPEC.replace("channel = \"P2\"", "channel = \"P3\""), "P3"),
+        (SPEC.replace("part = \"sensor block\"", "colour = \"red\""), "colour"),
+        (SPEC.replace("0.01 * Q1 * 3.0", "0.01 * (Q1"), "heater_1_power"),
+    ] {
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, spec).unwrap();
+        let out = heatrun(
+            &["replay", rec.to_str().unwrap(), "--spec", "bad.toml", "--rrd", "x.rrd"],
+            dir.path(),
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains(expect), "{expect}: {stderr}");
+        assert!(!dir.path().join("x.rrd").exists());
+    }
+}
