@@ -167,3 +167,167 @@ pub struct InfoArgs {
     #[arg(long)]
     pub json: bool,
 }
+
+#[cfg(test)]
+mod tests {
+    use clap::error::ErrorKind;
+    use clap::{CommandFactory, Parser};
+
+    use super::*;
+
+    fn parse(args: &[&str]) -> Result<Cli, clap::Error> {
+        Cli::try_parse_from(std::iter::once("heatrun").chain(args.iter().copied()))
+    }
+
+    fn replay(args: &[&str]) -> ReplayArgs {
+        match parse(&[&["replay"][..], args].concat()).unwrap().command {
+            Command::Replay(r) => r,
+            other => panic!("not a replay: {other:?}"),
+        }
+    }
+
+    fn error(args: &[&str]) -> ErrorKind {
+        parse(args).expect_err("must not parse").kind()
+    }
+
+    #[test]
+    fn the_definitions_are_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn replay_defaults_are_the_documented_ones() {
+        let r = replay(&[]);
+        assert!(r.files.is_empty(), "the fixture is chosen later");
+        assert_eq!(r.ts, 1.0);
+        assert_eq!(r.method, MethodArg::Oe);
+        assert_eq!(r.weights, None);
+        assert_eq!(r.forgetting, 1.0);
+        assert_eq!((r.holdout, r.validate), (None, None));
+        assert_eq!((r.rrd, r.report, r.connect), (None, None, None));
+        assert!(!r.spawn && !r.raw && !r.quiet);
+        assert_eq!(r.out_dir, PathBuf::from("."));
+        assert_eq!(r.jobs, None);
+    }
+
+    #[test]
+    fn every_method_parses_and_others_are_refused() {
+        for (name, method) in [
+            ("ls", MethodArg::Ls),
+            ("wls", MethodArg::Wls),
+            ("rls", MethodArg::Rls),
+            ("iv", MethodArg::Iv),
+            ("oe", MethodArg::Oe),
+        ] {
+            assert_eq!(replay(&["--method", name]).method, method);
+        }
+        assert_eq!(
+            error(&["replay", "--method", "kalman"]),
+            ErrorKind::InvalidValue
+        );
+        assert_eq!(
+            error(&["replay", "--method", "OE"]),
+            ErrorKind::InvalidValue
+        );
+    }
+
+    #[test]
+    fn holdout_and_validate_exclude_each_other() {
+        assert_eq!(replay(&["--holdout", "0.25"]).holdout, Some(0.25));
+        assert_eq!(
+            replay(&["--validate", "b.mcap"]).validate,
+            Some(PathBuf::from("b.mcap"))
+        );
+        assert_eq!(
+            error(&["replay", "--holdout", "0.25", "--validate", "b.mcap"]),
+            ErrorKind::ArgumentConflict
+        );
+    }
+
+    #[test]
+    fn weights_are_a_comma_separated_list_of_numbers() {
+        assert_eq!(
+            replay(&["--weights", "1,2.5,1e-3"]).weights,
+            Some(vec![1.0, 2.5, 0.001])
+        );
+        assert_eq!(replay(&["--weights", "4"]).weights, Some(vec![4.0]));
+        assert_eq!(
+            error(&["replay", "--weights", "1,x,3"]),
+            ErrorKind::ValueValidation
+        );
+        assert_eq!(error(&["replay", "--weights"]), ErrorKind::InvalidValue);
+    }
+
+    #[test]
+    fn numbers_that_are_not_numbers_are_refused() {
+        assert_eq!(replay(&["--ts", "0.5"]).ts, 0.5);
+        for args in [
+            &["replay", "--ts", "one"][..],
+            &["replay", "--forgetting", "0,99"],
+            &["replay", "--holdout", "25%"],
+            &["replay", "--jobs=-1"],
+            &["replay", "--jobs", "2.5"],
+            &["synth", "out.mcap", "--seed=-3"],
+            &["synth", "out.mcap", "--duration", "1h"],
+        ] {
+            assert_eq!(error(args), ErrorKind::ValueValidation, "{args:?}");
+        }
+    }
+
+    #[test]
+    fn connect_takes_an_optional_url_and_files_may_be_many() {
+        assert_eq!(replay(&["--connect"]).connect.as_deref(), Some(""));
+        assert_eq!(
+            replay(&["--connect", "rerun+http://host:9876/proxy"])
+                .connect
+                .as_deref(),
+            Some("rerun+http://host:9876/proxy")
+        );
+        let r = replay(&[
+            "a.mcap",
+            "archive/",
+            "--out-dir",
+            "out",
+            "--jobs",
+            "3",
+            "-q",
+        ]);
+        assert_eq!(
+            r.files,
+            [PathBuf::from("a.mcap"), PathBuf::from("archive/")]
+        );
+        assert_eq!(
+            (r.out_dir, r.jobs, r.quiet),
+            (PathBuf::from("out"), Some(3), true)
+        );
+    }
+
+    #[test]
+    fn synth_defaults_are_the_fixtures_and_info_needs_a_file() {
+        let Command::Synth(s) = parse(&["synth", "out.mcap"]).unwrap().command else {
+            panic!("not synth");
+        };
+        assert_eq!(s.duration, 20868.0);
+        assert_eq!((s.electrical_rate, s.temperature_rate), (1.0, 1.0));
+        assert_eq!(
+            (s.temperature_noise, s.electrical_noise, s.resolution),
+            (0.0, 0.0, 0.0)
+        );
+        assert_eq!(s.seed, 1);
+        assert_eq!(
+            (s.field, s.profile),
+            (FieldArg::Voltage, ProfileArg::LoadSteps)
+        );
+        assert!(!s.uncompressed);
+        assert_eq!(error(&["synth"]), ErrorKind::MissingRequiredArgument);
+        assert_eq!(error(&["info"]), ErrorKind::MissingRequiredArgument);
+        assert_eq!(
+            error(&[]),
+            ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+        );
+        assert_eq!(
+            error(&["replay", "--no-such-option"]),
+            ErrorKind::UnknownArgument
+        );
+    }
+}

@@ -15,6 +15,30 @@
 //! | report | [`report`] | everything → the profile's JSON report and a summary |
 //!
 //! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs.
+//!
+//! # A replay in a few lines
+//!
+//! The shipped fixture is a heat run simulated from the paper's model; replaying it
+//! identifies that model again, with the paper's three time constants:
+//!
+//! ```
+//! use heatrun::pipeline::{replay, ReplayOptions};
+//! use heatrun::report::Report;
+//!
+//! let replayed = replay("fixtures/paper_heat_run.mcap".as_ref(), &ReplayOptions::default())?;
+//! let report = Report::new(&replayed);
+//! for a in &report.assignment {
+//!     println!("T = {:8.2} s  -> {}", a.time_constant_s, a.part);
+//! }
+//! // eq. 26 from the paper's Φ: 23.90 s, 737.21 s, 3305.73 s
+//! assert!((report.time_constants_s[1] - 737.21).abs() < 0.01);
+//! # Ok::<(), heatrun::Error>(())
+//! ```
+//!
+//! [`report::Report::summary`] gives the whole paper-style table, and
+//! [`publish`] sends everything to a rerun viewer or an `.rrd` file.
+
+#![warn(missing_docs)]
 
 pub mod atomic;
 pub mod decimate;

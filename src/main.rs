@@ -12,6 +12,7 @@ use clap::Parser;
 use commands::Outcome;
 
 fn main() -> ExitCode {
+    end_quietly_on_closed_pipe();
     let cli = cli::Cli::parse();
     match commands::dispatch(cli.command) {
         Ok(Outcome::Complete) => ExitCode::SUCCESS,
@@ -23,5 +24,23 @@ fn main() -> ExitCode {
             eprintln!("heatrun: {err:#}");
             ExitCode::from(if bad_input { 2 } else { 1 })
         }
+    }
+}
+
+/// Lets a closed pipe on stdout (`heatrun info f.mcap | head -1`) end the process as it
+/// ends `cat` or `grep`: silently, by SIGPIPE.
+///
+/// Rust starts programs with SIGPIPE ignored, so a write to a closed pipe returns
+/// `BrokenPipe` and `println!` panics on it. Restoring the default action here covers
+/// every command and thread at once. It is safe because the commands print only after
+/// their outputs are complete (renamed into place), so nothing is cut short but the
+/// printing; socket writes (rerun's gRPC sinks) are not affected, as Rust's and tokio's
+/// sockets send with `MSG_NOSIGNAL` or `SO_NOSIGPIPE`.
+fn end_quietly_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in `main`, before any other thread exists; `signal` with
+    // `SIG_DFL` installs no handler code.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }

@@ -1,7 +1,7 @@
 //! Bad input ends with one line naming the file, channel or key, exit status 2,
 //! no panic, no partial output, and the input untouched.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -22,7 +22,7 @@
 //! Every failing case also checks: one line on stderr, no panic, no output file left
 //! (complete or absent), and the input unchanged.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -1,7 +1,7 @@
 //! The estimators on seeded noisy synthetic heat runs from the paper's model: least
 //! squares is biased by the sensor noise, the default (output error) is not.
 
-mod common;
+use crate::common;
 
 use heatrun::pipeline::{replay, Method, Replay, ReplayOptions, ValidationSource};
 use heatrun::synth::{self, SynthOptions, Truth};

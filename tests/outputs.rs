@@ -1,12 +1,19 @@
 //! The replay's outputs: the .rrd read back with rerun's own decoder, and the JSON
-//! report checked against `schemas/report.schema.json`.
+//! report checked against `schemas/report.schema.json` by a JSON Schema validator.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::io::BufReader;
 
+use heatrun::pipeline::{replay, ReplayOptions};
+use heatrun::report::Report;
 use heatrun::synth::{self, SynthOptions};
+// rerun's own decoder, through the SDK the build already has (no second build of
+// rerun's crates for the tests).
+use rerun::external::re_log_encoding::DecoderApp;
+use rerun::log::{Chunk, LogMsg};
+use rerun::StoreKind;
 use serde_json::Value;
 
 /// Rows per entity of the recording store (not the blueprint) in an .rrd file.
@@ -14,14 +21,14 @@ fn rows_per_entity(path: &std::path::Path) -> (BTreeMap<String, usize>, bool) {
     let file = std::fs::File::open(path).unwrap();
     let mut rows = BTreeMap::new();
     let mut saw_blueprint = false;
-    for msg in re_log_encoding::DecoderApp::decode_eager(BufReader::new(file)).unwrap() {
+    for msg in DecoderApp::decode_eager(BufReader::new(file)).unwrap() {
         let msg = msg.unwrap();
-        if let re_log_types::LogMsg::ArrowMsg(store, arrow) = &msg {
-            if store.kind() == re_log_types::StoreKind::Blueprint {
+        if let LogMsg::ArrowMsg(store, arrow) = &msg {
+            if store.kind() == StoreKind::Blueprint {
                 saw_blueprint = true;
                 continue;
             }
-            let chunk = re_chunk::Chunk::from_arrow_msg(arrow).unwrap();
+            let chunk = Chunk::from_arrow_msg(arrow).unwrap();
             if chunk.is_static() {
                 continue; // series styles and the summary text
             }
@@ -92,58 +99,27 @@ fn rrd_holds_the_expected_entities_and_rows() {
     assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
 }
 
-/// A small JSON Schema checker for the subset the report schema uses: type, required,
-/// properties, items, const, enum, $ref to #/$defs.
-fn check(schema: &Value, root: &Value, value: &Value, at: &str, errors: &mut Vec<String>) {
-    if let Some(r) = schema.get("$ref").and_then(Value::as_str) {
-        let name = r.trim_start_matches("#/$defs/");
-        return check(&root["$defs"][name], root, value, at, errors);
+/// `schemas/report.schema.json`, compiled by a JSON Schema (draft 2020-12) validator.
+struct ReportSchema {
+    schemas: boon::Schemas,
+    index: boon::SchemaIndex,
+}
+
+impl ReportSchema {
+    fn load() -> ReportSchema {
+        let path = common::package_root().join("schemas/report.schema.json");
+        let mut schemas = boon::Schemas::new();
+        let index = boon::Compiler::new()
+            .compile(path.to_str().unwrap(), &mut schemas)
+            .unwrap_or_else(|e| panic!("{e:#}"));
+        ReportSchema { schemas, index }
     }
-    if let Some(c) = schema.get("const") {
-        if c != value {
-            errors.push(format!("{at}: {value} is not {c}"));
-        }
-    }
-    if let Some(e) = schema.get("enum").and_then(Value::as_array) {
-        if !e.contains(value) {
-            errors.push(format!("{at}: {value} not in {e:?}"));
-        }
-    }
-    if let Some(t) = schema.get("type").and_then(Value::as_str) {
-        let ok = match t {
-            "object" => value.is_object(),
-            "array" => value.is_array(),
-            "number" => value.is_number(),
-            "integer" => value.is_u64() || value.is_i64(),
-            "string" => value.is_string(),
-            _ => true,
-        };
-        if !ok {
-            errors.push(format!("{at}: {value} is not of type {t}"));
-            return;
-        }
-    }
-    if let Some(req) = schema.get("required").and_then(Value::as_array) {
-        for k in req {
-            if value.get(k.as_str().unwrap()).is_none() {
-                errors.push(format!("{at}: missing required key {k}"));
-            }
-        }
-    }
-    if let (Some(props), Some(obj)) = (
-        schema.get("properties").and_then(Value::as_object),
-        value.as_object(),
-    ) {
-        for (k, s) in props {
-            if let Some(v) = obj.get(k) {
-                check(s, root, v, &format!("{at}.{k}"), errors);
-            }
-        }
-    }
-    if let (Some(items), Some(arr)) = (schema.get("items"), value.as_array()) {
-        for (i, v) in arr.iter().enumerate() {
-            check(items, root, v, &format!("{at}[{i}]"), errors);
-        }
+
+    /// Every violation, one a line: `- at '<where in the report>' [S#<schema keyword>]: what`.
+    fn check(&self, report: &Value) -> Result<(), String> {
+        self.schemas
+            .validate(report, self.index)
+            .map_err(|e| format!("{e:#}"))
     }
 }
 
@@ -183,17 +159,7 @@ fn report_follows_the_profile_and_its_schema() {
     let report: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
             .unwrap();
-    let schema: Value =
-        serde_json::from_str(include_str!("../schemas/report.schema.json")).unwrap();
-    let mut errors = Vec::new();
-    check(&schema, &schema, &report, "$", &mut errors);
-    assert!(errors.is_empty(), "{errors:#?}");
-    // The checker itself rejects a report without a required key.
-    let mut broken = report.clone();
-    broken.as_object_mut().unwrap().remove("fit");
-    let mut errors = Vec::new();
-    check(&schema, &schema, &broken, "$", &mut errors);
-    assert_eq!(errors.len(), 1);
+    ReportSchema::load().check(&report).unwrap();
     // Time constants ascending, assignment one per time constant.
     let t: Vec<f64> = report["time_constants_s"]
         .as_array()
@@ -207,6 +173,74 @@ fn report_follows_the_profile_and_its_schema() {
         report["recording"]["metadata"]["heatrun.test"]["test_id"],
         "synthetic-seed-1"
     );
+}
+
+/// The fixture's report, as a JSON value.
+fn fixture_report() -> Value {
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let replayed = replay(&fixture, &ReplayOptions::default()).unwrap();
+    serde_json::from_str(&Report::new(&replayed).to_json()).unwrap()
+}
+
+#[test]
+fn reports_that_break_the_schema_are_rejected() {
+    let schema = ReportSchema::load();
+    let report = fixture_report();
+    schema.check(&report).unwrap();
+    // Each edit breaks one rule of the schema; the validator must name where in the
+    // report and which keyword.
+    type Edit = (&'static str, fn(&mut Value), &'static str, &'static str);
+    let edits: [Edit; 6] = [
+        (
+            "a zero sample time",
+            |r| r["sample_time_s"] = 0.0.into(),
+            "/sample_time_s",
+            "/exclusiveMinimum]",
+        ),
+        (
+            "no fit block",
+            |r| {
+                r.as_object_mut().unwrap().remove("fit");
+            },
+            "",
+            "/required]",
+        ),
+        (
+            "another profile",
+            |r| r["profile"] = "heatrun-scada/2".into(),
+            "/profile",
+            "/const]",
+        ),
+        (
+            "states out of order",
+            |r| r["states"].as_array_mut().unwrap().swap(0, 1),
+            "/states",
+            "/const]",
+        ),
+        (
+            "a time constant that is not a number",
+            |r| r["time_constants_s"][1] = "737 s".into(),
+            "/time_constants_s/1",
+            "/type]",
+        ),
+        (
+            "a matrix row that is not an array",
+            |r| r["phi"][0] = 1.0.into(),
+            "/phi/0",
+            "/type]",
+        ),
+    ];
+    for (what, edit, at, keyword) in edits {
+        let mut broken = report.clone();
+        edit(&mut broken);
+        let err = schema
+            .check(&broken)
+            .expect_err(&format!("{what} is accepted"));
+        let named = err.lines().any(|l| {
+            l.trim_start().starts_with(&format!("- at '{at}' [S#")) && l.contains(keyword)
+        });
+        assert!(named, "{what}: {err}");
+    }
 }
 
 #[test]

@@ -1,6 +1,6 @@
 //! Recovery of a known model from synthetic heat runs, end to end through the file.
 
-mod common;
+use crate::common;
 
 use heatrun::pipeline::{replay, ReplayOptions};
 use heatrun::synth::{self, FieldChannel, SynthOptions};

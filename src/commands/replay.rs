@@ -10,6 +10,7 @@ use heatrun::pipeline::{self, Method, Replay, ReplayOptions, ValidationSource};
 use heatrun::publish::{Publisher, RerunSink};
 use heatrun::report::Report;
 use heatrun::spec::ModelDescription;
+use rayon::prelude::*;
 
 use super::Outcome;
 use crate::cli::{MethodArg, ReplayArgs};
@@ -17,6 +18,8 @@ use crate::cli::{MethodArg, ReplayArgs};
 /// The fixture replayed when no file is named.
 pub const DEFAULT_FIXTURE: &str = "fixtures/paper_heat_run.mcap";
 
+/// The fixture beside the current folder, else in the source tree this binary was built
+/// from (so `cargo run -- replay` works from any folder of a clone).
 fn default_fixture() -> PathBuf {
     let here = PathBuf::from(DEFAULT_FIXTURE);
     if here.exists() {
@@ -64,36 +67,62 @@ fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
     })
 }
 
-/// The recordings named: files as given, folders expanded to their .mcap files.
-fn recordings(files: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, bool)> {
-    if files.is_empty() {
-        return Ok((vec![default_fixture()], false));
-    }
-    let mut out = Vec::new();
-    let mut folder = false;
-    for f in files {
-        if f.is_dir() {
-            folder = true;
-            let mut found: Vec<PathBuf> = std::fs::read_dir(f)
-                .map_err(|e| heatrun::Error::ReadInput {
-                    path: f.clone(),
-                    source: e,
-                })?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
-                .collect();
-            found.sort();
-            out.extend(found);
-        } else {
-            out.push(f.clone());
+/// The recordings a `replay` names.
+struct Recordings {
+    /// Files as given, folders expanded to their `.mcap` files (sorted).
+    files: Vec<PathBuf>,
+    /// Whether a folder was named: a fleet even if it holds one recording.
+    from_folder: bool,
+}
+
+impl Recordings {
+    /// The recordings named: files as given, folders expanded; the fixture if none.
+    fn named(files: &[PathBuf]) -> anyhow::Result<Recordings> {
+        if files.is_empty() {
+            return Ok(Recordings {
+                files: vec![default_fixture()],
+                from_folder: false,
+            });
         }
+        let mut out = Vec::new();
+        let mut from_folder = false;
+        for f in files {
+            if f.is_dir() {
+                from_folder = true;
+                out.extend(mcap_files_in(f)?);
+            } else {
+                out.push(f.clone());
+            }
+        }
+        if out.is_empty() {
+            return Err(
+                heatrun::Error::Usage("no .mcap recordings in the folders given".into()).into(),
+            );
+        }
+        Ok(Recordings {
+            files: out,
+            from_folder,
+        })
     }
-    if out.is_empty() {
-        return Err(
-            heatrun::Error::Usage("no .mcap recordings in the folders given".into()).into(),
-        );
+
+    /// Whether this is a fleet (outputs per recording in `--out-dir`, a summary table).
+    fn is_fleet(&self) -> bool {
+        self.files.len() > 1 || self.from_folder
     }
-    Ok((out, folder))
+}
+
+/// The `.mcap` files of a folder, sorted by name.
+fn mcap_files_in(folder: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let mut found: Vec<PathBuf> = std::fs::read_dir(folder)
+        .map_err(|e| heatrun::Error::ReadInput {
+            path: folder.to_owned(),
+            source: e,
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .collect();
+    found.sort();
+    Ok(found)
 }
 
 fn stem(file: &Path) -> String {
@@ -102,13 +131,20 @@ fn stem(file: &Path) -> String {
         .unwrap_or_else(|| "heatrun".into())
 }
 
-/// Replays one recording into its sink and report; returns the replay and its summary text.
+/// One recording replayed, with its report and the summary printed from it.
+struct Replayed {
+    replay: Replay,
+    report: Report,
+    summary: String,
+}
+
+/// Replays one recording into its sink and (if named) its report file.
 fn replay_one(
     args: &ReplayArgs,
     file: &Path,
     sink: &RerunSink,
-    report: Option<&Path>,
-) -> anyhow::Result<(Replay, String)> {
+    report_path: Option<&Path>,
+) -> anyhow::Result<Replayed> {
     let options = options(args)?;
     let name = file
         .file_name()
@@ -123,22 +159,27 @@ fn replay_one(
     } else {
         pipeline::replay(file, &options)?
     };
-    let report_data = Report::new(&replay);
-    let summary = report_data.summary();
+    let report = Report::new(&replay);
+    let summary = report.summary();
     publisher.finish(&replay, &summary)?;
-    if let Some(path) = report {
-        write_atomically(path, report_data.to_json().as_bytes())?;
+    if let Some(path) = report_path {
+        write_atomically(path, report.to_json().as_bytes())?;
     }
-    Ok((replay, summary))
+    Ok(Replayed {
+        replay,
+        report,
+        summary,
+    })
 }
 
+/// Runs `heatrun replay`: one recording, or a fleet when several (or a folder) are named.
 pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
-    let (files, folder) = recordings(&args.files)?;
-    if files.len() > 1 || folder {
-        return fleet(&args, &files);
+    let recordings = Recordings::named(&args.files)?;
+    if recordings.is_fleet() {
+        return fleet(&args, &recordings.files);
     }
     let started = Instant::now();
-    let file = &files[0];
+    let file = &recordings.files[0];
     let sink = if args.spawn {
         RerunSink::Spawn
     } else if let Some(url) = &args.connect {
@@ -150,13 +191,15 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
                 .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", stem(file)))),
         )
     };
-    let (replay, summary) = replay_one(&args, file, &sink, args.report.as_deref())?;
+    // Everything is written before anything is printed: a closed stdout (`| head`)
+    // ends the process at the first print and must not cut an output short.
+    let replayed = replay_one(&args, file, &sink, args.report.as_deref())?;
     if args.quiet {
-        for w in &replay.warnings {
+        for w in &replayed.replay.warnings {
             eprintln!("warning: {w}");
         }
     } else {
-        print!("{summary}");
+        print!("{}", replayed.summary);
         match &sink {
             RerunSink::Rrd(p) => println!("rerun recording: {}", p.display()),
             RerunSink::Connect(url) => println!(
@@ -170,33 +213,129 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
         }
         println!("replayed in {:.2} s", started.elapsed().as_secs_f64());
     }
-    Ok(if replay.had_data_loss() {
+    Ok(if replayed.replay.had_data_loss() {
         Outcome::DataLoss
     } else {
         Outcome::Complete
     })
 }
 
-/// A CSV field (RFC 4180): quoted, with quotes doubled, when it holds a comma, a
-/// quote or a line break.
-fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_owned()
+/// What the fleet table and `fleet-summary.csv` show of one recording: its report's
+/// `time_constants_s`, `fit.nrmse_fit_percent` and `steady_state.temperature_c`, so the
+/// table made here and one gathered from a cluster's reports agree.
+struct FleetFigures {
+    time_constants_s: Vec<f64>,
+    nrmse_fit_percent: Vec<f64>,
+    steady_state_c: Vec<f64>,
+    data_lost: bool,
+}
+
+impl FleetFigures {
+    fn of(replayed: &Replayed) -> FleetFigures {
+        let report = &replayed.report;
+        FleetFigures {
+            time_constants_s: report.time_constants_s.clone(),
+            nrmse_fit_percent: report.fit.nrmse_fit_percent.clone(),
+            steady_state_c: report.steady_state.temperature_c.clone(),
+            data_lost: replayed.replay.had_data_loss(),
+        }
+    }
+
+    fn status(&self) -> &'static str {
+        if self.data_lost {
+            "data lost"
+        } else {
+            "ok"
+        }
     }
 }
 
-/// One line of the fleet summary.
+/// One recording of a fleet: its figures, or the one-line reason it failed.
 struct FleetRow {
     file: PathBuf,
-    result: std::result::Result<(Vec<f64>, Vec<f64>, Vec<f64>, bool), String>,
+    outcome: Result<FleetFigures, String>,
 }
 
+/// How a fleet's recordings ended.
+#[derive(Debug, Default, PartialEq, Eq)]
+struct FleetTally {
+    ok: usize,
+    data_lost: usize,
+    failed: usize,
+}
+
+impl FleetTally {
+    fn of(rows: &[FleetRow]) -> FleetTally {
+        let mut tally = FleetTally::default();
+        for row in rows {
+            match &row.outcome {
+                Ok(f) if f.data_lost => tally.data_lost += 1,
+                Ok(_) => tally.ok += 1,
+                Err(_) => tally.failed += 1,
+            }
+        }
+        tally
+    }
+}
+
+/// The columns of `fleet-summary.csv`.
+const FLEET_CSV_HEADER: [&str; 11] = [
+    "recording",
+    "status",
+    "t1_s",
+    "t2_s",
+    "t3_s",
+    "fit_stator_pct",
+    "fit_core_pct",
+    "fit_water_pct",
+    "steady_stator_c",
+    "steady_core_c",
+    "steady_water_c",
+];
+
 /// Replays many recordings, `--jobs` at a time; each gets `<stem>.rrd` and
-/// `<stem>.report.json` in `--out-dir`, and the fleet a summary table (printed, and
-/// written as `fleet-summary.csv`).
+/// `<stem>.report.json` in `--out-dir`, and the fleet a summary table (written as
+/// `fleet-summary.csv`, then printed). Exit 2 if any failed, else 3 if any lost data.
 fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
+    check_fleet_args(args)?;
+    std::fs::create_dir_all(&args.out_dir)
+        .with_context(|| format!("cannot create {}", args.out_dir.display()))?;
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()))
+        .max(1);
+    let started = Instant::now();
+    let rows = replay_fleet(args, files, jobs)?;
+    write_atomically(&args.out_dir.join("fleet-summary.csv"), &fleet_csv(&rows)?)?;
+    print_fleet_table(&rows);
+    let tally = FleetTally::of(&rows);
+    println!(
+        "{} recordings in {:.2} s ({} jobs): {} ok, {} with data loss, {} failed; reports and .rrd files in {}",
+        rows.len(),
+        started.elapsed().as_secs_f64(),
+        jobs,
+        tally.ok,
+        tally.data_lost,
+        tally.failed,
+        args.out_dir.display()
+    );
+    if tally.failed > 0 {
+        return Err(heatrun::Error::Usage(format!(
+            "{} of {} recordings failed (see the table)",
+            tally.failed,
+            rows.len()
+        ))
+        .into());
+    }
+    Ok(if tally.data_lost > 0 {
+        Outcome::DataLoss
+    } else {
+        Outcome::Complete
+    })
+}
+
+/// A fleet's outputs go to `--out-dir`: the options that name one output do not apply.
+fn check_fleet_args(args: &ReplayArgs) -> anyhow::Result<()> {
     if args.rrd.is_some() || args.report.is_some() || args.spawn || args.connect.is_some() {
         return Err(heatrun::Error::Usage(
             "with several recordings, outputs go to --out-dir (one .rrd and report each); \
@@ -205,137 +344,158 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
         )
         .into());
     }
-    std::fs::create_dir_all(&args.out_dir)
-        .with_context(|| format!("cannot create {}", args.out_dir.display()))?;
-    let jobs = args
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()))
-        .max(1);
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let rows = std::sync::Mutex::new(Vec::new());
-    let started = Instant::now();
-    std::thread::scope(|scope| {
-        for _ in 0..jobs.min(files.len()) {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                let Some(file) = files.get(i) else { break };
-                let s = stem(file);
-                let rrd = RerunSink::Rrd(args.out_dir.join(format!("{s}.rrd")));
-                let report = args.out_dir.join(format!("{s}.report.json"));
-                let result = replay_one(args, file, &rrd, Some(&report))
-                    .map(|(r, _)| {
-                        let a = &r.analysis;
-                        let temps: Vec<f64> = (0..3)
-                            .map(|j| {
-                                r.signals.initial_temperatures_c[j]
-                                    + r.signals.temperature_base_k * a.steady_state[j]
-                            })
-                            .collect();
-                        (
-                            a.spectrum.time_constants_s.clone(),
-                            a.fit.nrmse_fit_percent.clone(),
-                            temps,
-                            r.had_data_loss(),
-                        )
-                    })
-                    .map_err(|e| format!("{e:#}"));
-                if let Ok(mut rows) = rows.lock() {
-                    rows.push((
-                        i,
-                        FleetRow {
-                            file: file.clone(),
-                            result,
-                        },
-                    ));
-                }
-            });
+    Ok(())
+}
+
+/// Replays every file on a pool of `jobs` threads; the rows come back in the files' order.
+fn replay_fleet(
+    args: &ReplayArgs,
+    files: &[PathBuf],
+    jobs: usize,
+) -> anyhow::Result<Vec<FleetRow>> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs.min(files.len()))
+        .thread_name(|i| format!("heatrun-fleet-{i}"))
+        .build()
+        .context("cannot start the fleet's threads")?;
+    Ok(pool.install(|| files.par_iter().map(|f| fleet_row(args, f)).collect()))
+}
+
+/// Replays one recording of a fleet into `--out-dir`; a failure becomes its row's reason.
+fn fleet_row(args: &ReplayArgs, file: &Path) -> FleetRow {
+    let s = stem(file);
+    let rrd = RerunSink::Rrd(args.out_dir.join(format!("{s}.rrd")));
+    let report = args.out_dir.join(format!("{s}.report.json"));
+    FleetRow {
+        file: file.to_owned(),
+        outcome: replay_one(args, file, &rrd, Some(&report))
+            .map(|replayed| FleetFigures::of(&replayed))
+            .map_err(|e| format!("{e:#}")),
+    }
+}
+
+/// `fleet-summary.csv`: one line per recording, empty figures where it failed.
+fn fleet_csv(rows: &[FleetRow]) -> anyhow::Result<Vec<u8>> {
+    let mut csv = csv::Writer::from_writer(Vec::new());
+    csv.write_record(FLEET_CSV_HEADER)?;
+    for row in rows {
+        let mut record = vec![row.file.display().to_string()];
+        match &row.outcome {
+            Ok(f) => {
+                record.push(f.status().to_owned());
+                let figures = [&f.time_constants_s, &f.nrmse_fit_percent, &f.steady_state_c];
+                record.extend(figures.into_iter().flatten().map(f64::to_string));
+            }
+            Err(reason) => record.push(format!("failed: {reason}")),
         }
-    });
-    let mut rows = rows.into_inner().unwrap_or_default();
-    rows.sort_by_key(|r| r.0);
-    let mut csv = String::from("recording,status,t1_s,t2_s,t3_s,fit_stator_pct,fit_core_pct,fit_water_pct,steady_stator_c,steady_core_c,steady_water_c\n");
+        record.resize(FLEET_CSV_HEADER.len(), String::new());
+        csv.write_record(&record)?;
+    }
+    csv.into_inner()
+        .map_err(|e| anyhow::anyhow!("fleet summary: {}", e.error()))
+}
+
+/// The fleet table on stdout, one line per recording.
+fn print_fleet_table(rows: &[FleetRow]) {
     println!(
         "{:<32} {:>9} {:>9} {:>9}  {:>22}  {:>22}  status",
         "recording", "T1 s", "T2 s", "T3 s", "NRMSE fit % (Cu Fe cw)", "steady state °C"
     );
-    let (mut failed, mut lossy) = (0, 0);
-    for (_, row) in &rows {
+    for row in rows {
         let name = row.file.display().to_string();
-        match &row.result {
-            Ok((t, fit, ss, loss)) => {
-                let status = if *loss { "data lost" } else { "ok" };
-                lossy += usize::from(*loss);
-                let f3 = |v: &[f64], d: usize| {
-                    v.iter()
-                        .map(|x| format!("{x:.d$}"))
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                };
-                println!(
-                    "{name:<32} {:>9.2} {:>9.2} {:>9.2}  {:>22}  {:>22}  {status}",
-                    t[0],
-                    t[1],
-                    t[2],
-                    f3(fit, 2),
-                    f3(ss, 2)
-                );
-                csv.push_str(&format!(
-                    "{},{status},{},{},{},{},{},{},{},{},{}\n",
-                    csv_field(&name),
-                    t[0],
-                    t[1],
-                    t[2],
-                    fit[0],
-                    fit[1],
-                    fit[2],
-                    ss[0],
-                    ss[1],
-                    ss[2]
-                ));
-            }
-            Err(e) => {
-                failed += 1;
-                println!("{name:<32} failed: {e}");
-                csv.push_str(&format!(
-                    "{},{},,,,,,,,,\n",
-                    csv_field(&name),
-                    csv_field(&format!("failed: {e}"))
-                ));
-            }
+        match &row.outcome {
+            Ok(f) => println!(
+                "{name:<32} {}  {:>22}  {:>22}  {}",
+                joined(&f.time_constants_s, |t| format!("{t:>9.2}")),
+                joined(&f.nrmse_fit_percent, |v| format!("{v:.2}")),
+                joined(&f.steady_state_c, |v| format!("{v:.2}")),
+                f.status()
+            ),
+            Err(reason) => println!("{name:<32} failed: {reason}"),
         }
     }
-    write_atomically(&args.out_dir.join("fleet-summary.csv"), csv.as_bytes())?;
-    println!(
-        "{} recordings in {:.2} s ({} jobs): {} ok, {} with data loss, {} failed; reports and .rrd files in {}",
-        rows.len(),
-        started.elapsed().as_secs_f64(),
-        jobs,
-        rows.len() - failed - lossy,
-        lossy,
-        failed,
-        args.out_dir.display()
-    );
-    Ok(if failed > 0 {
-        return Err(heatrun::Error::Usage(format!(
-            "{failed} of {} recordings failed (see the table)",
-            rows.len()
-        ))
-        .into());
-    } else if lossy > 0 {
-        Outcome::DataLoss
-    } else {
-        Outcome::Complete
-    })
+}
+
+/// Values formatted one by one and joined by spaces.
+fn joined(values: &[f64], format: impl Fn(f64) -> String) -> String {
+    values
+        .iter()
+        .map(|&v| format(v))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 #[cfg(test)]
 mod tests {
-    use super::csv_field;
+    use super::*;
+
+    fn figures(data_lost: bool) -> FleetFigures {
+        FleetFigures {
+            time_constants_s: vec![23.9, 737.25, 3305.5],
+            nrmse_fit_percent: vec![99.5, 98.0, 97.25],
+            steady_state_c: vec![55.5, 47.125, 13.0],
+            data_lost,
+        }
+    }
+
+    fn rows() -> Vec<FleetRow> {
+        vec![
+            FleetRow {
+                file: "unit 3, run 1.mcap".into(),
+                outcome: Ok(figures(false)),
+            },
+            FleetRow {
+                file: "lossy.mcap".into(),
+                outcome: Ok(figures(true)),
+            },
+            FleetRow {
+                file: "broken.mcap".into(),
+                outcome: Err("broken.mcap: not an MCAP file, \"magic\" missing".into()),
+            },
+        ]
+    }
 
     #[test]
-    fn csv_fields_are_quoted_only_when_needed() {
-        assert_eq!(csv_field("run-1.mcap"), "run-1.mcap");
-        assert_eq!(csv_field("unit 3, run 1.mcap"), "\"unit 3, run 1.mcap\"");
-        assert_eq!(csv_field("say \"hi\""), "\"say \"\"hi\"\"\"");
+    fn fleet_csv_quotes_what_needs_it_and_pads_failures() {
+        let csv = String::from_utf8(fleet_csv(&rows()).unwrap()).unwrap();
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(lines[0], FLEET_CSV_HEADER.join(","));
+        assert_eq!(
+            lines[1],
+            "\"unit 3, run 1.mcap\",ok,23.9,737.25,3305.5,99.5,98,97.25,55.5,47.125,13"
+        );
+        assert!(lines[2].starts_with("lossy.mcap,data lost,23.9,"), "{csv}");
+        assert_eq!(
+            lines[3],
+            "broken.mcap,\"failed: broken.mcap: not an MCAP file, \"\"magic\"\" missing\",,,,,,,,,"
+        );
+        assert_eq!(lines.len(), 4);
+    }
+
+    #[test]
+    fn fleet_csv_reads_back_with_every_column() {
+        let bytes = fleet_csv(&rows()).unwrap();
+        let mut reader = csv::Reader::from_reader(bytes.as_slice());
+        let records: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
+        assert_eq!(records.len(), 3);
+        assert!(records.iter().all(|r| r.len() == FLEET_CSV_HEADER.len()));
+        assert_eq!(&records[0][0], "unit 3, run 1.mcap");
+        assert_eq!(
+            &records[2][1],
+            "failed: broken.mcap: not an MCAP file, \"magic\" missing"
+        );
+        assert_eq!(records[0][8].parse::<f64>().unwrap(), 55.5);
+    }
+
+    #[test]
+    fn a_fleet_is_tallied_by_outcome() {
+        assert_eq!(
+            FleetTally::of(&rows()),
+            FleetTally {
+                ok: 1,
+                data_lost: 1,
+                failed: 1
+            }
+        );
     }
 }

@@ -1,0 +1,25 @@
+//! heatrun's integration tests, one binary with a module per file: linking rerun's tree
+//! into a test binary takes longer than compiling most tests, so it is done once.
+//!
+//! | module | what it checks |
+//! |---|---|
+//! | [`paper`] | the paper's printed numbers, with worked-out rounding bounds |
+//! | [`recovery`] | known models recovered from synthetic files, end to end |
+//! | [`estimators`] | every estimator against the accuracy bar on seeded noisy runs |
+//! | [`outputs`] | the .rrd read back with rerun's decoder; the report against its schema; fleets |
+//! | [`bad_input`] | every bad-input path: exit 2, one line, no output, input untouched |
+//! | [`corpus`] | generated damaged and odd recordings, each with its documented outcome |
+//! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
+//!
+//! A new test file `tests/NAME.rs` becomes `mod NAME;` here; shared helpers are in
+//! [`common`].
+
+mod common;
+
+mod bad_input;
+mod broken_pipe;
+mod corpus;
+mod estimators;
+mod outputs;
+mod paper;
+mod recovery;
