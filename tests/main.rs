@@ -23,3 +23,4 @@ mod estimators;
 mod outputs;
 mod paper;
 mod recovery;
+mod spec;

@@ -1,6 +1,6 @@
 //! `replay --spec`: any thermal system of n states and m inputs, named by its channels.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 
