@@ -39,11 +39,24 @@ pub enum Error {
     #[error("{0}")]
     ClockJump(String),
     /// The data do not support an estimate (too short, not exciting, unstable).
-    #[error("{0}")]
-    Estimation(String),
+    #[error(transparent)]
+    Estimation(#[from] crate::estimate::EstimationError),
     /// The estimated model cannot be analysed (no real logarithm, singular matrix).
+    #[error(transparent)]
+    Model(#[from] crate::model::ModelError),
+    /// A stage's error, with the recording it arose in (the stages below the pipeline
+    /// do not know file names).
+    #[error("{}: {error}", path.display())]
+    InRecording {
+        /// The recording.
+        path: PathBuf,
+        /// The stage's error.
+        error: Box<Error>,
+    },
+    /// The data do not support a stage before the estimate (no common instant of the
+    /// states, too little rise, a grid out of proportion to the samples).
     #[error("{0}")]
-    Model(String),
+    InsufficientData(String),
     /// A command-line value is out of its range.
     #[error("{0}")]
     Usage(String),
@@ -71,8 +84,9 @@ impl Error {
                 | Error::Estimation(_)
                 | Error::ClockJump(_)
                 | Error::Model(_)
+                | Error::InsufficientData(_)
                 | Error::Usage(_)
-        )
+        ) || matches!(self, Error::InRecording { error, .. } if error.is_bad_input())
     }
 }
 

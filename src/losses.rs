@@ -256,7 +256,7 @@ pub fn compute(
     let initial_index = (0..n)
         .find(|&k| temps.iter().all(|t| t.get(k).is_some()))
         .ok_or_else(|| {
-            Error::Estimation(format!(
+            Error::InsufficientData(format!(
                 "{recording}: the three temperatures are never known at the same instant"
             ))
         })?;
@@ -287,7 +287,7 @@ pub fn compute(
             .unwrap_or(theta0[0]);
         let rise = last_cu - theta0[0];
         if rise < 1.0 {
-            return Err(Error::Estimation(format!(
+            return Err(Error::InsufficientData(format!(
                 "{recording}: the stator winding rises only {rise:.2} K, too little to scale \
                      the field winding temperature to {final_temp_c} °C; record field_voltage or \
                      field_winding_temp"

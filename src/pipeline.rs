@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 
 use crate::decimate::{DecimatedRecording, Decimator};
 use crate::error::{Error, Result};
-use crate::estimate::rls::TrajectoryPoint;
 use crate::estimate::{
     Estimate, Estimator, IdentificationData, InstrumentalVariables, OutputError,
     RecursiveLeastSquares, WeightedLeastSquares,
@@ -117,8 +116,6 @@ pub struct Replay {
     pub validation: Option<Validation>,
     /// The estimate.
     pub estimate: Estimate,
-    /// The recursion's trajectory of Θ (`rls` only).
-    pub trajectory: Vec<TrajectoryPoint>,
     /// The analysis of the estimate.
     pub analysis: ModelAnalysis,
     /// Warnings for the user (data loss, gaps).
@@ -223,14 +220,14 @@ pub fn prepare_with(
             path: path.to_owned(),
             message: m,
         },
-        Error::Estimation(m) => Error::BadRecording {
+        Error::InsufficientData(m) => Error::BadRecording {
             path: path.to_owned(),
             message: m,
         },
         other => other,
     })?;
     let signals = losses::compute(&decimated, &nameplate, &name)?;
-    let data = IdentificationData::from(&signals);
+    let data = identification_data(&signals);
     Ok(Prepared {
         recording: summary,
         nameplate,
@@ -276,12 +273,10 @@ pub fn replay_with(
     } else {
         std::borrow::Cow::Owned(data.slice(estimation_range.clone()))
     };
-    let (mut estimate, trajectory) =
-        estimate(&estimation_data, options).map_err(|e| with_file(e, &name))?;
-    estimate.method = options.method.name().into();
-    let (_, last_input) = signals
-        .last_inputs()
-        .ok_or_else(|| Error::Estimation(format!("{name}: the inputs are never all known")))?;
+    let estimate = estimate(&estimation_data, options).map_err(|e| with_file(e, &name))?;
+    let (_, last_input) = signals.last_inputs().ok_or_else(|| {
+        Error::InsufficientData(format!("{name}: the inputs are never all known"))
+    })?;
     let mut analysis = model::analyse(
         &estimate,
         &estimation_data,
@@ -383,17 +378,13 @@ pub fn replay_with(
         estimation_range,
         validation,
         estimate,
-        trajectory,
         analysis,
         warnings,
     })
 }
 
 /// Runs the chosen estimator on the data.
-pub fn estimate(
-    data: &IdentificationData,
-    options: &ReplayOptions,
-) -> Result<(Estimate, Vec<TrajectoryPoint>)> {
+pub fn estimate(data: &IdentificationData, options: &ReplayOptions) -> Result<Estimate> {
     if let Some(w) = &options.weights {
         if w.len() != data.states() || w.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
             return Err(Error::Usage(format!(
@@ -405,35 +396,53 @@ pub fn estimate(
     let per_instant =
         |w: &Vec<f64>| nalgebra::DMatrix::from_fn(data.len(), data.states(), |_, j| w[j]);
     Ok(match options.method {
-        Method::Ls => (WeightedLeastSquares::default().estimate(data)?, Vec::new()),
-        Method::Wls => (
-            WeightedLeastSquares {
-                weights: options.weights.as_ref().map(per_instant),
-            }
-            .estimate(data)?,
-            Vec::new(),
-        ),
+        Method::Ls => WeightedLeastSquares::default().estimate(data)?,
+        Method::Wls => WeightedLeastSquares {
+            weights: options.weights.as_ref().map(per_instant),
+        }
+        .estimate(data)?,
         Method::Rls => RecursiveLeastSquares {
             forgetting: options.forgetting,
             keep_every: 10,
         }
-        .run(data)?,
-        Method::Iv => (InstrumentalVariables::default().estimate(data)?, Vec::new()),
-        Method::Oe => (
-            OutputError {
-                weights: options.weights.clone(),
-            }
-            .estimate(data)?,
-            Vec::new(),
-        ),
+        .estimate(data)?,
+        Method::Iv => InstrumentalVariables::default().estimate(data)?,
+        Method::Oe => OutputError {
+            weights: options.weights.clone(),
+        }
+        .estimate(data)?,
     })
 }
 
-/// Prefixes an estimation or model error with the recording's name.
-fn with_file(e: Error, name: &str) -> Error {
-    match e {
-        Error::Estimation(m) => Error::Estimation(format!("{name}: {m}")),
-        Error::Model(m) => Error::Model(format!("{name}: {m}")),
+/// The rises (pu) as outputs and the heat sources (pu) as inputs.
+fn identification_data(s: &ThermalSignals) -> IdentificationData {
+    let n = s.len();
+    let mut outputs = nalgebra::DMatrix::zeros(n, 3);
+    let mut inputs = nalgebra::DMatrix::zeros(n, 3);
+    let mut outputs_known = vec![true; n];
+    let mut inputs_known = vec![true; n];
+    for k in 0..n {
+        for j in 0..3 {
+            match s.rise_pu(j, k) {
+                Some(v) => outputs[(k, j)] = v,
+                None => outputs_known[k] = false,
+            }
+            match s.inputs_pu[j].get(k) {
+                Some(v) => inputs[(k, j)] = v,
+                None => inputs_known[k] = false,
+            }
+        }
+    }
+    IdentificationData::new(s.ts_s, outputs, inputs, outputs_known, inputs_known)
+}
+
+/// An estimation or model error with the recording's name.
+fn with_file(e: impl Into<Error>, name: &str) -> Error {
+    match e.into() {
+        e @ (Error::Estimation(_) | Error::Model(_)) => Error::InRecording {
+            path: PathBuf::from(name),
+            error: Box::new(e),
+        },
         other => other,
     }
 }

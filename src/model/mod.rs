@@ -6,6 +6,7 @@
 //! [`ModelAnalysis`].
 
 pub mod continuous;
+pub mod error;
 pub mod fit;
 pub mod matrix;
 pub mod residuals;
@@ -16,12 +17,12 @@ use nalgebra::DMatrix;
 use serde::Serialize;
 
 pub use continuous::{ContinuousModel, Spectrum};
+pub use error::ModelError;
 pub use fit::Fit;
 pub use residuals::ResidualAnalysis;
 pub use sensitivity::{Assignment, Sensitivities};
 pub use uncertainty::Uncertainty;
 
-use crate::error::Result;
 use crate::estimate::{Estimate, IdentificationData};
 
 /// Everything the analysis derives from one estimate.
@@ -31,7 +32,8 @@ pub struct ModelAnalysis {
     pub continuous: ContinuousModel,
     /// Eigenvalues and time constants.
     pub spectrum: Spectrum,
-    /// Simulated outputs ŷ (eq. 8), N × n, NaN outside the simulated segments.
+    /// Simulated outputs ŷ (eq. 8) over the data analysed, N × n, NaN outside the
+    /// simulated segments.
     #[serde(skip)]
     pub simulated: DMatrix<f64>,
     /// Fit of ŷ to y.
@@ -61,7 +63,7 @@ pub fn analyse(
     data: &IdentificationData,
     temperature_base_k: f64,
     steady_state_input: &[f64],
-) -> Result<ModelAnalysis> {
+) -> Result<ModelAnalysis, ModelError> {
     let model = &estimate.model;
     let spectrum = Spectrum::of(model)?;
     let continuous = ContinuousModel::from_discrete(model)?;

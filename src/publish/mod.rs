@@ -107,7 +107,7 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Blueprint {
                 .into(),
         );
     }
-    if !replay.trajectory.is_empty() {
+    if replay.estimate.trajectory.is_some() {
         tabs.insert(
             1,
             Horizontal::new([
@@ -507,10 +507,9 @@ fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -> Result<()
 }
 
 fn log_trajectory(rec: &RecordingStream, replay: &Replay) -> Result<()> {
-    let traj = &replay.trajectory;
-    if traj.is_empty() {
+    let Some(traj) = &replay.estimate.trajectory else {
         return Ok(());
-    }
+    };
     let model = &replay.estimate.model;
     let (n, m) = (model.phi.nrows(), model.gamma.ncols());
     let p = n + m;
