@@ -230,7 +230,7 @@ impl Decimator {
         // would otherwise make every series as long as the distance to it.
         if lo <= hi && (hi - lo >= MAX_GRID_INSTANTS || hi - lo > 100 * densest + 100_000) {
             let at = |k: i64| crate::recording::format_time((k * self.ts_ns).max(0) as u64);
-            return Err(Error::Estimation(format!(
+            return Err(Error::InsufficientData(format!(
                 "the samples span {} to {}, far more sample times than there are samples: a clock \
                  or a timestamp is damaged, or --ts is too short for the data (see `heatrun info`)",
                 at(lo),
@@ -238,7 +238,7 @@ impl Decimator {
             )));
         }
         if lo > hi {
-            return Err(Error::Estimation(
+            return Err(Error::InsufficientData(
                 "the recording holds no heat-run samples".into(),
             ));
         }

@@ -87,11 +87,14 @@ pub enum Error {
     #[error("{0}")]
     ClockJump(String),
     /// The data do not support an estimate (too short, not exciting, unstable).
-    #[error("{0}")]
-    Estimation(String),
+    #[error(transparent)]
+    Estimation(#[from] crate::estimate::EstimationError),
     /// The estimated model cannot be analysed (no real logarithm, singular matrix).
+    #[error(transparent)]
+    Model(#[from] crate::model::ModelError),
+    /// The data are too few or too sparse for a stage (a grid with nothing on it).
     #[error("{0}")]
-    Model(String),
+    InsufficientData(String),
     /// The held-out fraction of a recording is outside (0, 0.9).
     #[error("the held-out fraction {fraction} must be in (0, 0.9)")]
     HoldOutFraction {
@@ -149,6 +152,7 @@ impl Error {
                 | Error::Estimation(_)
                 | Error::ClockJump(_)
                 | Error::Model(_)
+                | Error::InsufficientData(_)
                 | Error::Usage(_)
                 | Error::HoldOutFraction { .. }
                 | Error::Weights { .. }

@@ -176,15 +176,12 @@ impl ModelSignals {
                 }
             }
         }
-        let by_exception = self.states.iter().any(|s| s.observed.is_some());
-        IdentificationData::new(
-            self.ts_s,
-            outputs,
-            inputs,
-            outputs_known,
-            inputs_known,
-            by_exception.then_some(observed),
-        )
+        let data = IdentificationData::new(self.ts_s, outputs, inputs, outputs_known, inputs_known);
+        if self.states.iter().any(|s| s.observed.is_some()) {
+            data.with_output_observed(observed)
+        } else {
+            data
+        }
     }
 }
 

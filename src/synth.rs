@@ -20,7 +20,7 @@ use crate::atomic::PendingOutput;
 use crate::error::{Error, Result};
 use crate::estimate::DiscreteModel;
 use crate::losses::{self, copper_resistance};
-use crate::model::matrix::discretize;
+use crate::model::matrix::{discretize, rows};
 use crate::model::{ContinuousModel, Spectrum};
 use crate::recording::{
     Nameplate, Quantity, NAMEPLATE_RECORD, SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING,
@@ -219,12 +219,6 @@ pub struct Truth {
     pub profile: Vec<OperatingPoint>,
     /// The seed.
     pub seed: u64,
-}
-
-fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
-    (0..m.nrows())
-        .map(|i| m.row(i).iter().copied().collect())
-        .collect()
 }
 
 /// The noise-free simulated run on the model's grid.

@@ -97,11 +97,15 @@ fn rls_without_forgetting_ends_at_least_squares() {
     let diff =
         (&rls.estimate.model.phi - &ls.estimate.model.phi).norm() / ls.estimate.model.phi.norm();
     assert!(diff < 1e-6, "{diff}");
-    assert!(!rls.trajectory.is_empty());
-    assert_eq!(
-        rls.trajectory.last().unwrap().theta,
-        rls.estimate.model.theta()
-    );
+    let trajectory = rls
+        .estimate
+        .trajectory
+        .as_ref()
+        .expect("rls keeps its trajectory");
+    assert!(!trajectory.is_empty());
+    assert_eq!(trajectory.last().unwrap().theta, rls.estimate.model.theta());
+    assert_eq!(rls.estimate.method, "rls");
+    assert!(ls.estimate.trajectory.is_none());
 }
 
 #[test]

@@ -10,8 +10,10 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::wls::WeightedLeastSquares;
-use super::{check_enough_rows, DiscreteModel, Estimate, Estimator, IdentificationData};
-use crate::error::{Error, Result};
+use super::{
+    block_diagonal_covariance, check_enough_rows, equation_error_sse, DiscreteModel, Estimate,
+    EstimationError, Estimator, IdentificationData, Result,
+};
 
 /// Iterated instrumental-variable estimator.
 #[derive(Debug, Clone)]
@@ -58,45 +60,38 @@ pub fn lagged_output_iv(data: &IdentificationData) -> Result<DiscreteModel> {
         .filter(|&k| k >= 2 && data.outputs_known[k - 2])
         .collect();
     check_enough_rows(data, rows.len())?;
-    Ok(solve(data, &rows, |k, j| data.outputs[(k - 2, j)])?.0)
+    Ok(solve(data, &rows, |k, j| data.outputs[(k - 2, j)])?.model)
 }
 
-/// Solved IV system: the model, (ZᵀF)⁻¹, ZᵀZ and the condition number of the scaled moment.
-type IvSolution = (DiscreteModel, DMatrix<f64>, DMatrix<f64>, f64);
+/// A solved IV system.
+struct IvSolution {
+    /// The model.
+    model: DiscreteModel,
+    /// (ZᵀF)⁻¹.
+    inverse_moment: DMatrix<f64>,
+    /// ZᵀZ.
+    instrument_gram: DMatrix<f64>,
+    /// Condition number of the scaled moment ZᵀF.
+    condition_number: f64,
+}
 
-/// θ_i = (ZᵀF)⁻¹ Zᵀ y_i for every output, with Z rows [g(k, ·) u(k−1)ᵀ]. The moments
-/// are accumulated row by row (O(p²) memory whatever the length) and the p×p system
-/// is solved with both sides scaled to unit column norms.
-fn solve(
+/// The moments ZᵀF, ZᵀZ (p × p) and ZᵀY (p × n) accumulated row by row, O(p²) memory
+/// whatever the length; Z rows [g(k, ·) u(k−1)ᵀ], F rows φ(k)ᵀ.
+fn moments(
     data: &IdentificationData,
     rows: &[usize],
     g: impl Fn(usize, usize) -> f64,
-) -> Result<IvSolution> {
-    let (n, m) = (data.states(), data.input_count());
-    let p = n + m;
-    let f_of = |k: usize, j: usize| {
-        if j < n {
-            data.outputs[(k - 1, j)]
-        } else {
-            data.inputs[(k - 1, j - n)]
-        }
-    };
-    let z_of = |k: usize, j: usize| {
-        if j < n {
-            g(k, j)
-        } else {
-            data.inputs[(k - 1, j - n)]
-        }
-    };
+) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, Vec<f64>) {
+    let (n, p) = (data.states(), data.states() + data.input_count());
     let mut zf = DMatrix::<f64>::zeros(p, p);
     let mut zz = DMatrix::<f64>::zeros(p, p);
     let mut zy = DMatrix::<f64>::zeros(p, n);
     let mut ff = vec![0.0; p];
     let (mut f, mut z) = (vec![0.0; p], vec![0.0; p]);
     for &k in rows {
+        data.regressor_row(k, &mut f);
         for j in 0..p {
-            f[j] = f_of(k, j);
-            z[j] = z_of(k, j);
+            z[j] = if j < n { g(k, j) } else { f[j] };
             ff[j] += f[j] * f[j];
         }
         for a in 0..p {
@@ -109,6 +104,19 @@ fn solve(
             }
         }
     }
+    (zf, zz, zy, ff)
+}
+
+/// θ_i = (ZᵀF)⁻¹ Zᵀ y_i for every output, with Z rows [g(k, ·) u(k−1)ᵀ]; the p×p
+/// system is solved with both sides scaled to unit column norms.
+fn solve(
+    data: &IdentificationData,
+    rows: &[usize],
+    g: impl Fn(usize, usize) -> f64,
+) -> Result<IvSolution> {
+    let (n, m) = (data.states(), data.input_count());
+    let p = n + m;
+    let (zf, zz, zy, ff) = moments(data, rows, g);
     let f_scale: Vec<f64> = ff.iter().map(|v| 1.0 / v.sqrt().max(1e-300)).collect();
     let z_scale: Vec<f64> = (0..p)
         .map(|j| 1.0 / zz[(j, j)].sqrt().max(1e-300))
@@ -116,29 +124,43 @@ fn solve(
     let moment = DMatrix::from_fn(p, p, |a, b| zf[(a, b)] * z_scale[a] * f_scale[b]);
     let sv = moment.clone().singular_values();
     let (s_max, s_min) = (sv.max(), sv.min());
+    let no_excitation = || EstimationError::NoExcitation {
+        method: "instrumental variables",
+        singular_value_ratio: s_min / s_max,
+    };
     if !(s_min > 1e-12 * s_max) {
-        return Err(Error::Estimation(
-            "instrumental variables: the instruments do not determine Θ (the inputs are not \
-             persistently exciting)"
-                .into(),
-        ));
+        return Err(no_excitation());
     }
-    let inv_scaled = moment
-        .try_inverse()
-        .ok_or_else(|| Error::Estimation("singular IV moment matrix".into()))?;
+    let inv_scaled = moment.try_inverse().ok_or_else(no_excitation)?;
     // (ZᵀF)⁻¹ = D_f (E ZᵀF D_f)⁻¹ E.
-    let inv = DMatrix::from_fn(p, p, |a, b| f_scale[a] * inv_scaled[(a, b)] * z_scale[b]);
+    let inverse_moment =
+        DMatrix::from_fn(p, p, |a, b| f_scale[a] * inv_scaled[(a, b)] * z_scale[b]);
     let mut theta = vec![0.0; n * p];
     for i in 0..n {
-        let t = &inv * zy.column(i);
+        let t = &inverse_moment * zy.column(i);
         theta[i * p..(i + 1) * p].copy_from_slice(t.as_slice());
     }
-    let template = DiscreteModel {
-        phi: DMatrix::zeros(n, n),
-        gamma: DMatrix::zeros(n, m),
-        ts_s: data.ts_s,
-    };
-    Ok((template.with_theta(&theta), inv, zz, s_max / s_min))
+    Ok(IvSolution {
+        model: DiscreteModel::from_theta(n, m, data.ts_s, &theta),
+        inverse_moment,
+        instrument_gram: zz,
+        condition_number: s_max / s_min,
+    })
+}
+
+/// The step from `model` towards `target`, halved until the model it leads to is
+/// stable (at most 30 times); `None` if none is. Returns the model and ‖step‖/‖Θ‖.
+fn stable_step(model: &DiscreteModel, target: &DiscreteModel) -> Option<(DiscreteModel, f64)> {
+    let old = DVector::from_vec(model.theta());
+    let mut step = DVector::from_vec(target.theta()) - &old;
+    let mut next = model.with_theta((&old + &step).as_slice());
+    let mut halvings = 0;
+    while !(next.spectral_radius() < 1.0) && halvings < 30 {
+        step *= 0.5;
+        next = model.with_theta((&old + &step).as_slice());
+        halvings += 1;
+    }
+    (next.spectral_radius() < 1.0).then(|| (next, step.norm() / old.norm().max(1e-300)))
 }
 
 impl InstrumentalVariables {
@@ -148,79 +170,51 @@ impl InstrumentalVariables {
         let segments = data.segments();
         let rows: Vec<usize> = data.usable_rows();
         check_enough_rows(data, rows.len())?;
-        let (n, m) = (data.states(), data.input_count());
-        let p = n + m;
+        let p = data.states() + data.input_count();
         if !(first.spectral_radius() < 1.0) {
-            return Err(Error::Estimation(format!(
-                "instrumental variables: the starting model is unstable (spectral radius {:.6}); \
-                 the recording may be too short or not excite the machine",
-                first.spectral_radius()
-            )));
+            return Err(EstimationError::UnstableStart {
+                method: "instrumental variables",
+                spectral_radius: first.spectral_radius(),
+            });
         }
         let mut model = first;
         let mut iterations = 0;
-        let mut last = None;
+        let mut last: Option<IvSolution> = None;
+        let mut unstable_radius = f64::NAN;
         for _ in 0..self.max_iterations {
             iterations += 1;
             let sim = model.simulate_segments(data, &segments);
             let solved = solve(data, &rows, |k, j| sim[(k - 1, j)])?;
-            let old = DVector::from_vec(model.theta());
-            let mut step = DVector::from_vec(solved.0.theta()) - &old;
-            let mut next = model.with_theta((&old + &step).as_slice());
-            let mut halvings = 0;
-            while !(next.spectral_radius() < 1.0) && halvings < 30 {
-                step *= 0.5;
-                next = model.with_theta((&old + &step).as_slice());
-                halvings += 1;
-            }
-            if !(next.spectral_radius() < 1.0) {
+            let Some((next, change)) = stable_step(&model, &solved.model) else {
+                unstable_radius = solved.model.spectral_radius();
                 break;
-            }
-            let change = step.norm() / old.norm().max(1e-300);
+            };
             model = next;
             last = Some(solved);
             if change < self.tolerance {
                 break;
             }
         }
-        let (_, inv, zz, condition_number) = last.ok_or_else(|| {
-            Error::Estimation("instrumental variables made no stable step".into())
+        let last = last.ok_or(EstimationError::NoStableStep {
+            spectral_radius: unstable_radius,
         })?;
         // Covariance σ_i² (ZᵀF)⁻¹ ZᵀZ (ZᵀF)⁻ᵀ, with σ_i² of the equation error.
-        let core = &inv * zz * inv.transpose();
-        let theta = model.theta();
-        let mut sse = vec![0.0; n];
-        for &k in &rows {
-            for (i, acc) in sse.iter_mut().enumerate() {
-                let mut e = data.outputs[(k, i)];
-                for j in 0..p {
-                    let f = if j < n {
-                        data.outputs[(k - 1, j)]
-                    } else {
-                        data.inputs[(k - 1, j - n)]
-                    };
-                    e -= theta[i * p + j] * f;
-                }
-                *acc += e * e;
-            }
-        }
-        let mut covariance = DMatrix::zeros(n * p, n * p);
-        let mut noise_variance = vec![0.0; n];
-        for i in 0..n {
-            noise_variance[i] = sse[i] / (rows.len() - p).max(1) as f64;
-            covariance
-                .view_mut((i * p, i * p), (p, p))
-                .copy_from(&(&core * noise_variance[i]));
-        }
+        let core = &last.inverse_moment * last.instrument_gram * last.inverse_moment.transpose();
+        let sse = equation_error_sse(data, &rows, &model.theta());
+        let noise_variance: Vec<f64> = sse
+            .iter()
+            .map(|s| s / (rows.len() - p).max(1) as f64)
+            .collect();
         Ok(Estimate {
             model,
             method: self.name().into(),
             rows_used: rows.len(),
-            condition_number,
-            covariance: Some(covariance),
+            condition_number: last.condition_number,
+            covariance: Some(block_diagonal_covariance(&[&core], &noise_variance)),
             noise_variance,
             iterations,
             output_offset: None,
+            trajectory: None,
         })
     }
 }

@@ -6,170 +6,416 @@
 //! ∂ŷ(k)/∂x0 = Φ^(k−start): exact, and one simulation's cost per parameter.
 //! Sensor noise on y enters only the residual, not the regressors, so the estimate
 //! is consistent where least squares is not.
+//!
+//! Only observed output entries enter J: with outputs stored by exception (a mask in
+//! [`IdentificationData`]) the simulation runs through the instants between them and
+//! is compared where a value was kept. A segment may start where outputs are unknown:
+//! its x0 is estimated.
 
+use std::cell::RefCell;
 use std::ops::Range;
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 use super::iv::InstrumentalVariables;
-use super::{check_enough_rows, DiscreteModel, Estimate, Estimator, IdentificationData};
-use crate::error::{Error, Result};
+use super::wls::WeightedLeastSquares;
+use super::{
+    check_enough_rows, DiscreteModel, Estimate, EstimationError, Estimator, IdentificationData,
+    Result,
+};
 
-/// Segments beyond this many keep their measured initial state instead of estimating it.
+/// Segments beyond this many keep their start state instead of estimating it.
 pub const MAX_ESTIMATED_INITIAL_STATES: usize = 50;
 
 /// The output-error estimator.
 #[derive(Debug, Clone, Default)]
 pub struct OutputError {
-    /// Per-output weights w_i; `None` uses 1/σ_i² of the starting model's simulation error.
+    /// Per-output weights w_i > 0; `None` uses 1/σ_i² of the starting model's simulation
+    /// error, re-estimated once from the first fit's residuals.
     pub weights: Option<Vec<f64>>,
 }
 
+impl Estimator for OutputError {
+    fn name(&self) -> &'static str {
+        "oe"
+    }
+
+    fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
+        let start = self.start(data)?;
+        self.refine(data, &start)
+    }
+}
+
+impl OutputError {
+    /// The starting model: a rough IV estimate (LM takes it the rest of the way).
+    ///
+    /// With outputs known only at their own instants (a mask), few instants may have
+    /// every output known twice in a row, which is what IV's regression needs. Then IV
+    /// also runs on the data with the gaps interpolated (and least squares there if IV
+    /// fails), and the candidate whose simulation is closest to the observations
+    /// (least Σ_i ln MSE_i) is the start.
+    pub fn start(&self, data: &IdentificationData) -> Result<DiscreteModel> {
+        let iv = InstrumentalVariables {
+            max_iterations: 10,
+            tolerance: 1e-6,
+        };
+        let own = iv.estimate(data).map(|e| e.model);
+        if !data.has_partial_outputs() {
+            return own;
+        }
+        let filled = data.interpolated();
+        let from_filled = iv
+            .estimate(&filled)
+            .or_else(|_| WeightedLeastSquares::default().estimate(&filled))
+            .map(|e| e.model);
+        let segments = data.segments();
+        let score = |m: &DiscreteModel| simulation_score(data, &segments, m);
+        match (own, from_filled) {
+            (Ok(a), Ok(b)) => Ok(if score(&b) < score(&a) { b } else { a }),
+            (Ok(a), Err(_)) => Ok(a),
+            (Err(_), Ok(b)) => Ok(b),
+            (Err(e), Err(_)) => Err(e),
+        }
+    }
+
+    /// Minimises the simulation error starting from `start`.
+    pub fn refine(&self, data: &IdentificationData, start: &DiscreteModel) -> Result<Estimate> {
+        self.check_weights(data)?;
+        let segments = data.segments();
+        let rows_used = compared_instants(data, &segments);
+        check_enough_rows(data, rows_used)?;
+        let weights = match &self.weights {
+            Some(w) => w.clone(),
+            // The inverse variance of the start model's simulation error.
+            None => normalised_inverse(
+                &simulation_error_variance(data, &segments, start)
+                    .iter()
+                    .map(|v| v.max(1e-24))
+                    .collect::<Vec<_>>(),
+            ),
+        };
+        let problem = Problem::new(data, segments, start, &weights);
+        let (problem, evaluations) = self.minimise(problem)?;
+        Ok(conclude(&problem, self.name(), rows_used, evaluations))
+    }
+
+    /// Weights, when given, are one finite positive number per output.
+    fn check_weights(&self, data: &IdentificationData) -> Result<()> {
+        let Some(w) = &self.weights else {
+            return Ok(());
+        };
+        if w.len() != data.states() {
+            return Err(EstimationError::WeightShape {
+                given_rows: 1,
+                given_columns: w.len(),
+                rows: 1,
+                columns: data.states(),
+            });
+        }
+        match w.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            Some(state) => Err(EstimationError::InvalidWeight {
+                state,
+                value: w[state],
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Levenberg–Marquardt, in two passes when no weights are given: the second with
+    /// 1/σ_i² of the first pass's residuals, which are then the sensor noise rather
+    /// than the start's misfit. Returns the solved problem and the evaluations taken.
+    fn minimise<'a>(&self, mut problem: Problem<'a>) -> Result<(Problem<'a>, usize)> {
+        // Tolerances far below the statistical uncertainty of Θ (~1e-3 relative), and far
+        // above rounding: the last evaluations of the default 30·ε would buy nothing.
+        let lm = LevenbergMarquardt::new()
+            .with_patience(200)
+            .with_ftol(1e-10)
+            .with_xtol(1e-10)
+            .with_gtol(1e-10);
+        let mut evaluations = 0;
+        for pass in 0..2 {
+            let (solved, report) = lm.minimize(problem);
+            problem = solved;
+            evaluations += report.number_of_evaluations;
+            if !report.objective_function.is_finite() {
+                return Err(EstimationError::MinimisationFailed {
+                    termination: report.termination,
+                });
+            }
+            if pass == 1 || self.weights.is_some() {
+                break;
+            }
+            let next = problem.residual_weights();
+            let change = next
+                .iter()
+                .zip(&problem.sqrt_w)
+                .map(|(a, b)| (a / b - 1.0).abs())
+                .fold(0.0, f64::max);
+            problem.sqrt_w = next;
+            if change < 0.05 {
+                break;
+            }
+        }
+        Ok((problem, evaluations))
+    }
+}
+
+/// w_i = (1/v_i) / mean_j(1/v_j): inverse variances scaled to mean 1, so that J stays
+/// in the units of the data whatever the noise level.
+fn normalised_inverse(variances: &[f64]) -> Vec<f64> {
+    let inv: Vec<f64> = variances.iter().map(|v| 1.0 / v).collect();
+    let mean = inv.iter().sum::<f64>() / inv.len() as f64;
+    inv.iter().map(|v| v / mean).collect()
+}
+
+/// Mean squared simulation error per output over the observed entries of `segments`.
+fn simulation_error_variance(
+    data: &IdentificationData,
+    segments: &[Range<usize>],
+    model: &DiscreteModel,
+) -> Vec<f64> {
+    let sim = model.simulate_segments(data, segments);
+    (0..data.states())
+        .map(|c| {
+            let (sum, count) = segments
+                .iter()
+                .flat_map(|s| s.clone())
+                .filter(|&k| data.observed(k, c))
+                .fold((0.0, 0usize), |(a, n), k| {
+                    let e = data.outputs[(k, c)] - sim[(k, c)];
+                    (a + e * e, n + 1)
+                });
+            sum / count.max(1) as f64
+        })
+        .collect()
+}
+
+/// Σ_i ln MSE_i of a model's simulation: smaller is closer, whatever the outputs' scales.
+fn simulation_score(
+    data: &IdentificationData,
+    segments: &[Range<usize>],
+    model: &DiscreteModel,
+) -> f64 {
+    if !(model.spectral_radius() < 1.0) {
+        return f64::INFINITY;
+    }
+    let score: f64 = simulation_error_variance(data, segments, model)
+        .iter()
+        .map(|v| v.max(1e-300).ln())
+        .sum();
+    if score.is_nan() {
+        f64::INFINITY
+    } else {
+        score
+    }
+}
+
+/// Instants after each segment's start with some output observed: the equations the
+/// fit compares (without a mask, the usable regression rows).
+fn compared_instants(data: &IdentificationData, segments: &[Range<usize>]) -> usize {
+    segments
+        .iter()
+        .flat_map(|s| s.start + 1..s.end)
+        .filter(|&k| (0..data.states()).any(|c| data.observed(k, c)))
+        .count()
+}
+
+/// The covariance σ² (JᵀJ)⁻¹ from the eigen-decomposition of the symmetrically scaled
+/// JᵀJ (directions below 1e-14 of the largest eigenvalue left out), and the condition
+/// number of the scaled J.
+fn covariance_from_gram(gram: &DMatrix<f64>, sigma2: f64) -> (DMatrix<f64>, f64) {
+    let p_all = gram.nrows();
+    let scale: Vec<f64> = (0..p_all)
+        .map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt())
+        .collect();
+    let scaled = DMatrix::from_fn(p_all, p_all, |i, j| gram[(i, j)] * scale[i] * scale[j]);
+    let eig = scaled.symmetric_eigen();
+    let (e_max, e_min) = (eig.eigenvalues.max(), eig.eigenvalues.min().max(0.0));
+    let inv =
+        DMatrix::from_diagonal(&eig.eigenvalues.map(
+            |e| {
+                if e > 1e-14 * e_max {
+                    1.0 / e
+                } else {
+                    0.0
+                }
+            },
+        ));
+    let d = DMatrix::from_diagonal(&DVector::from_column_slice(&scale));
+    let full = &d * &eig.eigenvectors * inv * eig.eigenvectors.transpose() * &d * sigma2;
+    (full, (e_max / e_min.max(1e-300)).sqrt())
+}
+
+/// The estimate at the minimum: Θ's block of the covariance, the noise variance per
+/// output from the unweighted residuals.
+fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usize) -> Estimate {
+    let n = problem.n;
+    let w: Vec<f64> = problem.sqrt_w.iter().map(|v| v * v).collect();
+    let evaluation = problem.evaluate_full();
+    let entries: usize = problem.counts.iter().sum();
+    let dof = entries.saturating_sub(problem.params.len()).max(1) as f64;
+    let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
+    let (full, condition_number) = covariance_from_gram(&evaluation.gram, sigma2);
+    let p_theta = problem.p_theta();
+    let noise_variance: Vec<f64> = (0..n)
+        .map(|c| evaluation.sse[c] / problem.counts[c].max(1) as f64 / w[c].max(1e-300))
+        .collect();
+    Estimate {
+        model: problem.model(),
+        method: method.into(),
+        rows_used,
+        condition_number,
+        covariance: Some(full.view((0, 0), (p_theta, p_theta)).into_owned()),
+        noise_variance,
+        iterations: evaluations,
+        output_offset: None,
+        trajectory: None,
+    }
+}
+
+/// The least-squares problem LM sees: parameters [Θ; x0 of each segment].
 struct Problem<'a> {
     data: &'a IdentificationData,
     segments: Vec<Range<usize>>,
     estimate_x0: bool,
+    /// Each segment's start state when it is not estimated.
+    fixed_x0: Vec<DVector<f64>>,
+    /// Observed entries per output over the segments.
+    counts: Vec<usize>,
     sqrt_w: Vec<f64>,
     n: usize,
     m: usize,
     params: DVector<f64>,
-    cache: std::cell::RefCell<Option<(DVector<f64>, Evaluation)>>,
+    cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
 }
 
-impl Problem<'_> {
+impl<'a> Problem<'a> {
+    fn new(
+        data: &'a IdentificationData,
+        segments: Vec<Range<usize>>,
+        start: &DiscreteModel,
+        weights: &[f64],
+    ) -> Problem<'a> {
+        let (n, m) = (data.states(), data.input_count());
+        let estimate_x0 = segments.len() <= MAX_ESTIMATED_INITIAL_STATES;
+        let x0: Vec<DVector<f64>> = segments
+            .iter()
+            .map(|s| start.initial_state(data, s.clone()))
+            .collect();
+        let mut params: Vec<f64> = start.theta();
+        if estimate_x0 {
+            params.extend(x0.iter().flat_map(|x| x.iter().copied()));
+        }
+        let counts = (0..n)
+            .map(|c| {
+                segments
+                    .iter()
+                    .flat_map(|s| s.clone())
+                    .filter(|&k| data.observed(k, c))
+                    .count()
+            })
+            .collect();
+        Problem {
+            data,
+            segments,
+            estimate_x0,
+            fixed_x0: if estimate_x0 { Vec::new() } else { x0 },
+            counts,
+            sqrt_w: weights.iter().map(|v| v.max(0.0).sqrt()).collect(),
+            n,
+            m,
+            params: DVector::from_vec(params),
+            cache: RefCell::new(None),
+        }
+    }
+
     fn p_theta(&self) -> usize {
         self.n * (self.n + self.m)
     }
 
     fn model(&self) -> DiscreteModel {
-        let template = DiscreteModel {
-            phi: DMatrix::zeros(self.n, self.n),
-            gamma: DMatrix::zeros(self.n, self.m),
-            ts_s: self.data.ts_s,
-        };
-        template.with_theta(&self.params.as_slice()[..self.p_theta()])
+        DiscreteModel::from_theta(
+            self.n,
+            self.m,
+            self.data.ts_s,
+            &self.params.as_slice()[..self.p_theta()],
+        )
     }
 
-    fn x0(&self, s: usize) -> DVector<f64> {
+    fn x0(&self, s: usize) -> &[f64] {
         if self.estimate_x0 {
             let at = self.p_theta() + s * self.n;
-            DVector::from_column_slice(&self.params.as_slice()[at..at + self.n])
+            &self.params.as_slice()[at..at + self.n]
         } else {
-            self.data.outputs.row(self.segments[s].start).transpose()
+            self.fixed_x0[s].as_slice()
         }
     }
 
-    fn rows(&self) -> usize {
-        self.segments.iter().map(|s| s.len()).sum::<usize>() * self.n
+    /// √w_i from 1/σ_i² of the current residuals (normalised to mean 1).
+    fn residual_weights(&self) -> Vec<f64> {
+        let sse = self.evaluate_sse();
+        let variances: Vec<f64> = (0..self.n)
+            .map(|c| (sse[c] / self.sqrt_w[c].powi(2) / self.counts[c].max(1) as f64).max(1e-30))
+            .collect();
+        normalised_inverse(&variances)
+            .iter()
+            .map(|v| v.sqrt())
+            .collect()
+    }
+
+    /// The weighted squared error per output.
+    fn evaluate_sse(&self) -> Vec<f64> {
+        self.pass(None)
+    }
+
+    /// The weighted squared error per output and the normal equations JᵀJ, Jᵀr.
+    fn evaluate_full(&self) -> Evaluation {
+        let cols = self.params.len();
+        let mut gram = DMatrix::<f64>::zeros(cols, cols);
+        let mut grad = DVector::<f64>::zeros(cols);
+        let sse = self.pass(Some((&mut gram, &mut grad)));
+        Evaluation { sse, gram, grad }
     }
 
     /// One pass over the data: the weighted squared error per output and, when asked,
-    /// the normal equations JᵀJ and Jᵀr of the weighted residuals. The Jacobian itself is
-    /// never stored (a week at 1 s would be 1.8 million rows); the sensitivities live in
-    /// flat buffers.
-    fn evaluate(&self, with_jacobian: bool) -> Evaluation {
-        let (n, m) = (self.n, self.m);
-        let p = n + m;
-        let pt = n * p;
-        let model = self.model();
-        let phi: Vec<f64> = (0..n * n).map(|q| model.phi[(q / n, q % n)]).collect();
-        let gamma: Vec<f64> = (0..n * m).map(|q| model.gamma[(q / m, q % m)]).collect();
-        let cols = self.params.len();
+    /// the normal equations of the weighted residuals. The Jacobian itself is never
+    /// stored (a week at 1 s would be 1.8 million rows); the sensitivities live in flat
+    /// buffers.
+    fn pass(&self, mut normal: Option<(&mut DMatrix<f64>, &mut DVector<f64>)>) -> Vec<f64> {
+        let n = self.n;
+        let mut state = Propagation::new(&self.model(), self.params.len());
         let mut sse = vec![0.0; n];
-        let mut gram = with_jacobian.then(|| DMatrix::<f64>::zeros(cols, cols));
-        let mut grad = with_jacobian.then(|| DVector::<f64>::zeros(cols));
-        let mut row_j = vec![0.0; cols];
-        let mut nonzero: Vec<usize> = Vec::with_capacity(pt + n);
-        let mut y = vec![0.0; n];
-        let mut y_next = vec![0.0; n];
-        // sens[q·n + c] = ∂ŷ_c/∂θ_q; sens_x0[q·n + c] = ∂ŷ_c/∂x0_q.
-        let mut sens = vec![0.0; pt * n];
-        let mut sens_next = vec![0.0; pt * n];
-        let mut sens_x0 = vec![0.0; n * n];
-        let mut sens_x0_next = vec![0.0; n * n];
         for (s, seg) in self.segments.iter().enumerate() {
-            let x0 = self.x0(s);
-            y.copy_from_slice(x0.as_slice());
-            sens.iter_mut().for_each(|v| *v = 0.0);
-            sens_x0.iter_mut().for_each(|v| *v = 0.0);
-            for q in 0..n {
-                sens_x0[q * n + q] = 1.0;
-            }
+            state.reset(self.x0(s));
+            let x0_at = self.estimate_x0.then(|| self.p_theta() + s * n);
             for k in seg.clone() {
                 if k > seg.start {
-                    let u = self.data.inputs.row(k - 1);
-                    if with_jacobian {
-                        for q in 0..pt {
-                            let (i, j) = (q / p, q % p);
-                            let regressor = if j < n { y[j] } else { u[j - n] };
-                            for c in 0..n {
-                                let mut acc = if c == i { regressor } else { 0.0 };
-                                for l in 0..n {
-                                    acc += phi[c * n + l] * sens[q * n + l];
-                                }
-                                sens_next[q * n + c] = acc;
-                            }
-                        }
-                        std::mem::swap(&mut sens, &mut sens_next);
-                        for q in 0..n {
-                            for c in 0..n {
-                                let mut acc = 0.0;
-                                for l in 0..n {
-                                    acc += phi[c * n + l] * sens_x0[q * n + l];
-                                }
-                                sens_x0_next[q * n + c] = acc;
-                            }
-                        }
-                        std::mem::swap(&mut sens_x0, &mut sens_x0_next);
+                    state.load_input(self.data, k - 1);
+                    if normal.is_some() {
+                        state.propagate_sensitivities();
                     }
-                    for c in 0..n {
-                        let mut acc = 0.0;
-                        for l in 0..n {
-                            acc += phi[c * n + l] * y[l];
-                        }
-                        for l in 0..m {
-                            acc += gamma[c * m + l] * u[l];
-                        }
-                        y_next[c] = acc;
-                    }
-                    std::mem::swap(&mut y, &mut y_next);
+                    state.step();
                 }
-                for c in 0..n {
-                    let r = self.sqrt_w[c] * (self.data.outputs[(k, c)] - y[c]);
+                for c in (0..n).filter(|&c| self.data.observed(k, c)) {
+                    let r = self.sqrt_w[c] * (self.data.outputs[(k, c)] - state.y[c]);
                     sse[c] += r * r;
-                    if let (Some(gram), Some(grad)) = (gram.as_mut(), grad.as_mut()) {
-                        // This row of J: −√w_c ∂ŷ_c/∂(θ, this segment's x0); zero elsewhere.
-                        nonzero.clear();
-                        for q in 0..pt {
-                            row_j[q] = -self.sqrt_w[c] * sens[q * n + c];
-                            nonzero.push(q);
-                        }
-                        if self.estimate_x0 {
-                            let at = pt + s * n;
-                            for q in 0..n {
-                                row_j[at + q] = -self.sqrt_w[c] * sens_x0[q * n + c];
-                                nonzero.push(at + q);
-                            }
-                        }
-                        for (a, &qa) in nonzero.iter().enumerate() {
-                            grad[qa] += row_j[qa] * r;
-                            for &qb in &nonzero[a..] {
-                                gram[(qa, qb)] += row_j[qa] * row_j[qb];
-                            }
-                        }
+                    if let Some((gram, grad)) = normal.as_mut() {
+                        state.jacobian_row(c, self.sqrt_w[c], x0_at);
+                        state.accumulate(r, gram, grad);
                     }
                 }
             }
         }
-        if let Some(g) = gram.as_mut() {
+        if let Some((gram, _)) = normal {
+            let cols = gram.nrows();
             for a in 0..cols {
                 for b in 0..a {
-                    g[(a, b)] = g[(b, a)];
+                    gram[(a, b)] = gram[(b, a)];
                 }
             }
         }
-        Evaluation { sse, gram, grad }
+        sse
     }
 
     /// The evaluation at the current parameters, computed once per parameter vector.
@@ -180,22 +426,155 @@ impl Problem<'_> {
             .as_ref()
             .is_none_or(|(at, _)| at != &self.params);
         if stale {
-            let e = self.evaluate(true);
+            let e = self.evaluate_full();
             *self.cache.borrow_mut() = Some((self.params.clone(), e));
         }
         std::cell::Ref::map(self.cache.borrow(), |c| &c.as_ref().expect("just filled").1)
     }
 }
 
+/// The simulation ŷ and its sensitivities, stepped through one segment in flat,
+/// reused buffers: no allocation per instant.
+struct Propagation {
+    n: usize,
+    m: usize,
+    /// Φ row-major.
+    phi: Vec<f64>,
+    /// Γ row-major.
+    gamma: Vec<f64>,
+    u: Vec<f64>,
+    y: Vec<f64>,
+    y_next: Vec<f64>,
+    /// sens[q·n + c] = ∂ŷ_c/∂θ_q.
+    sens: Vec<f64>,
+    sens_next: Vec<f64>,
+    /// sens_x0[q·n + c] = ∂ŷ_c/∂x0_q.
+    sens_x0: Vec<f64>,
+    sens_x0_next: Vec<f64>,
+    /// One row of J and the columns where it is not zero.
+    row_j: Vec<f64>,
+    nonzero: Vec<usize>,
+}
+
+impl Propagation {
+    fn new(model: &DiscreteModel, cols: usize) -> Propagation {
+        let (n, m) = (model.phi.nrows(), model.gamma.ncols());
+        let pt = n * (n + m);
+        Propagation {
+            n,
+            m,
+            phi: (0..n * n).map(|q| model.phi[(q / n, q % n)]).collect(),
+            gamma: (0..n * m).map(|q| model.gamma[(q / m, q % m)]).collect(),
+            u: vec![0.0; m],
+            y: vec![0.0; n],
+            y_next: vec![0.0; n],
+            sens: vec![0.0; pt * n],
+            sens_next: vec![0.0; pt * n],
+            sens_x0: vec![0.0; n * n],
+            sens_x0_next: vec![0.0; n * n],
+            row_j: vec![0.0; cols],
+            nonzero: Vec::with_capacity(pt + n),
+        }
+    }
+
+    /// ŷ(start) = x0, ∂ŷ/∂θ = 0, ∂ŷ/∂x0 = I.
+    fn reset(&mut self, x0: &[f64]) {
+        self.y.copy_from_slice(x0);
+        self.sens.iter_mut().for_each(|v| *v = 0.0);
+        self.sens_x0.iter_mut().for_each(|v| *v = 0.0);
+        for q in 0..self.n {
+            self.sens_x0[q * self.n + q] = 1.0;
+        }
+    }
+
+    fn load_input(&mut self, data: &IdentificationData, k: usize) {
+        for (l, u) in self.u.iter_mut().enumerate() {
+            *u = data.inputs[(k, l)];
+        }
+    }
+
+    /// ∂ŷ(k)/∂θ_q = Φ ∂ŷ(k−1)/∂θ_q + e_i φ_j(k−1) (q = i·p + j), ∂ŷ(k)/∂x0 = Φ ∂ŷ(k−1)/∂x0;
+    /// from ŷ(k−1), so before [`Propagation::step`].
+    fn propagate_sensitivities(&mut self) {
+        let (n, p) = (self.n, self.n + self.m);
+        for q in 0..n * p {
+            let (i, j) = (q / p, q % p);
+            let regressor = if j < n { self.y[j] } else { self.u[j - n] };
+            for c in 0..n {
+                let mut acc = if c == i { regressor } else { 0.0 };
+                for l in 0..n {
+                    acc += self.phi[c * n + l] * self.sens[q * n + l];
+                }
+                self.sens_next[q * n + c] = acc;
+            }
+        }
+        std::mem::swap(&mut self.sens, &mut self.sens_next);
+        for q in 0..n {
+            for c in 0..n {
+                let mut acc = 0.0;
+                for l in 0..n {
+                    acc += self.phi[c * n + l] * self.sens_x0[q * n + l];
+                }
+                self.sens_x0_next[q * n + c] = acc;
+            }
+        }
+        std::mem::swap(&mut self.sens_x0, &mut self.sens_x0_next);
+    }
+
+    /// ŷ(k) = Φ ŷ(k−1) + Γ u(k−1) (eq. 8).
+    fn step(&mut self) {
+        let (n, m) = (self.n, self.m);
+        for c in 0..n {
+            let mut acc = 0.0;
+            for l in 0..n {
+                acc += self.phi[c * n + l] * self.y[l];
+            }
+            for l in 0..m {
+                acc += self.gamma[c * m + l] * self.u[l];
+            }
+            self.y_next[c] = acc;
+        }
+        std::mem::swap(&mut self.y, &mut self.y_next);
+    }
+
+    /// The row of J for output c: −√w_c ∂ŷ_c/∂(θ, this segment's x0 at `x0_at`), zero
+    /// elsewhere.
+    fn jacobian_row(&mut self, c: usize, sqrt_w: f64, x0_at: Option<usize>) {
+        let n = self.n;
+        let pt = n * (n + self.m);
+        self.nonzero.clear();
+        for q in 0..pt {
+            self.row_j[q] = -sqrt_w * self.sens[q * n + c];
+            self.nonzero.push(q);
+        }
+        if let Some(at) = x0_at {
+            for q in 0..n {
+                self.row_j[at + q] = -sqrt_w * self.sens_x0[q * n + c];
+                self.nonzero.push(at + q);
+            }
+        }
+    }
+
+    /// Adds the row's outer product to JᵀJ (upper triangle) and r times it to Jᵀr.
+    fn accumulate(&self, r: f64, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
+        for (a, &qa) in self.nonzero.iter().enumerate() {
+            grad[qa] += self.row_j[qa] * r;
+            for &qb in &self.nonzero[a..] {
+                gram[(qa, qb)] += self.row_j[qa] * self.row_j[qb];
+            }
+        }
+    }
+}
+
 /// The result of one pass over the data.
 #[derive(Debug, Clone)]
 struct Evaluation {
-    /// Σ_k (√w_c (y_c − ŷ_c))² per output.
+    /// Σ_k (√w_c (y_c − ŷ_c))² per output, over the observed entries.
     sse: Vec<f64>,
     /// JᵀJ of the weighted residuals.
-    gram: Option<DMatrix<f64>>,
+    gram: DMatrix<f64>,
     /// Jᵀr of the weighted residuals.
-    grad: Option<DVector<f64>>,
+    grad: DVector<f64>,
 }
 
 impl Evaluation {
@@ -203,8 +582,7 @@ impl Evaluation {
     /// residual [R⁻ᵀJᵀr; √(‖r‖² − ‖R⁻ᵀJᵀr‖²)], whose norm is ‖r‖. Levenberg–Marquardt
     /// sees the same JᵀJ, Jᵀr and objective as with the full Jacobian, at p + 1 rows.
     fn square_root_form(&self) -> Option<(DVector<f64>, DMatrix<f64>)> {
-        let gram = self.gram.as_ref()?;
-        let grad = self.grad.as_ref()?;
+        let (gram, grad) = (&self.gram, &self.grad);
         let p = gram.nrows();
         // Symmetric scaling keeps the factorisation accurate; a whisper of ridge keeps it
         // defined where a parameter is not seen (a segment too short for its x0).
@@ -251,156 +629,5 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         let (_, j) = self.evaluated().square_root_form()?;
         j.iter().all(|v| v.is_finite()).then_some(j)
-    }
-}
-
-impl Estimator for OutputError {
-    fn name(&self) -> &'static str {
-        "oe"
-    }
-
-    fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
-        // A rough IV start is enough: LM takes it the rest of the way.
-        let start = InstrumentalVariables {
-            max_iterations: 10,
-            tolerance: 1e-6,
-        }
-        .estimate(data)?;
-        self.refine(data, &start.model)
-    }
-}
-
-impl OutputError {
-    /// Minimises the simulation error starting from `start`.
-    pub fn refine(&self, data: &IdentificationData, start: &DiscreteModel) -> Result<Estimate> {
-        let segments = data.segments();
-        let rows_used = data.usable_rows().len();
-        check_enough_rows(data, rows_used)?;
-        let (n, m) = (data.states(), data.input_count());
-        let estimate_x0 = segments.len() <= MAX_ESTIMATED_INITIAL_STATES;
-        // Weights: the user's, or the inverse variance of the start model's simulation error.
-        let sim = start.simulate_segments(data, &segments);
-        let variance: Vec<f64> = (0..n)
-            .map(|c| {
-                let (sum, count) =
-                    segments
-                        .iter()
-                        .flat_map(|s| s.clone())
-                        .fold((0.0, 0usize), |(a, k), i| {
-                            let e = data.outputs[(i, c)] - sim[(i, c)];
-                            (a + e * e, k + 1)
-                        });
-                (sum / count.max(1) as f64).max(1e-24)
-            })
-            .collect();
-        let w: Vec<f64> = match &self.weights {
-            Some(w) => w.clone(),
-            None => {
-                let inv: Vec<f64> = variance.iter().map(|v| 1.0 / v).collect();
-                let mean = inv.iter().sum::<f64>() / n as f64;
-                inv.iter().map(|v| v / mean).collect()
-            }
-        };
-        let mut params: Vec<f64> = start.theta();
-        if estimate_x0 {
-            for seg in &segments {
-                params.extend(data.outputs.row(seg.start).iter());
-            }
-        }
-        let sqrt_w: Vec<f64> = w.iter().map(|v| v.max(0.0).sqrt()).collect();
-        let mut problem = Problem {
-            data,
-            segments: segments.clone(),
-            estimate_x0,
-            sqrt_w,
-            n,
-            m,
-            params: DVector::from_vec(params),
-            cache: std::cell::RefCell::new(None),
-        };
-        // Tolerances far below the statistical uncertainty of Θ (~1e-3 relative), and far
-        // above rounding: the last evaluations of the default 30·ε would buy nothing.
-        let lm = LevenbergMarquardt::new()
-            .with_patience(200)
-            .with_ftol(1e-10)
-            .with_xtol(1e-10)
-            .with_gtol(1e-10);
-        let mut evaluations = 0;
-        // Two passes when no weights are given: the second with 1/σ_i² of the first
-        // pass's residuals, which are then the sensor noise rather than the start's misfit.
-        for pass in 0..2 {
-            let (solved, report) = lm.minimize(problem);
-            problem = solved;
-            evaluations += report.number_of_evaluations;
-            if !report.objective_function.is_finite() {
-                return Err(Error::Estimation(format!(
-                    "output error: the minimisation failed ({:?}); the start model may be unstable",
-                    report.termination
-                )));
-            }
-            if pass == 1 || self.weights.is_some() {
-                break;
-            }
-            let sse = problem.evaluate(false).sse;
-            let per = problem.rows() / n;
-            let inv: Vec<f64> = (0..n)
-                .map(|c| 1.0 / (sse[c] / problem.sqrt_w[c].powi(2) / per.max(1) as f64).max(1e-30))
-                .collect();
-            let mean = inv.iter().sum::<f64>() / n as f64;
-            let next: Vec<f64> = inv.iter().map(|v| (v / mean).sqrt()).collect();
-            let change = next
-                .iter()
-                .zip(&problem.sqrt_w)
-                .map(|(a, b)| (a / b - 1.0).abs())
-                .fold(0.0, f64::max);
-            problem.sqrt_w = next;
-            if change < 0.05 {
-                break;
-            }
-        }
-        let w: Vec<f64> = problem.sqrt_w.iter().map(|v| v * v).collect();
-        let model = problem.model();
-        let evaluation = problem.evaluate(true);
-        let rows = problem.rows();
-        let dof = rows.saturating_sub(problem.params.len()).max(1) as f64;
-        let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
-        // Covariance σ² (JᵀJ)⁻¹ from the eigen-decomposition of the scaled JᵀJ; Θ's block.
-        let gram = evaluation
-            .gram
-            .as_ref()
-            .ok_or_else(|| Error::Estimation("output error: no normal equations".into()))?;
-        let p_all = gram.nrows();
-        let scale: Vec<f64> = (0..p_all)
-            .map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt())
-            .collect();
-        let scaled = DMatrix::from_fn(p_all, p_all, |i, j| gram[(i, j)] * scale[i] * scale[j]);
-        let eig = scaled.symmetric_eigen();
-        let (e_max, e_min) = (eig.eigenvalues.max(), eig.eigenvalues.min().max(0.0));
-        let inv = DMatrix::from_diagonal(&eig.eigenvalues.map(|e| {
-            if e > 1e-14 * e_max {
-                1.0 / e
-            } else {
-                0.0
-            }
-        }));
-        let d = DMatrix::from_diagonal(&DVector::from_column_slice(&scale));
-        let full = &d * &eig.eigenvectors * inv * eig.eigenvectors.transpose() * &d * sigma2;
-        let p_theta = n * (n + m);
-        let covariance = full.view((0, 0), (p_theta, p_theta)).into_owned();
-        let per = rows / n;
-        let noise_variance: Vec<f64> = (0..n)
-            .map(|c| evaluation.sse[c] / per.max(1) as f64 / w[c].max(1e-300))
-            .collect();
-        let condition_number = (e_max / e_min.max(1e-300)).sqrt();
-        Ok(Estimate {
-            model,
-            method: self.name().into(),
-            rows_used,
-            condition_number,
-            covariance: Some(covariance),
-            noise_variance,
-            iterations: evaluations,
-            output_offset: None,
-        })
     }
 }

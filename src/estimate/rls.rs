@@ -9,11 +9,13 @@
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use super::{check_enough_rows, DiscreteModel, Estimate, Estimator, IdentificationData};
-use crate::error::{Error, Result};
+use super::{
+    block_diagonal_covariance, check_enough_rows, DiscreteModel, Estimate, EstimationError,
+    Estimator, IdentificationData, Result,
+};
 
 /// Θ at one instant of the recursion.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TrajectoryPoint {
     /// Grid instant.
     pub instant: usize,
@@ -21,12 +23,12 @@ pub struct TrajectoryPoint {
     pub theta: Vec<f64>,
 }
 
-/// Recursive least squares.
+/// Recursive least squares; its [`Estimate`] carries the trajectory of Θ.
 #[derive(Debug, Clone)]
 pub struct RecursiveLeastSquares {
     /// Forgetting factor λ ∈ (0, 1]; 1 forgets nothing.
     pub forgetting: f64,
-    /// Keep every this many instants of the trajectory.
+    /// Keep every this many instants of the trajectory (and the last).
     pub keep_every: usize,
 }
 
@@ -39,98 +41,54 @@ impl Default for RecursiveLeastSquares {
     }
 }
 
-impl RecursiveLeastSquares {
-    /// Runs the recursion; returns the final estimate and the trajectory.
-    pub fn run(&self, data: &IdentificationData) -> Result<(Estimate, Vec<TrajectoryPoint>)> {
-        if !(self.forgetting > 0.0 && self.forgetting <= 1.0) {
-            return Err(Error::Usage(format!(
-                "--forgetting {} must be in (0, 1]",
-                self.forgetting
-            )));
-        }
-        let rows = data.usable_rows();
-        check_enough_rows(data, rows.len())?;
-        let (n, m) = (data.states(), data.input_count());
-        let p = n + m;
-        // A diffuse start: θ = 0 and P = 10⁸·diag(1/rms_j²) over the regressors' scales, so
-        // the prior weighs like a hundred-millionth of one equation.
+/// The recursion's state: Θ by columns (column i: θ_i, p × n) and P (p × p).
+struct Recursion {
+    theta: DMatrix<f64>,
+    p: DMatrix<f64>,
+    lambda: f64,
+}
+
+impl Recursion {
+    /// A diffuse start: θ = 0 and P = 10⁸·diag(1/rms_j²) over the regressors' scales, so
+    /// the prior weighs like a hundred-millionth of one equation.
+    fn diffuse(data: &IdentificationData, rows: &[usize], lambda: f64) -> Recursion {
+        let p = data.states() + data.input_count();
         let mut pm = DMatrix::zeros(p, p);
         for j in 0..p {
-            let sum: f64 = rows
-                .iter()
-                .map(|&k| {
-                    if j < n {
-                        data.outputs[(k - 1, j)]
-                    } else {
-                        data.inputs[(k - 1, j - n)]
-                    }
-                    .powi(2)
-                })
-                .sum();
+            let sum: f64 = rows.iter().map(|&k| data.regressor(k, j).powi(2)).sum();
             let rms = (sum / rows.len() as f64).sqrt().max(1e-300);
             pm[(j, j)] = 1e8 / (rms * rms);
         }
-        let mut theta = DMatrix::zeros(p, n); // column i: θ_i
-        let warm = 0;
-        let lambda = self.forgetting;
-        let mut trajectory = Vec::new();
-        let template = DiscreteModel {
-            phi: DMatrix::zeros(n, n),
-            gamma: DMatrix::zeros(n, m),
-            ts_s: data.ts_s,
-        };
-        let as_vec = |theta: &DMatrix<f64>| -> Vec<f64> {
-            (0..n)
-                .flat_map(|i| (0..p).map(move |j| theta[(j, i)]))
-                .collect()
-        };
-        let mut sse = vec![0.0; n];
-        for (count, &k) in rows.iter().enumerate().skip(warm) {
-            let phi = DVector::from_fn(p, |j, _| {
-                if j < n {
-                    data.outputs[(k - 1, j)]
-                } else {
-                    data.inputs[(k - 1, j - n)]
-                }
-            });
-            let p_phi = &pm * &phi;
-            let denom = lambda + phi.dot(&p_phi);
-            let gain = &p_phi / denom;
-            for i in 0..n {
-                let e = data.outputs[(k, i)] - phi.dot(&theta.column(i));
-                sse[i] += e * e;
-                let updated = theta.column(i) + &gain * e;
-                theta.set_column(i, &updated);
-            }
-            pm = (&pm - &gain * p_phi.transpose()) / lambda;
-            // Keep P symmetric against rounding.
-            pm = (&pm + pm.transpose()) * 0.5;
-            if count % self.keep_every.max(1) == 0 || count + 1 == rows.len() {
-                trajectory.push(TrajectoryPoint {
-                    instant: k,
-                    theta: as_vec(&theta),
-                });
-            }
+        Recursion {
+            theta: DMatrix::zeros(p, data.states()),
+            p: pm,
+            lambda,
         }
-        let dof = (rows.len() - warm).max(1) as f64;
-        let noise_variance: Vec<f64> = sse.iter().map(|s| s / dof).collect();
-        let mut covariance = DMatrix::zeros(n * p, n * p);
-        for i in 0..n {
-            covariance
-                .view_mut((i * p, i * p), (p, p))
-                .copy_from(&(&pm * noise_variance[i]));
+    }
+
+    /// One update with regressor φ and outputs y; adds each a-priori error² to `sse`.
+    fn update(&mut self, phi: &DVector<f64>, y: impl Fn(usize) -> f64, sse: &mut [f64]) {
+        let p_phi = &self.p * phi;
+        let denom = self.lambda + phi.dot(&p_phi);
+        let gain = &p_phi / denom;
+        for (i, acc) in sse.iter_mut().enumerate() {
+            let e = y(i) - phi.dot(&self.theta.column(i));
+            *acc += e * e;
+            let updated = self.theta.column(i) + &gain * e;
+            self.theta.set_column(i, &updated);
         }
-        let estimate = Estimate {
-            model: template.with_theta(&as_vec(&theta)),
-            method: "rls".into(),
-            rows_used: rows.len(),
-            condition_number: f64::NAN,
-            covariance: Some(covariance),
-            noise_variance,
-            iterations: rows.len() - warm,
-            output_offset: None,
-        };
-        Ok((estimate, trajectory))
+        self.p = (&self.p - &gain * p_phi.transpose()) / self.lambda;
+        // Keep P symmetric against rounding.
+        self.p = (&self.p + self.p.transpose()) * 0.5;
+    }
+
+    /// Θ laid out as [`DiscreteModel::theta`].
+    fn theta_vec(&self) -> Vec<f64> {
+        let (p, n) = self.theta.shape();
+        (0..n)
+            .flat_map(|i| (0..p).map(move |j| (i, j)))
+            .map(|(i, j)| self.theta[(j, i)])
+            .collect()
     }
 }
 
@@ -139,7 +97,43 @@ impl Estimator for RecursiveLeastSquares {
         "rls"
     }
 
+    /// Runs the recursion over the usable rows; the estimate is where it ends, with its
+    /// trajectory (every `keep_every`-th row and the last).
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
-        Ok(self.run(data)?.0)
+        if !(self.forgetting > 0.0 && self.forgetting <= 1.0) {
+            return Err(EstimationError::ForgettingFactor {
+                value: self.forgetting,
+            });
+        }
+        let rows = data.usable_rows();
+        check_enough_rows(data, rows.len())?;
+        let (n, m) = (data.states(), data.input_count());
+        let p = n + m;
+        let mut recursion = Recursion::diffuse(data, &rows, self.forgetting);
+        let mut trajectory = Vec::new();
+        let mut sse = vec![0.0; n];
+        for (count, &k) in rows.iter().enumerate() {
+            let phi = DVector::from_fn(p, |j, _| data.regressor(k, j));
+            recursion.update(&phi, |i| data.outputs[(k, i)], &mut sse);
+            if count % self.keep_every.max(1) == 0 || count + 1 == rows.len() {
+                trajectory.push(TrajectoryPoint {
+                    instant: k,
+                    theta: recursion.theta_vec(),
+                });
+            }
+        }
+        let dof = rows.len().max(1) as f64;
+        let noise_variance: Vec<f64> = sse.iter().map(|s| s / dof).collect();
+        Ok(Estimate {
+            model: DiscreteModel::from_theta(n, m, data.ts_s, &recursion.theta_vec()),
+            method: self.name().into(),
+            rows_used: rows.len(),
+            condition_number: f64::NAN,
+            covariance: Some(block_diagonal_covariance(&[&recursion.p], &noise_variance)),
+            noise_variance,
+            iterations: rows.len(),
+            output_offset: None,
+            trajectory: Some(trajectory),
+        })
     }
 }

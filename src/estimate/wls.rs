@@ -6,8 +6,10 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::qr::StreamingQr;
-use super::{check_enough_rows, DiscreteModel, Estimate, Estimator, IdentificationData};
-use crate::error::{Error, Result};
+use super::{
+    block_diagonal_covariance, check_enough_rows, DiscreteModel, Estimate, EstimationError,
+    Estimator, IdentificationData, Result,
+};
 
 /// Smallest ratio σ_min/σ_max of the scaled regression matrix accepted as full rank.
 pub const RANK_TOLERANCE: f64 = 1e-10;
@@ -16,10 +18,19 @@ pub const RANK_TOLERANCE: f64 = 1e-10;
 /// equation error e(k) = y(k) − Φ y(k−1) − Γ u(k−1), W(k) = diag(w_1(k) … w_n(k)).
 #[derive(Debug, Clone, Default)]
 pub struct WeightedLeastSquares {
-    /// Per-instant, per-output weights w_i(k) (N × n); `None` weighs all equally.
-    /// With weights constant in time the estimate equals ordinary least squares:
-    /// each output's row of Θ is a separate problem.
+    /// Per-instant, per-output weights w_i(k) ≥ 0 (N × n); `None` weighs all equally
+    /// (ordinary least squares, reported as `ls`). With weights constant in time the
+    /// estimate equals ordinary least squares: each output's row of Θ is a separate problem.
     pub weights: Option<DMatrix<f64>>,
+}
+
+/// One factorisation's solution: Θ's rows for its outputs, (FᵀF)⁻¹ in the original
+/// units, the residual sums of squares and the condition number.
+struct GroupSolution {
+    theta_rows: Vec<Vec<f64>>,
+    inverse_gram: DMatrix<f64>,
+    rss: Vec<f64>,
+    condition_number: f64,
 }
 
 impl Estimator for WeightedLeastSquares {
@@ -32,33 +43,12 @@ impl Estimator for WeightedLeastSquares {
     }
 
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
+        self.check_weights(data)?;
         let rows = data.usable_rows();
         check_enough_rows(data, rows.len())?;
         let (n, m) = (data.states(), data.input_count());
         let p = n + m;
-        let regressor = |k: usize, j: usize| {
-            if j < n {
-                data.outputs[(k - 1, j)]
-            } else {
-                data.inputs[(k - 1, j - n)]
-            }
-        };
-        // Columns scaled to unit norm: the condition number then measures excitation,
-        // not the units (states ~0.3 pu, losses ~0.003 pu).
-        let mut norm2 = vec![0.0; p];
-        for &k in &rows {
-            for (j, acc) in norm2.iter_mut().enumerate() {
-                *acc += regressor(k, j).powi(2);
-            }
-        }
-        if let Some(j) = norm2.iter().position(|v| !(*v > 0.0 && v.is_finite())) {
-            return Err(Error::Estimation(format!(
-                "regressor {} is zero throughout: that signal never changes from zero, so its \
-                 parameters cannot be estimated",
-                j + 1
-            )));
-        }
-        let scale: Vec<f64> = norm2.iter().map(|v| 1.0 / v.sqrt()).collect();
+        let scale = column_scales(data, &rows)?;
         // One factorisation for all outputs when they share the rows' weights, one each otherwise.
         let groups: Vec<Vec<usize>> = if self.weights.is_some() {
             (0..n).map(|i| vec![i]).collect()
@@ -66,73 +56,130 @@ impl Estimator for WeightedLeastSquares {
             vec![(0..n).collect()]
         };
         let mut theta = vec![0.0; n * p];
-        let mut covariance = DMatrix::zeros(n * p, n * p);
         let mut noise_variance = vec![0.0; n];
+        let mut cores = Vec::with_capacity(groups.len());
         let mut condition_number: f64 = 0.0;
-        let mut f_row = vec![0.0; p];
-        let mut y_row = vec![0.0; n];
-        for outputs in groups {
-            let mut qr = StreamingQr::new(p, outputs.len());
-            for &k in &rows {
-                let sw = match (&self.weights, outputs.as_slice()) {
-                    (Some(w), [i]) => w[(k, *i)].max(0.0).sqrt(),
-                    _ => 1.0,
-                };
-                for j in 0..p {
-                    f_row[j] = sw * regressor(k, j) * scale[j];
-                }
-                for (slot, &i) in outputs.iter().enumerate() {
-                    y_row[slot] = sw * data.outputs[(k, i)];
-                }
-                qr.push(&f_row, &y_row[..outputs.len()]);
-            }
-            let (r, qty, rss) = qr.finish();
-            let sv = r.clone().singular_values();
-            let (s_max, s_min) = (sv.max(), sv.min());
-            if !(s_min > RANK_TOLERANCE * s_max) {
-                return Err(Error::Estimation(format!(
-                    "the regression is rank deficient (σ_min/σ_max = {:.1e}): the inputs are not \
-                     persistently exciting (constant, or proportional to each other), so Φ and Γ \
-                     cannot be told apart; use a heat run with load steps",
-                    s_min / s_max
-                )));
-            }
-            condition_number = condition_number.max(s_max / s_min);
-            let r_inv = r
-                .clone()
-                .try_inverse()
-                .ok_or_else(|| Error::Estimation("singular R".into()))?;
-            // (FᵀF)⁻¹ in the original units: D R⁻¹ R⁻ᵀ D.
-            let d = DMatrix::from_diagonal(&DVector::from_column_slice(&scale));
-            let inverse_gram = &d * &r_inv * r_inv.transpose() * &d;
-            let dof = (rows.len() - p).max(1) as f64;
+        let dof = (rows.len() - p).max(1) as f64;
+        for outputs in &groups {
+            let solved = self.solve_group(data, &rows, outputs, &scale)?;
+            condition_number = condition_number.max(solved.condition_number);
             for (slot, &i) in outputs.iter().enumerate() {
-                let t = &r_inv * qty.column(slot);
-                for j in 0..p {
-                    theta[i * p + j] = t[j] * scale[j];
-                }
-                noise_variance[i] = rss[slot] / dof;
-                covariance
-                    .view_mut((i * p, i * p), (p, p))
-                    .copy_from(&(&inverse_gram * noise_variance[i]));
+                theta[i * p..(i + 1) * p].copy_from_slice(&solved.theta_rows[slot]);
+                noise_variance[i] = solved.rss[slot] / dof;
             }
+            cores.push(solved.inverse_gram);
         }
-        let template = DiscreteModel {
-            phi: DMatrix::zeros(n, n),
-            gamma: DMatrix::zeros(n, m),
-            ts_s: data.ts_s,
-        };
+        let cores: Vec<&DMatrix<f64>> = cores.iter().collect();
         Ok(Estimate {
-            model: template.with_theta(&theta),
+            model: DiscreteModel::from_theta(n, m, data.ts_s, &theta),
             method: self.name().into(),
             rows_used: rows.len(),
             condition_number,
-            covariance: Some(covariance),
+            covariance: Some(block_diagonal_covariance(&cores, &noise_variance)),
             noise_variance,
             iterations: 0,
             output_offset: None,
+            trajectory: None,
         })
     }
+}
+
+impl WeightedLeastSquares {
+    /// Weights must be N × n, finite and not negative.
+    fn check_weights(&self, data: &IdentificationData) -> Result<()> {
+        let Some(w) = &self.weights else {
+            return Ok(());
+        };
+        if w.shape() != (data.len(), data.states()) {
+            return Err(EstimationError::WeightShape {
+                given_rows: w.nrows(),
+                given_columns: w.ncols(),
+                rows: data.len(),
+                columns: data.states(),
+            });
+        }
+        match (0..w.nrows())
+            .flat_map(|k| (0..w.ncols()).map(move |i| (k, i)))
+            .find(|&(k, i)| !(w[(k, i)].is_finite() && w[(k, i)] >= 0.0))
+        {
+            Some((k, i)) => Err(EstimationError::InvalidWeight {
+                state: i,
+                value: w[(k, i)],
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// The QR solution for the outputs in `outputs`, which share each row's weight.
+    fn solve_group(
+        &self,
+        data: &IdentificationData,
+        rows: &[usize],
+        outputs: &[usize],
+        scale: &[f64],
+    ) -> Result<GroupSolution> {
+        let p = scale.len();
+        let mut qr = StreamingQr::new(p, outputs.len());
+        let mut f_row = vec![0.0; p];
+        let mut y_row = vec![0.0; outputs.len()];
+        for &k in rows {
+            let sw = match (&self.weights, outputs) {
+                (Some(w), [i]) => w[(k, *i)].sqrt(),
+                _ => 1.0,
+            };
+            data.regressor_row(k, &mut f_row);
+            for (f, s) in f_row.iter_mut().zip(scale) {
+                *f = sw * *f * s;
+            }
+            for (slot, &i) in outputs.iter().enumerate() {
+                y_row[slot] = sw * data.outputs[(k, i)];
+            }
+            qr.push(&f_row, &y_row);
+        }
+        let (r, qty, rss) = qr.finish();
+        let sv = r.clone().singular_values();
+        let (s_max, s_min) = (sv.max(), sv.min());
+        let no_excitation = || EstimationError::NoExcitation {
+            method: self.name(),
+            singular_value_ratio: s_min / s_max,
+        };
+        if !(s_min > RANK_TOLERANCE * s_max) {
+            return Err(no_excitation());
+        }
+        let r_inv = r.clone().try_inverse().ok_or_else(no_excitation)?;
+        // (FᵀF)⁻¹ in the original units: D R⁻¹ R⁻ᵀ D.
+        let d = DMatrix::from_diagonal(&DVector::from_column_slice(scale));
+        let inverse_gram = &d * &r_inv * r_inv.transpose() * &d;
+        let theta_rows = (0..outputs.len())
+            .map(|slot| {
+                let t = &r_inv * qty.column(slot);
+                (0..p).map(|j| t[j] * scale[j]).collect()
+            })
+            .collect();
+        Ok(GroupSolution {
+            theta_rows,
+            inverse_gram,
+            rss,
+            condition_number: s_max / s_min,
+        })
+    }
+}
+
+/// 1/‖column j‖ of the regression matrix over `rows`. Columns scaled to unit norm make
+/// the condition number measure excitation, not the units (states ~0.3 pu, losses
+/// ~0.003 pu).
+fn column_scales(data: &IdentificationData, rows: &[usize]) -> Result<Vec<f64>> {
+    let p = data.states() + data.input_count();
+    let mut norm2 = vec![0.0; p];
+    for &k in rows {
+        for (j, acc) in norm2.iter_mut().enumerate() {
+            *acc += data.regressor(k, j).powi(2);
+        }
+    }
+    if let Some(column) = norm2.iter().position(|v| !(*v > 0.0 && v.is_finite())) {
+        return Err(EstimationError::ZeroRegressor { column });
+    }
+    Ok(norm2.iter().map(|v| 1.0 / v.sqrt()).collect())
 }
 
 #[cfg(test)]

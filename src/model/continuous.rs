@@ -4,8 +4,10 @@ use nalgebra::DMatrix;
 use serde::Serialize;
 
 use super::matrix::{logm, real_eigenvalues};
-use crate::error::{Error, Result};
+use super::ModelError;
 use crate::estimate::DiscreteModel;
+
+type Result<T, E = ModelError> = std::result::Result<T, E>;
 
 /// dy/dt = A_c y + B_c u (eq. 9), the zero-order-hold equivalent of a [`DiscreteModel`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -34,21 +36,18 @@ impl ContinuousModel {
         let a_c = logm(&model.phi)? / model.ts_s;
         let n = model.phi.nrows();
         let phi_minus_i = &model.phi - DMatrix::<f64>::identity(n, n);
-        let inv = phi_minus_i.try_inverse().ok_or_else(|| {
-            Error::Model(
-                "Φ − I is singular: Φ has an eigenvalue 1 (an integrator, no time constant)".into(),
-            )
-        })?;
+        let inv = phi_minus_i.try_inverse().ok_or(ModelError::Integrator)?;
         let b_c = inv * &a_c * &model.gamma;
         Ok(ContinuousModel { a_c, b_c })
     }
 
     /// Steady state y(∞) = −A_c⁻¹ B_c u for a constant input u (eq. 31).
     pub fn steady_state(&self, u: &[f64]) -> Result<Vec<f64>> {
-        let inv =
-            self.a_c.clone().try_inverse().ok_or_else(|| {
-                Error::Model("A_c is singular: the model has no steady state".into())
-            })?;
+        let inv = self
+            .a_c
+            .clone()
+            .try_inverse()
+            .ok_or(ModelError::NoSteadyState)?;
         let u = nalgebra::DVector::from_column_slice(u);
         Ok((-(inv * &self.b_c * u)).iter().copied().collect())
     }
@@ -59,10 +58,8 @@ impl Spectrum {
     /// system (an eigenvalue of Φ outside (0, 1), or complex) is an error naming it.
     pub fn of(model: &DiscreteModel) -> Result<Spectrum> {
         let eigenvalues_discrete = real_eigenvalues(&model.phi, "Φ")?;
-        if let Some(bad) = eigenvalues_discrete.iter().find(|&&l| l <= 0.0 || l >= 1.0) {
-            return Err(Error::Model(format!(
-                "the estimate is not a stable thermal system: Φ has the eigenvalue {bad:.6}, outside (0, 1)"
-            )));
+        if let Some(&eigenvalue) = eigenvalues_discrete.iter().find(|&&l| l <= 0.0 || l >= 1.0) {
+            return Err(ModelError::Unstable { eigenvalue });
         }
         let eigenvalues_continuous: Vec<f64> = eigenvalues_discrete
             .iter()

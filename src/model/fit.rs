@@ -20,7 +20,7 @@ pub struct Fit {
     pub mse_k2: Vec<f64>,
     /// Largest absolute error, in K.
     pub max_abs_error_k: Vec<f64>,
-    /// Instants compared.
+    /// Instants compared (with some output observed there).
     pub samples: usize,
 }
 
@@ -33,8 +33,8 @@ pub fn simulate(
     model.simulate_segments(data, segments)
 }
 
-/// Compares a simulation with the measured outputs at every instant where both exist;
-/// `temperature_base_k` converts pu errors to kelvin.
+/// Compares a simulation with the measured outputs at every observed entry where the
+/// simulation exists; `temperature_base_k` converts pu errors to kelvin.
 pub fn fit(data: &IdentificationData, simulated: &DMatrix<f64>, temperature_base_k: f64) -> Fit {
     let n = data.states();
     let mut fit = Fit {
@@ -45,14 +45,15 @@ pub fn fit(data: &IdentificationData, simulated: &DMatrix<f64>, temperature_base
         max_abs_error_k: vec![0.0; n],
         samples: 0,
     };
-    let rows: Vec<usize> = (0..data.len())
-        .filter(|&k| data.outputs_known[k] && simulated[(k, 0)].is_finite())
-        .collect();
-    fit.samples = rows.len();
-    if rows.is_empty() {
-        return fit;
-    }
+    let compared = |k: usize, j: usize| data.observed(k, j) && simulated[(k, 0)].is_finite();
+    fit.samples = (0..data.len())
+        .filter(|&k| (0..n).any(|j| compared(k, j)))
+        .count();
     for j in 0..n {
+        let rows: Vec<usize> = (0..data.len()).filter(|&k| compared(k, j)).collect();
+        if rows.is_empty() {
+            continue;
+        }
         let y: Vec<f64> = rows.iter().map(|&k| data.outputs[(k, j)]).collect();
         let e: Vec<f64> = rows
             .iter()

@@ -1,28 +1,38 @@
-//! Matrix functions the analysis needs: the principal logarithm, the exponential
-//! and real eigenvalues of a general (non-symmetric) matrix.
+//! Matrix functions the analysis needs: the principal logarithm, zero-order-hold
+//! discretisation (nalgebra's matrix exponential) and real eigenvalues of a general
+//! (non-symmetric) matrix.
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::error::{Error, Result};
+use super::ModelError;
+
+/// Result of the model analysis.
+type Result<T, E = ModelError> = std::result::Result<T, E>;
+
+/// A matrix as a list of its rows (the layout of the report and the truth files).
+pub fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect()
+}
 
 /// Eigenvalues of a general square matrix, which must all be real.
 ///
 /// Computed from the real Schur form; a pair with imaginary part above
 /// `1e-9·|λ|` is reported as an error naming it, never rounded to its real part.
-pub fn real_eigenvalues(m: &DMatrix<f64>, what: &str) -> Result<Vec<f64>> {
+pub fn real_eigenvalues(m: &DMatrix<f64>, matrix: &'static str) -> Result<Vec<f64>> {
     let eig = m.clone().complex_eigenvalues();
     let mut out = Vec::with_capacity(eig.len());
     for z in eig.iter() {
         if !z.re.is_finite() || !z.im.is_finite() {
-            return Err(Error::Model(format!("{what} has non-finite entries")));
+            return Err(ModelError::NonFinite { matrix });
         }
         if z.im.abs() > 1e-9 * z.norm().max(1e-300) {
-            return Err(Error::Model(format!(
-                "{what} has the complex eigenvalue pair {:.6} ± {:.6}i: an oscillating model \
-                 is not a thermal system of decaying time constants",
-                z.re,
-                z.im.abs()
-            )));
+            return Err(ModelError::ComplexEigenvalues {
+                matrix,
+                re: z.re,
+                im: z.im.abs(),
+            });
         }
         out.push(z.re);
     }
@@ -38,11 +48,8 @@ pub fn real_eigenvalues(m: &DMatrix<f64>, what: &str) -> Result<Vec<f64>> {
 /// an eigenvalue ≤ 0 or a non-real pair.
 pub fn logm(phi: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     let eig = real_eigenvalues(phi, "Φ")?;
-    if let Some(bad) = eig.iter().find(|&&l| l <= 0.0) {
-        return Err(Error::Model(format!(
-            "Φ has the eigenvalue {bad:.6} ≤ 0, so it has no real logarithm and no continuous \
-             equivalent (the sample time is too long for the fastest dynamics, or the estimate is poor)"
-        )));
+    if let Some(&eigenvalue) = eig.iter().find(|&&l| l <= 0.0) {
+        return Err(ModelError::NoRealLogarithm { eigenvalue });
     }
     let n = phi.nrows();
     let id = DMatrix::<f64>::identity(n, n);
@@ -52,9 +59,9 @@ pub fn logm(phi: &DMatrix<f64>) -> Result<DMatrix<f64>> {
         x = sqrtm_denman_beavers(&x)?;
         squarings += 1;
         if squarings > 60 {
-            return Err(Error::Model(
-                "the matrix logarithm of Φ did not converge".into(),
-            ));
+            return Err(ModelError::LogarithmDiverged {
+                square_roots: squarings as usize,
+            });
         }
     }
     let e = &x - &id;
@@ -77,14 +84,9 @@ fn sqrtm_denman_beavers(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     let mut y = a.clone();
     let mut z = DMatrix::<f64>::identity(n, n);
     for _ in 0..100 {
-        let y_inv = y
-            .clone()
-            .try_inverse()
-            .ok_or_else(|| Error::Model("Φ is singular".into()))?;
-        let z_inv = z
-            .clone()
-            .try_inverse()
-            .ok_or_else(|| Error::Model("Φ is singular".into()))?;
+        let singular = ModelError::Singular { matrix: "Φ" };
+        let y_inv = y.clone().try_inverse().ok_or(singular.clone())?;
+        let z_inv = z.clone().try_inverse().ok_or(singular)?;
         let y_next = (&y + z_inv) * 0.5;
         let z_next = (&z + y_inv) * 0.5;
         let change = (&y_next - &y).norm();
@@ -97,40 +99,15 @@ fn sqrtm_denman_beavers(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     Ok(y)
 }
 
-/// Matrix exponential e^A by scaling and squaring with a Taylor series.
-pub fn expm(a: &DMatrix<f64>) -> DMatrix<f64> {
-    let n = a.nrows();
-    let norm = a.norm();
-    let squarings = if norm > 0.5 {
-        (norm / 0.5).log2().ceil() as i32
-    } else {
-        0
-    };
-    let scaled = a / 2f64.powi(squarings);
-    let mut sum = DMatrix::<f64>::identity(n, n);
-    let mut term = DMatrix::<f64>::identity(n, n);
-    for j in 1..40 {
-        term = &term * &scaled / j as f64;
-        sum += &term;
-        if term.norm() <= 1e-18 * sum.norm() {
-            break;
-        }
-    }
-    for _ in 0..squarings {
-        sum = &sum * &sum;
-    }
-    sum
-}
-
 /// Zero-order-hold discretisation of dx/dt = A x + B u over Ts:
 /// Φ = e^{A·Ts}, Γ = ∫₀^Ts e^{A s} ds · B, from one exponential of the block
-/// matrix [[A, B], [0, 0]]·Ts.
+/// matrix [[A, B], [0, 0]]·Ts (nalgebra's Padé scaling and squaring).
 pub fn discretize(a: &DMatrix<f64>, b: &DMatrix<f64>, ts: f64) -> (DMatrix<f64>, DMatrix<f64>) {
     let (n, m) = (a.nrows(), b.ncols());
     let mut block = DMatrix::zeros(n + m, n + m);
     block.view_mut((0, 0), (n, n)).copy_from(&(a * ts));
     block.view_mut((0, n), (n, m)).copy_from(&(b * ts));
-    let e = expm(&block);
+    let e = block.exp();
     (
         e.view((0, 0), (n, n)).into_owned(),
         e.view((0, n), (n, m)).into_owned(),
@@ -186,16 +163,84 @@ mod tests {
                 -0.0012, 0.00046, 0.00077, 0.00019, -0.00058, 0.0031, 0.0021, 0.0011, -0.0417,
             ],
         );
-        let phi = expm(&a);
+        let phi = a.exp();
         assert!((logm(&phi).unwrap() - a).norm() < 1e-15);
+    }
+
+    /// The hand-written exponential nalgebra's replaced (scaling and squaring of a
+    /// Taylor series), kept as the reference it is checked against.
+    fn taylor_expm(a: &DMatrix<f64>) -> DMatrix<f64> {
+        let n = a.nrows();
+        let norm = a.norm();
+        let squarings = if norm > 0.5 {
+            (norm / 0.5).log2().ceil() as i32
+        } else {
+            0
+        };
+        let scaled = a / 2f64.powi(squarings);
+        let mut sum = DMatrix::<f64>::identity(n, n);
+        let mut term = DMatrix::<f64>::identity(n, n);
+        for j in 1..40 {
+            term = &term * &scaled / j as f64;
+            sum += &term;
+            if term.norm() <= 1e-18 * sum.norm() {
+                break;
+            }
+        }
+        for _ in 0..squarings {
+            sum = &sum * &sum;
+        }
+        sum
+    }
+
+    #[test]
+    fn exp_of_a_diagonalisable_matrix_matches_the_hand_worked_value() {
+        // A = V diag(−0.5, −3) V⁻¹ with V = [[1, 1], [1, 2]], V⁻¹ = [[2, −1], [−1, 1]].
+        // For any D = diag(d1, d2), V D V⁻¹ = [[2d1 − d2, d2 − d1], [2d1 − 2d2, 2d2 − d1]]:
+        // A = [[2, −2.5], [5, −5.5]], and e^A is the same with (d1, d2) = (e^−0.5, e^−3).
+        let a = DMatrix::from_row_slice(2, 2, &[2.0, -2.5, 5.0, -5.5]);
+        let (ea, eb) = ((-0.5f64).exp(), (-3.0f64).exp());
+        let expect = DMatrix::from_row_slice(
+            2,
+            2,
+            &[2.0 * ea - eb, -ea + eb, 2.0 * ea - 2.0 * eb, -ea + 2.0 * eb],
+        );
+        let new = (a.exp() - &expect).norm() / expect.norm();
+        let old = (taylor_expm(&a) - &expect).norm() / expect.norm();
+        assert!(new < 1e-14, "nalgebra's exp: relative error {new:.1e}");
+        assert!(
+            old < 1e-14,
+            "the Taylor reference: relative error {old:.1e}"
+        );
+        // The discretisation block of the paper's model at Ts = 1 s and of a stiff one.
+        for ts in [1.0, 600.0] {
+            let a_c = DMatrix::from_row_slice(
+                3,
+                3,
+                &[
+                    -0.0012, 0.00046, 0.00077, 0.00019, -0.00058, 0.0031, 0.0021, 0.0011, -0.0417,
+                ],
+            ) * ts;
+            let diff = (a_c.exp() - taylor_expm(&a_c)).norm() / taylor_expm(&a_c).norm();
+            assert!(diff < 1e-13, "Ts = {ts}: {diff:.1e}");
+        }
     }
 
     #[test]
     fn logm_refuses_nonpositive_and_complex_eigenvalues() {
         let neg = DMatrix::from_row_slice(2, 2, &[0.9, 0.0, 0.0, -0.2]);
-        assert!(logm(&neg).unwrap_err().to_string().contains("-0.2"));
+        assert_eq!(
+            logm(&neg).unwrap_err(),
+            ModelError::NoRealLogarithm { eigenvalue: -0.2 }
+        );
         let rot = DMatrix::from_row_slice(2, 2, &[0.9, -0.3, 0.3, 0.9]);
-        assert!(logm(&rot).unwrap_err().to_string().contains("complex"));
+        match logm(&rot).unwrap_err() {
+            ModelError::ComplexEigenvalues { matrix, re, im } => {
+                assert_eq!(matrix, "Φ");
+                assert!((re - 0.9).abs() < 1e-12 && (im - 0.3).abs() < 1e-12);
+            }
+            other => panic!("{other}"),
+        }
     }
 
     #[test]

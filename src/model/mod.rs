@@ -6,22 +6,26 @@
 //! [`ModelAnalysis`].
 
 pub mod continuous;
+pub mod error;
 pub mod fit;
 pub mod matrix;
 pub mod residuals;
 pub mod sensitivity;
 pub mod uncertainty;
 
+use std::borrow::Cow;
+use std::ops::Range;
+
 use nalgebra::DMatrix;
 use serde::Serialize;
 
 pub use continuous::{ContinuousModel, Spectrum};
+pub use error::ModelError;
 pub use fit::Fit;
 pub use residuals::ResidualAnalysis;
 pub use sensitivity::{Assignment, Sensitivities};
 pub use uncertainty::Uncertainty;
 
-use crate::error::Result;
 use crate::estimate::{Estimate, IdentificationData};
 
 /// Everything the analysis derives from one estimate.
@@ -31,7 +35,8 @@ pub struct ModelAnalysis {
     pub continuous: ContinuousModel,
     /// Eigenvalues and time constants.
     pub spectrum: Spectrum,
-    /// Simulated outputs ŷ (eq. 8), N × n, NaN outside the simulated segments.
+    /// Simulated outputs ŷ (eq. 8) over the data analysed, N × n, NaN outside the
+    /// simulated segments.
     #[serde(skip)]
     pub simulated: DMatrix<f64>,
     /// Fit of ŷ to y.
@@ -54,31 +59,49 @@ pub struct ModelAnalysis {
 /// Largest lag of the residual correlations.
 pub const RESIDUAL_MAX_LAG: usize = 60;
 
-/// Analyses an estimate against its data; `steady_state_input` is the input
-/// (normally the last measured one, eq. 30) whose steady state is wanted.
+/// Analyses an estimate against its data; `estimation_range` is the part of `data` the
+/// estimate came from (the fit, sensitivities and residuals describe it), while the
+/// simulated output covers all of `data`, held-out instants included. `steady_state_input`
+/// is the input (normally the last measured one, eq. 30) whose steady state is wanted.
 pub fn analyse(
     estimate: &Estimate,
     data: &IdentificationData,
+    estimation_range: Range<usize>,
     temperature_base_k: f64,
     steady_state_input: &[f64],
-) -> Result<ModelAnalysis> {
+) -> Result<ModelAnalysis, ModelError> {
     let model = &estimate.model;
     let spectrum = Spectrum::of(model)?;
     let continuous = ContinuousModel::from_discrete(model)?;
-    let segments = data.segments();
-    let simulated = fit::simulate(model, data, &segments);
-    let fit = fit::fit(data, &simulated, temperature_base_k);
+    let simulated = fit::simulate(model, data, &data.segments());
+    let whole = estimation_range == (0..data.len());
+    // Simulation is causal: the rows of the estimation range are the simulation of that
+    // range alone. A week's data are not copied unless a part is held out.
+    let (estimation, estimation_sim) = if whole {
+        (Cow::Borrowed(data), Cow::Borrowed(&simulated))
+    } else {
+        (
+            Cow::Owned(data.slice(estimation_range.clone())),
+            Cow::Owned(
+                simulated
+                    .rows(estimation_range.start, estimation_range.len())
+                    .into_owned(),
+            ),
+        )
+    };
+    let fit = fit::fit(&estimation, &estimation_sim, temperature_base_k);
     let sensitivities = sensitivity::sensitivities(
         &continuous,
         &spectrum.time_constants_s,
         model.ts_s,
-        data,
-        &segments,
+        &estimation,
+        &estimation.segments(),
     )?;
     let assignment = sensitivity::assign(&sensitivities);
     let steady_state = continuous.steady_state(steady_state_input)?;
     let uncertainty = uncertainty::propagate(estimate, steady_state_input);
-    let residuals = residuals::analyse(data, &simulated, RESIDUAL_MAX_LAG);
+    let residuals = residuals::analyse(&estimation, &estimation_sim, RESIDUAL_MAX_LAG);
+    drop((estimation, estimation_sim));
     Ok(ModelAnalysis {
         continuous,
         spectrum,

@@ -27,7 +27,8 @@ pub struct ResidualAnalysis {
     pub autocorrelation_outside_band: Vec<f64>,
 }
 
-/// Correlation analysis of the residuals over the instants where `simulated` exists.
+/// Correlation analysis of the residuals over the observed entries where `simulated`
+/// exists; a product at lag τ counts where both of its factors are known.
 pub fn analyse(
     data: &IdentificationData,
     simulated: &DMatrix<f64>,
@@ -36,10 +37,9 @@ pub fn analyse(
     let n = data.states();
     let m = data.input_count();
     let len = data.len();
-    let valid: Vec<bool> = (0..len)
-        .map(|k| data.outputs_known[k] && simulated[(k, 0)].is_finite())
-        .collect();
-    let samples = valid.iter().filter(|v| **v).count();
+    // Observed entries where the simulation exists (all outputs of an instant, without a mask).
+    let valid = |k: usize, i: usize| data.observed(k, i) && simulated[(k, 0)].is_finite();
+    let samples = (0..len).filter(|&k| (0..n).any(|i| valid(k, i))).count();
     // The centred series are read on the fly rather than stored: a week at Ts = 1 s
     // would otherwise hold n + m more series of 604,800 instants.
     let mean = |f: &dyn Fn(usize) -> Option<f64>| {
@@ -49,13 +49,13 @@ pub fn analyse(
         sum / count.max(1) as f64
     };
     let residual_means: Vec<f64> = (0..n)
-        .map(|i| mean(&|k| valid[k].then(|| data.outputs[(k, i)] - simulated[(k, i)])))
+        .map(|i| mean(&|k| valid(k, i).then(|| data.outputs[(k, i)] - simulated[(k, i)])))
         .collect();
     let input_means: Vec<f64> = (0..m)
         .map(|j| mean(&|k| data.inputs_known[k].then(|| data.inputs[(k, j)])))
         .collect();
     let residual = |i: usize, k: usize| {
-        valid[k].then(|| data.outputs[(k, i)] - simulated[(k, i)] - residual_means[i])
+        valid(k, i).then(|| data.outputs[(k, i)] - simulated[(k, i)] - residual_means[i])
     };
     let input =
         |j: usize, k: usize| data.inputs_known[k].then(|| data.inputs[(k, j)] - input_means[j]);

@@ -15,8 +15,10 @@ use serde::Serialize;
 
 use super::continuous::ContinuousModel;
 use super::matrix::eigenvector;
-use crate::error::{Error, Result};
-use crate::estimate::IdentificationData;
+use super::ModelError;
+use crate::estimate::{DiscreteModel, IdentificationData};
+
+type Result<T, E = ModelError> = std::result::Result<T, E>;
 
 /// The norms of the relative sensitivity responses T_i ∂y_k/∂T_i.
 ///
@@ -49,8 +51,8 @@ pub struct Assignment {
 #[derive(Debug, Clone)]
 pub struct SensitivityModel {
     time_constants_s: Vec<f64>,
-    phi: DMatrix<f64>,
-    gamma: DMatrix<f64>,
+    /// Φ(T) and Γ(T) at the time constants.
+    discrete: DiscreteModel,
     d_phi: Vec<DMatrix<f64>>,
     d_gamma: Vec<DMatrix<f64>>,
 }
@@ -69,9 +71,10 @@ impl SensitivityModel {
         for (i, t) in time_constants_s.iter().enumerate() {
             v.set_column(i, &eigenvector(&model.a_c, -1.0 / t));
         }
-        let v_inv = v.clone().try_inverse().ok_or_else(|| {
-            Error::Model("A_c is not diagonalisable (repeated time constants)".into())
-        })?;
+        let v_inv = v
+            .clone()
+            .try_inverse()
+            .ok_or(ModelError::NotDiagonalisable)?;
         let mu: Vec<f64> = time_constants_s.iter().map(|t| (-ts_s / t).exp()).collect();
         let g: Vec<f64> = time_constants_s
             .iter()
@@ -92,15 +95,19 @@ impl SensitivityModel {
         }
         Ok(SensitivityModel {
             time_constants_s: time_constants_s.to_vec(),
-            phi: modal(&mu),
-            gamma: modal(&g) * &model.b_c,
+            discrete: DiscreteModel {
+                phi: modal(&mu),
+                gamma: modal(&g) * &model.b_c,
+                ts_s,
+            },
             d_phi,
             d_gamma,
         })
     }
 
     /// Calls `visit(k, T_i ∂ŷ(k)/∂T_i)` for every instant k of every segment, in
-    /// order: s_i(k) = Φ s_i(k−1) + ∂Φ/∂T_i ŷ(k−1) + ∂Γ/∂T_i u(k−1), s_i(start) = 0.
+    /// order: s_i(k) = Φ s_i(k−1) + ∂Φ/∂T_i ŷ(k−1) + ∂Γ/∂T_i u(k−1), s_i(start) = 0,
+    /// with ŷ simulated from [`DiscreteModel::initial_state`] (the measured start where known).
     pub fn for_each_response(
         &self,
         i: usize,
@@ -108,7 +115,7 @@ impl SensitivityModel {
         segments: &[Range<usize>],
         mut visit: impl FnMut(usize, &DVector<f64>),
     ) {
-        let (n, m) = (self.phi.nrows(), self.gamma.ncols());
+        let (n, m) = (self.discrete.phi.nrows(), self.discrete.gamma.ncols());
         let t = self.time_constants_s[i];
         let (d_phi, d_gamma) = (&self.d_phi[i], &self.d_gamma[i]);
         // Buffers reused across instants: no allocation per step.
@@ -116,10 +123,9 @@ impl SensitivityModel {
         let mut s = DVector::zeros(n);
         let mut u = DVector::zeros(m);
         let mut rel = DVector::zeros(n);
+        let (phi, gamma) = (&self.discrete.phi, &self.discrete.gamma);
         for seg in segments {
-            for j in 0..n {
-                y[j] = data.outputs[(seg.start, j)];
-            }
+            y.copy_from(&self.discrete.initial_state(data, seg.clone()));
             s.fill(0.0);
             rel.fill(0.0);
             visit(seg.start, &rel);
@@ -129,12 +135,12 @@ impl SensitivityModel {
                 }
                 // s ← Φ s + ∂Φ/∂T_i y + ∂Γ/∂T_i u, then y ← Φ y + Γ u (old y in both).
                 rel.copy_from(&s);
-                s.gemv(1.0, &self.phi, &rel, 0.0);
+                s.gemv(1.0, phi, &rel, 0.0);
                 s.gemv(1.0, d_phi, &y, 1.0);
                 s.gemv(1.0, d_gamma, &u, 1.0);
                 rel.copy_from(&y);
-                y.gemv(1.0, &self.phi, &rel, 0.0);
-                y.gemv(1.0, &self.gamma, &u, 1.0);
+                y.gemv(1.0, phi, &rel, 0.0);
+                y.gemv(1.0, gamma, &u, 1.0);
                 rel.copy_from(&s);
                 rel *= t;
                 visit(k, &rel);

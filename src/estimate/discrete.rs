@@ -1,0 +1,226 @@
+//! The discrete-time model every estimator produces, and its simulation (eq. 8).
+
+use std::ops::Range;
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use super::IdentificationData;
+
+/// A discrete-time model x(k) = Φ x(k−1) + Γ u(k−1) (eq. 1) with y = x.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiscreteModel {
+    /// State transition matrix Φ (n × n).
+    pub phi: DMatrix<f64>,
+    /// Input matrix Γ (n × m).
+    pub gamma: DMatrix<f64>,
+    /// Sample time Ts in s.
+    pub ts_s: f64,
+}
+
+impl DiscreteModel {
+    /// The model of n states and m inputs with Θ = [Φ Γ] (eq. 5) from a vector laid out
+    /// as [`DiscreteModel::theta`]: row i of Θ at indices i·(n+m) .. (i+1)·(n+m).
+    pub fn from_theta(n: usize, m: usize, ts_s: f64, theta: &[f64]) -> DiscreteModel {
+        let p = n + m;
+        debug_assert_eq!(theta.len(), n * p);
+        DiscreteModel {
+            phi: DMatrix::from_fn(n, n, |i, j| theta[i * p + j]),
+            gamma: DMatrix::from_fn(n, m, |i, j| theta[i * p + n + j]),
+            ts_s,
+        }
+    }
+
+    /// Θ = [Φ Γ] as one vector, row by row: index i·(n+m) + j.
+    pub fn theta(&self) -> Vec<f64> {
+        let (n, m) = (self.phi.nrows(), self.gamma.ncols());
+        (0..n)
+            .flat_map(|i| (0..n + m).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                if j < n {
+                    self.phi[(i, j)]
+                } else {
+                    self.gamma[(i, j - n)]
+                }
+            })
+            .collect()
+    }
+
+    /// A model of this one's shape and sample time with Θ from `theta`
+    /// (laid out as [`DiscreteModel::theta`]).
+    pub fn with_theta(&self, theta: &[f64]) -> DiscreteModel {
+        DiscreteModel::from_theta(self.phi.nrows(), self.gamma.ncols(), self.ts_s, theta)
+    }
+
+    /// Largest modulus of Φ's eigenvalues (the model is stable below 1).
+    pub fn spectral_radius(&self) -> f64 {
+        self.phi
+            .clone()
+            .complex_eigenvalues()
+            .iter()
+            .map(|z| z.norm())
+            .fold(0.0, f64::max)
+    }
+
+    /// The state ŷ(start) a simulation over `range` starts from: the measured y(start)
+    /// where observed. Outputs not observed at the start (data with a mask) are fitted:
+    /// ŷ(k) = Φ^(k−start) x0 + forced response is linear in x0, so the unknown entries
+    /// are the least-squares fit to the observations over the range, taken as a
+    /// correction to the next observation of each (the minimum-norm correction where
+    /// the observations do not determine it). Without a mask this is y(start).
+    pub fn initial_state(&self, data: &IdentificationData, range: Range<usize>) -> DVector<f64> {
+        let n = self.phi.nrows();
+        let s = range.start;
+        let mut x0 = DVector::zeros(n);
+        let mut unknown = Vec::new();
+        for j in 0..n {
+            if data.observed(s, j) {
+                x0[j] = data.outputs[(s, j)];
+            } else {
+                unknown.push(j);
+                // Prior: the next observation of this output in the range, if any.
+                if let Some(k) = range.clone().find(|&k| data.observed(k, j)) {
+                    x0[j] = data.outputs[(k, j)];
+                }
+            }
+        }
+        if unknown.is_empty() {
+            return x0;
+        }
+        let correction = self.fit_unknown_start(data, range, &x0, &unknown);
+        for (c, &j) in unknown.iter().enumerate() {
+            x0[j] += correction[c];
+        }
+        x0
+    }
+
+    /// The least-squares correction δ to the entries `unknown` of x0: the observed
+    /// residuals y − ŷ(x0) regressed on S(k) = Φ^(k−start) E_unknown.
+    fn fit_unknown_start(
+        &self,
+        data: &IdentificationData,
+        range: Range<usize>,
+        x0: &DVector<f64>,
+        unknown: &[usize],
+    ) -> DVector<f64> {
+        let (n, m, q) = (self.phi.nrows(), self.gamma.ncols(), unknown.len());
+        let mut sens = DMatrix::zeros(n, q);
+        for (c, &j) in unknown.iter().enumerate() {
+            sens[(j, c)] = 1.0;
+        }
+        let (mut y, mut y_next) = (x0.clone(), DVector::zeros(n));
+        let (mut u, mut sens_next) = (DVector::zeros(m), DMatrix::zeros(n, q));
+        let mut gram = DMatrix::<f64>::zeros(q, q);
+        let mut rhs = DVector::<f64>::zeros(q);
+        for k in range.start + 1..range.end {
+            for l in 0..m {
+                u[l] = data.inputs[(k - 1, l)];
+            }
+            y_next.gemv(1.0, &self.phi, &y, 0.0);
+            y_next.gemv(1.0, &self.gamma, &u, 1.0);
+            std::mem::swap(&mut y, &mut y_next);
+            sens_next.gemm(1.0, &self.phi, &sens, 0.0);
+            std::mem::swap(&mut sens, &mut sens_next);
+            for j in (0..n).filter(|&j| data.observed(k, j)) {
+                let r = data.outputs[(k, j)] - y[j];
+                for a in 0..q {
+                    rhs[a] += sens[(j, a)] * r;
+                    for b in 0..q {
+                        gram[(a, b)] += sens[(j, a)] * sens[(j, b)];
+                    }
+                }
+            }
+        }
+        let scale = gram.diagonal().max().max(1e-300);
+        gram.svd(true, true)
+            .solve(&rhs, 1e-10 * scale)
+            .unwrap_or_else(|_| DVector::zeros(q))
+    }
+
+    /// Simulates eq. (8), ŷ(k) = Φ ŷ(k−1) + Γ u(k−1), over `range` from
+    /// [`DiscreteModel::initial_state`] (the measured y(start) where known). Returns one
+    /// row per instant of the range.
+    pub fn simulate(&self, data: &IdentificationData, range: Range<usize>) -> DMatrix<f64> {
+        let n = self.phi.nrows();
+        let mut out = DMatrix::zeros(range.len(), n);
+        if range.is_empty() {
+            return out;
+        }
+        let m = self.gamma.ncols();
+        let x0 = self.initial_state(data, range.clone());
+        for j in 0..n {
+            out[(0, j)] = x0[j];
+        }
+        // Row by row in place: this runs once per instant of a week-long recording in
+        // every estimator iteration, so it must not allocate.
+        for (i, k) in range.clone().enumerate().skip(1) {
+            for r in 0..n {
+                let mut next = 0.0;
+                for c in 0..n {
+                    next += self.phi[(r, c)] * out[(i - 1, c)];
+                }
+                for c in 0..m {
+                    next += self.gamma[(r, c)] * data.inputs[(k - 1, c)];
+                }
+                out[(i, r)] = next;
+            }
+        }
+        out
+    }
+
+    /// The simulated output over every segment, NaN outside them (eq. 8 run from the
+    /// start state of each segment).
+    pub fn simulate_segments(
+        &self,
+        data: &IdentificationData,
+        segments: &[Range<usize>],
+    ) -> DMatrix<f64> {
+        let mut out = DMatrix::from_element(data.len(), data.states(), f64::NAN);
+        for seg in segments {
+            let sim = self.simulate(data, seg.clone());
+            out.view_mut((seg.start, 0), (seg.len(), data.states()))
+                .copy_from(&sim);
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_state() -> DiscreteModel {
+        DiscreteModel {
+            phi: DMatrix::from_row_slice(2, 2, &[0.9, 0.05, 0.02, 0.97]),
+            gamma: DMatrix::from_row_slice(2, 1, &[0.2, 0.03]),
+            ts_s: 1.0,
+        }
+    }
+
+    #[test]
+    fn theta_round_trips_row_by_row() {
+        let model = two_state();
+        assert_eq!(model.theta(), vec![0.9, 0.05, 0.2, 0.02, 0.97, 0.03]);
+        assert_eq!(DiscreteModel::from_theta(2, 1, 1.0, &model.theta()), model);
+    }
+
+    #[test]
+    fn an_unobserved_start_is_fitted_to_the_later_observations() {
+        let model = two_state();
+        let n = 60;
+        let inputs = DMatrix::from_fn(n, 1, |k, _| ((k / 7) % 2) as f64);
+        let truth = IdentificationData::complete(1.0, DMatrix::zeros(n, 2), inputs.clone());
+        let mut start = truth.clone();
+        start.outputs[(0, 0)] = 0.7;
+        start.outputs[(0, 1)] = -0.4;
+        let y = model.simulate(&start, 0..n);
+        // Output 0 seen only every 9th instant from 4, output 1 every 5th from 0.
+        let data = IdentificationData::complete(1.0, y.clone(), inputs).with_output_observed(
+            DMatrix::from_fn(n, 2, |k, j| if j == 0 { k % 9 == 4 } else { k % 5 == 0 }),
+        );
+        let x0 = model.initial_state(&data, 0..n);
+        assert!((x0[0] - 0.7).abs() < 1e-12, "{x0}");
+        assert_eq!(x0[1], -0.4);
+        assert!((model.simulate(&data, 0..n) - y).norm() < 1e-11);
+    }
+}

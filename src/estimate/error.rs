@@ -1,0 +1,99 @@
+//! Why the data do not support an estimate, with the figures that decided it.
+//!
+//! Messages describe the data and the method, never the command line: the CLI
+//! edge adds what to do next.
+
+use levenberg_marquardt::TerminationReason;
+
+/// An estimator's refusal or failure.
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum EstimationError {
+    /// Fewer usable equations than [`super::MIN_ROWS_PER_PARAMETER`] per unknown.
+    #[error(
+        "only {rows} usable samples (instants where the states and inputs are known), too few \
+         to estimate {parameters} parameters per state; at least {needed} are needed"
+    )]
+    TooFewRows {
+        /// Usable equations (regression rows) found.
+        rows: usize,
+        /// Equations needed.
+        needed: usize,
+        /// Parameters per state, n + m.
+        parameters: usize,
+    },
+    /// A regressor is zero at every usable row, so its parameters are not seen.
+    #[error(
+        "regressor {} is zero throughout: that signal never changes from zero, so its \
+         parameters cannot be estimated",
+        column + 1
+    )]
+    ZeroRegressor {
+        /// Column of [y(k−1)ᵀ u(k−1)ᵀ], from 0.
+        column: usize,
+    },
+    /// The regression (or the instruments' moment matrix) is rank deficient.
+    #[error(
+        "{method}: the regression is rank deficient (σ_min/σ_max = {singular_value_ratio:.1e}): \
+         the inputs are not persistently exciting (constant, or proportional to each other), \
+         so Φ and Γ cannot be told apart"
+    )]
+    NoExcitation {
+        /// The method's name.
+        method: &'static str,
+        /// σ_min/σ_max of the column-scaled matrix.
+        singular_value_ratio: f64,
+    },
+    /// An iterative method's starting model is unstable.
+    #[error("{method}: the starting model is unstable (spectral radius {spectral_radius:.6})")]
+    UnstableStart {
+        /// The method's name.
+        method: &'static str,
+        /// Largest modulus of the start's Φ eigenvalues.
+        spectral_radius: f64,
+    },
+    /// Instrumental variables found no stable model along its first step.
+    #[error(
+        "instrumental variables made no stable step: the re-estimate from the start's \
+         instruments has spectral radius {spectral_radius:.6}"
+    )]
+    NoStableStep {
+        /// Spectral radius of the first re-estimate.
+        spectral_radius: f64,
+    },
+    /// Levenberg–Marquardt ended on a non-finite objective.
+    #[error(
+        "output error: the minimisation failed ({termination:?}); the start model may be unstable"
+    )]
+    MinimisationFailed {
+        /// Why the minimiser stopped.
+        termination: TerminationReason,
+    },
+    /// The forgetting factor of recursive least squares is outside (0, 1].
+    #[error("the forgetting factor {value} is outside (0, 1]")]
+    ForgettingFactor {
+        /// The factor given.
+        value: f64,
+    },
+    /// Weights whose shape does not match the data.
+    #[error(
+        "weights for {given_rows} × {given_columns} entries, but the data have {rows} × {columns}"
+    )]
+    WeightShape {
+        /// Rows given (instants, or 1 for per-state weights).
+        given_rows: usize,
+        /// Columns given.
+        given_columns: usize,
+        /// Rows wanted.
+        rows: usize,
+        /// Columns wanted (states).
+        columns: usize,
+    },
+    /// A weight that is negative, zero where it must be positive, or not finite.
+    #[error("the weight {value} of state {} is not allowed (weights are finite, and positive per state)", state + 1)]
+    InvalidWeight {
+        /// The state, from 0.
+        state: usize,
+        /// The weight.
+        value: f64,
+    },
+}
