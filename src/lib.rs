@@ -14,7 +14,8 @@
 //! | publishing | [`publish`] | everything → a rerun recording |
 //! | report | [`report`] | everything → the profile's JSON report and a summary |
 //!
-//! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs.
+//! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs, and
+//! [`writer`] writes any recording in the profile.
 
 pub mod atomic;
 pub mod decimate;
@@ -29,5 +30,6 @@ pub mod recording;
 pub mod report;
 pub mod series;
 pub mod synth;
+pub mod writer;
 
 pub use error::{Error, Result};
