@@ -147,6 +147,14 @@ pub struct SynthArgs {
     /// Write uncompressed chunks instead of zstd.
     #[arg(long)]
     pub uncompressed: bool,
+    /// Store the temperatures by exception, as a SCADA historian does: a sample only
+    /// when it moved by more than this many kelvin since the last stored one (or the
+    /// heartbeat passed).
+    #[arg(long, value_name = "K")]
+    pub deadband: Option<f64>,
+    /// With --deadband: the heartbeat, the longest time between stored samples, s.
+    #[arg(long, value_name = "S", default_value_t = 600.0, requires = "deadband")]
+    pub heartbeat: f64,
 }
 
 /// Operating profile of a synthetic run.

@@ -14,7 +14,8 @@
 //! | publishing | [`publish`] | everything → a rerun recording |
 //! | report | [`report`] | everything → the profile's JSON report and a summary |
 //!
-//! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs.
+//! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs, and
+//! [`writer`] writes any recording in the profile.
 //!
 //! # A replay in a few lines
 //!
@@ -56,5 +57,6 @@ pub mod signals;
 pub mod spec;
 pub mod synth;
 pub mod warnings;
+pub mod writer;
 
 pub use error::{Error, Result};

@@ -5,10 +5,11 @@
 //! model of the profile: the operating point (I_g, U_g, I_f) is held over each
 //! interval [t_k, t_k + Ts) and the losses use the temperatures at t_k, so the
 //! exact discretisation at Ts is the model x(k) = Φ x(k−1) + Γ u(k−1). Every channel
-//! is sampled at its own rate with optional Gaussian noise and resolution.
+//! is sampled at its own rate with optional Gaussian noise and resolution, and the
+//! temperatures are optionally stored by exception as a SCADA historian does
+//! (deadband and heartbeat).
 
-use std::collections::{BTreeMap, HashMap};
-use std::io::BufWriter;
+use std::collections::HashMap;
 use std::path::Path;
 
 use nalgebra::{DMatrix, DVector};
@@ -16,19 +17,17 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
-use crate::atomic::PendingOutput;
 use crate::error::{Error, Result};
 use crate::estimate::DiscreteModel;
 use crate::losses::{self, copper_resistance};
 use crate::model::matrix::{discretize, rows};
 use crate::model::{ContinuousModel, Spectrum};
-use crate::recording::{
-    Nameplate, Quantity, NAMEPLATE_RECORD, SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING,
-    SAMPLE_SCHEMA_NAME,
+use crate::recording::{Nameplate, Quantity};
+use crate::writer::{
+    ChannelId, ChannelSpec, ExceptionFilter, RecordingWriter, Storage, WriterOptions,
 };
 
-/// The JSON Schema of a sample message (also `schemas/sample.schema.json`).
-pub const SAMPLE_SCHEMA: &str = include_str!("../schemas/sample.schema.json");
+pub use crate::writer::SAMPLE_SCHEMA;
 
 /// Φ of the paper, eq. (19), Ts = 1 s.
 pub const PAPER_PHI: [[f64; 3]; 3] = [
@@ -142,6 +141,9 @@ pub struct SynthOptions {
     pub electrical_noise_pu: f64,
     /// Temperature resolution, K (0: none).
     pub temperature_resolution_k: f64,
+    /// How the temperature channels are stored: every sample, or by exception
+    /// (deadband in K, heartbeat in s), after noise and resolution.
+    pub temperature_storage: Storage,
     /// Random seed.
     pub seed: u64,
     /// The operating schedule.
@@ -168,6 +170,7 @@ impl Default for SynthOptions {
             temperature_noise_k: 0.0,
             electrical_noise_pu: 0.0,
             temperature_resolution_k: 0.0,
+            temperature_storage: Storage::Sampled,
             seed: 1,
             profile: heat_run_with_load_steps(),
             field_channel: FieldChannel::Voltage,
@@ -308,6 +311,36 @@ fn simulate(o: &SynthOptions) -> Result<Trajectory> {
 /// Writes a synthetic heat run to `out` and its truth to `<out>.truth.json`;
 /// returns the truth.
 pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
+    check_options(o)?;
+    let traj = simulate(o)?;
+    let continuous = ContinuousModel::from_discrete(&o.truth)?;
+    let spectrum = Spectrum::of(&o.truth)?;
+
+    let mut writer = RecordingWriter::create(
+        out,
+        WriterOptions {
+            compress: o.compress,
+            chunk_size: o.chunk_size,
+        },
+    )?;
+    let mut channels = add_channels(&mut writer, o)?;
+    write_records(&mut writer, o)?;
+    let mut source = SampleSource::new(o, &traj, &continuous)?;
+    write_samples(&mut writer, &mut channels, &mut source, o)?;
+    writer.finish()?;
+
+    let truth = truth_of(o, &traj, &continuous, spectrum)?;
+    crate::atomic::write_atomically(
+        &truth_path(out),
+        serde_json::to_string_pretty(&truth)
+            .unwrap_or_default()
+            .as_bytes(),
+    )?;
+    Ok(truth)
+}
+
+/// Rejects options that cannot make a run.
+fn check_options(o: &SynthOptions) -> Result<()> {
     for (name, v) in [
         ("duration", o.duration_s),
         ("electrical rate", o.electrical_rate_hz),
@@ -324,62 +357,35 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
             "the duration must cover at least 10 sample times".into(),
         ));
     }
-    let traj = simulate(o)?;
-    let continuous = ContinuousModel::from_discrete(&o.truth)?;
-    let spectrum = Spectrum::of(&o.truth)?;
-    let np = &o.nameplate;
-    let ts = o.truth.ts_s;
-    let base = np.temperature_base_k;
-    let th0 = o.initial_temperatures_c;
-    let steps = traj.inputs.len();
-    let ts_ns = (ts * 1e9).round() as u64;
-
-    // Intra-interval propagation x(t_k + τ) = Φ(τ) x(k) + Γ(τ) u(k), cached by τ.
-    let mut propagators: HashMap<u64, (DMatrix<f64>, DMatrix<f64>)> = HashMap::new();
-    let mut state_at = |t_rel_ns: u64| -> DVector<f64> {
-        let k = ((t_rel_ns / ts_ns) as usize).min(steps);
-        let tau = t_rel_ns - k as u64 * ts_ns;
-        if tau == 0 || k == steps {
-            return traj.states[k].clone();
+    if let Storage::Exception {
+        deadband,
+        max_interval_s,
+    } = o.temperature_storage
+    {
+        if !(deadband.is_finite() && deadband >= 0.0) {
+            return Err(Error::Usage(format!(
+                "the deadband must be a number of kelvin ≥ 0, not {deadband}"
+            )));
         }
-        let (phi, gamma) = propagators
-            .entry(tau)
-            .or_insert_with(|| discretize(&continuous.a_c, &continuous.b_c, tau as f64 * 1e-9));
-        &*phi * &traj.states[k] + &*gamma * &traj.inputs[k]
-    };
-
-    let mut rng = rand::rngs::StdRng::seed_from_u64(o.seed);
-    let temp_noise = Normal::new(0.0, o.temperature_noise_k.max(0.0))
-        .map_err(|e| Error::Usage(e.to_string()))?;
-    let elec_noise = Normal::new(0.0, o.electrical_noise_pu.max(0.0))
-        .map_err(|e| Error::Usage(e.to_string()))?;
-    let quantize = |v: f64| {
-        if o.temperature_resolution_k > 0.0 {
-            (v / o.temperature_resolution_k).round() * o.temperature_resolution_k
-        } else {
-            v
+        if !(max_interval_s.is_finite() && max_interval_s > 0.0) {
+            return Err(Error::Usage(format!(
+                "the heartbeat must be a positive number of seconds, not {max_interval_s}"
+            )));
         }
-    };
+    }
+    Ok(())
+}
 
-    // Sample times, relative to the start, per channel kind. Electrical samples sit
-    // symmetrically inside their intervals, temperature samples around the instants.
-    let duration_ns = steps as u64 * ts_ns;
-    let times = |rate: f64, centred_on_instants: bool| -> Vec<u64> {
-        let period = 1e9 / rate;
-        let phase = if centred_on_instants {
-            period / 2.0 - (ts_ns as f64) / 2.0
-        } else {
-            period / 2.0
-        };
-        let phase = phase.rem_euclid(period);
-        (0..)
-            .map(|i| (phase + i as f64 * period).round() as u64)
-            .take_while(|t| *t < duration_ns)
-            .collect()
-    };
-    let elec_times = times(o.electrical_rate_hz, false);
-    let temp_times = times(o.temperature_rate_hz, o.temperature_rate_hz * ts >= 1.0);
+/// A channel of the synthetic recording: what it carries, where it goes, and the
+/// historian's filter when its samples are stored by exception.
+struct SynthChannel {
+    quantity: Quantity,
+    id: ChannelId,
+    exception: Option<ExceptionFilter>,
+}
 
+/// The channels, in the order the recording lists them (electrical, then temperatures).
+fn channel_list(o: &SynthOptions) -> Vec<(Quantity, &'static str)> {
     let mut channels: Vec<(Quantity, &str)> = vec![
         (Quantity::ArmatureCurrent, "kA"),
         (Quantity::FieldCurrent, "A"),
@@ -395,77 +401,88 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
         (Quantity::CoreTemp, "degC"),
         (Quantity::CoolingWaterOutletTemp, "degC"),
     ]);
+    channels
+}
 
-    let pending = PendingOutput::new(out);
-    let file = std::fs::File::create(pending.path()).map_err(|e| Error::WriteOutput {
-        path: out.to_owned(),
-        message: e.to_string(),
-    })?;
-    let wr = |e: mcap::McapError| Error::WriteOutput {
-        path: out.to_owned(),
-        message: e.to_string(),
-    };
-    let options = mcap::WriteOptions::new()
-        .profile("heatrun-scada/1")
-        .library(concat!("heatrun ", env!("CARGO_PKG_VERSION")))
-        .compression(if o.compress {
-            Some(mcap::Compression::Zstd)
-        } else {
-            None
+fn add_channels(writer: &mut RecordingWriter, o: &SynthOptions) -> Result<Vec<SynthChannel>> {
+    channel_list(o)
+        .into_iter()
+        .map(|(quantity, unit)| {
+            let exception = match o.temperature_storage {
+                Storage::Exception {
+                    deadband,
+                    max_interval_s,
+                } if quantity.is_temperature() => {
+                    Some(ExceptionFilter::new(deadband, max_interval_s))
+                }
+                _ => None,
+            };
+            let spec = ChannelSpec::new(quantity.name(), unit)
+                .with_storage(exception.map_or(Storage::Sampled, |f| f.storage()));
+            Ok(SynthChannel {
+                quantity,
+                id: writer.add_channel(&spec)?,
+                exception,
+            })
         })
-        .chunk_size(Some(o.chunk_size));
-    let mut writer = options.create(BufWriter::new(file)).map_err(wr)?;
-    let schema = writer
-        .add_schema(
-            SAMPLE_SCHEMA_NAME,
-            SAMPLE_SCHEMA_ENCODING,
-            SAMPLE_SCHEMA.as_bytes(),
-        )
-        .map_err(wr)?;
-    let mut ids = Vec::new();
-    for (q, unit) in &channels {
-        let meta: BTreeMap<String, String> = [
-            ("quantity".to_owned(), q.name().to_owned()),
-            ("unit".to_owned(), unit.to_string()),
-        ]
-        .into();
-        ids.push(
-            writer
-                .add_channel(
-                    schema,
-                    &format!("/scada/{}", q.name()),
-                    SAMPLE_MESSAGE_ENCODING,
-                    &meta,
-                )
-                .map_err(wr)?,
-        );
-    }
-    let mut nameplate = np.clone();
+        .collect()
+}
+
+/// The nameplate and the test record.
+fn write_records(writer: &mut RecordingWriter, o: &SynthOptions) -> Result<()> {
+    let mut nameplate = o.nameplate.clone();
     if o.field_channel != FieldChannel::Nameplate {
+        // The field temperature is measured: the paper's method is not needed.
         nameplate.field_winding_final_temp_c = None;
     }
-    writer
-        .write_metadata(&mcap::records::Metadata {
-            name: NAMEPLATE_RECORD.into(),
-            metadata: nameplate.to_record(),
-        })
-        .map_err(wr)?;
-    writer
-        .write_metadata(&mcap::records::Metadata {
-            name: "heatrun.test".into(),
-            metadata: [
-                ("test_id".to_owned(), format!("synthetic-seed-{}", o.seed)),
-                ("site".to_owned(), "heatrun synth".to_owned()),
-                ("kind".to_owned(), "heat run with load steps".to_owned()),
-            ]
-            .into(),
-        })
-        .map_err(wr)?;
+    writer.write_nameplate(&nameplate.to_record())?;
+    writer.write_metadata(
+        "heatrun.test",
+        &[
+            ("test_id".to_owned(), format!("synthetic-seed-{}", o.seed)),
+            ("site".to_owned(), "heatrun synth".to_owned()),
+            ("kind".to_owned(), "heat run with load steps".to_owned()),
+        ]
+        .into(),
+    )
+}
 
-    // Merge the two time lists so messages go out in time order.
+/// Sample times relative to the start, ns, of a channel at `rate_hz` over
+/// `duration_ns`. Electrical samples sit symmetrically inside their intervals of
+/// `ts_ns`, temperature samples (`centred_on_instants`) around the grid instants.
+fn sample_times(rate_hz: f64, centred_on_instants: bool, ts_ns: u64, duration_ns: u64) -> Vec<u64> {
+    let period = 1e9 / rate_hz;
+    let phase = if centred_on_instants {
+        period / 2.0 - (ts_ns as f64) / 2.0
+    } else {
+        period / 2.0
+    };
+    let phase = phase.rem_euclid(period);
+    (0..)
+        .map(|i| (phase + i as f64 * period).round() as u64)
+        .take_while(|t| *t < duration_ns)
+        .collect()
+}
+
+/// Writes every channel's samples in time order: the electrical and the temperature
+/// sample times merged, each instant's channels in the recording's order.
+fn write_samples(
+    writer: &mut RecordingWriter,
+    channels: &mut [SynthChannel],
+    source: &mut SampleSource,
+    o: &SynthOptions,
+) -> Result<()> {
+    let ts = o.truth.ts_s;
+    let (ts_ns, steps) = (source.ts_ns, source.steps);
+    let duration_ns = steps as u64 * ts_ns;
+    let elec_times = sample_times(o.electrical_rate_hz, false, ts_ns, duration_ns);
+    let temp_times = sample_times(
+        o.temperature_rate_hz,
+        o.temperature_rate_hz * ts >= 1.0,
+        ts_ns,
+        duration_ns,
+    );
     let (mut ie, mut it) = (0, 0);
-    let mut seq = 0u32;
-    let mut buf = String::new();
     while ie < elec_times.len() || it < temp_times.len() {
         let take_elec =
             it >= temp_times.len() || (ie < elec_times.len() && elec_times[ie] <= temp_times[it]);
@@ -475,82 +492,16 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
             temp_times[it]
         };
         let log_time = o.start_time_ns + t_rel;
-        for (c, (q, _)) in channels.iter().enumerate() {
-            if q.is_temperature() == take_elec {
+        for c in channels.iter_mut() {
+            if c.quantity.is_temperature() == take_elec {
                 continue;
             }
-            let k = ((t_rel / ts_ns) as usize).min(steps - 1);
-            let p = traj.points[k];
-            let value = match q {
-                Quantity::ArmatureCurrent => {
-                    p.armature_current_pu * np.rated_current_a * (1.0 + elec_noise.sample(&mut rng))
-                        / 1e3
-                }
-                Quantity::FieldCurrent => {
-                    p.field_current_pu
-                        * np.rated_field_current_a.unwrap_or(1000.0)
-                        * (1.0 + elec_noise.sample(&mut rng))
-                }
-                Quantity::LineVoltage => {
-                    p.line_voltage_pu * np.rated_voltage_v * (1.0 + elec_noise.sample(&mut rng))
-                        / 1e3
-                }
-                Quantity::FieldVoltage => {
-                    let i_f = p.field_current_pu * np.rated_field_current_a.unwrap_or(1000.0);
-                    let r = copper_resistance(
-                        np.field_resistance_ohm,
-                        np.field_resistance_ref_temp_c,
-                        traj.field_temps[k],
-                    );
-                    i_f * r * (1.0 + elec_noise.sample(&mut rng))
-                }
-                _ => {
-                    let x = state_at(t_rel);
-                    let j = match q {
-                        Quantity::StatorWindingTemp => 0,
-                        Quantity::CoreTemp => 1,
-                        Quantity::CoolingWaterOutletTemp => 2,
-                        _ => {
-                            // Field winding temperature from the stator winding's.
-                            let cu = th0[0] + base * x[0];
-                            let v = th0[0] + traj.field_scale * (cu - th0[0]);
-                            buf.clear();
-                            buf.push_str(&format!(
-                                "{{\"value\":{}}}",
-                                fmt_value(quantize(v + temp_noise.sample(&mut rng)))
-                            ));
-                            writer
-                                .write_to_known_channel(
-                                    &mcap::records::MessageHeader {
-                                        channel_id: ids[c],
-                                        sequence: seq,
-                                        log_time,
-                                        publish_time: log_time,
-                                    },
-                                    buf.as_bytes(),
-                                )
-                                .map_err(wr)?;
-                            seq = seq.wrapping_add(1);
-                            continue;
-                        }
-                    };
-                    quantize(th0[j] + base * x[j] + temp_noise.sample(&mut rng))
-                }
-            };
-            buf.clear();
-            buf.push_str(&format!("{{\"value\":{}}}", fmt_value(value)));
-            writer
-                .write_to_known_channel(
-                    &mcap::records::MessageHeader {
-                        channel_id: ids[c],
-                        sequence: seq,
-                        log_time,
-                        publish_time: log_time,
-                    },
-                    buf.as_bytes(),
-                )
-                .map_err(wr)?;
-            seq = seq.wrapping_add(1);
+            // The noise is drawn for every sample, stored or not, so a run stored by
+            // exception holds a subset of the same run's samples.
+            let value = source.value(c.quantity, t_rel);
+            if c.exception.as_mut().is_none_or(|f| f.keep(log_time, value)) {
+                writer.write_sample(c.id, log_time, value)?;
+            }
         }
         if take_elec {
             ie += 1;
@@ -558,18 +509,147 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
             it += 1;
         }
     }
-    writer.finish().map_err(wr)?;
-    drop(writer);
-    pending.commit()?;
+    Ok(())
+}
 
+/// The measured value of each channel at any time: the simulated trajectory seen
+/// through the sensors (noise, resolution).
+struct SampleSource<'a> {
+    o: &'a SynthOptions,
+    traj: &'a Trajectory,
+    continuous: &'a ContinuousModel,
+    ts_ns: u64,
+    steps: usize,
+    /// Φ(τ), Γ(τ) of the propagation inside an interval, cached by τ in ns.
+    propagators: HashMap<u64, (DMatrix<f64>, DMatrix<f64>)>,
+    rng: rand::rngs::StdRng,
+    temperature_noise: Normal<f64>,
+    electrical_noise: Normal<f64>,
+}
+
+impl<'a> SampleSource<'a> {
+    fn new(
+        o: &'a SynthOptions,
+        traj: &'a Trajectory,
+        continuous: &'a ContinuousModel,
+    ) -> Result<SampleSource<'a>> {
+        let noise =
+            |sigma: f64| Normal::new(0.0, sigma.max(0.0)).map_err(|e| Error::Usage(e.to_string()));
+        Ok(SampleSource {
+            o,
+            traj,
+            continuous,
+            ts_ns: (o.truth.ts_s * 1e9).round() as u64,
+            steps: traj.inputs.len(),
+            propagators: HashMap::new(),
+            rng: rand::rngs::StdRng::seed_from_u64(o.seed),
+            temperature_noise: noise(o.temperature_noise_k)?,
+            electrical_noise: noise(o.electrical_noise_pu)?,
+        })
+    }
+
+    /// The state at `t_rel_ns` after the start: x(t_k + τ) = Φ(τ) x(k) + Γ(τ) u(k).
+    fn state_at(&mut self, t_rel_ns: u64) -> DVector<f64> {
+        let k = ((t_rel_ns / self.ts_ns) as usize).min(self.steps);
+        let tau = t_rel_ns - k as u64 * self.ts_ns;
+        if tau == 0 || k == self.steps {
+            return self.traj.states[k].clone();
+        }
+        let c = self.continuous;
+        let (phi, gamma) = self
+            .propagators
+            .entry(tau)
+            .or_insert_with(|| discretize(&c.a_c, &c.b_c, tau as f64 * 1e-9));
+        &*phi * &self.traj.states[k] + &*gamma * &self.traj.inputs[k]
+    }
+
+    /// The value `quantity`'s sensor reads at `t_rel_ns` after the start, in the
+    /// channel's unit, rounded to 12 significant digits.
+    fn value(&mut self, quantity: Quantity, t_rel_ns: u64) -> f64 {
+        let np = &self.o.nameplate;
+        let k = ((t_rel_ns / self.ts_ns) as usize).min(self.steps - 1);
+        let p = self.traj.points[k];
+        let rated_field_current = np.rated_field_current_a.unwrap_or(1000.0);
+        let value = match quantity {
+            Quantity::ArmatureCurrent => {
+                p.armature_current_pu * np.rated_current_a * self.electrical_factor() / 1e3
+            }
+            Quantity::FieldCurrent => {
+                p.field_current_pu * rated_field_current * self.electrical_factor()
+            }
+            Quantity::LineVoltage => {
+                p.line_voltage_pu * np.rated_voltage_v * self.electrical_factor() / 1e3
+            }
+            Quantity::FieldVoltage => {
+                let i_f = p.field_current_pu * rated_field_current;
+                let r = copper_resistance(
+                    np.field_resistance_ohm,
+                    np.field_resistance_ref_temp_c,
+                    self.traj.field_temps[k],
+                );
+                i_f * r * self.electrical_factor()
+            }
+            _ => {
+                let temperature = self.true_temperature(quantity, t_rel_ns);
+                let noise = self.temperature_noise.sample(&mut self.rng);
+                self.quantize(temperature + noise)
+            }
+        };
+        round_to_12_digits(value)
+    }
+
+    /// 1 + the relative noise of an electrical sensor.
+    fn electrical_factor(&mut self) -> f64 {
+        1.0 + self.electrical_noise.sample(&mut self.rng)
+    }
+
+    /// The noise-free temperature of a temperature quantity, °C.
+    fn true_temperature(&mut self, quantity: Quantity, t_rel_ns: u64) -> f64 {
+        let x = self.state_at(t_rel_ns);
+        let th0 = self.o.initial_temperatures_c;
+        let base = self.o.nameplate.temperature_base_k;
+        let j = match quantity {
+            Quantity::StatorWindingTemp => 0,
+            Quantity::CoreTemp => 1,
+            Quantity::CoolingWaterOutletTemp => 2,
+            _ => {
+                // The field winding temperature, from the stator winding's.
+                let cu = th0[0] + base * x[0];
+                return th0[0] + self.traj.field_scale * (cu - th0[0]);
+            }
+        };
+        th0[j] + base * x[j]
+    }
+
+    /// A temperature at the transducer's resolution.
+    fn quantize(&self, v: f64) -> f64 {
+        let r = self.o.temperature_resolution_k;
+        if r > 0.0 {
+            (v / r).round() * r
+        } else {
+            v
+        }
+    }
+}
+
+/// The truth beside the recording.
+fn truth_of(
+    o: &SynthOptions,
+    traj: &Trajectory,
+    continuous: &ContinuousModel,
+    spectrum: Spectrum,
+) -> Result<Truth> {
+    let steps = traj.inputs.len();
+    let base = o.nameplate.temperature_base_k;
+    let th0 = o.initial_temperatures_c;
     let last_u = traj.inputs[steps - 1].clone();
     let ss = continuous.steady_state(last_u.as_slice())?;
-    let truth = Truth {
+    Ok(Truth {
         phi: rows(&o.truth.phi),
         gamma: rows(&o.truth.gamma),
         a_c: rows(&continuous.a_c),
         b_c: rows(&continuous.b_c),
-        sample_time_s: ts,
+        sample_time_s: o.truth.ts_s,
         time_constants_s: spectrum.time_constants_s,
         final_input_pu: last_u.iter().copied().collect(),
         steady_state_rise_k: ss.iter().map(|v| v * base).collect(),
@@ -579,15 +659,7 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
             .collect(),
         profile: o.profile.clone(),
         seed: o.seed,
-    };
-    let truth_path = truth_path(out);
-    crate::atomic::write_atomically(
-        &truth_path,
-        serde_json::to_string_pretty(&truth)
-            .unwrap_or_default()
-            .as_bytes(),
-    )?;
-    Ok(truth)
+    })
 }
 
 /// Where the truth of a synthetic recording is written: `<OUT>.truth.json`.
@@ -597,9 +669,94 @@ pub fn truth_path(out: &Path) -> std::path::PathBuf {
     s.into()
 }
 
-/// A value with enough digits to be exact to 1e-12 relative, without trailing noise.
-fn fmt_value(v: f64) -> String {
-    let s = format!("{v:.12e}");
-    // Re-parse to drop redundant digits: shortest representation that round-trips.
-    s.parse::<f64>().map(|x| format!("{x}")).unwrap_or(s)
+/// A value rounded to 12 significant digits: exact to 1e-12 relative, and written
+/// (shortest form that reads back) without trailing noise.
+fn round_to_12_digits(v: f64) -> f64 {
+    format!("{v:.12e}").parse().unwrap_or(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Reads a recording's messages: (topic, log time, JSON text).
+    fn messages(path: &Path) -> Vec<(String, u64, String)> {
+        let bytes = std::fs::read(path).unwrap();
+        mcap::MessageStream::new(&bytes)
+            .unwrap()
+            .map(|m| {
+                let m = m.unwrap();
+                let text = String::from_utf8(m.data.to_vec()).unwrap();
+                (m.channel.topic.clone(), m.log_time, text)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn storage_by_exception_keeps_a_subset_that_obeys_deadband_and_heartbeat() {
+        let dir = std::env::temp_dir().join(format!("heatrun-synth-exc-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let base = SynthOptions {
+            duration_s: 3000.0,
+            ..SynthOptions::default().with_noise_level(1.0)
+        };
+        let exception = SynthOptions {
+            temperature_storage: Storage::Exception {
+                deadband: 0.1,
+                max_interval_s: 600.0,
+            },
+            ..base.clone()
+        };
+        write(&dir.join("all.mcap"), &base).unwrap();
+        write(&dir.join("exc.mcap"), &exception).unwrap();
+        let all = messages(&dir.join("all.mcap"));
+        let exc = messages(&dir.join("exc.mcap"));
+        std::fs::remove_dir_all(&dir).unwrap();
+
+        let value = |text: &str| -> f64 {
+            serde_json::from_str::<serde_json::Value>(text).unwrap()["value"]
+                .as_f64()
+                .unwrap()
+        };
+        let topic = "/scada/stator_winding_temp";
+        let full: Vec<(u64, f64)> = all
+            .iter()
+            .filter(|m| m.0 == topic)
+            .map(|m| (m.1, value(&m.2)))
+            .collect();
+        let kept: Vec<(u64, f64)> = exc
+            .iter()
+            .filter(|m| m.0 == topic)
+            .map(|m| (m.1, value(&m.2)))
+            .collect();
+        // The electrical channels are untouched.
+        let electrical = |ms: &[(String, u64, String)]| {
+            ms.iter()
+                .filter(|m| m.0 == "/scada/armature_current")
+                .count()
+        };
+        assert_eq!(electrical(&all), electrical(&exc));
+        assert!(
+            kept.len() < full.len() / 2,
+            "{} of {}",
+            kept.len(),
+            full.len()
+        );
+        // Each stored sample is the full run's sample at that time; every sample in
+        // between stayed within the deadband of the last stored one, inside the heartbeat.
+        let mut j = 0;
+        let mut last = full[0];
+        assert_eq!(kept[0], full[0]);
+        for &(t, v) in &full[1..] {
+            let stored = j + 1 < kept.len() && kept[j + 1].0 == t;
+            let due = (v - last.1).abs() > 0.1 || t - last.0 >= 600_000_000_000;
+            assert_eq!(stored, due, "at {t}: {v} after {last:?}");
+            if stored {
+                assert_eq!(kept[j + 1].1, v);
+                j += 1;
+                last = (t, v);
+            }
+        }
+        assert_eq!(j + 1, kept.len());
+    }
 }

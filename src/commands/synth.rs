@@ -1,6 +1,7 @@
 //! `heatrun synth`.
 
 use heatrun::synth::{self, FieldChannel, OperatingPoint, SynthOptions};
+use heatrun::writer::Storage;
 
 use super::Outcome;
 use crate::cli::{FieldArg, ProfileArg, SynthArgs};
@@ -20,6 +21,13 @@ pub fn run(args: SynthArgs) -> anyhow::Result<Outcome> {
             FieldArg::Nameplate => FieldChannel::Nameplate,
         },
         compress: !args.uncompressed,
+        temperature_storage: match args.deadband {
+            Some(deadband) => Storage::Exception {
+                deadband,
+                max_interval_s: args.heartbeat,
+            },
+            None => Storage::Sampled,
+        },
         ..SynthOptions::default()
     };
     if args.profile == ProfileArg::SingleStep {
