@@ -168,6 +168,11 @@ impl SampleSink for Tee<'_> {
         self.decimator.sample(sample);
         self.also.sample(sample);
     }
+
+    fn retract(&mut self, sample: recording::Sample) {
+        self.decimator.retract(sample);
+        self.also.retract(sample);
+    }
 }
 
 /// [`prepare`], with every raw sample also given to `also` as the file streams by.
@@ -177,7 +182,7 @@ pub fn prepare_with(
     also: Option<&mut dyn SampleSink>,
 ) -> Result<Prepared> {
     let name = path.display().to_string();
-    let mut decimator = Decimator::new(options.ts_s)?;
+    let mut decimator = Decimator::new(options.ts_s, crate::decimate::profile_alignments())?;
     let summary = match also {
         Some(also) => recording::read_recording(
             path,
@@ -226,6 +231,10 @@ pub fn prepare_with(
         Error::Estimation(m) => Error::BadRecording {
             path: path.to_owned(),
             message: m,
+        },
+        Error::Decimate(e) => Error::BadRecording {
+            path: path.to_owned(),
+            message: e.to_string(),
         },
         other => other,
     })?;
@@ -335,9 +344,9 @@ pub fn replay_with(
                 "channel {}: {} sample(s) outside the physical range of {} were dropped, the first {} {} at {}",
                 ch.topic,
                 summary.implausible_per_channel[i],
-                ch.quantity,
+                ch.signal,
                 v,
-                ch.quantity.canonical_unit(),
+                ch.canonical_unit(),
                 crate::recording::format_time(t)
             ));
         }
@@ -351,7 +360,7 @@ pub fn replay_with(
                 if early_s > 600.0 {
                     warnings.push(format!(
                         "{} stops at {}, {:.0} s before the recording ends; the rest is not used",
-                        series.quantity,
+                        series.signal,
                         crate::recording::format_time(stop_ns.max(0) as u64),
                         early_s
                     ));

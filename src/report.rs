@@ -300,7 +300,7 @@ impl Report {
                     .zip(&r.decimated.channels)
                     .map(|(c, g)| ChannelEntry {
                         topic: c.topic.clone(),
-                        quantity: c.quantity.name().into(),
+                        quantity: c.signal.name().into(),
                         sensor: c.sensor.clone(),
                         unit: c.unit.clone(),
                         samples: r.recording.samples_per_channel[c.index],

@@ -275,8 +275,8 @@ impl crate::recording::SampleSink for FullRatePublisher {
             entity.as_str(),
             &SeriesLines::new().with_names([format!(
                 "{} [{}]",
-                channel.quantity,
-                channel.quantity.canonical_unit()
+                channel.signal,
+                channel.canonical_unit()
             )]),
         );
         self.channels[channel.index].0 = entity;
@@ -290,6 +290,9 @@ impl crate::recording::SampleSink for FullRatePublisher {
             self.flush_channel(sample.channel);
         }
     }
+
+    /// The full-rate view shows the channels as recorded, faults included: nothing to undo.
+    fn retract(&mut self, _sample: crate::recording::Sample) {}
 }
 
 /// Rows per column chunk of a decimated series.
@@ -386,12 +389,8 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
         )?;
     }
     for (i, series) in replay.decimated.series.values().enumerate() {
-        let entity = format!("raw/{}", series.quantity.name());
-        let name = format!(
-            "{} [{}]",
-            series.quantity.name(),
-            series.quantity.canonical_unit()
-        );
+        let entity = format!("raw/{}", series.signal.name());
+        let name = format!("{} [{}]", series.signal.name(), series.unit);
         style(rec, &entity, &name, PALETTE[i % PALETTE.len()])?;
         send_series(rec, &entity, on_grid(t, series.values.iter()))?;
     }
