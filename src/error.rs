@@ -27,6 +27,40 @@ pub enum Error {
         /// What is wrong, naming the channel, key or time.
         message: String,
     },
+    /// A heat-run channel record breaks the profile (schema, encoding, unit, storage).
+    #[error("{path}: {source}")]
+    Channel {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with which channel.
+        source: crate::recording::ChannelError,
+    },
+    /// A nameplate key the loss model needs is in neither the recording nor a machine file.
+    #[error(
+        "{path}: nameplate key `{key}` is missing: the recording's `heatrun.nameplate` record \
+         does not have it and no machine file gives it"
+    )]
+    MissingNameplateKey {
+        /// The recording.
+        path: PathBuf,
+        /// The key.
+        key: String,
+    },
+    /// A nameplate value is not what its key needs.
+    #[error("{path}: nameplate key `{key}` is `{value}`; it must be {requirement}")]
+    BadNameplateValue {
+        /// The recording or machine file the value came from.
+        path: PathBuf,
+        /// The key.
+        key: String,
+        /// The value as written.
+        value: String,
+        /// What the key needs ("a decimal number", "positive", ...).
+        requirement: &'static str,
+    },
+    /// The samples cannot be laid on the grid (sample time, clock jump, span).
+    #[error(transparent)]
+    Decimate(#[from] crate::decimate::DecimateError),
     /// A machine (nameplate) file given on the command line is unusable.
     #[error("{path}: {message}")]
     BadMachineFile {
@@ -149,6 +183,10 @@ impl Error {
                 | Error::NoCommonInstant { .. }
                 | Error::NoFieldTemperature
                 | Error::FieldScalingRise { .. }
+                | Error::Channel { .. }
+                | Error::MissingNameplateKey { .. }
+                | Error::BadNameplateValue { .. }
+                | Error::Decimate(_)
                 | Error::Estimation(_)
                 | Error::ClockJump(_)
                 | Error::Model(_)

@@ -167,7 +167,6 @@ fn a_corrupted_chunk_is_dropped_and_named() {
 #[test]
 fn messages_that_are_not_samples() {
     for (text, what) in [
-        ("{\"value\": NaN}", "NaN"),
         ("{\"value\": 1e999}", "1e999"),
         ("[1, 2]", "array"),
         ("{\"quality\": \"good\"}", "no value"),

@@ -1,18 +1,19 @@
 //! `heatrun info`.
 
-use heatrun::decimate::Decimator;
-use heatrun::recording::{self, format_time};
+use heatrun::decimate::{profile_alignments, ChannelGrid, Decimator};
+use heatrun::recording::{self, format_time, SensorChannel, Storage};
 
 use super::Outcome;
 use crate::cli::InfoArgs;
 
 pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
-    let mut decimator = Decimator::new(1.0)?;
+    let mut decimator = Decimator::new(1.0, profile_alignments())?;
     let summary = recording::read_recording(&args.file, &mut decimator)?;
+    // `inspect`, not `finish`: a channel whose clock jumped is shown, not refused.
     let grid = if summary.channels.is_empty() {
         None
     } else {
-        decimator.finish(&summary.channels).ok()
+        decimator.inspect(&summary.channels).ok()
     };
     if args.json {
         let value = serde_json::json!({
@@ -35,13 +36,12 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         for (i, c) in summary.channels.iter().enumerate() {
             let g = grid.as_ref().and_then(|g| g.channels.get(i));
             println!(
-                "    {:<40} {:<26} {:<5} {:>9} samples  period {:>8} s  gaps {}{}",
+                "    {:<40} {:<26} {:<5} {:>9} samples  {}{}",
                 c.topic,
-                c.quantity.name(),
+                c.signal.name(),
                 c.unit,
                 summary.samples_per_channel[i],
-                g.map_or("?".into(), |g| format!("{:.3}", g.nominal_period_s)),
-                g.map_or(0, |g| g.gaps),
+                timing(c, g),
                 c.sensor
                     .as_ref()
                     .map(|s| format!("  sensor {s}"))
@@ -83,8 +83,25 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
                     "  {}: {} implausible sample(s), the first {v} {} at {}",
                     c.topic,
                     summary.implausible_per_channel[i],
-                    c.quantity.canonical_unit(),
+                    c.canonical_unit(),
                     format_time(t)
+                );
+            }
+            if let Some(t) = summary.first_dropout[i] {
+                println!(
+                    "  {}: {} dropout(s) (value null or NaN), the first at {}",
+                    c.topic,
+                    summary.dropouts_per_channel[i],
+                    format_time(t)
+                );
+            }
+            if let Some(jump) = grid.as_ref().and_then(|g| g.channels.get(i)?.clock_jump) {
+                println!(
+                    "  {}: its clock jumps back: from {} to {} it holds {:.1} times the samples its rate allows",
+                    c.topic,
+                    format_time(jump.overlap_start_ns),
+                    format_time(jump.overlap_end_ns),
+                    jump.density_ratio
                 );
             }
         }
@@ -103,4 +120,22 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     } else {
         Outcome::DataLoss
     })
+}
+
+/// A channel's storage, nominal period and gaps, as one column of the channel table
+/// (`?` where the grid could not be laid out).
+fn timing(c: &SensorChannel, g: Option<&ChannelGrid>) -> String {
+    let period = g.map_or("?".into(), |g| format!("{:.3}", g.nominal_period_s));
+    let gaps = g.map_or("?".into(), |g| g.gaps.to_string());
+    match c.storage {
+        Storage::Sampled => format!("period {period:>8} s  gaps {gaps}"),
+        Storage::Exception {
+            deadband,
+            max_interval_s,
+        } => format!(
+            "stored by exception (deadband {deadband} {}, at most every {}), median spacing {period} s  gaps {gaps}",
+            c.unit,
+            max_interval_s.map_or("-".into(), |m| format!("{m} s"))
+        ),
+    }
 }

@@ -276,10 +276,7 @@ impl crate::recording::SampleSink for FullRatePublisher {
             &SeriesLines::new().with_names([format!(
                 "{} [{}]",
                 channel.signal,
-                channel
-                    .signal
-                    .quantity()
-                    .map_or(channel.unit.as_str(), |q| q.canonical_unit())
+                channel.canonical_unit()
             )]),
         );
         self.channels[channel.index].0 = entity;
@@ -293,6 +290,9 @@ impl crate::recording::SampleSink for FullRatePublisher {
             self.flush_channel(sample.channel);
         }
     }
+
+    /// The full-rate view shows the channels as recorded, faults included: nothing to undo.
+    fn retract(&mut self, _sample: crate::recording::Sample) {}
 }
 
 /// Rows per column chunk of a decimated series.
@@ -411,10 +411,7 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
     }
     for (i, series) in replay.decimated.series.values().enumerate() {
         let entity = format!("raw/{}", series.signal.name());
-        let name = match series.signal.quantity() {
-            Some(q) => format!("{} [{}]", q.name(), q.canonical_unit()),
-            None => series.signal.name().to_owned(),
-        };
+        let name = format!("{} [{}]", series.signal.name(), series.unit);
         style(rec, &entity, &name, PALETTE[i % PALETTE.len()])?;
         send_series(rec, &entity, on_grid(t, series.values.iter()))?;
     }

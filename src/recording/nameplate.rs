@@ -1,10 +1,10 @@
 //! The machine's nameplate: the `heatrun.nameplate` metadata record, overridden
-//! key by key by a machine file (`--machine FILE.toml`).
+//! key by key by a machine file (a flat TOML table of the same keys).
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
@@ -53,25 +53,74 @@ pub struct NameplateEntries {
     entries: BTreeMap<String, (String, String)>,
 }
 
-/// Every key the profile defines, with whether the loss model needs it.
-const KEYS: [(&str, bool); 15] = [
-    ("rated_apparent_power_mva", true),
-    ("rated_voltage_kv", true),
-    ("rated_current_a", true),
-    ("rated_field_current_a", false),
-    ("armature_resistance_ohm", true),
-    ("armature_resistance_ref_temp_c", true),
-    ("field_resistance_ohm", true),
-    ("field_resistance_ref_temp_c", true),
-    ("armature_copper_losses_kw", false),
-    ("field_copper_losses_kw", false),
-    ("iron_losses_kw", true),
-    ("additional_losses_kw", true),
-    ("temperature_base_k", true),
-    ("field_winding_final_temp_c", false),
-    // Not a key of the profile's table, but the conventional extra a machine file may carry.
-    ("name", false),
-];
+/// A machine file: a flat TOML table of the profile's nameplate keys, each a number or
+/// a decimal string. A key outside the profile is refused (serde names it and lists the
+/// keys), never ignored: a misspelt key must not silently leave the recording's value.
+#[derive(Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct MachineFile {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rated_apparent_power_mva: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rated_voltage_kv: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rated_current_a: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rated_field_current_a: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    armature_resistance_ohm: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    armature_resistance_ref_temp_c: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    field_resistance_ohm: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    field_resistance_ref_temp_c: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    armature_copper_losses_kw: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    field_copper_losses_kw: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    iron_losses_kw: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    additional_losses_kw: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    temperature_base_k: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    field_winding_final_temp_c: Option<Decimal>,
+    /// Not a key of the profile's table, but the conventional extra a machine file carries.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    name: Option<Decimal>,
+}
+
+/// A machine-file value as the decimal string the metadata record would hold.
+#[derive(Debug, Clone, Serialize)]
+#[serde(transparent)]
+struct Decimal(String);
+
+impl<'de> Deserialize<'de> for Decimal {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Decimal, D::Error> {
+        struct Visitor;
+        impl serde::de::Visitor<'_> for Visitor {
+            type Value = Decimal;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a number or a decimal string")
+            }
+            fn visit_i64<E>(self, v: i64) -> std::result::Result<Decimal, E> {
+                Ok(Decimal(v.to_string()))
+            }
+            fn visit_u64<E>(self, v: u64) -> std::result::Result<Decimal, E> {
+                Ok(Decimal(v.to_string()))
+            }
+            fn visit_f64<E>(self, v: f64) -> std::result::Result<Decimal, E> {
+                Ok(Decimal(v.to_string()))
+            }
+            fn visit_str<E>(self, v: &str) -> std::result::Result<Decimal, E> {
+                Ok(Decimal(v.to_owned()))
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
 
 impl NameplateEntries {
     /// Entries from a metadata record's map; `source` names the file for messages.
@@ -91,31 +140,17 @@ impl NameplateEntries {
             message,
         };
         let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
-        let table: toml::Table = text
-            .parse()
-            .map_err(|e: toml::de::Error| bad(format!("not TOML: {}", e.message())))?;
+        let file: MachineFile =
+            toml::from_str(&text).map_err(|e: toml::de::Error| bad(e.message().to_owned()))?;
+        let table = toml::Table::try_from(&file).map_err(|e| bad(e.to_string()))?;
         let source = path.display().to_string();
-        let mut entries = BTreeMap::new();
-        for (key, value) in table {
-            if !KEYS.iter().any(|(k, _)| *k == key) {
-                return Err(bad(format!(
-                    "unknown key `{key}`; the nameplate keys are {}",
-                    KEYS.iter().map(|(k, _)| *k).collect::<Vec<_>>().join(", ")
-                )));
-            }
-            let text = match value {
-                toml::Value::Integer(i) => i.to_string(),
-                toml::Value::Float(f) => f.to_string(),
-                toml::Value::String(s) => s,
-                other => {
-                    return Err(bad(format!(
-                        "key `{key}` must be a number, not a {}",
-                        other.type_str()
-                    )))
-                }
-            };
-            entries.insert(key, (text, source.clone()));
-        }
+        let entries = table
+            .into_iter()
+            .filter_map(|(key, value)| match value {
+                toml::Value::String(text) => Some((key, (text, source.clone()))),
+                _ => None,
+            })
+            .collect();
         Ok(NameplateEntries { entries })
     }
 
@@ -139,46 +174,44 @@ impl NameplateEntries {
             .map(|(k, (v, _))| (k.as_str(), v.as_str()))
     }
 
-    fn number(&self, key: &str, recording: &str) -> Result<Option<f64>> {
-        let Some((text, source)) = self.entries.get(key) else {
+    /// The value of `key` as a number, if it is present and a finite decimal number.
+    pub fn value(&self, key: &str) -> Option<f64> {
+        let (text, _) = self.entries.get(key)?;
+        text.parse::<f64>().ok().filter(|v| v.is_finite())
+    }
+
+    fn bad_value(&self, key: &str, requirement: &'static str) -> Error {
+        let (value, source) = self.entries.get(key).cloned().unwrap_or_default();
+        Error::BadNameplateValue {
+            path: source.into(),
+            key: key.to_owned(),
+            value,
+            requirement,
+        }
+    }
+
+    fn number(&self, key: &str) -> Result<Option<f64>> {
+        let Some((text, _)) = self.entries.get(key) else {
             return Ok(None);
         };
-        let value: f64 = text.parse().map_err(|_| Error::BadRecording {
-            path: source.into(),
-            message: format!("nameplate key `{key}` is `{text}`, not a decimal number"),
-        })?;
-        if !value.is_finite() {
-            return Err(Error::BadRecording {
-                path: source.into(),
-                message: format!("nameplate key `{key}` is `{text}`, not a finite number"),
-            });
+        match text.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(Some(v)),
+            Ok(_) => Err(self.bad_value(key, "a finite number")),
+            Err(_) => Err(self.bad_value(key, "a decimal number")),
         }
-        let _ = recording;
-        Ok(Some(value))
     }
 
     fn required(&self, key: &str, recording: &str) -> Result<f64> {
-        self.number(key, recording)?.ok_or_else(|| Error::BadRecording {
+        self.number(key)?.ok_or_else(|| Error::MissingNameplateKey {
             path: recording.into(),
-            message: format!(
-                "nameplate key `{key}` is missing: the recording's `{NAMEPLATE_RECORD}` record does not \
-                 have it; give it in a machine file with --machine FILE.toml"
-            ),
+            key: key.to_owned(),
         })
     }
 
     fn positive(&self, key: &str, recording: &str) -> Result<f64> {
         let v = self.required(key, recording)?;
         if v <= 0.0 {
-            let source = self
-                .entries
-                .get(key)
-                .map(|(_, s)| s.clone())
-                .unwrap_or_default();
-            return Err(Error::BadRecording {
-                path: source.into(),
-                message: format!("nameplate key `{key}` must be positive, is {v}"),
-            });
+            return Err(self.bad_value(key, "positive"));
         }
         Ok(v)
     }
@@ -190,10 +223,7 @@ impl NameplateEntries {
         let nonneg = |key: &str| -> Result<f64> {
             let v = self.required(key, r)?;
             if v < 0.0 {
-                return Err(Error::BadRecording {
-                    path: r.into(),
-                    message: format!("nameplate key `{key}` must not be negative, is {v}"),
-                });
+                return Err(self.bad_value(key, "not negative"));
             }
             Ok(v)
         };
@@ -201,19 +231,17 @@ impl NameplateEntries {
             rated_apparent_power_va: self.positive("rated_apparent_power_mva", r)? * 1e6,
             rated_voltage_v: self.positive("rated_voltage_kv", r)? * 1e3,
             rated_current_a: self.positive("rated_current_a", r)?,
-            rated_field_current_a: self.number("rated_field_current_a", r)?,
+            rated_field_current_a: self.number("rated_field_current_a")?,
             armature_resistance_ohm: self.positive("armature_resistance_ohm", r)?,
             armature_resistance_ref_temp_c: self.required("armature_resistance_ref_temp_c", r)?,
             field_resistance_ohm: self.positive("field_resistance_ohm", r)?,
             field_resistance_ref_temp_c: self.required("field_resistance_ref_temp_c", r)?,
-            armature_copper_losses_w: self
-                .number("armature_copper_losses_kw", r)?
-                .map(|v| v * 1e3),
-            field_copper_losses_w: self.number("field_copper_losses_kw", r)?.map(|v| v * 1e3),
+            armature_copper_losses_w: self.number("armature_copper_losses_kw")?.map(|v| v * 1e3),
+            field_copper_losses_w: self.number("field_copper_losses_kw")?.map(|v| v * 1e3),
             iron_losses_w: nonneg("iron_losses_kw")? * 1e3,
             additional_losses_w: nonneg("additional_losses_kw")? * 1e3,
             temperature_base_k: self.positive("temperature_base_k", r)?,
-            field_winding_final_temp_c: self.number("field_winding_final_temp_c", r)?,
+            field_winding_final_temp_c: self.number("field_winding_final_temp_c")?,
         })
     }
 }
@@ -343,5 +371,66 @@ mod tests {
             .resolve("x.mcap")
             .unwrap_err();
         assert!(err.to_string().contains("rated_current_a"));
+    }
+
+    #[test]
+    fn machine_file_values_are_numbers_or_decimal_strings() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.toml");
+        std::fs::write(
+            &path,
+            "rated_current_a = 3689\niron_losses_kw = 244.8\nname = \"G1\"\n",
+        )
+        .unwrap();
+        let file = NameplateEntries::from_toml_file(&path).unwrap();
+        let entries: Vec<(&str, &str)> = file.iter().collect();
+        assert_eq!(
+            entries,
+            vec![
+                ("iron_losses_kw", "244.8"),
+                ("name", "G1"),
+                ("rated_current_a", "3689")
+            ]
+        );
+        std::fs::write(&path, "rated_current_a = true\n").unwrap();
+        let err = NameplateEntries::from_toml_file(&path)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("a number or a decimal string"), "{err}");
+        std::fs::write(&path, "[machine]\nrated_current_a = 3\n").unwrap();
+        let err = NameplateEntries::from_toml_file(&path)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("machine"), "{err}");
+    }
+
+    #[test]
+    fn resolve_errors_carry_key_value_and_source() {
+        let mut rec = Nameplate::paper_table1().to_record();
+        rec.insert("temperature_base_k".into(), "-80".into());
+        let err = NameplateEntries::from_map(&rec, "x.mcap")
+            .resolve("x.mcap")
+            .unwrap_err();
+        let Error::BadNameplateValue {
+            path,
+            key,
+            value,
+            requirement,
+        } = &err
+        else {
+            panic!("{err}");
+        };
+        assert_eq!(
+            (path.to_str(), key.as_str(), value.as_str(), *requirement),
+            (Some("x.mcap"), "temperature_base_k", "-80", "positive")
+        );
+        rec.remove("rated_voltage_kv");
+        let err = NameplateEntries::from_map(&rec, "x.mcap")
+            .resolve("y.mcap")
+            .unwrap_err();
+        assert!(
+            matches!(&err, Error::MissingNameplateKey { path, key } if path.to_str() == Some("y.mcap") && key == "rated_voltage_kv"),
+            "{err}"
+        );
     }
 }

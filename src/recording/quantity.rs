@@ -6,6 +6,12 @@
 
 use serde::Serialize;
 
+/// How far below zero a reading of a non-negative quantity may be and still count as
+/// transducer noise, as a fraction of the quantity's rated value (or, without one, of the
+/// channel's largest reading). RMS transducers read a few tenths of a percent of their
+/// range around zero; −81 % of the rated current is a fault.
+pub const ZERO_NOISE_FRACTION: f64 = 0.02;
+
 /// A quantity a heat-run channel can carry (the profile's table, in its order).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -36,14 +42,73 @@ pub enum Quantity {
 ///
 /// The discrete model x(k) = Φ x(k−1) + Γ u(k−1) relates point values of the
 /// states at the grid instants t_k = k·Ts to the input held over [t_{k−1}, t_k).
-/// Temperatures are therefore averaged over a window centred on t_k (a point value
-/// to O(Ts²·ẍ)), electrical quantities over the interval [t_k, t_k + Ts).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// States (temperatures) are therefore averaged over a window centred on t_k (a point
+/// value to O(Ts²·ẍ)), inputs over the interval [t_k, t_k + Ts). Which signal is which
+/// is the model's knowledge, not the recording's: the decimator is given the map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Alignment {
     /// Window [t_k − Ts/2, t_k + Ts/2): the value at the instant t_k.
     Instant,
     /// Window [t_k, t_k + Ts): the mean over the interval that starts at t_k.
     Interval,
+}
+
+/// What a heat-run channel carries: a quantity of the profile, or a free channel that a
+/// model spec names (any name, unit kept as written, no conversion, no plausibility range).
+///
+/// Ordered profile quantities first (in the profile's order), then free channels by name.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Signal {
+    /// A quantity of the profile (converted to its canonical unit).
+    Profile(Quantity),
+    /// A channel outside the profile, read because a model spec names it.
+    Free(String),
+}
+
+impl Signal {
+    /// The name: the profile's quantity name, or the free channel's name.
+    pub fn name(&self) -> &str {
+        match self {
+            Signal::Profile(q) => q.name(),
+            Signal::Free(name) => name,
+        }
+    }
+
+    /// The profile quantity, if the signal is one.
+    pub fn quantity(&self) -> Option<Quantity> {
+        match self {
+            Signal::Profile(q) => Some(*q),
+            Signal::Free(_) => None,
+        }
+    }
+
+    /// The signal of a channel name: a profile quantity if the name is one, else free.
+    pub fn from_name(name: &str) -> Signal {
+        match Quantity::from_name(name) {
+            Some(q) => Signal::Profile(q),
+            None => Signal::Free(name.to_owned()),
+        }
+    }
+}
+
+impl From<Quantity> for Signal {
+    fn from(q: Quantity) -> Signal {
+        Signal::Profile(q)
+    }
+}
+
+impl std::fmt::Display for Signal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A signal serialises as its name, as the report and `heatrun info --json` show it.
+impl Serialize for Signal {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
 }
 
 impl Quantity {
@@ -128,7 +193,10 @@ impl Quantity {
     }
 
     /// The physically possible values in the canonical unit. A sample outside is a
-    /// transducer or export fault (a negative RMS current, 10⁹ °C) and is dropped.
+    /// transducer or export fault (10⁹ °C, an RMS current of minus most of its rating)
+    /// and is dropped. For a quantity that cannot be negative ([`Quantity::is_non_negative`])
+    /// a reading slightly below zero is transducer noise, not a fault: see
+    /// [`ZERO_NOISE_FRACTION`].
     pub fn plausible_range(self) -> (f64, f64) {
         match self {
             // RMS quantities and flows are not negative; a generator's are below 1 MA, 1 MV.
@@ -141,18 +209,27 @@ impl Quantity {
         }
     }
 
+    /// Whether the quantity cannot be negative (RMS values, flows). Its transducer still
+    /// reads slightly negative around zero: that is noise, kept so that the average at
+    /// zero load is not biased upwards by dropping one side of it.
+    pub fn is_non_negative(self) -> bool {
+        self.plausible_range().0 == 0.0
+    }
+
+    /// The nameplate key of the quantity's rated value and the factor from the key's unit
+    /// to the canonical unit: the scale the zero noise of its transducer is judged on.
+    pub fn rated_key(self) -> Option<(&'static str, f64)> {
+        match self {
+            Quantity::ArmatureCurrent => Some(("rated_current_a", 1.0)),
+            Quantity::LineVoltage => Some(("rated_voltage_kv", 1e3)),
+            Quantity::FieldCurrent => Some(("rated_field_current_a", 1.0)),
+            _ => None,
+        }
+    }
+
     /// Whether the quantity is a temperature (a state-like signal).
     pub fn is_temperature(self) -> bool {
         self.canonical_unit() == "degC"
-    }
-
-    /// Where the quantity's samples sit on the decimation grid.
-    pub fn alignment(self) -> Alignment {
-        if self.is_temperature() {
-            Alignment::Instant
-        } else {
-            Alignment::Interval
-        }
     }
 }
 

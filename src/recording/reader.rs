@@ -5,8 +5,12 @@
 //! taken one at a time, checked against their CRC and decoded, and every sample
 //! is handed to a [`SampleSink`]. A file cut short (no summary, ends mid-chunk)
 //! yields every complete chunk before the cut and says how much was lost.
+//!
+//! Nothing here depends on the order the messages are stored in: the profile lets a
+//! recorder store them in any order, and every count, "first" time and verdict below is
+//! the same for any order of the same messages.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, BinaryHeap, HashMap};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -14,36 +18,26 @@ use mcap::records::{ChunkHeader, Record};
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use serde::{Deserialize, Serialize};
 
+use super::channel::{classify, ChannelKind};
+pub use super::channel::{
+    IgnoredChannel, SensorChannel, Storage, SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING,
+    SAMPLE_SCHEMA_NAME,
+};
+use super::chunk::ChunkError;
 use super::nameplate::{NameplateEntries, NAMEPLATE_RECORD};
-use super::quantity::Quantity;
+use super::quantity::ZERO_NOISE_FRACTION;
 use crate::error::{Error, Result};
 
-/// Schema name of a heat-run sample channel.
-pub const SAMPLE_SCHEMA_NAME: &str = "heatrun.Sample";
-/// Schema encoding of a heat-run sample channel.
-pub const SAMPLE_SCHEMA_ENCODING: &str = "jsonschema";
-/// Message encoding of a heat-run sample channel.
-pub const SAMPLE_MESSAGE_ENCODING: &str = "json";
-
-/// A heat-run channel: one sensor of one quantity.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SensorChannel {
-    /// Index of the channel in [`RecordingSummary::channels`] (and in [`Sample::channel`]).
-    pub index: usize,
-    /// The MCAP topic.
-    pub topic: String,
-    /// The quantity it measures.
-    pub quantity: Quantity,
-    /// The `sensor` metadata value that tells several sensors of one quantity apart.
-    pub sensor: Option<String>,
-    /// The unit as written in the recording.
-    pub unit: String,
-    /// Factor from `unit` to the quantity's canonical unit.
-    #[serde(skip)]
-    pub unit_scale: f64,
+/// How to read a recording.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// Channel names (metadata `quantity`, else the topic's last segment) outside the
+    /// profile to read as free signals ([`Signal::Free`](super::Signal::Free)), because a
+    /// model spec names them. Others outside the profile are listed as ignored.
+    pub free_channels: BTreeSet<String>,
 }
 
-/// One measured value, in the quantity's canonical unit.
+/// One measured value, in the signal's canonical unit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
     /// Index of the channel in [`RecordingSummary::channels`].
@@ -54,12 +48,17 @@ pub struct Sample {
     pub value: f64,
 }
 
-/// The receiver of a recording's channels and samples, in file order.
+/// The receiver of a recording's channels and samples, in file order (which may be any
+/// order in time).
 pub trait SampleSink {
     /// A heat-run channel was defined; its samples follow.
     fn channel(&mut self, channel: &SensorChannel);
     /// A sample of a channel announced before.
     fn sample(&mut self, sample: Sample);
+    /// Takes back a sample given before: the end of the file showed it to be a fault
+    /// (a reading of a non-negative quantity far below zero, judged against the rated
+    /// value, which may come after the samples). A sink that accumulates must undo it.
+    fn retract(&mut self, sample: Sample);
 }
 
 /// Quality flag of a sample (absent means good).
@@ -72,20 +71,79 @@ enum SampleQuality {
     Bad,
 }
 
-#[derive(Deserialize)]
+/// A sample message. `value` must be present; `null` or NaN is a dropout (`None`).
+#[derive(Debug, Deserialize)]
 struct SampleMessage {
-    value: f64,
+    #[serde(deserialize_with = "value_or_dropout")]
+    value: Option<f64>,
     #[serde(default)]
     quality: SampleQuality,
 }
 
-/// A channel of the file that is not read as heat-run data, and why.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct IgnoredChannel {
-    /// The MCAP topic.
-    pub topic: String,
-    /// Why it is not a heat-run channel.
-    pub reason: String,
+/// A sample's `value`: a number, or `null` / `"NaN"` for a dropout.
+fn value_or_dropout<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<f64>, D::Error> {
+    struct Value;
+    impl serde::de::Visitor<'_> for Value {
+        type Value = Option<f64>;
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("a number, or null or NaN for a dropout")
+        }
+        fn visit_f64<E>(self, v: f64) -> std::result::Result<Option<f64>, E> {
+            Ok(Some(v).filter(|v| !v.is_nan()))
+        }
+        fn visit_i64<E>(self, v: i64) -> std::result::Result<Option<f64>, E> {
+            Ok(Some(v as f64))
+        }
+        fn visit_u64<E>(self, v: u64) -> std::result::Result<Option<f64>, E> {
+            Ok(Some(v as f64))
+        }
+        fn visit_unit<E>(self) -> std::result::Result<Option<f64>, E> {
+            Ok(None)
+        }
+        fn visit_none<E>(self) -> std::result::Result<Option<f64>, E> {
+            Ok(None)
+        }
+        fn visit_str<E: serde::de::Error>(self, v: &str) -> std::result::Result<Option<f64>, E> {
+            if is_nan_word(v) {
+                Ok(None)
+            } else {
+                Err(E::invalid_value(serde::de::Unexpected::Str(v), &self))
+            }
+        }
+    }
+    d.deserialize_any(Value)
+}
+
+/// `NaN` as recorders write it (`NaN`, `nan`, `-nan`).
+fn is_nan_word(text: &str) -> bool {
+    text.trim_start_matches(['-', '+'])
+        .eq_ignore_ascii_case("nan")
+}
+
+/// Parses a message as a sample. JSON has no NaN, but recorders and historians write a
+/// dropout as a bare `NaN`; that one token after `"value":` is read as `null`.
+fn parse_sample(data: &[u8]) -> std::result::Result<SampleMessage, String> {
+    serde_json::from_slice::<SampleMessage>(data).or_else(|e| {
+        let text = std::str::from_utf8(data).map_err(|_| e.to_string())?;
+        let key = text.find("\"value\"").ok_or_else(|| e.to_string())?;
+        let after = &text[key + 7..];
+        let colon = after.trim_start();
+        let Some(rest) = colon.strip_prefix(':') else {
+            return Err(e.to_string());
+        };
+        let token = rest.trim_start();
+        let end = token
+            .find([',', '}', ' ', '\n', '\t', '\r'])
+            .unwrap_or(token.len());
+        if !is_nan_word(&token[..end]) {
+            return Err(e.to_string());
+        }
+        let start = text.len() - token.len();
+        let patched = format!("{}null{}", &text[..start], &token[end..]);
+        serde_json::from_str::<SampleMessage>(&patched).map_err(|_| e.to_string())
+    })
 }
 
 /// What reading a recording found, besides the samples given to the sink.
@@ -102,14 +160,18 @@ pub struct RecordingSummary {
     pub nameplate: NameplateEntries,
     /// Other metadata records (test id, site, operator), carried into the report.
     pub metadata: BTreeMap<String, BTreeMap<String, String>>,
-    /// Samples per channel given to the sink.
+    /// Samples per channel given to the sink (and not taken back).
     pub samples_per_channel: Vec<u64>,
     /// Samples marked `bad` and dropped.
     pub bad_quality_dropped: u64,
     /// Per channel: samples outside the quantity's physical range, dropped.
     pub implausible_per_channel: Vec<u64>,
-    /// Per channel: the first implausible sample (time, value in the canonical unit).
+    /// Per channel: the earliest implausible sample (time, value in the canonical unit).
     pub first_implausible: Vec<Option<(u64, f64)>>,
+    /// Per channel: dropouts (a `value` of `null` or NaN), left out like `bad` samples.
+    pub dropouts_per_channel: Vec<u64>,
+    /// Per channel: the time of the earliest dropout, ns since the epoch.
+    pub first_dropout: Vec<Option<u64>>,
     /// Samples marked `uncertain` (kept).
     pub uncertain_kept: u64,
     /// Earliest and latest sample time, in ns since the epoch.
@@ -141,80 +203,164 @@ enum ChannelRoute {
     Ignored,
 }
 
+/// Readings below zero of one channel of a non-negative quantity, given to the sink
+/// provisionally: whether they are noise or a fault is judged once the whole file (and
+/// with it the nameplate's rated value) has been read.
+#[derive(Debug, Default)]
+struct NegativeReadings {
+    /// The most negative readings, at most [`MAX_NEGATIVE_KEPT`]; the least negative on top.
+    deepest: BinaryHeap<Reading>,
+    /// Whether readings were left out of `deepest` because it was full.
+    overflowed: bool,
+    /// The channel's largest reading: the scale when the nameplate has no rated value.
+    largest: f64,
+}
+
+/// Negative readings kept per channel for the final verdict.
+const MAX_NEGATIVE_KEPT: usize = 1 << 16;
+
+/// A reading ordered by value, then time: a total order, so which readings are kept
+/// does not depend on the order they arrive in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Reading {
+    value: f64,
+    log_time_ns: u64,
+}
+
+impl Eq for Reading {}
+
+impl Ord for Reading {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.value
+            .total_cmp(&other.value)
+            .then(self.log_time_ns.cmp(&other.log_time_ns))
+    }
+}
+
+impl PartialOrd for Reading {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl NegativeReadings {
+    fn keep(&mut self, reading: Reading) {
+        if self.deepest.len() < MAX_NEGATIVE_KEPT {
+            self.deepest.push(reading);
+        } else if self.deepest.peek().is_some_and(|top| reading < *top) {
+            self.deepest.pop();
+            self.deepest.push(reading);
+            self.overflowed = true;
+        } else {
+            self.overflowed = true;
+        }
+    }
+}
+
 struct Reader<'s, S: SampleSink> {
     path: PathBuf,
     sink: &'s mut S,
+    options: ReadOptions,
     summary: RecordingSummary,
     schemas: HashMap<u16, SchemaInfo>,
     routes: HashMap<u16, ChannelRoute>,
+    /// Per channel, for channels of a non-negative quantity.
+    negatives: Vec<Option<NegativeReadings>>,
     /// Whether the Data End record (the end of the data section) was read.
     seen_data_end: bool,
 }
 
-/// Reads the heat-run recording at `path`, giving its samples to `sink`.
+/// Reads the heat-run recording at `path`, giving its samples to `sink`; channels
+/// outside the profile are skipped ([`read_recording_with`] reads named ones too).
 ///
 /// Fails with a one-line error naming the file (and the channel and time where
 /// they apply) when the file is not MCAP, a heat-run channel is malformed, or a
 /// message is not a sample. Damage after the start (a cut, a corrupt chunk) is
 /// recovered from and listed in [`RecordingSummary::data_loss`].
 pub fn read_recording<S: SampleSink>(path: &Path, sink: &mut S) -> Result<RecordingSummary> {
+    read_recording_with(path, sink, &ReadOptions::default())
+}
+
+/// [`read_recording`] with options (free channels to read).
+pub fn read_recording_with<S: SampleSink>(
+    path: &Path,
+    sink: &mut S,
+    options: &ReadOptions,
+) -> Result<RecordingSummary> {
     let file = std::fs::File::open(path).map_err(|source| Error::ReadInput {
         path: path.to_owned(),
         source,
     })?;
     let file_bytes = file.metadata().map(|m| m.len()).unwrap_or(0);
-    read_stream(file, path, file_bytes, sink)
+    read_stream_with(file, path, file_bytes, sink, options)
 }
 
 /// Reads a recording from any byte stream (a file, memory); `path` names it in
 /// messages and `stream_bytes` is its length, when known, for the data-loss report.
 pub fn read_stream<S: SampleSink>(
-    mut file: impl Read + Send,
+    file: impl Read + Send,
     path: &Path,
     stream_bytes: u64,
     sink: &mut S,
 ) -> Result<RecordingSummary> {
-    let file_bytes = stream_bytes;
-    let bad = |message: String| Error::BadRecording {
+    read_stream_with(file, path, stream_bytes, sink, &ReadOptions::default())
+}
+
+/// Checks the start of the stream: MCAP magic, or a named refusal (empty, Git LFS pointer).
+fn check_magic(file: &mut impl Read, path: &Path) -> Result<()> {
+    let bad = |message: &str| Error::BadRecording {
         path: path.to_owned(),
-        message,
+        message: message.to_owned(),
     };
     let mut magic = [0u8; 8];
-    let got = read_full(&mut file, &mut magic).map_err(|source| Error::ReadInput {
+    let got = read_full(file, &mut magic).map_err(|source| Error::ReadInput {
         path: path.to_owned(),
         source,
     })?;
     if got == 0 {
-        return Err(bad("the file is empty, not an MCAP recording".into()));
+        return Err(bad("the file is empty, not an MCAP recording"));
     }
     if magic.starts_with(b"version ") {
         let mut head = vec![0u8; 64];
-        let n = read_full(&mut file, &mut head).unwrap_or(0);
+        let n = read_full(file, &mut head).unwrap_or(0);
         if [&magic[..], &head[..n]]
             .concat()
             .starts_with(b"version https://git-lfs")
         {
             return Err(bad(
-                "is a Git LFS pointer, not the MCAP data it stands for; fetch the data with `git lfs pull`".into(),
+                "is a Git LFS pointer, not the MCAP data it stands for; fetch the data with `git lfs pull`",
             ));
         }
     }
     if got < 8 || magic != *mcap::MAGIC {
         return Err(bad(
-            "not an MCAP file (it does not start with the MCAP magic bytes)".into(),
+            "not an MCAP file (it does not start with the MCAP magic bytes)",
         ));
     }
+    Ok(())
+}
 
+/// [`read_stream`] with options.
+pub fn read_stream_with<S: SampleSink>(
+    mut file: impl Read + Send,
+    path: &Path,
+    stream_bytes: u64,
+    sink: &mut S,
+    options: &ReadOptions,
+) -> Result<RecordingSummary> {
+    check_magic(&mut file, path)?;
     let mut merger = Reader {
         path: path.to_owned(),
         sink,
+        options: options.clone(),
         summary: RecordingSummary {
             path: path.to_owned(),
-            file_bytes,
+            file_bytes: stream_bytes,
             ..Default::default()
         },
         schemas: HashMap::new(),
         routes: HashMap::new(),
+        negatives: Vec::new(),
         seen_data_end: false,
     };
     // Three stages, so that both cores work: this thread's scan reads the file and
@@ -225,19 +371,18 @@ pub fn read_stream<S: SampleSink>(
         .map_or(2, |n| n.get())
         .clamp(1, 4);
     let (work_tx, work_rx) = crossbeam_channel::bounded::<(u64, ChunkHeader, Vec<u8>)>(2 * workers);
-    let (done_tx, done_rx) = crossbeam_channel::bounded::<Unit>(4 * workers);
+    let (done_tx, done_rx) = crossbeam_channel::bounded::<DecodedBatch>(4 * workers);
     std::thread::scope(|scope| {
         for _ in 0..workers {
             let (work_rx, done_tx) = (work_rx.clone(), done_tx.clone());
             scope.spawn(move || {
                 for (seq, header, data) in work_rx {
-                    let start = header.message_start_time;
-                    let unit = Unit::Decoded {
+                    let batch = DecodedBatch::Records {
                         seq,
-                        start,
+                        chunk_start: header.message_start_time,
                         items: decode_chunk(&header, &data),
                     };
-                    if done_tx.send(unit).is_err() {
+                    if done_tx.send(batch).is_err() {
                         break;
                     }
                 }
@@ -247,19 +392,20 @@ pub fn read_stream<S: SampleSink>(
         let scan_done = done_tx.clone();
         drop(done_tx);
         scope.spawn(move || scan(file, work_tx, scan_done));
-        let result = merger.merge(done_rx);
-        result
+        merger.merge(done_rx)
     })?;
     Ok(merger.summary)
 }
 
-/// Decoded pieces of the file, in file order by `seq`.
-enum Unit {
-    /// Records outside chunks, or a chunk's records (`Err`: the chunk is damaged).
-    Decoded {
+/// The decoded records of one piece of the file (a chunk, or a record outside chunks),
+/// numbered in file order by `seq`, or the end of the scan.
+enum DecodedBatch {
+    /// The records of a chunk (`Err`: the chunk is damaged) or one record outside chunks.
+    Records {
         seq: u64,
-        start: u64,
-        items: std::result::Result<Vec<Item>, String>,
+        /// The chunk's declared start time (0 outside chunks), to name a damaged chunk.
+        chunk_start: u64,
+        items: std::result::Result<Vec<Item>, ChunkError>,
     },
     /// The end of the scan, and why it ended.
     End { seq: u64, end: ScanEnd },
@@ -321,7 +467,7 @@ fn item(record: Record<'_>) -> Option<Item> {
         Record::Message { header, data } => Item::Message {
             channel_id: header.channel_id,
             log_time: header.log_time,
-            sample: serde_json::from_slice::<SampleMessage>(&data).map_err(|e| e.to_string()),
+            sample: parse_sample(&data),
             stray: false,
         },
         Record::Metadata(m) => Item::Metadata(m),
@@ -331,7 +477,7 @@ fn item(record: Record<'_>) -> Option<Item> {
 }
 
 /// Decompresses a chunk and parses its records; any damage drops the whole chunk.
-fn decode_chunk(header: &ChunkHeader, data: &[u8]) -> std::result::Result<Vec<Item>, String> {
+fn decode_chunk(header: &ChunkHeader, data: &[u8]) -> std::result::Result<Vec<Item>, ChunkError> {
     let plain = super::chunk::decompress(header, data)?;
     let mut items = Vec::new();
     for record in super::chunk::records(&plain) {
@@ -339,7 +485,10 @@ fn decode_chunk(header: &ChunkHeader, data: &[u8]) -> std::result::Result<Vec<It
         if !wanted(opcode) {
             continue;
         }
-        let record = mcap::parse_record(opcode, body).map_err(|e| e.to_string())?;
+        let record = mcap::parse_record(opcode, body).map_err(|e| ChunkError::BadRecord {
+            opcode,
+            message: e.to_string(),
+        })?;
         let mut it = item(record);
         if let Some(Item::Message {
             log_time, stray, ..
@@ -353,11 +502,11 @@ fn decode_chunk(header: &ChunkHeader, data: &[u8]) -> std::result::Result<Vec<It
 }
 
 /// Reads the file front to back: records outside chunks are parsed here, chunks go to
-/// the workers whole. Ends with a [`Unit::End`].
+/// the workers whole. Ends with a [`DecodedBatch::End`].
 fn scan(
     mut file: impl Read,
     work: crossbeam_channel::Sender<(u64, ChunkHeader, Vec<u8>)>,
-    done: crossbeam_channel::Sender<Unit>,
+    done: crossbeam_channel::Sender<DecodedBatch>,
 ) {
     let options = LinearReaderOptions::default()
         .with_skip_start_magic(true)
@@ -396,9 +545,9 @@ fn scan(
                         work.send((seq, header, data.into_owned())).is_ok()
                     }
                     Ok(record) => done
-                        .send(Unit::Decoded {
+                        .send(DecodedBatch::Records {
                             seq,
-                            start: 0,
+                            chunk_start: 0,
                             items: Ok(item(record).into_iter().collect()),
                         })
                         .is_ok(),
@@ -429,7 +578,7 @@ fn scan(
             }
         }
     };
-    let _ = done.send(Unit::End { seq, end });
+    let _ = done.send(DecodedBatch::End { seq, end });
 }
 
 /// Reads until `buf` is full or the file ends; returns the bytes read.
@@ -454,19 +603,21 @@ impl<S: SampleSink> Reader<'_, S> {
         }
     }
 
-    /// Takes the decoded units back in file order and applies them.
-    fn merge(&mut self, done: crossbeam_channel::Receiver<Unit>) -> Result<()> {
-        let mut waiting: std::collections::BTreeMap<u64, Unit> = std::collections::BTreeMap::new();
+    /// Takes the decoded batches back in file order and applies them.
+    fn merge(&mut self, done: crossbeam_channel::Receiver<DecodedBatch>) -> Result<()> {
+        let mut waiting: BTreeMap<u64, DecodedBatch> = BTreeMap::new();
         let mut next = 0u64;
-        for unit in done.iter() {
-            let seq = match &unit {
-                Unit::Decoded { seq, .. } | Unit::End { seq, .. } => *seq,
+        for batch in done.iter() {
+            let seq = match &batch {
+                DecodedBatch::Records { seq, .. } | DecodedBatch::End { seq, .. } => *seq,
             };
-            waiting.insert(seq, unit);
-            while let Some(unit) = waiting.remove(&next) {
+            waiting.insert(seq, batch);
+            while let Some(batch) = waiting.remove(&next) {
                 next += 1;
-                match unit {
-                    Unit::Decoded { start, items, .. } => match items {
+                match batch {
+                    DecodedBatch::Records {
+                        chunk_start, items, ..
+                    } => match items {
                         Ok(items) => {
                             for item in items {
                                 self.apply(item)?;
@@ -474,10 +625,14 @@ impl<S: SampleSink> Reader<'_, S> {
                         }
                         Err(why) => self.summary.data_loss.push(format!(
                             "the chunk starting at {} is damaged ({why}); its messages were dropped",
-                            format_time(start)
+                            format_time(chunk_start)
                         )),
                     },
-                    Unit::End { end, .. } => return self.finish(end),
+                    DecodedBatch::End { end, .. } => {
+                        self.finish(end)?;
+                        self.judge_negative_readings();
+                        return Ok(());
+                    }
                 }
             }
         }
@@ -551,10 +706,11 @@ impl<S: SampleSink> Reader<'_, S> {
             } => {
                 if stray {
                     if let Some(ChannelRoute::Sensor(i)) = self.routes.get(&channel_id) {
-                        let i = *i;
-                        self.summary.implausible_per_channel[i] += 1;
-                        let value = sample.as_ref().map(|s| s.value).unwrap_or(f64::NAN);
-                        self.summary.first_implausible[i].get_or_insert((log_time, value));
+                        let value = match &sample {
+                            Ok(SampleMessage { value: Some(v), .. }) => *v,
+                            _ => f64::NAN,
+                        };
+                        self.implausible(*i, log_time, value);
                     }
                     return Ok(());
                 }
@@ -584,7 +740,26 @@ impl<S: SampleSink> Reader<'_, S> {
             None => (t, t),
             Some((a, b)) => (a.min(t), b.max(t)),
         });
+        if let Some(watch) = self.negatives[sample.channel].as_mut() {
+            watch.largest = watch.largest.max(sample.value);
+            if sample.value < 0.0 {
+                watch.keep(Reading {
+                    value: sample.value,
+                    log_time_ns: t,
+                });
+            }
+        }
         self.sink.sample(sample);
+    }
+
+    /// Counts an implausible sample; the channel's first is the earliest in time.
+    fn implausible(&mut self, channel: usize, log_time: u64, value: f64) {
+        self.summary.implausible_per_channel[channel] += 1;
+        let first = &mut self.summary.first_implausible[channel];
+        let earlier = |(t, v): (u64, f64)| log_time.cmp(&t).then(value.total_cmp(&v)).is_lt();
+        if first.is_none_or(earlier) {
+            *first = Some((log_time, value));
+        }
     }
 
     fn channel(&mut self, channel: mcap::records::Channel) -> Result<()> {
@@ -592,71 +767,36 @@ impl<S: SampleSink> Reader<'_, S> {
             // A repeated channel record (the summary repeats them): already known.
             return Ok(());
         }
-        let quantity_name = channel
-            .metadata
-            .get("quantity")
-            .cloned()
-            .unwrap_or_else(|| channel.topic.rsplit('/').next().unwrap_or("").to_owned());
-        let Some(quantity) = Quantity::from_name(&quantity_name) else {
-            let reason = if channel.metadata.contains_key("quantity") {
-                format!("quantity `{quantity_name}` is not one of the profile's")
-            } else {
-                "no `quantity` metadata and the topic names no quantity".to_owned()
-            };
-            self.summary.ignored_channels.push(IgnoredChannel {
-                topic: channel.topic,
-                reason,
-            });
-            self.routes.insert(channel.id, ChannelRoute::Ignored);
-            return Ok(());
-        };
-        let topic = &channel.topic;
-        let schema = self.schemas.get(&channel.schema_id);
-        let schema_ok = schema
-            .is_some_and(|s| s.name == SAMPLE_SCHEMA_NAME && s.encoding == SAMPLE_SCHEMA_ENCODING);
-        if !schema_ok {
-            let found = match schema {
-                Some(s) => format!("schema `{}` ({})", s.name, s.encoding),
-                None => "no schema".to_owned(),
-            };
-            return Err(self.bad(format!(
-                "channel {topic} carries {quantity} but has {found}; the profile wants schema \
-                 `{SAMPLE_SCHEMA_NAME}` with encoding `{SAMPLE_SCHEMA_ENCODING}`"
-            )));
-        }
-        if channel.message_encoding != SAMPLE_MESSAGE_ENCODING {
-            return Err(self.bad(format!(
-                "channel {topic} has message encoding `{}`; the profile wants `{SAMPLE_MESSAGE_ENCODING}`",
-                channel.message_encoding
-            )));
-        }
-        let Some(unit) = channel.metadata.get("unit").cloned() else {
-            return Err(self.bad(format!(
-                "channel {topic} ({quantity}) has no `unit` metadata; one of {} is required",
-                quantity.accepted_units().join(", ")
-            )));
-        };
-        let Some(unit_scale) = quantity.unit_scale(&unit) else {
-            return Err(self.bad(format!(
-                "channel {topic} ({quantity}) has unit `{unit}`, which the profile does not accept \
-                 for {quantity}; use one of {}",
-                quantity.accepted_units().join(", ")
-            )));
-        };
+        let schema = self
+            .schemas
+            .get(&channel.schema_id)
+            .map(|s| (s.name.as_str(), s.encoding.as_str()));
         let index = self.summary.channels.len();
-        let sensor_channel = SensorChannel {
-            index,
-            topic: channel.topic.clone(),
-            quantity,
-            sensor: channel.metadata.get("sensor").cloned(),
-            unit,
-            unit_scale,
+        let kind =
+            classify(&channel, schema, index, &self.options.free_channels).map_err(|source| {
+                Error::Channel {
+                    path: self.path.clone(),
+                    source,
+                }
+            })?;
+        let sensor = match kind {
+            ChannelKind::Ignored(ignored) => {
+                self.summary.ignored_channels.push(ignored);
+                self.routes.insert(channel.id, ChannelRoute::Ignored);
+                return Ok(());
+            }
+            ChannelKind::Sensor(sensor) => sensor,
         };
-        self.sink.channel(&sensor_channel);
-        self.summary.channels.push(sensor_channel);
+        self.sink.channel(&sensor);
+        let non_negative = sensor.quantity().is_some_and(|q| q.is_non_negative());
+        self.negatives
+            .push(non_negative.then(NegativeReadings::default));
+        self.summary.channels.push(sensor);
         self.summary.samples_per_channel.push(0);
         self.summary.implausible_per_channel.push(0);
         self.summary.first_implausible.push(None);
+        self.summary.dropouts_per_channel.push(0);
+        self.summary.first_dropout.push(None);
         self.routes.insert(channel.id, ChannelRoute::Sensor(index));
         Ok(())
     }
@@ -693,20 +833,329 @@ impl<S: SampleSink> Reader<'_, S> {
             SampleQuality::Uncertain => self.summary.uncertain_kept += 1,
             SampleQuality::Good => {}
         }
-        let ch = &self.summary.channels[index];
-        let value = parsed.value * ch.unit_scale;
-        let (lo, hi) = ch.quantity.plausible_range();
-        if !(value >= lo && value <= hi) {
-            self.summary.implausible_per_channel[index] += 1;
-            if self.summary.first_implausible[index].is_none() {
-                self.summary.first_implausible[index] = Some((log_time, value));
-            }
+        let Some(raw) = parsed.value else {
+            self.summary.dropouts_per_channel[index] += 1;
+            let first = &mut self.summary.first_dropout[index];
+            *first = Some(first.map_or(log_time, |t| t.min(log_time)));
             return Ok(None);
+        };
+        let ch = &self.summary.channels[index];
+        let value = raw * ch.unit_scale;
+        if let Some(quantity) = ch.quantity() {
+            let (lo, hi) = quantity.plausible_range();
+            // Below zero but within the range's size: kept for now, judged at the end.
+            let provisional = quantity.is_non_negative() && value < lo && value >= -hi;
+            if !provisional && !(lo..=hi).contains(&value) {
+                self.implausible(index, log_time, value);
+                return Ok(None);
+            }
         }
         Ok(Some(Sample {
             channel: index,
             log_time_ns: log_time,
             value,
         }))
+    }
+
+    /// Judges the negative readings of non-negative quantities once the file is read:
+    /// down to −[`ZERO_NOISE_FRACTION`] of the rated value (from the nameplate record;
+    /// without one, of the channel's largest reading) they are transducer noise around
+    /// zero and stay; below, they are faults, taken back from the sink and counted as
+    /// implausible.
+    fn judge_negative_readings(&mut self) {
+        for index in 0..self.negatives.len() {
+            let Some(watch) = self.negatives[index].take() else {
+                continue;
+            };
+            let ch = &self.summary.channels[index];
+            let rated = ch
+                .quantity()
+                .and_then(|q| q.rated_key())
+                .and_then(|(key, factor)| self.summary.nameplate.value(key).map(|v| v * factor))
+                .filter(|v| *v > 0.0);
+            let scale = rated.unwrap_or(watch.largest.max(0.0));
+            let floor = -ZERO_NOISE_FRACTION * scale;
+            let least_kept = watch.deepest.peek().map(|r| r.value);
+            let mut taken = 0u64;
+            for reading in watch.deepest.into_vec() {
+                if reading.value < floor {
+                    let sample = Sample {
+                        channel: index,
+                        log_time_ns: reading.log_time_ns,
+                        value: reading.value,
+                    };
+                    self.sink.retract(sample);
+                    self.summary.samples_per_channel[index] -= 1;
+                    self.implausible(index, reading.log_time_ns, reading.value);
+                    taken += 1;
+                }
+            }
+            if watch.overflowed && least_kept.is_some_and(|v| v < floor) {
+                let ch = &self.summary.channels[index];
+                self.summary.notes.push(format!(
+                    "channel {}: more than {taken} readings lie below {floor} {} (far below zero); \
+                     the {taken} lowest were dropped, the others kept",
+                    ch.topic,
+                    ch.canonical_unit()
+                ));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::recording::{Quantity, Signal};
+
+    /// Records what it is given.
+    #[derive(Default)]
+    struct Collect {
+        channels: Vec<SensorChannel>,
+        samples: Vec<Sample>,
+    }
+
+    impl SampleSink for Collect {
+        fn channel(&mut self, channel: &SensorChannel) {
+            self.channels.push(channel.clone());
+        }
+        fn sample(&mut self, sample: Sample) {
+            self.samples.push(sample);
+        }
+        fn retract(&mut self, sample: Sample) {
+            let at = self.samples.iter().position(|s| *s == sample).unwrap();
+            self.samples.remove(at);
+        }
+    }
+
+    const T0: u64 = 1_600_000_000_000_000_000;
+
+    /// A recording of channels `(topic, unit, payloads)`, one message a second each, stored
+    /// in the order `order` gives (channel, message) pairs; a nameplate record at the end.
+    fn recording(
+        channels: &[(&str, &str, Vec<&str>)],
+        order: &[(usize, usize)],
+        nameplate: &[(&str, &str)],
+    ) -> Vec<u8> {
+        let mut w = mcap::Writer::new(std::io::Cursor::new(Vec::new())).unwrap();
+        let schema = w
+            .add_schema(SAMPLE_SCHEMA_NAME, SAMPLE_SCHEMA_ENCODING, b"{}")
+            .unwrap();
+        let ids: Vec<u16> = channels
+            .iter()
+            .map(|(topic, unit, _)| {
+                let meta = BTreeMap::from([("unit".to_owned(), unit.to_string())]);
+                w.add_channel(schema, topic, "json", &meta).unwrap()
+            })
+            .collect();
+        for &(c, i) in order {
+            let t = T0 + i as u64 * 1_000_000_000;
+            let header = mcap::records::MessageHeader {
+                channel_id: ids[c],
+                sequence: i as u32,
+                log_time: t,
+                publish_time: t,
+            };
+            w.write_to_known_channel(&header, channels[c].2[i].as_bytes())
+                .unwrap();
+        }
+        let metadata = nameplate
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        w.write_metadata(&mcap::records::Metadata {
+            name: NAMEPLATE_RECORD.into(),
+            metadata,
+        })
+        .unwrap();
+        w.finish().unwrap();
+        w.into_inner().into_inner()
+    }
+
+    fn in_order(channels: &[(&str, &str, Vec<&str>)]) -> Vec<(usize, usize)> {
+        let n = channels.iter().map(|c| c.2.len()).max().unwrap_or(0);
+        (0..n)
+            .flat_map(|i| (0..channels.len()).map(move |c| (c, i)))
+            .filter(|&(c, i)| i < channels[c].2.len())
+            .collect()
+    }
+
+    fn read(bytes: &[u8], options: &ReadOptions) -> Result<(RecordingSummary, Collect)> {
+        let mut sink = Collect::default();
+        let summary = read_stream_with(
+            bytes,
+            Path::new("r.mcap"),
+            bytes.len() as u64,
+            &mut sink,
+            options,
+        )?;
+        Ok((summary, sink))
+    }
+
+    /// The paper's rated current and voltage, as the nameplate record holds them.
+    const RATED: [(&str, &str); 2] = [
+        ("rated_current_a", "3689.14"),
+        ("rated_voltage_kv", "15.65"),
+    ];
+
+    #[test]
+    fn dropouts_are_counted_and_left_out() {
+        let payloads = vec![
+            r#"{"value": 40.0}"#,
+            r#"{"value": null}"#,
+            r#"{"value":NaN}"#,
+            r#"{ "value" : -nan , "quality": "good"}"#,
+            r#"{"value": "NaN"}"#,
+            r#"{"value": 41.5, "quality": "uncertain"}"#,
+        ];
+        let channels = [("/scada/core_temp", "degC", payloads)];
+        let bytes = recording(&channels, &in_order(&channels), &RATED);
+        let (summary, sink) = read(&bytes, &ReadOptions::default()).unwrap();
+        assert_eq!(summary.dropouts_per_channel, vec![4]);
+        assert_eq!(summary.first_dropout, vec![Some(T0 + 1_000_000_000)]);
+        let values: Vec<f64> = sink.samples.iter().map(|s| s.value).collect();
+        assert_eq!(values, vec![40.0, 41.5]);
+        assert_eq!(summary.samples_per_channel, vec![2]);
+        // Reversed storage: the same count, the same earliest dropout.
+        let reversed: Vec<_> = in_order(&channels).into_iter().rev().collect();
+        let (summary, _) = read(
+            &recording(&channels, &reversed, &RATED),
+            &ReadOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(summary.first_dropout, vec![Some(T0 + 1_000_000_000)]);
+    }
+
+    #[test]
+    fn a_message_that_is_not_a_sample_is_an_error() {
+        for payload in [
+            r#"{"quality": "good"}"#,
+            r#"{"value": "hot"}"#,
+            r#"{"value": 1e999}"#,
+            r#"[1, 2]"#,
+            r#"NaN"#,
+            r#"{"value": NaNa}"#,
+        ] {
+            let channels = [("/scada/core_temp", "degC", vec![r#"{"value": 1}"#, payload])];
+            let bytes = recording(&channels, &in_order(&channels), &RATED);
+            let msg = match read(&bytes, &ReadOptions::default()) {
+                Err(e) => e.to_string(),
+                Ok(_) => panic!("{payload} was read"),
+            };
+            assert!(
+                msg.contains("/scada/core_temp") && msg.contains("2020-09-13T12:26:41Z"),
+                "{payload}: {msg}"
+            );
+        }
+    }
+
+    /// An armature current around zero load: noise of ±0.3 % of the rated 3689 A, and one
+    /// reading of −3 kA (a fault), in kA.
+    fn zero_load() -> Vec<String> {
+        let mut v: Vec<String> = (0..200)
+            .map(|i| format!(r#"{{"value": {}}}"#, 0.011 * ((i as f64) * 0.7).sin()))
+            .collect();
+        v[120] = r#"{"value": -3.0}"#.into();
+        v[40] = r#"{"value": -2.5}"#.into();
+        v[199] = r#"{"value": 3.5}"#.into(); // and once at load
+        v
+    }
+
+    #[test]
+    fn negative_noise_around_zero_is_kept_and_faults_are_dropped() {
+        let payloads = zero_load();
+        let channels = [(
+            "/scada/armature_current",
+            "kA",
+            payloads.iter().map(String::as_str).collect::<Vec<_>>(),
+        )];
+        let expect_mean: f64 = ((0..199)
+            .filter(|i| *i != 120 && *i != 40)
+            .map(|i| 11.0 * ((i as f64) * 0.7).sin())
+            .sum::<f64>()
+            + 3500.0)
+            / 198.0;
+        let forward = in_order(&channels);
+        let backward: Vec<_> = forward.iter().rev().copied().collect();
+        for (order, nameplate) in [
+            (&forward, &RATED[..]),
+            (&backward, &RATED[..]),
+            (&forward, &[][..]),
+        ] {
+            let bytes = recording(&channels, order, nameplate);
+            let (summary, sink) = read(&bytes, &ReadOptions::default()).unwrap();
+            // Without a nameplate the scale is the channel's largest reading (3.5 kA).
+            assert_eq!(summary.implausible_per_channel, vec![2]);
+            assert_eq!(
+                summary.first_implausible,
+                vec![Some((T0 + 40_000_000_000, -2500.0))]
+            );
+            assert_eq!(summary.samples_per_channel, vec![198]);
+            assert_eq!(sink.samples.len(), 198);
+            let mean = sink.samples.iter().map(|s| s.value).sum::<f64>() / 198.0;
+            assert!((mean - expect_mean).abs() < 1e-9, "{mean} vs {expect_mean}");
+            assert!(sink.samples.iter().filter(|s| s.value < 0.0).count() > 80);
+        }
+    }
+
+    #[test]
+    fn temperatures_out_of_range_are_dropped() {
+        let channels = [(
+            "/scada/core_temp",
+            "degC",
+            vec![r#"{"value": 40}"#, r#"{"value": 1e9}"#, r#"{"value": -61}"#],
+        )];
+        let (summary, sink) = read(
+            &recording(&channels, &in_order(&channels), &RATED),
+            &ReadOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(summary.implausible_per_channel, vec![2]);
+        assert_eq!(
+            summary.first_implausible,
+            vec![Some((T0 + 1_000_000_000, 1e9))]
+        );
+        assert_eq!(sink.samples.len(), 1);
+    }
+
+    #[test]
+    fn free_channels_are_read_when_named() {
+        let channels = [
+            (
+                "/lab/T1",
+                "degC",
+                vec![r#"{"value": 21.5}"#, r#"{"value": 500}"#],
+            ),
+            ("/lab/Q1", "%", vec![r#"{"value": -5}"#]),
+            ("/scada/core_temp", "degC", vec![r#"{"value": 40}"#]),
+        ];
+        let bytes = recording(&channels, &in_order(&channels), &RATED);
+        let (summary, sink) = read(&bytes, &ReadOptions::default()).unwrap();
+        assert_eq!(summary.channels.len(), 1);
+        assert_eq!(summary.ignored_channels.len(), 2);
+        let options = ReadOptions {
+            free_channels: ["T1".to_owned(), "Q1".to_owned()].into(),
+        };
+        let (summary, sink2) = read(&bytes, &options).unwrap();
+        let signals: Vec<&Signal> = summary.channels.iter().map(|c| &c.signal).collect();
+        assert_eq!(
+            signals,
+            vec![
+                &Signal::Free("T1".into()),
+                &Signal::Free("Q1".into()),
+                &Signal::Profile(Quantity::CoreTemp)
+            ]
+        );
+        assert_eq!(sink2.channels.len(), 3);
+        // No unit conversion and no plausibility range for a free channel.
+        let values: Vec<f64> = sink2
+            .samples
+            .iter()
+            .filter(|s| s.channel < 2)
+            .map(|s| s.value)
+            .collect();
+        assert_eq!(values, vec![21.5, -5.0, 500.0]);
+        assert_eq!(summary.channels[1].unit, "%");
+        assert_eq!(sink.samples.len(), 1);
     }
 }
