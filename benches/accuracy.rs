@@ -106,7 +106,7 @@ fn main() {
                             // Steady-state temperatures: θ_0 (measured) + predicted rise against the truth.
                             let ss = (0..3)
                                 .map(|j| {
-                                    (r.signals.initial_temperatures_c[j]
+                                    (r.signals.initial_references()[j]
                                         + 80.0 * r.analysis.steady_state[j]
                                         - truth.initial_temperatures_c[j]
                                         - truth.steady_state_rise_k[j])

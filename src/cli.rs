@@ -207,11 +207,11 @@ mod tests {
     fn replay_defaults_are_the_documented_ones() {
         let r = replay(&[]);
         assert!(r.files.is_empty(), "the fixture is chosen later");
-        assert_eq!(r.ts, 1.0);
-        assert_eq!(r.method, MethodArg::Oe);
+        // Sample time and method: the spec's, else 1 s and oe (resolved by the command).
+        assert_eq!((r.ts, r.method, r.spec), (None, None, None));
         assert_eq!(r.weights, None);
         assert_eq!(r.forgetting, 1.0);
-        assert_eq!((r.holdout, r.validate), (None, None));
+        assert_eq!((r.holdout, r.split_at, r.validate), (None, None, None));
         assert_eq!((r.rrd, r.report, r.connect), (None, None, None));
         assert!(!r.spawn && !r.raw && !r.quiet);
         assert_eq!(r.out_dir, PathBuf::from("."));
@@ -227,7 +227,7 @@ mod tests {
             ("iv", MethodArg::Iv),
             ("oe", MethodArg::Oe),
         ] {
-            assert_eq!(replay(&["--method", name]).method, method);
+            assert_eq!(replay(&["--method", name]).method, Some(method));
         }
         assert_eq!(
             error(&["replay", "--method", "kalman"]),
@@ -268,7 +268,7 @@ mod tests {
 
     #[test]
     fn numbers_that_are_not_numbers_are_refused() {
-        assert_eq!(replay(&["--ts", "0.5"]).ts, 0.5);
+        assert_eq!(replay(&["--ts", "0.5"]).ts, Some(0.5));
         for args in [
             &["replay", "--ts", "one"][..],
             &["replay", "--forgetting", "0,99"],

@@ -21,7 +21,11 @@ fn main() -> ExitCode {
             let bad_input = err
                 .downcast_ref::<heatrun::Error>()
                 .is_some_and(|e| e.is_bad_input());
-            eprintln!("heatrun: {err:#}");
+            // One line: what is wrong, then (where the command line can mend it) what to do.
+            match commands::hint::for_error(&err) {
+                Some(hint) => eprintln!("heatrun: {err:#}; {hint}"),
+                None => eprintln!("heatrun: {err:#}"),
+            }
             ExitCode::from(if bad_input { 2 } else { 1 })
         }
     }

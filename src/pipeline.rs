@@ -184,6 +184,11 @@ impl SampleSink for Tee<'_> {
         self.decimator.sample(sample);
         self.also.sample(sample);
     }
+
+    fn retract(&mut self, sample: recording::Sample) {
+        self.decimator.retract(sample);
+        self.also.retract(sample);
+    }
 }
 
 /// [`prepare`], with every raw sample also given to `also` as the file streams by.
@@ -306,7 +311,7 @@ pub fn replay_with(
         prepared.signals.temperature_base_k,
         &steady_input,
     )
-    .map_err(in_file)?;
+    .map_err(|e| in_file(e.into()))?;
     let validation = validate(&prepared, &estimate, &estimation_range, options)?;
     let warnings = warnings::collect(&prepared, &analysis);
     Ok(Replay {
@@ -419,5 +424,5 @@ pub fn estimate(data: &IdentificationData, options: &ReplayOptions) -> Result<Es
             weights: options.weights.clone(),
         }),
     };
-    estimator.estimate(data)
+    Ok(estimator.estimate(data)?)
 }

@@ -10,7 +10,6 @@
 //! channels, or a heat source of the profile's loss model.
 
 use nalgebra::DMatrix;
-use serde::Serialize;
 
 use crate::decimate::{DecimatedRecording, DecimatedSeries};
 use crate::error::{Error, Result};

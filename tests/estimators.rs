@@ -46,7 +46,7 @@ fn time_constant_errors(r: &Replay, truth: &Truth) -> Vec<f64> {
 fn steady_state_temperature_errors(r: &Replay, truth: &Truth) -> Vec<f64> {
     (0..3)
         .map(|j| {
-            let predicted = r.signals.initial_temperatures_c[j] + 80.0 * r.analysis.steady_state[j];
+            let predicted = r.signals.initial_references()[j] + 80.0 * r.analysis.steady_state[j];
             predicted - (truth.initial_temperatures_c[j] + truth.steady_state_rise_k[j])
         })
         .collect()

@@ -20,11 +20,11 @@ fn assert_matches_truth(est: &nalgebra::DMatrix<f64>, truth: &[Vec<f64>], rel: f
     }
 }
 
-fn parts(r: &heatrun::pipeline::Replay) -> Vec<&'static str> {
+fn parts(r: &heatrun::pipeline::Replay) -> Vec<&str> {
     r.analysis
         .assignment
         .iter()
-        .map(|a| heatrun::losses::ThermalState::ALL[a.state].name())
+        .map(|a| r.signals.states[a.state].name.as_str())
         .collect()
 }
 
@@ -82,8 +82,8 @@ fn paper_field_temperature_method_recovers_the_model() {
     let truth = synth::write(&path, &options).unwrap();
     let r = replay(&path, &ReplayOptions::default()).unwrap();
     assert!(matches!(
-        r.signals.field_temperature_source,
-        heatrun::losses::FieldTemperatureSource::ScaledArmatureRise { .. }
+        r.signals.field_temperature.as_ref().map(|f| &f.source),
+        Some(heatrun::losses::FieldTemperatureSource::ScaledArmatureRise { .. })
     ));
     assert_matches_truth(&r.estimate.model.phi, &truth.phi, 1e-3, "Φ");
     assert_matches_truth(&r.estimate.model.gamma, &truth.gamma, 1e-3, "Γ");
@@ -175,7 +175,7 @@ fn a_machine_file_overrides_the_nameplate() {
         },
     )
     .unwrap();
-    assert_eq!(over.nameplate.temperature_base_k, 40.0);
+    assert_eq!(over.nameplate.unwrap().temperature_base_k, 40.0);
     // Halving the temperature base doubles the rises in pu, and so Γ.
     let ratio = over.estimate.model.gamma[(0, 0)] / base.estimate.model.gamma[(0, 0)];
     assert!((ratio - 2.0).abs() < 1e-9, "{ratio}");
