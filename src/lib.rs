@@ -47,6 +47,7 @@ pub mod error;
 pub mod estimate;
 pub mod losses;
 pub mod model;
+pub mod network;
 pub mod pipeline;
 #[cfg(feature = "rerun")]
 pub mod publish;

@@ -1,0 +1,306 @@
+//! Has the machine reached its thermal equilibrium?
+//!
+//! Two checks. IEC 60034-1 calls a machine in thermal equilibrium when no part's
+//! temperature rise changes by more than 2 K per hour; here the rate is the
+//! least-squares slope over the last hour of each state's series (a line through 3600
+//! samples at Ts = 1 s, so PT100 noise of 0.05 K moves it by a few mK/h, where the
+//! difference of two readings would move it by 0.07 K/h). The paper's check (section 3) is
+//! that the final load was held for at least five of the slowest time constant: a
+//! first-order rise then reaches 1 − e^(−held/T_max) = 99.3 % of its final value. Where
+//! either check fails, the predicted steady state (eq. 31) is an extrapolation.
+
+use serde::Serialize;
+
+/// IEC 60034-1's limit on a part's rate of rise at thermal equilibrium (K/h).
+pub const IEC_LIMIT_K_PER_H: f64 = 2.0;
+/// The window of the rate of rise (s).
+pub const WINDOW_S: f64 = 3600.0;
+/// Time constants the final load must be held (the paper's criterion).
+pub const HELD_TIME_CONSTANTS: f64 = 5.0;
+
+/// The least-squares slope of one series over the last hour.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RateOfRise {
+    /// The slope in K/h.
+    pub k_per_h: f64,
+    /// Its standard error from the residuals, K/h.
+    pub standard_error_k_per_h: f64,
+    /// Known instants in the window.
+    pub instants: usize,
+    /// Time between the first and last known instant of the window (s).
+    pub span_s: f64,
+}
+
+/// The least-squares slope (K/h) of the known values (K or °C) among the instants within
+/// [`WINDOW_S`] of the last instant of a grid of `ts_s`:
+/// b = Σ(t − t̄)(y − ȳ) / Σ(t − t̄)², with its standard error √(s²/Σ(t − t̄)²),
+/// s² = Σ residual²/(N − 2). `None` where fewer than three values are known or they span
+/// less than half the window (a recording shorter than half an hour).
+pub fn rate_over_last_hour<S>(values: S, ts_s: f64) -> Option<RateOfRise>
+where
+    S: IntoIterator<Item = Option<f64>>,
+    S::IntoIter: DoubleEndedIterator + ExactSizeIterator,
+{
+    if !(ts_s.is_finite() && ts_s > 0.0) {
+        return None;
+    }
+    let take = (WINDOW_S / ts_s + 1e-9).floor() as usize + 1;
+    // t counts back from the last instant: t = −age·Ts.
+    let points: Vec<(f64, f64)> = values
+        .into_iter()
+        .rev()
+        .take(take)
+        .enumerate()
+        .filter_map(|(age, y)| y.map(|y| (-(age as f64) * ts_s, y)))
+        .collect();
+    let n = points.len();
+    if n < 3 {
+        return None;
+    }
+    let span_s = points[0].0 - points[n - 1].0;
+    if span_s < 0.5 * WINDOW_S {
+        return None;
+    }
+    let (t_mean, y_mean) = points.iter().fold((0.0, 0.0), |(a, b), (t, y)| {
+        (a + t / n as f64, b + y / n as f64)
+    });
+    let (mut sxx, mut sxy) = (0.0, 0.0);
+    for &(t, y) in &points {
+        sxx += (t - t_mean) * (t - t_mean);
+        sxy += (t - t_mean) * (y - y_mean);
+    }
+    let slope = sxy / sxx;
+    let ssr: f64 = points
+        .iter()
+        .map(|&(t, y)| (y - y_mean - slope * (t - t_mean)).powi(2))
+        .sum();
+    let se = (ssr / (n - 2) as f64 / sxx).sqrt();
+    Some(RateOfRise {
+        k_per_h: slope * 3600.0,
+        standard_error_k_per_h: se * 3600.0,
+        instants: n,
+        span_s,
+    })
+}
+
+/// Both equilibrium checks for a recording.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Equilibrium {
+    /// The states' names.
+    pub states: Vec<String>,
+    /// Each state's rate of rise over the last hour (`None`: not enough data).
+    pub rate_of_rise: Vec<Option<RateOfRise>>,
+    /// [`IEC_LIMIT_K_PER_H`].
+    pub iec_limit_k_per_h: f64,
+    /// Every rate known and within the limit (IEC 60034-1).
+    pub iec_equilibrium: bool,
+    /// How long the final load was held (s).
+    pub held_s: f64,
+    /// T_max, the slowest time constant (s).
+    pub slowest_time_constant_s: f64,
+    /// held / T_max.
+    pub held_over_slowest: f64,
+    /// 1 − e^(−held/T_max): the share of the slowest mode's final rise reached.
+    pub fraction_of_final_rise_reached: f64,
+    /// held ≥ [`HELD_TIME_CONSTANTS`]·T_max (the paper's criterion; 99.3 % reached).
+    pub held_long_enough: bool,
+    /// Either check failed: the predicted steady state lies beyond the recording.
+    pub steady_state_is_extrapolation: bool,
+}
+
+impl Equilibrium {
+    /// Both checks from each state's rate of rise (in state order, named by `states`),
+    /// the time the final load was held and the slowest time constant.
+    pub fn assess(
+        states: &[String],
+        rate_of_rise: Vec<Option<RateOfRise>>,
+        held_s: f64,
+        slowest_time_constant_s: f64,
+    ) -> Equilibrium {
+        let iec_equilibrium = rate_of_rise
+            .iter()
+            .all(|r| r.is_some_and(|r| r.k_per_h.abs() <= IEC_LIMIT_K_PER_H));
+        let held_over_slowest = held_s / slowest_time_constant_s;
+        // No usable time constant fails the check rather than passing it.
+        let held_long_enough = slowest_time_constant_s.is_finite()
+            && slowest_time_constant_s > 0.0
+            && held_over_slowest >= HELD_TIME_CONSTANTS;
+        Equilibrium {
+            states: states.to_vec(),
+            rate_of_rise,
+            iec_limit_k_per_h: IEC_LIMIT_K_PER_H,
+            iec_equilibrium,
+            held_s,
+            slowest_time_constant_s,
+            held_over_slowest,
+            fraction_of_final_rise_reached: 1.0 - (-held_over_slowest).exp(),
+            held_long_enough,
+            steady_state_is_extrapolation: !(iec_equilibrium && held_long_enough),
+        }
+    }
+
+    /// One plain sentence where the steady state is an extrapolation, naming why.
+    pub fn warning(&self) -> Option<String> {
+        if !self.steady_state_is_extrapolation {
+            return None;
+        }
+        let mut why = Vec::new();
+        for (name, rate) in self.states.iter().zip(&self.rate_of_rise) {
+            match rate {
+                None => why.push(format!("the {name} has less than half an hour of data at the end")),
+                Some(r) if r.k_per_h.abs() > IEC_LIMIT_K_PER_H => why.push(format!(
+                    "the {name} still changes by {:+.1} K/h (IEC 60034-1 allows {IEC_LIMIT_K_PER_H} K/h)",
+                    r.k_per_h
+                )),
+                Some(_) => {}
+            }
+        }
+        if !self.held_long_enough {
+            why.push(format!(
+                "the final load was held {:.1} times the slowest time constant ({:.0} s), so the slowest part reached {:.1} % of its final rise ({HELD_TIME_CONSTANTS} give 99.3 %)",
+                self.held_over_slowest,
+                self.slowest_time_constant_s,
+                100.0 * self.fraction_of_final_rise_reached
+            ));
+        }
+        Some(format!(
+            "The predicted steady state is an extrapolation: {}.",
+            why.join("; ")
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{rngs::StdRng, SeedableRng};
+    use rand_distr::{Distribution, Normal};
+
+    /// θ(t) = Δ(1 − e^(−t/T)) on a 1 s grid from 0 to `end_s`.
+    fn first_order(delta: f64, t: f64, end_s: usize) -> Vec<Option<f64>> {
+        (0..=end_s)
+            .map(|k| Some(delta * (1.0 - (-(k as f64) / t).exp())))
+            .collect()
+    }
+
+    /// The continuous least-squares slope of Δ(1 − e^(−t/T)) over a window of 2h centred
+    /// on t_m: Δ/T·e^(−t_m/T)·3(x·cosh x − sinh x)/x³ with x = h/T.
+    fn ls_slope_of_exponential(delta: f64, t: f64, t_mid: f64, h: f64) -> f64 {
+        let x = h / t;
+        delta / t * (-t_mid / t).exp() * 3.0 * (x * x.cosh() - x.sinh()) / x.powi(3)
+    }
+
+    #[test]
+    fn a_ramp_has_its_slope_exactly() {
+        let ramp: Vec<Option<f64>> = (0..10_000).map(|k| Some(20.0 + 1e-3 * k as f64)).collect();
+        let r = rate_over_last_hour(ramp, 1.0).unwrap();
+        assert!((r.k_per_h - 3.6).abs() < 1e-9);
+        assert!(r.standard_error_k_per_h < 1e-9);
+        assert_eq!(r.instants, 3601);
+        assert_eq!(r.span_s, 3600.0);
+    }
+
+    #[test]
+    fn first_order_rise_slope_matches_the_closed_form() {
+        let (delta, t, end) = (60.0, 3000.0, 12_000);
+        let rise = first_order(delta, t, end);
+        let r = rate_over_last_hour(rise, 1.0).unwrap();
+        let expected = 3600.0 * ls_slope_of_exponential(delta, t, end as f64 - 1800.0, 1800.0);
+        assert!(
+            (r.k_per_h - expected).abs() / expected < 5e-5,
+            "{} vs {expected}",
+            r.k_per_h
+        );
+    }
+
+    #[test]
+    fn noise_moves_the_slope_by_its_standard_error() {
+        let noise = Normal::new(0.0, 0.05).unwrap();
+        let mut rng = StdRng::seed_from_u64(10);
+        // A line with PT100-like noise: the standard error is σ/√Σ(t − t̄)²
+        // = σ·√(12/(N(N²−1)))·3600 K/h with N = 3601 → 0.00289 K/h.
+        let ramp: Vec<Option<f64>> = (0..10_000)
+            .map(|k| Some(20.0 + 1e-3 * k as f64 + noise.sample(&mut rng)))
+            .collect();
+        let r = rate_over_last_hour(ramp, 1.0).unwrap();
+        let se = r.standard_error_k_per_h;
+        assert!((se - 0.00289).abs() < 0.0002, "{se}");
+        assert!((r.k_per_h - 3.6).abs() < 4.0 * se, "{}", r.k_per_h);
+        // A first-order rise with the same noise keeps the clean slope within 0.01 K/h.
+        let (delta, t, end) = (60.0, 3000.0, 12_000);
+        let clean = rate_over_last_hour(first_order(delta, t, end), 1.0).unwrap();
+        let noisy: Vec<Option<f64>> = first_order(delta, t, end)
+            .into_iter()
+            .map(|y| y.map(|y| y + noise.sample(&mut rng)))
+            .collect();
+        let r = rate_over_last_hour(noisy, 1.0).unwrap();
+        assert!(
+            (r.k_per_h - clean.k_per_h).abs() < 0.01,
+            "{} vs {}",
+            r.k_per_h,
+            clean.k_per_h
+        );
+    }
+
+    #[test]
+    fn gaps_and_short_records() {
+        let mut rise = first_order(60.0, 3000.0, 12_000);
+        for v in rise.iter_mut().rev().take(1000) {
+            *v = None;
+        }
+        let r = rate_over_last_hour(rise, 1.0).unwrap();
+        assert_eq!(r.instants, 2601);
+        assert_eq!(r.span_s, 2600.0);
+        assert!(rate_over_last_hour(first_order(60.0, 3000.0, 1000), 1.0).is_none());
+        // On a 10 s grid the hour is 361 instants.
+        let coarse: Vec<Option<f64>> = (0..2000).map(|k| Some(k as f64)).collect();
+        let r = rate_over_last_hour(coarse, 10.0).unwrap();
+        assert_eq!(r.instants, 361);
+        assert!((r.k_per_h - 360.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn held_five_time_constants_is_equilibrium() {
+        // Δ = 60 K, T = 3000 s: the rate at 5T is 72·e^(−5) ≈ 0.49 K/h.
+        let t = 3000.0;
+        let states = ["stator winding".to_string()];
+        let rate = rate_over_last_hour(first_order(60.0, t, 15_000), 1.0);
+        let eq = Equilibrium::assess(&states, vec![rate], 15_000.0, t);
+        assert!(eq.iec_equilibrium && eq.held_long_enough);
+        assert!((eq.fraction_of_final_rise_reached - (1.0 - (-5.0_f64).exp())).abs() < 1e-12);
+        assert!((eq.fraction_of_final_rise_reached - 0.993).abs() < 0.0005);
+        assert!(!eq.steady_state_is_extrapolation);
+        assert_eq!(eq.warning(), None);
+    }
+
+    #[test]
+    fn held_two_time_constants_is_an_extrapolation() {
+        // At 2T the rate is about 72·e^(−2)·1.04 ≈ 10 K/h over the last hour.
+        let t = 3000.0;
+        let states = ["iron core".to_string(), "cooling water".to_string()];
+        let rate = rate_over_last_hour(first_order(60.0, t, 6000), 1.0);
+        let eq = Equilibrium::assess(&states, vec![rate, None], 6000.0, t);
+        assert!(!eq.iec_equilibrium && !eq.held_long_enough);
+        assert!(eq.steady_state_is_extrapolation);
+        assert!((eq.held_over_slowest - 2.0).abs() < 1e-12);
+        let w = eq.warning().unwrap();
+        assert!(w.contains("the iron core still changes by +"), "{w}");
+        assert!(
+            w.contains("the cooling water has less than half an hour"),
+            "{w}"
+        );
+        assert!(w.contains("86.5 % of its final rise"), "{w}");
+    }
+
+    #[test]
+    fn steady_rates_but_short_hold_still_extrapolates() {
+        let flat = vec![Some(25.0); 4000];
+        let rate = rate_over_last_hour(flat, 1.0);
+        assert!(rate.unwrap().k_per_h.abs() < 1e-12);
+        let eq = Equilibrium::assess(&["x".to_string()], vec![rate], 4000.0, 3344.5);
+        assert!(eq.iec_equilibrium && !eq.held_long_enough && eq.steady_state_is_extrapolation);
+        // No time constant (0 s) is no evidence of a long enough hold.
+        let eq = Equilibrium::assess(&["x".to_string()], vec![rate], 4000.0, 0.0);
+        assert!(!eq.held_long_enough && eq.steady_state_is_extrapolation);
+    }
+}
