@@ -126,6 +126,9 @@ pub enum Error {
     /// The estimated model cannot be analysed (no real logarithm, singular matrix).
     #[error(transparent)]
     Model(#[from] crate::model::ModelError),
+    /// The model has no thermal network, or a network figure cannot be computed.
+    #[error(transparent)]
+    Network(#[from] crate::network::NetworkError),
     /// The data are too few or too sparse for a stage (a grid with nothing on it).
     #[error("{0}")]
     InsufficientData(String),

@@ -17,6 +17,7 @@ use crate::estimate::{
     RecursiveLeastSquares, WeightedLeastSquares,
 };
 use crate::model::{self, ModelAnalysis};
+use crate::network::{self, NetworkAnalysis};
 use crate::recording::{
     self, Nameplate, NameplateEntries, ReadOptions, RecordingSummary, SampleSink,
 };
@@ -137,6 +138,8 @@ pub struct Replay {
     pub estimate: Estimate,
     /// The analysis of the estimate.
     pub analysis: ModelAnalysis,
+    /// The physical network, calorimetric balance and equilibrium checks.
+    pub network: NetworkAnalysis,
     /// Warnings for the user (data loss, gaps).
     pub warnings: Vec<String>,
 }
@@ -313,7 +316,14 @@ pub fn replay_with(
     )
     .map_err(|e| in_file(e.into()))?;
     let validation = validate(&prepared, &estimate, &estimation_range, options)?;
-    let warnings = warnings::collect(&prepared, &analysis);
+    let network = network::stage::analyse(
+        &options.model,
+        &analysis.continuous,
+        &analysis.spectrum.time_constants_s,
+        &prepared.signals,
+        &prepared.decimated,
+    );
+    let warnings = warnings::collect(&prepared, &analysis, &network);
     Ok(Replay {
         path: path.to_owned(),
         model: options.model.clone(),
@@ -326,6 +336,7 @@ pub fn replay_with(
         validation,
         estimate,
         analysis,
+        network,
         warnings,
     })
 }

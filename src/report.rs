@@ -230,8 +230,29 @@ pub struct Report {
     pub validation: Option<ValidationEntry>,
     /// Whiteness and input correlation of the residuals.
     pub residuals: ResidualEntry,
+    /// The passive thermal network of the model (Fig. 9), or why it has none.
+    pub network: NetworkEntry,
+    /// The heat the cooling water carries away against the losses (eqs. 17-18), where
+    /// the flow is recorded.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub calorimetry: Option<crate::network::Calorimetry>,
+    /// Whether the recording reached thermal equilibrium (IEC 60034-1; five time constants).
+    pub equilibrium: crate::network::equilibrium::Equilibrium,
     /// Warnings.
     pub warnings: Vec<String>,
+}
+
+/// The report's `network` block: the network, or why the model has none.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum NetworkEntry {
+    /// The network of the identified model.
+    Defined(Box<crate::network::Network>),
+    /// The model has no network.
+    NotDefined {
+        /// Why.
+        not_defined: String,
+    },
 }
 
 fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
@@ -396,6 +417,14 @@ impl Report {
                     })
                     .collect(),
             },
+            network: match &r.network.network {
+                Ok(n) => NetworkEntry::Defined(Box::new(n.clone())),
+                Err(why) => NetworkEntry::NotDefined {
+                    not_defined: why.clone(),
+                },
+            },
+            calorimetry: r.network.calorimetry.clone(),
+            equilibrium: r.network.equilibrium.clone(),
             warnings: r.warnings.clone(),
         }
     }
@@ -415,6 +444,7 @@ impl Report {
         self.summary_fit(&mut s);
         self.summary_steady_state(&mut s);
         self.summary_residuals(&mut s);
+        self.summary_network(&mut s);
         for w in &self.warnings {
             let _ = writeln!(s, "warning: {w}");
         }
@@ -573,6 +603,81 @@ impl Report {
         );
     }
 
+    fn summary_network(&self, s: &mut String) {
+        let _ = writeln!(s);
+        match &self.network {
+            NetworkEntry::NotDefined { not_defined } => {
+                let _ = writeln!(s, "thermal network (Fig. 9): none: {not_defined}");
+            }
+            NetworkEntry::Defined(n) => {
+                let scale = match n.scale_from {
+                    crate::network::ScaleSource::Calorimetric => "calorimetric, c·ρ·Q",
+                    crate::network::ScaleSource::EnergyConservation => {
+                        "energy conservation, Σ_i k_ij = 1"
+                    }
+                };
+                let _ = writeln!(s, "thermal network (Fig. 9), scale from {scale}:");
+                let labels = self.state_labels();
+                row(s, "  capacitance C, MJ/K", &scaled(&n.capacitance_j_per_k, 1e-6), 3);
+                let to_coolant: Vec<f64> = (0..labels.len())
+                    .map(|i| n.conductance_w_per_k[i][i] * 1e-3)
+                    .collect();
+                row(s, "  conductance to coolant G_i0, kW/K", &to_coolant, 3);
+                for (i, a) in labels.iter().enumerate() {
+                    for (j, b) in labels.iter().enumerate().skip(i + 1) {
+                        let _ = writeln!(
+                            s,
+                            "  G between {a} and {b}: {:.3} kW/K",
+                            n.conductance_w_per_k[i][j] * 1e-3
+                        );
+                    }
+                }
+                for (j, input) in n.inputs.iter().enumerate() {
+                    let k: Vec<f64> = n.loss_distribution.iter().map(|r| r[j]).collect();
+                    row(s, &format!("  share of {input}"), &k, 3);
+                }
+                if let Some(alt) = &n.alternative_scale {
+                    let _ = writeln!(
+                        s,
+                        "  the other scale gives {:.3} times these capacitances",
+                        alt.ratio_to_chosen
+                    );
+                }
+                let _ = writeln!(s, "  {}", n.passivity.verdict);
+            }
+        }
+        if let Some(c) = &self.calorimetry {
+            if let (Some(e), Some(l)) = (c.end_of_run, c.losses_end_of_run_pu) {
+                let _ = writeln!(
+                    s,
+                    "calorimetric balance (eqs. 17-18), end of run: the water carries away {:.1} kW = {:.5} pu \
+                     against losses of {l:.5} pu ({:.0} %; Q = {:.1} l/s, inlet {})",
+                    e.watts * 1e-3,
+                    e.pu,
+                    100.0 * e.pu / l,
+                    c.mean_flow_l_per_s,
+                    c.inlet.replace('_', " ")
+                );
+            }
+        }
+        let e = &self.equilibrium;
+        let rates: Vec<String> = e
+            .rate_of_rise
+            .iter()
+            .map(|r| r.map_or("?".into(), |r| format!("{:+.2}", r.k_per_h)))
+            .collect();
+        let _ = writeln!(
+            s,
+            "equilibrium: rise over the last hour [{}] K/h (IEC 60034-1: within ±{} K/h: {}); \
+             final load held {:.1} × the slowest time constant ({:.1} % of its rise)",
+            rates.join(" "),
+            e.iec_limit_k_per_h,
+            if e.iec_equilibrium { "yes" } else { "no" },
+            e.held_over_slowest,
+            100.0 * e.fraction_of_final_rise_reached
+        );
+    }
+
     fn summary_residuals(&self, s: &mut String) {
         let res = &self.residuals;
         let _ = writeln!(s);
@@ -601,6 +706,10 @@ impl Report {
             row(s, "  largest error, K", &v.fit.max_abs_error_k, 3);
         }
     }
+}
+
+fn scaled(v: &[f64], factor: f64) -> Vec<f64> {
+    v.iter().map(|x| x * factor).collect()
 }
 
 fn join(v: &[f64], f: impl Fn(f64) -> String) -> String {

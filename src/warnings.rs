@@ -1,8 +1,10 @@
 //! The warnings a replay gives its user, built by one pure function from what the stages
 //! returned: data lost to damage, gaps, implausible or dropped samples, channels that stop
-//! early, and time constants that two states claimed.
+//! early, time constants that two states claimed, and a steady state that lies beyond
+//! what the recording shows.
 
 use crate::model::ModelAnalysis;
+use crate::network::NetworkAnalysis;
 use crate::pipeline::Prepared;
 use crate::recording::format_time;
 
@@ -10,7 +12,11 @@ use crate::recording::format_time;
 const EARLY_STOP_S: f64 = 600.0;
 
 /// Every warning for a prepared recording and its model's analysis, in a stable order.
-pub fn collect(prepared: &Prepared, analysis: &ModelAnalysis) -> Vec<String> {
+pub fn collect(
+    prepared: &Prepared,
+    analysis: &ModelAnalysis,
+    network: &NetworkAnalysis,
+) -> Vec<String> {
     let mut out = Vec::new();
     data_loss(prepared, &mut out);
     gaps(prepared, &mut out);
@@ -22,6 +28,7 @@ pub fn collect(prepared: &Prepared, analysis: &ModelAnalysis) -> Vec<String> {
             prepared.recording.bad_quality_dropped
         ));
     }
+    out.extend(network.equilibrium.warning());
     for a in &analysis.assignment {
         if a.resolved_conflict {
             out.push(format!(

@@ -67,7 +67,14 @@ fn noise_free_paper_run_recovers_phi_gamma_and_the_papers_assignment() {
         "{:?}",
         r.analysis.fit.snr_db
     );
-    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    // A clean file warns of nothing but what the paper's run is: its final load was held
+    // 3.5 times the slowest time constant, short of the five that give 99.3 %.
+    assert!(
+        r.warnings.len() == 1 && r.warnings[0].contains("extrapolation"),
+        "{:?}",
+        r.warnings
+    );
+    assert!(r.network.equilibrium.iec_equilibrium && !r.network.equilibrium.held_long_enough);
 }
 
 #[test]

@@ -28,6 +28,7 @@ pub mod calorimetry;
 pub mod equilibrium;
 mod passivity;
 mod reciprocity;
+pub mod stage;
 #[cfg(test)]
 mod tests;
 
@@ -38,6 +39,7 @@ pub use passivity::{
     ColumnSum, Entry, Passivity, ASYMMETRY_TOLERANCE, CONDUCTANCE_TOLERANCE, LOSS_SHARE_TOLERANCE,
 };
 pub use reciprocity::CycleResidual;
+pub use stage::{Calorimetry, NetworkAnalysis};
 
 /// Why a model has no thermal network, or a computation of this module cannot be done.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -125,11 +127,6 @@ pub enum NetworkError {
     },
 }
 
-impl From<NetworkError> for crate::Error {
-    fn from(e: NetworkError) -> crate::Error {
-        crate::Error::Model(e.to_string())
-    }
-}
 
 /// The model's scaling: x = θ/θ_base, u = P/P_base, so B_c = C⁻¹·K·P_base/θ_base.
 /// For the generator θ_base = 80 K and P_base = S_n in VA; a model in physical units has 1, 1.

@@ -1,0 +1,210 @@
+//! The network stage of a replay: the identified continuous model → its passive thermal
+//! network (Fig. 9), the calorimetric balance (eqs. 17-18) where the flow is recorded, and
+//! whether the recording reached thermal equilibrium.
+//!
+//! Input: the [`ModelDescription`], the [`ContinuousModel`] with its time constants, the
+//! [`ModelSignals`] and the [`DecimatedRecording`]. Output: [`NetworkAnalysis`].
+
+use serde::Serialize;
+
+use super::calorimetry::{self, CoolantHeat, EndOfRun, Water, WaterModel};
+use super::equilibrium::{self, Equilibrium};
+use super::{CoolantLink, Labels, Network, Scaling};
+use crate::decimate::DecimatedRecording;
+use crate::model::ContinuousModel;
+use crate::recording::{Quantity, Signal};
+use crate::signals::ModelSignals;
+use crate::spec::{ModelDescription, Scaling as ModelScaling};
+
+/// An input within this share of its range of its final value counts as held.
+const HELD_TOLERANCE: f64 = 0.05;
+/// The end of the run the calorimetric balance is averaged over, s.
+const END_OF_RUN_S: f64 = 600.0;
+
+/// The heat the cooling water carries away, against the losses.
+#[derive(Debug, Clone, Serialize)]
+pub struct Calorimetry {
+    /// Where the inlet temperature came from: `measured` or `outlet_initial`.
+    pub inlet: &'static str,
+    /// Mean flow over the run, l/s.
+    pub mean_flow_l_per_s: f64,
+    /// The water's c·ρ at the mean water temperatures, J/(l·K).
+    pub heat_per_litre_j_per_k: f64,
+    /// P_cw at the end of the run (eq. 17, W; eq. 18, pu).
+    pub end_of_run: Option<EndOfRun>,
+    /// The sum of the computed losses at the end of the run, pu of S_n.
+    pub losses_end_of_run_pu: Option<f64>,
+    /// P_cw / Σ losses at the end of the run: the share of the heat the water carries.
+    pub water_share_of_losses: Option<f64>,
+    /// P_cw on the grid, W (for rerun).
+    #[serde(skip)]
+    pub heat: CoolantHeat,
+}
+
+/// What the network stage found.
+#[derive(Debug, Clone)]
+pub struct NetworkAnalysis {
+    /// The network, or why the model has none.
+    pub network: Result<Network, String>,
+    /// The calorimetric balance, where the flow is recorded.
+    pub calorimetry: Option<Calorimetry>,
+    /// The equilibrium checks.
+    pub equilibrium: Equilibrium,
+}
+
+/// The network stage (see the module's documentation).
+pub fn analyse(
+    model: &ModelDescription,
+    continuous: &ContinuousModel,
+    time_constants_s: &[f64],
+    signals: &ModelSignals,
+    decimated: &DecimatedRecording,
+) -> NetworkAnalysis {
+    let calorimetry = calorimetry(model, signals, decimated);
+    let network = network(model, continuous, signals, calorimetry.as_ref());
+    NetworkAnalysis {
+        network,
+        calorimetry,
+        equilibrium: equilibrium_checks(signals, time_constants_s),
+    }
+}
+
+fn labels(model: &ModelDescription) -> Labels {
+    Labels {
+        states: model.states.iter().map(|s| s.part.clone()).collect(),
+        inputs: model.inputs.iter().map(|i| i.name.replace('_', " ")).collect(),
+    }
+}
+
+/// The network, with the calorimetric scale where the outlet water is a state and the
+/// flow is recorded.
+fn network(
+    model: &ModelDescription,
+    continuous: &ContinuousModel,
+    signals: &ModelSignals,
+    calorimetry: Option<&Calorimetry>,
+) -> Result<Network, String> {
+    if let Some(i) = model.inputs.iter().find(|i| i.kind != crate::spec::InputKind::Heat) {
+        return Err(format!(
+            "the input `{}` is not heat, so the model is no thermal network",
+            i.name
+        ));
+    }
+    let outlet = Signal::Profile(Quantity::CoolingWaterOutletTemp);
+    let coolant = calorimetry.and_then(|c| {
+        let state = model.states.iter().position(|s| s.channel == outlet)?;
+        Some(CoolantLink {
+            state,
+            conductance_w_per_k: c.heat_per_litre_j_per_k * c.mean_flow_l_per_s,
+        })
+    });
+    let scaling = Scaling {
+        theta_base_k: signals.temperature_base_k,
+        p_base_w: signals.power_base,
+    };
+    Network::from_continuous(
+        &continuous.a_c,
+        &continuous.b_c,
+        scaling,
+        coolant,
+        &labels(model),
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// The balance of eqs. 17-18 where `cooling_water_flow` is recorded (the generator's
+/// loss model only: its inputs are the losses in pu of S_n).
+fn calorimetry(
+    model: &ModelDescription,
+    signals: &ModelSignals,
+    decimated: &DecimatedRecording,
+) -> Option<Calorimetry> {
+    if model.scaling != ModelScaling::NameplatePerUnit {
+        return None;
+    }
+    let flow = decimated.get(Quantity::CoolingWaterFlow)?;
+    let outlet = decimated.get(Quantity::CoolingWaterOutletTemp)?;
+    let (inlet, source) = match decimated.get(Quantity::CoolingWaterInletTemp) {
+        Some(i) => (i.values.clone(), "measured"),
+        None => {
+            let first = outlet.values.get(signals.initial_index)?;
+            let n = decimated.len;
+            ((0..n).map(|_| Some(first)).collect(), "outlet_initial")
+        }
+    };
+    let heat = calorimetry::heat_carried_away(
+        outlet.values.iter(),
+        inlet.iter(),
+        flow.values.iter(),
+        WaterModel::MEASURED,
+        signals.power_base,
+    )
+    .ok()?;
+    let mean = |s: &crate::series::Series| {
+        let (sum, n) = s.iter().flatten().fold((0.0, 0usize), |(a, n), v| (a + v, n + 1));
+        (n > 0).then(|| sum / n as f64)
+    };
+    let (mean_out, mean_in, mean_flow) = (mean(&outlet.values)?, mean(&inlet)?, mean(&flow.values)?);
+    let water_in = Water::at(mean_in).ok()?;
+    let c_rho = Water::at(0.5 * (mean_out + mean_in)).ok()?.specific_heat_j_per_kg_k
+        * water_in.density_kg_per_l();
+    let end_of_run = heat.end_of_run(signals.ts_s, END_OF_RUN_S);
+    let losses_end_of_run_pu = losses_at_end(signals);
+    Some(Calorimetry {
+        inlet: source,
+        mean_flow_l_per_s: mean_flow,
+        heat_per_litre_j_per_k: c_rho,
+        water_share_of_losses: end_of_run.zip(losses_end_of_run_pu).map(|(e, l)| e.pu / l),
+        end_of_run,
+        losses_end_of_run_pu,
+        heat,
+    })
+}
+
+/// Σ u_i averaged over the end of the run, in the inputs' scaling.
+fn losses_at_end(signals: &ModelSignals) -> Option<f64> {
+    let take = (END_OF_RUN_S / signals.ts_s) as usize + 1;
+    let (sum, n) = (0..signals.len())
+        .rev()
+        .take(take)
+        .filter_map(|k| signals.inputs.iter().map(|i| i.values.get(k)).sum::<Option<f64>>())
+        .fold((0.0, 0usize), |(a, n), v| (a + v, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// IEC 60034-1's rate of rise over the last hour and the paper's held-load criterion.
+fn equilibrium_checks(signals: &ModelSignals, time_constants_s: &[f64]) -> Equilibrium {
+    let names: Vec<String> = signals.states.iter().map(|s| s.part.clone()).collect();
+    let rates = signals
+        .states
+        .iter()
+        .map(|s| {
+            let rise = (0..signals.len()).map(|k| s.rise(k));
+            equilibrium::rate_over_last_hour(rise, signals.ts_s)
+        })
+        .collect();
+    let slowest = time_constants_s.iter().copied().fold(f64::NAN, f64::max);
+    Equilibrium::assess(&names, rates, held_s(signals), slowest)
+}
+
+/// How long the final load was held: the time since any input last left a band of
+/// [`HELD_TOLERANCE`] of its range around its final value.
+fn held_s(signals: &ModelSignals) -> f64 {
+    let len = signals.len();
+    let mut since = 0;
+    for input in &signals.inputs {
+        let known: Vec<f64> = input.values.iter().flatten().collect();
+        let (Some(&last), true) = (known.last(), known.len() > 1) else {
+            continue;
+        };
+        let (lo, hi) = known
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(*v), h.max(*v)));
+        let band = HELD_TOLERANCE * (hi - lo);
+        let left = (0..len)
+            .rev()
+            .find(|&k| input.values.get(k).is_some_and(|v| (v - last).abs() > band));
+        since = since.max(left.map_or(0, |k| k + 1));
+    }
+    (len.saturating_sub(1 + since)) as f64 * signals.ts_s
+}
