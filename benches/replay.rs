@@ -39,6 +39,8 @@ fn floor(path: &Path) -> u64 {
 }
 
 /// Runs the replay as a child process; returns (seconds, peak RSS in MB).
+// The child is reaped by `wait4` (which also gives its peak RSS), not `Child::wait`.
+#[allow(clippy::zombie_processes)]
 fn replay(path: &Path, out: &Path) -> (f64, f64) {
     let start = Instant::now();
     let child = Command::new(env!("CARGO_BIN_EXE_heatrun"))

@@ -78,7 +78,9 @@ pub enum Error {
         source: crate::spec::SpecError,
     },
     /// A channel the model needs is not in the recording.
-    #[error("no channel carries `{channel}` (metadata `quantity` or a topic ending in /{channel})")]
+    #[error(
+        "no channel carries `{channel}` (metadata `quantity` or a topic ending in /{channel})"
+    )]
     MissingChannel {
         /// The quantity or free channel name.
         channel: String,

@@ -40,6 +40,9 @@
 //! [`publish`] sends everything to a rerun viewer or an `.rrd` file.
 
 #![warn(missing_docs)]
+// `!(x > 0.0)` is how this crate rejects NaN along with the out-of-range values: the
+// negated comparison is the point, not an oversight.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod atomic;
 pub mod decimate;

@@ -157,7 +157,10 @@ pub fn compute(
     for k in 0..n {
         let armature = i_g.get(k).zip(theta_cu.get(k));
         let field = i_f.get(k).zip(field_temperature_c.get(k));
-        inputs_pu[0].set(k, armature.map(|(i, t)| armature_copper_loss_w(np, i, t) / s_n));
+        inputs_pu[0].set(
+            k,
+            armature.map(|(i, t)| armature_copper_loss_w(np, i, t) / s_n),
+        );
         inputs_pu[1].set(k, field.map(|(i, t)| field_copper_loss_w(np, i, t) / s_n));
         inputs_pu[2].set(k, u_g.get(k).map(|u| iron_loss_w(np, u) / s_n));
     }

@@ -301,12 +301,11 @@ pub fn replay_with(
         };
         estimate(&estimation_data, options).map_err(in_file)?
     };
-    let (_, steady_input) = prepared
-        .signals
-        .last_inputs()
-        .ok_or_else(|| in_file(Error::NoCommonInstant {
+    let (_, steady_input) = prepared.signals.last_inputs().ok_or_else(|| {
+        in_file(Error::NoCommonInstant {
             what: "the inputs".into(),
-        }))?;
+        })
+    })?;
     let analysis = model::analyse(
         &estimate,
         &prepared.data,

@@ -281,7 +281,11 @@ impl SteadyStateEntry {
             .collect();
         SteadyStateEntry {
             input_pu: a.steady_state_input.clone(),
-            temperature_c: rise_k.iter().zip(&reference_final).map(|(r, t)| t + r).collect(),
+            temperature_c: rise_k
+                .iter()
+                .zip(&reference_final)
+                .map(|(r, t)| t + r)
+                .collect(),
             rise_k,
             measured_final_rise_k: measured_final
                 .iter()
@@ -491,16 +495,18 @@ impl Report {
             Some(FieldTemperatureSource::ScaledArmatureRise {
                 scale,
                 final_temp_c,
-            }) => format!(
-                "; field temperature: armature rise × {scale:.4} (final {final_temp_c} °C)"
-            ),
+            }) => {
+                format!("; field temperature: armature rise × {scale:.4} (final {final_temp_c} °C)")
+            }
         };
         let _ = writeln!(
             s,
             "  method {} (condition number {:.3e}); θ_0 = [{}] °C{field}",
             self.method,
             self.estimation.condition_number,
-            join(&self.estimation.initial_temperature_c, |v| format!("{v:.2}")),
+            join(&self.estimation.initial_temperature_c, |v| format!(
+                "{v:.2}"
+            )),
         );
         let _ = writeln!(s);
     }
@@ -593,8 +599,18 @@ impl Report {
         if let Some(u) = &self.uncertainty {
             row(s, "    95 % interval, ± K", &u.steady_state_ci95_k, 3);
         }
-        row(s, "  measured final rise, K (eq. 33)", &ss.measured_final_rise_k, 3);
-        row(s, "  predicted temperature, °C (eq. 34)", &ss.temperature_c, 3);
+        row(
+            s,
+            "  measured final rise, K (eq. 33)",
+            &ss.measured_final_rise_k,
+            3,
+        );
+        row(
+            s,
+            "  predicted temperature, °C (eq. 34)",
+            &ss.temperature_c,
+            3,
+        );
         row(
             s,
             "  measured final temperature, °C (35)",
@@ -618,7 +634,12 @@ impl Report {
                 };
                 let _ = writeln!(s, "thermal network (Fig. 9), scale from {scale}:");
                 let labels = self.state_labels();
-                row(s, "  capacitance C, MJ/K", &scaled(&n.capacitance_j_per_k, 1e-6), 3);
+                row(
+                    s,
+                    "  capacitance C, MJ/K",
+                    &scaled(&n.capacitance_j_per_k, 1e-6),
+                    3,
+                );
                 let to_coolant: Vec<f64> = (0..labels.len())
                     .map(|i| n.conductance_w_per_k[i][i] * 1e-3)
                     .collect();

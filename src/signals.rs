@@ -119,9 +119,7 @@ impl ModelSignals {
 
     /// State j's rise at instant k in the model's scaling: (θ_j − θ_ref,j) / θ_base.
     pub fn rise_pu(&self, j: usize, k: usize) -> Option<f64> {
-        self.states[j]
-            .rise(k)
-            .map(|r| r / self.temperature_base_k)
+        self.states[j].rise(k).map(|r| r / self.temperature_base_k)
     }
 
     /// Each state's reference at the initial instant (the paper's θ_0).
@@ -191,9 +189,11 @@ pub fn compute(
     nameplate: Option<&Nameplate>,
 ) -> Result<ModelSignals> {
     let series = |s: &Signal| {
-        decimated.get_signal(s).ok_or_else(|| Error::MissingChannel {
-            channel: s.name().to_owned(),
-        })
+        decimated
+            .get_signal(s)
+            .ok_or_else(|| Error::MissingChannel {
+                channel: s.name().to_owned(),
+            })
     };
     let mut states = Vec::with_capacity(description.states.len());
     for s in &description.states {
@@ -219,7 +219,13 @@ pub fn compute(
         (Scaling::NameplatePerUnit, None) => return Err(Error::NameplateNeeded),
         (Scaling::AsRecorded, _) => (1.0, 1.0),
     };
-    let generator = match (description.inputs.iter().any(|i| matches!(i.source, InputSource::Loss(_))), nameplate) {
+    let generator = match (
+        description
+            .inputs
+            .iter()
+            .any(|i| matches!(i.source, InputSource::Loss(_))),
+        nameplate,
+    ) {
         (true, Some(np)) => Some(losses::compute(decimated, np, initial_index)?),
         (true, None) => return Err(Error::NameplateNeeded),
         (false, _) => None,
@@ -272,7 +278,11 @@ fn input_signal<'a>(
     series: &impl Fn(&Signal) -> Result<&'a DecimatedSeries>,
 ) -> Result<InputSignal> {
     let values: Series = match &i.source {
-        InputSource::Channel(c) => series(c)?.values.iter().map(|v| v.map(|v| v / power_base)).collect(),
+        InputSource::Channel(c) => series(c)?
+            .values
+            .iter()
+            .map(|v| v.map(|v| v / power_base))
+            .collect(),
         InputSource::Expression(e) => {
             let channels = e
                 .channels()

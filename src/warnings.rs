@@ -41,7 +41,12 @@ pub fn collect(
 }
 
 fn data_loss(p: &Prepared, out: &mut Vec<String>) {
-    out.extend(p.recording.data_loss.iter().map(|l| format!("data lost: {l}")));
+    out.extend(
+        p.recording
+            .data_loss
+            .iter()
+            .map(|l| format!("data lost: {l}")),
+    );
 }
 
 fn gaps(p: &Prepared, out: &mut Vec<String>) {

@@ -27,7 +27,8 @@ const DURATION_S: usize = 4000;
 /// Heater commands (%) that step every few minutes, seeded, deterministic.
 fn heater_command(seed: u64, k: usize) -> f64 {
     let block = (k / 240) as u64;
-    let h = (block.wrapping_add(1) * 0x9E37_79B9_7F4A_7C15) ^ seed.wrapping_mul(0xD1B5_4A32_D192_ED03);
+    let h =
+        (block.wrapping_add(1) * 0x9E37_79B9_7F4A_7C15) ^ seed.wrapping_mul(0xD1B5_4A32_D192_ED03);
     (h >> 40) as f64 / (1u64 << 24) as f64 * 100.0
 }
 
@@ -37,7 +38,9 @@ fn recording(path: &Path) -> (DMatrix<f64>, DMatrix<f64>) {
     let (a, b) = two_node();
     let (phi, gamma) = discretize(&a, &b, 1.0);
     let q1: Vec<f64> = (0..DURATION_S).map(|k| heater_command(1, k)).collect();
-    let p2: Vec<f64> = (0..DURATION_S).map(|k| 0.02 * heater_command(2, k)).collect();
+    let p2: Vec<f64> = (0..DURATION_S)
+        .map(|k| 0.02 * heater_command(2, k))
+        .collect();
     let mut x = vec![[0.0, 0.0]; DURATION_S];
     for k in 1..DURATION_S {
         let u = [0.01 * q1[k - 1] * 3.0, p2[k - 1]];
@@ -91,7 +94,13 @@ fn matrix(v: &Value) -> Vec<Vec<f64>> {
     v.as_array()
         .expect("a matrix")
         .iter()
-        .map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect())
+        .map(|r| {
+            r.as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect()
+        })
         .collect()
 }
 
@@ -116,16 +125,26 @@ fn a_spec_identifies_a_known_two_node_network() {
         dir.path(),
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}\n{stdout}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}\n{stdout}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(stdout.starts_with("two-node test rig"), "{stdout}");
     let report: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
     assert_eq!(report["states"], serde_json::json!(["plate", "block"]));
-    assert_eq!(report["inputs"], serde_json::json!(["heater_1_power", "heater_2_power"]));
+    assert_eq!(
+        report["inputs"],
+        serde_json::json!(["heater_1_power", "heater_2_power"])
+    );
     let (got_phi, got_gamma) = (matrix(&report["phi"]), matrix(&report["gamma"]));
     for i in 0..2 {
         for j in 0..2 {
-            assert!((got_phi[i][j] - phi[(i, j)]).abs() < 1e-6, "Φ {got_phi:?} vs {phi}");
+            assert!(
+                (got_phi[i][j] - phi[(i, j)]).abs() < 1e-6,
+                "Φ {got_phi:?} vs {phi}"
+            );
             let rel = (got_gamma[i][j] - gamma[(i, j)]).abs() / gamma.amax();
             assert!(rel < 1e-5, "Γ {got_gamma:?} vs {gamma}");
         }
@@ -145,7 +164,10 @@ fn a_spec_identifies_a_known_two_node_network() {
         assert!((rise[i].as_f64().unwrap() - ss[i]).abs() < 1e-3 * ss[i].abs().max(1.0));
         assert!((temp[i].as_f64().unwrap() - (AMBIENT_C + ss[i])).abs() < 1e-2);
     }
-    assert!(report.get("nameplate").is_none(), "a spec needs no nameplate");
+    assert!(
+        report.get("nameplate").is_none(),
+        "a spec needs no nameplate"
+    );
     assert_eq!(report["model"]["states"][0]["part"], "heater plate");
 }
 
@@ -156,13 +178,26 @@ fn a_spec_naming_an_absent_channel_or_a_bad_key_stops_with_one_line() {
     recording(&rec);
     for (spec, expect) in [
         (SPEC.replace("channel = \"P2\"", "channel = \"P3\""), "P3"),
-        (SPEC.replace("part = \"sensor block\"", "colour = \"red\""), "colour"),
-        (SPEC.replace("0.01 * Q1 * 3.0", "0.01 * (Q1"), "heater_1_power"),
+        (
+            SPEC.replace("part = \"sensor block\"", "colour = \"red\""),
+            "colour",
+        ),
+        (
+            SPEC.replace("0.01 * Q1 * 3.0", "0.01 * (Q1"),
+            "heater_1_power",
+        ),
     ] {
         let path = dir.path().join("bad.toml");
         std::fs::write(&path, spec).unwrap();
         let out = heatrun(
-            &["replay", rec.to_str().unwrap(), "--spec", "bad.toml", "--rrd", "x.rrd"],
+            &[
+                "replay",
+                rec.to_str().unwrap(),
+                "--spec",
+                "bad.toml",
+                "--rrd",
+                "x.rrd",
+            ],
             dir.path(),
         );
         let stderr = String::from_utf8_lossy(&out.stderr);

@@ -127,7 +127,6 @@ pub enum NetworkError {
     },
 }
 
-
 /// The model's scaling: x = θ/θ_base, u = P/P_base, so B_c = C⁻¹·K·P_base/θ_base.
 /// For the generator θ_base = 80 K and P_base = S_n in VA; a model in physical units has 1, 1.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -72,7 +72,11 @@ pub fn analyse(
 fn labels(model: &ModelDescription) -> Labels {
     Labels {
         states: model.states.iter().map(|s| s.part.clone()).collect(),
-        inputs: model.inputs.iter().map(|i| i.name.replace('_', " ")).collect(),
+        inputs: model
+            .inputs
+            .iter()
+            .map(|i| i.name.replace('_', " "))
+            .collect(),
     }
 }
 
@@ -84,7 +88,11 @@ fn network(
     signals: &ModelSignals,
     calorimetry: Option<&Calorimetry>,
 ) -> Result<Network, String> {
-    if let Some(i) = model.inputs.iter().find(|i| i.kind != crate::spec::InputKind::Heat) {
+    if let Some(i) = model
+        .inputs
+        .iter()
+        .find(|i| i.kind != crate::spec::InputKind::Heat)
+    {
         return Err(format!(
             "the input `{}` is not heat, so the model is no thermal network",
             i.name
@@ -141,12 +149,18 @@ fn calorimetry(
     )
     .ok()?;
     let mean = |s: &crate::series::Series| {
-        let (sum, n) = s.iter().flatten().fold((0.0, 0usize), |(a, n), v| (a + v, n + 1));
+        let (sum, n) = s
+            .iter()
+            .flatten()
+            .fold((0.0, 0usize), |(a, n), v| (a + v, n + 1));
         (n > 0).then(|| sum / n as f64)
     };
-    let (mean_out, mean_in, mean_flow) = (mean(&outlet.values)?, mean(&inlet)?, mean(&flow.values)?);
+    let (mean_out, mean_in, mean_flow) =
+        (mean(&outlet.values)?, mean(&inlet)?, mean(&flow.values)?);
     let water_in = Water::at(mean_in).ok()?;
-    let c_rho = Water::at(0.5 * (mean_out + mean_in)).ok()?.specific_heat_j_per_kg_k
+    let c_rho = Water::at(0.5 * (mean_out + mean_in))
+        .ok()?
+        .specific_heat_j_per_kg_k
         * water_in.density_kg_per_l();
     let end_of_run = heat.end_of_run(signals.ts_s, END_OF_RUN_S);
     let losses_end_of_run_pu = losses_at_end(signals);
@@ -167,7 +181,13 @@ fn losses_at_end(signals: &ModelSignals) -> Option<f64> {
     let (sum, n) = (0..signals.len())
         .rev()
         .take(take)
-        .filter_map(|k| signals.inputs.iter().map(|i| i.values.get(k)).sum::<Option<f64>>())
+        .filter_map(|k| {
+            signals
+                .inputs
+                .iter()
+                .map(|i| i.values.get(k))
+                .sum::<Option<f64>>()
+        })
         .fold((0.0, 0usize), |(a, n), v| (a + v, n + 1));
     (n > 0).then(|| sum / n as f64)
 }
@@ -199,7 +219,9 @@ fn held_s(signals: &ModelSignals) -> f64 {
         };
         let (lo, hi) = known
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(*v), h.max(*v)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                (l.min(*v), h.max(*v))
+            });
         let band = HELD_TOLERANCE * (hi - lo);
         let left = (0..len)
             .rev()

@@ -352,7 +352,12 @@ fn input_title(replay: &Replay) -> String {
     match replay.model.scaling {
         crate::spec::Scaling::NameplatePerUnit => "heat sources, kW".into(),
         crate::spec::Scaling::AsRecorded => {
-            let units: Vec<&str> = replay.signals.inputs.iter().map(|i| i.unit.as_str()).collect();
+            let units: Vec<&str> = replay
+                .signals
+                .inputs
+                .iter()
+                .map(|i| i.unit.as_str())
+                .collect();
             format!("inputs, {}", units.join(", "))
         }
     }
@@ -514,7 +519,12 @@ fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -> Result<()
         }
         for (j, input) in replay.signals.inputs.iter().enumerate() {
             let entity = format!("{root}/cross_{}", input.name);
-            style(rec, &entity, &format!("× {}", input.name), PALETTE[j % PALETTE.len()])?;
+            style(
+                rec,
+                &entity,
+                &format!("× {}", input.name),
+                PALETTE[j % PALETTE.len()],
+            )?;
             send_by_lag(
                 rec,
                 &entity,

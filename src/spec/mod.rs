@@ -65,8 +65,9 @@ pub enum InputKind {
 pub enum InputSource {
     /// A channel's value as recorded.
     Channel(Signal),
-    /// An arithmetic expression of channels and constants.
-    Expression(InputExpression),
+    /// An arithmetic expression of channels and constants (boxed: a parsed expression is
+    /// large beside a channel name).
+    Expression(Box<InputExpression>),
     /// One of the profile's loss model's heat sources (the generator).
     Loss(HeatSource),
 }
@@ -244,7 +245,11 @@ impl ModelDescription {
                 InputSource::Loss(_) => {}
             }
         }
-        if self.inputs.iter().any(|i| matches!(i.source, InputSource::Loss(_))) {
+        if self
+            .inputs
+            .iter()
+            .any(|i| matches!(i.source, InputSource::Loss(_)))
+        {
             // The loss model's temperatures (resistance corrections) are point values too.
             for q in Quantity::ALL.into_iter().filter(|q| q.is_temperature()) {
                 map.insert(Signal::Profile(q), Alignment::Instant);
@@ -382,15 +387,13 @@ impl InputFile {
     fn into_description(self) -> Result<InputDescription, SpecError> {
         let source = match (self.channel, self.expression) {
             (Some(c), None) => InputSource::Channel(Signal::from_name(&c)),
-            (None, Some(e)) => {
-                InputSource::Expression(InputExpression::parse(&e).map_err(|problem| {
-                    SpecError::Entry {
-                        what: "input",
-                        name: self.name.clone(),
-                        problem,
-                    }
-                })?)
-            }
+            (None, Some(e)) => InputSource::Expression(Box::new(
+                InputExpression::parse(&e).map_err(|problem| SpecError::Entry {
+                    what: "input",
+                    name: self.name.clone(),
+                    problem,
+                })?,
+            )),
             _ => {
                 return Err(SpecError::Entry {
                     what: "input",
@@ -399,17 +402,18 @@ impl InputFile {
                 })
             }
         };
-        let from_initial = match self.reference.as_deref() {
-            None | Some("none") => false,
-            Some("initial") => true,
-            Some(other) => {
-                return Err(SpecError::Entry {
+        let from_initial =
+            match self.reference.as_deref() {
+                None | Some("none") => false,
+                Some("initial") => true,
+                Some(other) => return Err(SpecError::Entry {
                     what: "input",
                     name: self.name,
-                    problem: format!("reference = \"{other}\": an input's reference is \"initial\" or \"none\""),
-                })
-            }
-        };
+                    problem: format!(
+                        "reference = \"{other}\": an input's reference is \"initial\" or \"none\""
+                    ),
+                }),
+            };
         Ok(InputDescription {
             name: self.name,
             source,
@@ -448,7 +452,10 @@ mod tests {
         let d = ModelDescription::from_toml(TCLAB).unwrap();
         assert_eq!((d.state_count(), d.input_count()), (2, 2));
         assert_eq!(d.states[0].channel, Signal::Free("T1".into()));
-        assert_eq!(d.states[1].reference, Reference::Channel(Signal::Free("ambient".into())));
+        assert_eq!(
+            d.states[1].reference,
+            Reference::Channel(Signal::Free("ambient".into()))
+        );
         assert!(!d.inputs_are_heat());
         assert!(d.inputs[1].from_initial && !d.inputs[0].from_initial);
         assert!(!d.needs_nameplate());
@@ -465,10 +472,20 @@ mod tests {
     fn the_generator_is_three_rises_and_the_loss_model() {
         let d = ModelDescription::generator();
         let names: Vec<_> = d.states.iter().map(|s| s.name.as_str()).collect();
-        assert_eq!(names, ["stator_winding_temp", "core_temp", "cooling_water_outlet_temp"]);
+        assert_eq!(
+            names,
+            [
+                "stator_winding_temp",
+                "core_temp",
+                "cooling_water_outlet_temp"
+            ]
+        );
         assert!(d.needs_nameplate() && d.inputs_are_heat());
         let a = d.alignments();
-        assert_eq!(a[&Signal::Profile(Quantity::FieldWindingTemp)], Alignment::Instant);
+        assert_eq!(
+            a[&Signal::Profile(Quantity::FieldWindingTemp)],
+            Alignment::Instant
+        );
         assert!(!a.contains_key(&Signal::Profile(Quantity::ArmatureCurrent)));
         assert!(d.free_channels().is_empty());
     }
@@ -479,7 +496,8 @@ mod tests {
         assert!(bad("[[state]]\nname = \"a\"").contains("at least one"));
         let both = "[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"\nexpression=\"x\"";
         assert!(bad(both).contains("input `p`"), "{}", bad(both));
-        let dup = "[[state]]\nname=\"a\"\n[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"";
+        let dup =
+            "[[state]]\nname=\"a\"\n[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"";
         assert!(bad(dup).contains("state `a`"));
         let unknown = "colour = 1\n[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"";
         assert!(bad(unknown).contains("colour"), "{}", bad(unknown));
