@@ -29,7 +29,7 @@ pub fn heatrun(args: &[&str], cwd: &Path) -> Output {
 pub type BuiltChannel = (String, BTreeMap<String, String>, Vec<(u64, String)>);
 
 /// A signal of time (s) for a hand-built channel.
-type Signal = Box<dyn Fn(f64) -> f64>;
+type Signal<'a> = Box<dyn Fn(f64) -> f64 + 'a>;
 
 /// A hand-built recording: channels with metadata and samples.
 pub struct RecordingBuilder {
@@ -82,7 +82,7 @@ impl RecordingBuilder {
         let step = |t: f64, a: f64, b: f64| if t < duration_s / 2.0 { a } else { b };
         let mut r = RecordingBuilder::new();
         let rise = |t: f64, tau: f64, k: f64| k * (1.0 - (-t / tau).exp());
-        let all: Vec<(&str, &str, Signal)> = vec![
+        let all: Vec<(&str, &str, Signal<'_>)> = vec![
             (
                 "armature_current",
                 "A",
