@@ -25,23 +25,30 @@ pub fn heatrun(args: &[&str], cwd: &Path) -> Output {
         .expect("heatrun runs")
 }
 
-/// One hand-built channel: topic, metadata, and (log time, message JSON) samples.
-pub type BuiltChannel = (String, BTreeMap<String, String>, Vec<(u64, String)>);
-
-/// A signal of time (s) for a hand-built channel.
-type Signal<'a> = Box<dyn Fn(f64) -> f64 + 'a>;
+/// One channel of a hand-built recording: topic, metadata, and its samples as
+/// (log time in ns, message bytes as text).
+pub type Channel = (String, BTreeMap<String, String>, Vec<(u64, String)>);
 
 /// A hand-built recording: channels with metadata and samples.
 pub struct RecordingBuilder {
-    pub channels: Vec<BuiltChannel>,
+    /// The channels, in the order they are added to the file.
+    pub channels: Vec<Channel>,
+    /// The `heatrun.nameplate` metadata record, if any.
     pub nameplate: Option<BTreeMap<String, String>>,
+    /// The schema name every channel gets (`heatrun.Sample` in the profile).
     pub schema_name: String,
+    /// The message encoding every channel gets (`json` in the profile).
     pub message_encoding: String,
 }
 
+/// A signal of time in seconds.
+type Signal<'a> = Box<dyn Fn(f64) -> f64 + 'a>;
+
+/// The start of hand-built recordings, ns since the Unix epoch (September 2020).
 pub const T0: u64 = 1_600_000_000_000_000_000;
 
 impl RecordingBuilder {
+    /// No channels yet; the paper's Table 1 nameplate; the profile's schema and encoding.
     pub fn new() -> Self {
         RecordingBuilder {
             channels: Vec::new(),
@@ -229,6 +236,7 @@ impl RecordingBuilder {
         w.finish().unwrap();
     }
 
+    /// Writes the recording with `mcap`'s default options, messages in time order.
     pub fn write(&self, path: &Path) {
         self.write_with(path, mcap::WriteOptions::new(), None);
     }
