@@ -58,11 +58,17 @@ pub enum Error {
     /// Publishing to rerun failed.
     #[error("rerun: {0}")]
     Publish(String),
+    /// A table could not be imported (a bad cell, row, time, or map).
+    #[error(transparent)]
+    Import(Box<crate::import::ImportError>),
 }
 
 impl Error {
     /// Whether the error is the input's fault (exit status 2) rather than the machine's (1).
     pub fn is_bad_input(&self) -> bool {
+        if let Error::Import(e) = self {
+            return e.is_bad_input();
+        }
         matches!(
             self,
             Error::ReadInput { .. }

@@ -14,13 +14,15 @@
 //! | publishing | [`publish`] | everything → a rerun recording |
 //! | report | [`report`] | everything → the profile's JSON report and a summary |
 //!
-//! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs, and
-//! [`writer`] writes any recording in the profile.
+//! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs,
+//! [`import`] turns tables (CSV, historian exports) into recordings, and [`writer`]
+//! writes any recording in the profile.
 
 pub mod atomic;
 pub mod decimate;
 pub mod error;
 pub mod estimate;
+pub mod import;
 pub mod losses;
 pub mod model;
 pub mod pipeline;

@@ -1,5 +1,6 @@
 //! One handler per command, behind [`dispatch`].
 
+mod import;
 mod info;
 mod replay;
 mod synth;
@@ -21,5 +22,6 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Replay(args) => replay::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Info(args) => info::run(args),
+        Command::Import(args) => import::run(args),
     }
 }
