@@ -352,11 +352,21 @@ const PMSM: &str = "ambient,coolant,u_d,u_q,motor_speed,torque,i_d,i_q,pm,stator
 -0.75214297,-1.1184461,0.3279352,-1.2978575,-1.2224282,-0.2501821,1.0295724,-0.24586003,-2.522071,-1.8314217,-2.0661428,-2.0180326\n\
 -0.77126324,-1.1170206,0.3296648,-1.2976865,-1.2224293,-0.2491333,1.029509,-0.24583231,-2.5224178,-1.8309687,-2.0648587,-2.0176313\n";
 
+/// A data set's map on a slice of its file: (data set folder, file name, the slice,
+/// (channel, unit, samples) expected, the last row's time in ns).
+type SliceCase = (
+    &'static str,
+    &'static str,
+    &'static str,
+    &'static [(&'static str, &'static str, usize)],
+    u64,
+);
+
 #[test]
 fn the_data_sets_maps_read_slices_of_their_files() {
     let dir = common::tempdir();
     let examples = common::package_root().join("examples");
-    let cases: [(&str, &str, &str, &[(&str, &str, usize)], u64); 5] = [
+    let cases: [SliceCase; 5] = [
         (
             "tclab_mimo_heaters",
             "tclab_mimo_data.csv",

@@ -233,10 +233,11 @@ fn write_time(out: &mut String, columns: &[Column], time: Option<usize>) {
     let _ = writeln!(out, "column = {}", reference(c, i));
     let first = c.cells.first().map_or("", String::as_str);
     if time::looks_like_seconds(first) {
-        let unit = match c.unit.as_deref() {
-            Some(u @ ("ms" | "us" | "min" | "h")) => u,
-            _ => "s",
-        };
+        let unit = c
+            .unit
+            .as_deref()
+            .filter(|u| ["ms", "us", "min", "h"].contains(u))
+            .unwrap_or("s");
         let _ = writeln!(out, "format = \"seconds\"\nunit = \"{unit}\"");
         if c.header.is_none() {
             let _ = writeln!(

@@ -100,8 +100,10 @@ pub fn import(input: &Path, map: &ImportMap, out: &Path) -> Result<ImportSummary
         line: header.as_ref().map_or(table.line(), |(_, l)| *l),
     };
     let mut writer = RecordingWriter::create(out, WriterOptions::default())?;
-    let mut rows = Rows::plan(&shape, &dialect, &mut writer)?;
+    // The records first: a metadata record closes the open chunk, which would
+    // otherwise hold only the channel records.
     write_records(&mut writer, input, map)?;
+    let mut rows = Rows::plan(&shape, &dialect, &mut writer)?;
     loop {
         rows.convert(&table, &mut writer)?;
         if !table.next_row()? {
