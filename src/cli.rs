@@ -22,6 +22,8 @@ pub enum Command {
     Synth(SynthArgs),
     /// Show what a recording holds: channels, quantities, units, rates, span, gaps, nameplate.
     Info(InfoArgs),
+    /// Convert a table (CSV, historian export, whitespace-separated .dat) into a recording.
+    Import(ImportArgs),
 }
 
 /// Identification method.
@@ -174,6 +176,22 @@ pub struct InfoArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Arguments of `heatrun import`.
+#[derive(Debug, Args)]
+pub struct ImportArgs {
+    /// The table: comma, semicolon, tab or whitespace separated, with or without a header.
+    pub input: PathBuf,
+    /// The map (TOML) that names the time column and the channels.
+    #[arg(long, value_name = "MAP.toml", required_unless_present = "guess")]
+    pub map: Option<PathBuf>,
+    /// The recording to write (MCAP, heatrun SCADA profile).
+    #[arg(long, value_name = "OUT.mcap", required_unless_present = "guess")]
+    pub out: Option<PathBuf>,
+    /// Print a starting map guessed from the table's header instead, to be edited.
+    #[arg(long, conflicts_with_all = ["map", "out"])]
+    pub guess: bool,
 }
 
 #[cfg(test)]

@@ -170,6 +170,9 @@ pub enum Error {
     /// Publishing to rerun failed.
     #[error("rerun: {0}")]
     Publish(String),
+    /// A table could not be imported (a bad cell, row, time, or map).
+    #[error(transparent)]
+    Import(Box<crate::import::ImportError>),
 }
 
 impl Error {
@@ -177,6 +180,9 @@ impl Error {
     pub fn is_bad_input(&self) -> bool {
         if let Error::InRecording { source, .. } = self {
             return source.is_bad_input();
+        }
+        if let Error::Import(e) = self {
+            return e.is_bad_input();
         }
         matches!(
             self,

@@ -14,8 +14,9 @@
 //! | publishing | [`publish`] | everything → a rerun recording |
 //! | report | [`report`] | everything → the profile's JSON report and a summary |
 //!
-//! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs, and
-//! [`writer`] writes any recording in the profile.
+//! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs,
+//! [`import`] turns tables (CSV, historian exports) into recordings, and [`writer`]
+//! writes any recording in the profile.
 //!
 //! # A replay in a few lines
 //!
@@ -48,6 +49,7 @@ pub mod atomic;
 pub mod decimate;
 pub mod error;
 pub mod estimate;
+pub mod import;
 pub mod losses;
 pub mod model;
 pub mod network;

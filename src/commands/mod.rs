@@ -1,6 +1,7 @@
 //! One handler per command, behind [`dispatch`].
 
 pub mod hint;
+mod import;
 mod info;
 mod replay;
 mod synth;
@@ -22,5 +23,6 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Replay(args) => replay::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Info(args) => info::run(args),
+        Command::Import(args) => import::run(args),
     }
 }

@@ -1,0 +1,308 @@
+//! A starting map guessed from a table's first lines, to be checked and edited.
+
+use std::fmt::Write;
+use std::path::Path;
+
+use super::error::ImportError;
+use super::map::{is_channel_name, Delimiter, InputLayout};
+use super::table::{self, Table};
+use super::time;
+use crate::recording::Quantity;
+
+/// Rows read to guess from.
+const SAMPLE_ROWS: usize = 20;
+
+/// A column as the guess sees it.
+struct Column {
+    /// The header's text (none without a header).
+    header: Option<String>,
+    /// A channel name made from it.
+    name: String,
+    /// The unit taken from `Name (unit)` or `Name [unit]`.
+    unit: Option<String>,
+    /// The first data rows' cells.
+    cells: Vec<String>,
+}
+
+/// The map text for the table at `input`: its layout, a time column (or a sample
+/// time to fill in) and one `[[column]]` per other column, named after the header
+/// with the unit it gives (`T1 (degC)`, `Q1 [%]`).
+pub fn guess_map(input: &Path) -> Result<String, ImportError> {
+    let lines = table::first_lines(input, 0, None)?;
+    let dialect = table::resolve_dialect(&InputLayout::default(), &lines);
+    let mut table = Table::open(input, &dialect)?;
+    let mut header = None;
+    let mut rows: Vec<Vec<String>> = Vec::new();
+    while rows.len() < SAMPLE_ROWS && table.next_row()? {
+        if dialect.header && header.is_none() {
+            header = Some(table.fields());
+        } else {
+            rows.push(table.fields());
+        }
+    }
+    let width = header
+        .as_ref()
+        .map_or_else(|| rows.first().map_or(0, Vec::len), Vec::len);
+    if width == 0 || rows.is_empty() {
+        return Err(ImportError::NoData {
+            path: input.to_owned(),
+        });
+    }
+    let columns = columns(header.as_deref(), &rows, width);
+    let time = time_column(&columns);
+
+    let mut out = String::new();
+    let file = input
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let _ = writeln!(
+        out,
+        "# heatrun import map guessed from {file}: check every entry (EDIT marks guesses"
+    );
+    let _ = writeln!(
+        out,
+        "# to look at), delete the [[column]] tables you do not want, then run"
+    );
+    let _ = writeln!(
+        out,
+        "#   heatrun import {file} --map THIS.toml --out OUT.mcap"
+    );
+    let _ = writeln!(out);
+    write_input(
+        &mut out,
+        dialect.delimiter,
+        dialect.header,
+        dialect.decimal_comma,
+    );
+    write_time(&mut out, &columns, time);
+    for (i, c) in columns.iter().enumerate() {
+        if Some(i) != time {
+            write_column(&mut out, c, i, header.is_some());
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\n# For a generator heat run: the heatrun.nameplate record (see the profile)"
+    );
+    let _ = writeln!(out, "# [nameplate]\n# rated_apparent_power_mva = 100");
+    let _ = writeln!(out, "\n# Other metadata records, carried into the report");
+    let _ = writeln!(out, "# [metadata.\"heatrun.test\"]\n# site = \"\"");
+    Ok(out)
+}
+
+fn columns(header: Option<&[String]>, rows: &[Vec<String>], width: usize) -> Vec<Column> {
+    let mut used = std::collections::BTreeSet::new();
+    (0..width)
+        .map(|i| {
+            let text = header.and_then(|h| h.get(i)).cloned();
+            let (base, unit) = match &text {
+                Some(t) => split_unit(t),
+                None => (String::new(), None),
+            };
+            let mut name = channel_name(&base, i);
+            if !used.insert(name.clone()) {
+                name = format!("{name}_{}", i + 1);
+                used.insert(name.clone());
+            }
+            Column {
+                header: text,
+                name,
+                unit,
+                cells: rows.iter().filter_map(|r| r.get(i).cloned()).collect(),
+            }
+        })
+        .collect()
+}
+
+/// `T1 (degC)` → (`T1`, `degC`); `Q1 [%]` → (`Q1`, `%`).
+fn split_unit(header: &str) -> (String, Option<String>) {
+    let h = header.trim();
+    for (open, close) in [('(', ')'), ('[', ']')] {
+        if let Some(inner) = h.strip_suffix(close) {
+            if let Some(at) = inner.rfind(open) {
+                let unit = normalise_unit(inner[at + 1..].trim());
+                return (
+                    inner[..at].trim().to_owned(),
+                    Some(unit).filter(|u| !u.is_empty()),
+                );
+            }
+        }
+    }
+    (h.to_owned(), None)
+}
+
+fn normalise_unit(unit: &str) -> String {
+    match unit {
+        "°C" | "ºC" | "deg C" | "degC" | "C" | "celsius" | "Celsius" => "degC".into(),
+        "sec" | "secs" | "seconds" | "s" => "s".into(),
+        other => other.to_owned(),
+    }
+}
+
+/// A channel name from a header: runs of other characters become `_`; a name that
+/// would start with a digit gets `c_` in front; no header gives `column_<n>`.
+fn channel_name(base: &str, index: usize) -> String {
+    let mut name = String::new();
+    for c in base.chars() {
+        if c.is_ascii_alphanumeric() {
+            name.push(c);
+        } else if !name.ends_with('_') && !name.is_empty() {
+            name.push('_');
+        }
+    }
+    let name = name.trim_end_matches('_').to_owned();
+    if name.is_empty() {
+        format!("column_{}", index + 1)
+    } else if is_channel_name(&name) {
+        name
+    } else {
+        format!("c_{name}")
+    }
+}
+
+/// The time column: one named like a time, else the first whose cells are
+/// timestamps, else (without a header) a first column that increases.
+fn time_column(columns: &[Column]) -> Option<usize> {
+    let named = columns.iter().position(|c| {
+        c.header.as_ref().is_some_and(|h| {
+            let h = h.to_ascii_lowercase();
+            h.contains("time") || h.contains("date") || h.contains("zeit") || h.trim() == "t"
+        })
+    });
+    named
+        .or_else(|| {
+            columns.iter().position(|c| {
+                c.cells.first().is_some_and(|v| {
+                    !time::looks_like_seconds(v) && v.contains(':') && v.contains('-')
+                })
+            })
+        })
+        .or_else(|| {
+            let first = columns.first()?;
+            let values: Vec<f64> = first.cells.iter().filter_map(|v| v.parse().ok()).collect();
+            let increasing = values.len() >= 3
+                && values.len() == first.cells.len()
+                && values.windows(2).all(|w| w[1] > w[0]);
+            (first.header.is_none() && increasing).then_some(0)
+        })
+}
+
+fn quoted(text: &str) -> String {
+    toml::Value::String(text.to_owned()).to_string()
+}
+
+/// How the map refers to a column: its header name, else its position.
+fn reference(c: &Column, index: usize) -> String {
+    match &c.header {
+        Some(h) => quoted(h),
+        None => format!("{}", index + 1),
+    }
+}
+
+fn write_input(out: &mut String, delimiter: Delimiter, header: bool, decimal_comma: bool) {
+    let delimiter = match delimiter {
+        Delimiter::Byte(b'\t') => "\\t".to_owned(),
+        Delimiter::Byte(b) => (b as char).to_string(),
+        Delimiter::Whitespace => "whitespace".to_owned(),
+    };
+    let _ = writeln!(
+        out,
+        "[input]\ndelimiter = \"{delimiter}\"\nheader = {header}"
+    );
+    if decimal_comma {
+        let _ = writeln!(out, "decimal_comma = true");
+    }
+}
+
+fn write_time(out: &mut String, columns: &[Column], time: Option<usize>) {
+    let _ = writeln!(out, "\n[time]");
+    let Some(i) = time else {
+        let _ = writeln!(
+            out,
+            "# No time column found: rows at a fixed step. EDIT the sample time."
+        );
+        let _ = writeln!(out, "sample_time_s = 1.0");
+        let _ = writeln!(
+            out,
+            "# start = \"2024-01-01T00:00:00Z\"   # the instant of the first row"
+        );
+        return;
+    };
+    let c = &columns[i];
+    let _ = writeln!(out, "column = {}", reference(c, i));
+    let first = c.cells.first().map_or("", String::as_str);
+    if time::looks_like_seconds(first) {
+        let unit = c
+            .unit
+            .as_deref()
+            .filter(|u| ["ms", "us", "min", "h"].contains(u))
+            .unwrap_or("s");
+        let _ = writeln!(out, "format = \"seconds\"\nunit = \"{unit}\"");
+        if c.header.is_none() {
+            let _ = writeln!(
+                out,
+                "# EDIT: column 1 increases, so it is taken as the time; if it is a sample"
+            );
+            let _ = writeln!(
+                out,
+                "# index, use `sample_time_s` instead of `column` and skip it."
+            );
+        }
+        let _ = writeln!(
+            out,
+            "# start = \"2024-01-01T00:00:00Z\"   # the instant of t = 0 (default: the Unix epoch)"
+        );
+    } else {
+        let _ = writeln!(out, "format = \"timestamp\"");
+        if time::parse_timestamp(first, None, None).is_err() {
+            let _ = writeln!(
+                out,
+                "zone = \"UTC\"   # EDIT: the times carry no offset; the zone they were written in"
+            );
+        }
+    }
+}
+
+fn write_column(out: &mut String, c: &Column, index: usize, has_header: bool) {
+    let _ = writeln!(out, "\n[[column]]");
+    let _ = writeln!(out, "column = {}", reference(c, index));
+    let unit = c.unit.clone();
+    match Quantity::from_name(&c.name) {
+        Some(q) if unit.as_deref().is_some_and(|u| q.unit_scale(u).is_some()) => {
+            let _ = writeln!(out, "quantity = \"{}\"", c.name);
+        }
+        _ => {
+            let _ = writeln!(out, "channel = \"{}\"", c.name);
+        }
+    }
+    match unit {
+        Some(u) => {
+            let _ = writeln!(out, "unit = {}", quoted(&u));
+        }
+        None if has_header => {
+            let _ = writeln!(out, "unit = \"1\"   # EDIT: the header gives no unit");
+        }
+        None => {
+            let _ = writeln!(out, "unit = \"1\"   # EDIT: the unit");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn units_and_names_from_headers() {
+        assert_eq!(split_unit("T1 (degC)"), ("T1".into(), Some("degC".into())));
+        assert_eq!(split_unit(" Q1 [%]"), ("Q1".into(), Some("%".into())));
+        assert_eq!(split_unit("Time (sec)"), ("Time".into(), Some("s".into())));
+        assert_eq!(split_unit("T (°C)"), ("T".into(), Some("degC".into())));
+        assert_eq!(split_unit("pm"), ("pm".into(), None));
+        assert_eq!(channel_name("Temperature 1", 3), "Temperature_1");
+        assert_eq!(channel_name("1st sensor", 0), "c_1st_sensor");
+        assert_eq!(channel_name("", 4), "column_5");
+        assert_eq!(channel_name("U/V-phase", 0), "U_V_phase");
+    }
+}
