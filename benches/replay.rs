@@ -151,6 +151,56 @@ enum Source {
     Shuffled(&'static str),
 }
 
+/// Medians of the floor over `runs`: (messages, seconds).
+fn floor_median(path: &Path, runs: usize) -> (u64, f64) {
+    let mut floors = Vec::new();
+    let mut messages = 0;
+    for _ in 0..runs {
+        let t = Instant::now();
+        messages = floor(path);
+        floors.push(t.elapsed().as_secs_f64());
+    }
+    (messages, median(floors))
+}
+
+/// A workload's replays: median seconds, peak MB, the report's numbers.
+struct Measured {
+    seconds: f64,
+    peak_mb: f64,
+    numbers: Vec<f64>,
+}
+
+/// Replays `path` `runs` times, in turns with `paired` when given (a reordered workload
+/// and its source then see the same load on the machine).
+fn measure(
+    path: &Path,
+    paired: Option<&Path>,
+    out: &Path,
+    runs: usize,
+) -> (Measured, Option<Measured>) {
+    let summary = |times: Vec<f64>, peaks: Vec<f64>, numbers| Measured {
+        seconds: median(times),
+        peak_mb: peaks.iter().cloned().fold(0.0, f64::max),
+        numbers,
+    };
+    let (mut times, mut peaks, mut numbers) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut times_of, mut peaks_of, mut numbers_of) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..runs {
+        if let Some(of) = paired {
+            let (t, peak) = replay(of, out);
+            times_of.push(t);
+            peaks_of.push(peak);
+            numbers_of = report_numbers(out);
+        }
+        let (t, peak) = replay(path, out);
+        times.push(t);
+        peaks.push(peak);
+        numbers = report_numbers(out);
+    }
+    let of = paired.map(|_| summary(times_of, peaks_of, numbers_of));
+    (summary(times, peaks, numbers), of)
+}
+
 fn main() {
     if let Some(job) = std::env::var_os(SHUFFLE_CHILD) {
         let job = job.to_string_lossy().into_owned();
@@ -176,45 +226,23 @@ fn main() {
         "{:<12} {:>12} {:>9} {:>10} {:>12} {:>9} {:>10} {:>9} {:>7}",
         "case", "messages", "MB", "replay s", "messages/s", "MB/s", "peak MB", "floor s", "ratio"
     );
-    let mut made: Vec<(&str, PathBuf, f64, f64, Vec<f64>)> = Vec::new();
+    let mut made: Vec<(&str, PathBuf)> = Vec::new();
     for (name, source, runs) in cases {
         let file = name.replace(['/', ' '], "_");
-        let path = match source {
-            Source::Synth(duration) => workload(&dir, &file, duration),
-            Source::Shuffled(of) => {
-                let (_, from, ..) = made.iter().find(|m| m.0 == of).expect("source case");
-                shuffled_workload(&dir, &file, from)
-            }
-        };
-        let bytes = std::fs::metadata(&path).expect("workload").len() as f64 / 1e6;
-        let mut floors = Vec::new();
-        let mut messages = 0;
-        for _ in 0..runs {
-            let t = Instant::now();
-            messages = floor(&path);
-            floors.push(t.elapsed().as_secs_f64());
-        }
-        // A reordered workload is timed in turns with its source, so that both see the
-        // same load on the machine.
-        let paired = match source {
-            Source::Shuffled(of) => made.iter().find(|m| m.0 == of).map(|m| (of, m.1.clone())),
+        let source_of = match source {
+            Source::Shuffled(of) => made.iter().find(|m| m.0 == of).cloned(),
             Source::Synth(_) => None,
         };
-        let (mut times, mut peaks) = (Vec::new(), Vec::new());
-        let (mut times_of, mut peaks_of, mut numbers_of) = (Vec::new(), Vec::new(), Vec::new());
-        for _ in 0..runs {
-            if let Some((_, of_path)) = &paired {
-                let (t, peak) = replay(of_path, out.path());
-                times_of.push(t);
-                peaks_of.push(peak);
-                numbers_of = report_numbers(out.path());
-            }
-            let (t, peak) = replay(&path, out.path());
-            times.push(t);
-            peaks.push(peak);
-        }
-        let (t, f) = (median(times), median(floors));
-        let peak = peaks.iter().cloned().fold(0.0, f64::max);
+        let path = match (source, &source_of) {
+            (Source::Synth(duration), _) => workload(&dir, &file, duration),
+            (Source::Shuffled(_), Some((_, from))) => shuffled_workload(&dir, &file, from),
+            (Source::Shuffled(of), None) => panic!("{of} is not made before {name}"),
+        };
+        let bytes = std::fs::metadata(&path).expect("workload").len() as f64 / 1e6;
+        let (messages, f) = floor_median(&path, runs);
+        let paired = source_of.as_ref().map(|(_, p)| p.as_path());
+        let (m, of) = measure(&path, paired, out.path(), runs);
+        let t = m.seconds;
         println!(
             "{:<12} {:>12} {:>9.0} {:>10.2} {:>12.0} {:>9.0} {:>10.1} {:>9.2} {:>7.2}",
             name,
@@ -223,30 +251,30 @@ fn main() {
             t,
             messages as f64 / t,
             bytes / t,
-            peak,
+            m.peak_mb,
             f,
             t / f
         );
-        if let Some((of, _)) = paired {
-            let (t_of, peak_of) = (
-                median(times_of),
-                peaks_of.iter().cloned().fold(0.0, f64::max),
-            );
-            let worst = report_numbers(out.path())
+        if let (Some(of), Some((of_name, _))) = (of, source_of) {
+            let worst = m
+                .numbers
                 .iter()
-                .zip(&numbers_of)
+                .zip(&of.numbers)
                 .map(|(a, b)| (a - b).abs() / a.abs().max(b.abs()))
                 .fold(0.0, f64::max);
             println!(
-                "{name} against {of} in turns: replay {t:.2} s against {t_of:.2} s ({:.2}×, bound 1.5), \
-                 peak {peak:.1} MB against {peak_of:.1} MB, report numbers within {worst:.1e}",
-                t / t_of
+                "{name} against {of_name} in turns: replay {t:.2} s against {:.2} s ({:.2}×, \
+                 bound 1.5), peak {:.1} MB against {:.1} MB, report numbers within {worst:.1e}",
+                of.seconds,
+                t / of.seconds,
+                m.peak_mb,
+                of.peak_mb
             );
         }
-        made.push((name, path, t, peak, report_numbers(out.path())));
+        made.push((name, path));
     }
     if keep.is_none() {
-        for (_, path, ..) in made {
+        for (_, path) in made {
             let _ = std::fs::remove_file(path);
         }
     }

@@ -590,24 +590,12 @@ fn scan(
                     last_record_end += 9 + len;
                     continue;
                 }
-                let sent = match mcap::parse_record(opcode, data) {
-                    Ok(Record::Chunk { header, data }) => {
-                        let mut buf = spare_data.try_recv().unwrap_or_default();
-                        buf.clear();
-                        buf.extend_from_slice(&data);
-                        work.send((seq, header, buf)).is_ok()
-                    }
-                    Ok(record) => done
-                        .send(DecodedBatch::Records {
-                            seq,
-                            chunk_start: 0,
-                            items: Ok(item(record).into_iter().collect()),
-                        })
-                        .is_ok(),
-                    Err(e) => {
+                let sent = match forward(opcode, data, seq, &work, &done, &spare_data) {
+                    Ok(sent) => sent,
+                    Err(what) => {
                         break ScanEnd::Damaged {
                             last_record_end,
-                            what: format!("a damaged record (opcode {opcode:#04x}): {e}"),
+                            what,
                         }
                     }
                 };
@@ -632,6 +620,35 @@ fn scan(
         }
     };
     let _ = done.send(DecodedBatch::End { seq, end });
+}
+
+/// Hands a wanted record on: a chunk to the workers (copied into a recycled buffer), any
+/// other record, parsed, to the merger. `Ok(false)`: the merger stopped; `Err`: the record
+/// is damaged.
+fn forward(
+    opcode: u8,
+    data: &[u8],
+    seq: u64,
+    work: &crossbeam_channel::Sender<ChunkWork>,
+    done: &crossbeam_channel::Sender<DecodedBatch>,
+    spare_data: &crossbeam_channel::Receiver<Vec<u8>>,
+) -> std::result::Result<bool, String> {
+    match mcap::parse_record(opcode, data) {
+        Ok(Record::Chunk { header, data }) => {
+            let mut buf = spare_data.try_recv().unwrap_or_default();
+            buf.clear();
+            buf.extend_from_slice(&data);
+            Ok(work.send((seq, header, buf)).is_ok())
+        }
+        Ok(record) => Ok(done
+            .send(DecodedBatch::Records {
+                seq,
+                chunk_start: 0,
+                items: Ok(item(record).into_iter().collect()),
+            })
+            .is_ok()),
+        Err(e) => Err(format!("a damaged record (opcode {opcode:#04x}): {e}")),
+    }
 }
 
 /// Reads until `buf` is full or the file ends; returns the bytes read.
