@@ -6,9 +6,15 @@
 //! decimate, losses, estimate, .rrd and report written) as the `heatrun` binary does.
 //! For each it prints messages/s, MB/s and peak resident memory of the replay, the
 //! floor — iterating the same file's messages with the mcap crate and nothing else —
-//! and the ratio replay / floor; medians of three runs.
+//! and the ratio replay / floor; medians of three runs. "W1 shuffled" is W1 with its
+//! messages stored in a random order (zstd chunks of 1 MiB, metadata at the end): its
+//! replay must stay within 1.5× of W1's time and within W1's memory, and give W1's
+//! report numbers.
 //! `HEATRUN_BENCH_W2=1` adds W2, seven days at the same rates (about 260 million
 //! messages, 8 GB on disk, several minutes). `HEATRUN_BENCH_DIR` keeps the workloads.
+
+#[path = "../tests/layouts/mod.rs"]
+mod layouts;
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -16,6 +22,9 @@ use std::process::Command;
 use std::time::Instant;
 
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader};
+
+/// Set in the child process that shuffles a workload: `SOURCE|DESTINATION`.
+const SHUFFLE_CHILD: &str = "HEATRUN_BENCH_SHUFFLE";
 
 /// Iterates every message of the file with the mcap crate; returns the count.
 fn floor(path: &Path) -> u64 {
@@ -39,7 +48,7 @@ fn floor(path: &Path) -> u64 {
 }
 
 /// Runs the replay as a child process; returns (seconds, peak RSS in MB).
-// The child is reaped by `wait4` (which also gives its peak RSS), not `Child::wait`.
+// The child is waited for with `wait4`, which `std` does not offer, for its peak memory.
 #[allow(clippy::zombie_processes)]
 fn replay(path: &Path, out: &Path) -> (f64, f64) {
     let start = Instant::now();
@@ -98,56 +107,175 @@ fn workload(dir: &Path, name: &str, duration_s: f64) -> PathBuf {
     path
 }
 
+/// Makes `name` from `source` with its messages shuffled, in a child process (this bench
+/// itself, run again): the shuffle holds the whole file in memory, which must not count
+/// against the replays forked from this process.
+fn shuffled_workload(dir: &Path, name: &str, source: &Path) -> PathBuf {
+    let path = dir.join(format!("{name}.mcap"));
+    if !path.exists() {
+        let t = Instant::now();
+        let status = Command::new(std::env::current_exe().expect("the bench binary"))
+            .env(
+                SHUFFLE_CHILD,
+                format!("{}|{}", source.display(), path.display()),
+            )
+            .status()
+            .expect("the shuffling child runs");
+        assert!(status.success(), "shuffling failed");
+        eprintln!(
+            "made {} in {:.1} s",
+            path.display(),
+            t.elapsed().as_secs_f64()
+        );
+    }
+    path
+}
+
+/// The report numbers compared between W1 and W1 shuffled: Φ, Γ, time constants.
+fn report_numbers(out: &Path) -> Vec<f64> {
+    let text = std::fs::read_to_string(out.join("w.json")).expect("the report");
+    let report: serde_json::Value = serde_json::from_str(&text).expect("a JSON report");
+    let mut numbers = Vec::new();
+    for key in ["phi", "gamma", "time_constants_s"] {
+        let flat = report[key].to_string().replace(['[', ']'], "");
+        numbers.extend(flat.split(',').map(|x| x.parse::<f64>().expect(key)));
+    }
+    numbers
+}
+
+/// How a case's workload is made.
+enum Source {
+    /// `heatrun synth` of this many seconds.
+    Synth(f64),
+    /// The workload of the named case, shuffled.
+    Shuffled(&'static str),
+}
+
+/// Medians of the floor over `runs`: (messages, seconds).
+fn floor_median(path: &Path, runs: usize) -> (u64, f64) {
+    let mut floors = Vec::new();
+    let mut messages = 0;
+    for _ in 0..runs {
+        let t = Instant::now();
+        messages = floor(path);
+        floors.push(t.elapsed().as_secs_f64());
+    }
+    (messages, median(floors))
+}
+
+/// A workload's replays: median seconds, peak MB, the report's numbers.
+struct Measured {
+    seconds: f64,
+    peak_mb: f64,
+    numbers: Vec<f64>,
+}
+
+/// Replays `path` `runs` times, in turns with `paired` when given (a reordered workload
+/// and its source then see the same load on the machine).
+fn measure(
+    path: &Path,
+    paired: Option<&Path>,
+    out: &Path,
+    runs: usize,
+) -> (Measured, Option<Measured>) {
+    let summary = |times: Vec<f64>, peaks: Vec<f64>, numbers| Measured {
+        seconds: median(times),
+        peak_mb: peaks.iter().cloned().fold(0.0, f64::max),
+        numbers,
+    };
+    let (mut times, mut peaks, mut numbers) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut times_of, mut peaks_of, mut numbers_of) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..runs {
+        if let Some(of) = paired {
+            let (t, peak) = replay(of, out);
+            times_of.push(t);
+            peaks_of.push(peak);
+            numbers_of = report_numbers(out);
+        }
+        let (t, peak) = replay(path, out);
+        times.push(t);
+        peaks.push(peak);
+        numbers = report_numbers(out);
+    }
+    let of = paired.map(|_| summary(times_of, peaks_of, numbers_of));
+    (summary(times, peaks, numbers), of)
+}
+
 fn main() {
+    if let Some(job) = std::env::var_os(SHUFFLE_CHILD) {
+        let job = job.to_string_lossy().into_owned();
+        let (from, to) = job.split_once('|').expect("SOURCE|DESTINATION");
+        layouts::rewrite(Path::new(from), Path::new(to), layouts::Order::Shuffled(1));
+        return;
+    }
     let keep = std::env::var_os("HEATRUN_BENCH_DIR").map(PathBuf::from);
     let temp = tempfile::tempdir().expect("temporary directory");
     let dir = keep.clone().unwrap_or_else(|| temp.path().to_owned());
     std::fs::create_dir_all(&dir).expect("bench directory");
     let out = tempfile::tempdir().expect("output directory");
-    let mut cases: Vec<(String, f64, usize)> = vec![
-        ("W1/4".into(), 20868.0 / 4.0, 3),
-        ("W1/2".into(), 20868.0 / 2.0, 3),
-        ("W1".into(), 20868.0, 3),
+    let mut cases: Vec<(&str, Source, usize)> = vec![
+        ("W1/4", Source::Synth(20868.0 / 4.0), 3),
+        ("W1/2", Source::Synth(20868.0 / 2.0), 3),
+        ("W1", Source::Synth(20868.0), 3),
+        ("W1 shuffled", Source::Shuffled("W1"), 3),
     ];
     if std::env::var_os("HEATRUN_BENCH_W2").is_some() {
-        cases.push(("W2".into(), 7.0 * 86400.0, 1));
+        cases.push(("W2", Source::Synth(7.0 * 86400.0), 1));
     }
     println!(
-        "{:<6} {:>12} {:>9} {:>10} {:>12} {:>9} {:>10} {:>9} {:>7}",
+        "{:<12} {:>12} {:>9} {:>10} {:>12} {:>9} {:>10} {:>9} {:>7}",
         "case", "messages", "MB", "replay s", "messages/s", "MB/s", "peak MB", "floor s", "ratio"
     );
-    for (name, duration, runs) in cases {
-        let path = workload(&dir, &name.replace('/', "_"), duration);
+    let mut made: Vec<(&str, PathBuf)> = Vec::new();
+    for (name, source, runs) in cases {
+        let file = name.replace(['/', ' '], "_");
+        let source_of = match source {
+            Source::Shuffled(of) => made.iter().find(|m| m.0 == of).cloned(),
+            Source::Synth(_) => None,
+        };
+        let path = match (source, &source_of) {
+            (Source::Synth(duration), _) => workload(&dir, &file, duration),
+            (Source::Shuffled(_), Some((_, from))) => shuffled_workload(&dir, &file, from),
+            (Source::Shuffled(of), None) => panic!("{of} is not made before {name}"),
+        };
         let bytes = std::fs::metadata(&path).expect("workload").len() as f64 / 1e6;
-        let mut floors = Vec::new();
-        let mut messages = 0;
-        for _ in 0..runs {
-            let t = Instant::now();
-            messages = floor(&path);
-            floors.push(t.elapsed().as_secs_f64());
-        }
-        let mut times = Vec::new();
-        let mut peaks = Vec::new();
-        for _ in 0..runs {
-            let (t, peak) = replay(&path, out.path());
-            times.push(t);
-            peaks.push(peak);
-        }
-        let (t, f) = (median(times), median(floors));
+        let (messages, f) = floor_median(&path, runs);
+        let paired = source_of.as_ref().map(|(_, p)| p.as_path());
+        let (m, of) = measure(&path, paired, out.path(), runs);
+        let t = m.seconds;
         println!(
-            "{:<6} {:>12} {:>9.0} {:>10.2} {:>12.0} {:>9.0} {:>10.1} {:>9.2} {:>7.2}",
+            "{:<12} {:>12} {:>9.0} {:>10.2} {:>12.0} {:>9.0} {:>10.1} {:>9.2} {:>7.2}",
             name,
             messages,
             bytes,
             t,
             messages as f64 / t,
             bytes / t,
-            peaks.iter().cloned().fold(0.0, f64::max),
+            m.peak_mb,
             f,
             t / f
         );
-        if keep.is_none() {
-            let _ = std::fs::remove_file(&path);
+        if let (Some(of), Some((of_name, _))) = (of, source_of) {
+            let worst = m
+                .numbers
+                .iter()
+                .zip(&of.numbers)
+                .map(|(a, b)| (a - b).abs() / a.abs().max(b.abs()))
+                .fold(0.0, f64::max);
+            println!(
+                "{name} against {of_name} in turns: replay {t:.2} s against {:.2} s ({:.2}×, \
+                 bound 1.5), peak {:.1} MB against {:.1} MB, report numbers within {worst:.1e}",
+                of.seconds,
+                t / of.seconds,
+                m.peak_mb,
+                of.peak_mb
+            );
+        }
+        made.push((name, path));
+    }
+    if keep.is_none() {
+        for (_, path) in made {
+            let _ = std::fs::remove_file(path);
         }
     }
 }

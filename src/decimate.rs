@@ -15,6 +15,7 @@
 //! sharing the same times ([`ClockJump`]) — not by the order they are stored in.
 
 use std::collections::{BTreeMap, HashMap};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use serde::Serialize;
 
@@ -107,6 +108,29 @@ struct Window {
     count: u32,
 }
 
+/// Hashes a block number by one multiplication: block numbers are not chosen by an
+/// adversary, and a sample in a block other than the last one's (any order but time
+/// order) looks its block up.
+#[derive(Debug, Default)]
+struct BlockHasher(u64);
+
+impl Hasher for BlockHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ b as u64).wrapping_mul(0x100_0000_01b3);
+        }
+    }
+
+    fn write_i64(&mut self, block: i64) {
+        // Fibonacci hashing: the high bits, which the table uses, mix every input bit.
+        self.0 = (block as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    }
+}
+
 /// The windows of one channel, in blocks of [`BLOCK`] allocated where samples fall, so
 /// that memory follows the data and a stray timestamp costs one block, not its distance.
 #[derive(Debug)]
@@ -116,7 +140,7 @@ struct ChannelWindows {
     alignment: Alignment,
     blocks: Vec<Box<[Window]>>,
     /// Block number → index in `blocks`.
-    block_of: HashMap<i64, usize>,
+    block_of: HashMap<i64, usize, BuildHasherDefault<BlockHasher>>,
     /// The block used last: (block number, index), the common case of the next sample.
     last: Option<(i64, usize)>,
 }
@@ -126,7 +150,7 @@ impl ChannelWindows {
         ChannelWindows {
             alignment,
             blocks: Vec::new(),
-            block_of: HashMap::new(),
+            block_of: HashMap::default(),
             last: None,
         }
     }

@@ -70,12 +70,14 @@ pub enum Error {
         message: String,
     },
     /// A model spec (`--spec FILE.toml`) is unusable.
-    #[error("{path}: {source}")]
+    // Not `source`: the message already holds the spec's error, and a source would make
+    // the CLI's `{:#}` print it twice.
+    #[error("{path}: {problem}")]
     BadSpec {
         /// The spec file.
         path: PathBuf,
         /// What is wrong, naming the key, state or input.
-        source: crate::spec::SpecError,
+        problem: crate::spec::SpecError,
     },
     /// A channel the model needs is not in the recording.
     #[error(
@@ -112,12 +114,13 @@ pub enum Error {
         final_temp_c: f64,
     },
     /// A stage after reading failed on this recording: the error, with the file it is about.
-    #[error("{path}: {source}")]
+    // Not `source`: the message already holds the stage's error (see `BadSpec`).
+    #[error("{path}: {error}")]
     InRecording {
         /// The recording.
         path: PathBuf,
         /// The stage's error.
-        source: Box<Error>,
+        error: Box<Error>,
     },
     /// A channel's clock jumps back over its own earlier data.
     #[error("{0}")]
@@ -178,8 +181,8 @@ pub enum Error {
 impl Error {
     /// Whether the error is the input's fault (exit status 2) rather than the machine's (1).
     pub fn is_bad_input(&self) -> bool {
-        if let Error::InRecording { source, .. } = self {
-            return source.is_bad_input();
+        if let Error::InRecording { error, .. } = self {
+            return error.is_bad_input();
         }
         if let Error::Import(e) = self {
             return e.is_bad_input();
@@ -226,7 +229,7 @@ impl Error {
             | Error::WriteOutput { .. }) => e,
             e => Error::InRecording {
                 path: path.to_owned(),
-                source: Box::new(e),
+                error: Box::new(e),
             },
         }
     }

@@ -21,6 +21,7 @@ pub fn collect(
     data_loss(prepared, &mut out);
     gaps(prepared, &mut out);
     implausible(prepared, &mut out);
+    dropouts(prepared, &mut out);
     early_stops(prepared, &mut out);
     if prepared.recording.bad_quality_dropped > 0 {
         out.push(format!(
@@ -70,6 +71,21 @@ fn implausible(p: &Prepared, out: &mut Vec<String>) {
                 v,
                 ch.signal.quantity().map_or("", |q| q.canonical_unit()),
                 format_time(t)
+            ));
+        }
+    }
+}
+
+/// Samples written as `null` or NaN: a sensor's dropouts, left out like `bad` ones.
+fn dropouts(p: &Prepared, out: &mut Vec<String>) {
+    let summary = &p.recording;
+    for (i, ch) in summary.channels.iter().enumerate() {
+        let count = summary.dropouts_per_channel.get(i).copied().unwrap_or(0);
+        if let (true, Some(Some(t))) = (count > 0, summary.first_dropout.get(i)) {
+            out.push(format!(
+                "channel {}: {count} dropout(s) (value null or NaN) were left out, the first at {}",
+                ch.topic,
+                format_time(*t)
             ));
         }
     }

@@ -23,6 +23,7 @@ mod broken_pipe;
 mod corpus;
 mod estimators;
 mod import;
+mod layouts;
 mod outputs;
 mod paper;
 mod recovery;

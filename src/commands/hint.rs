@@ -7,12 +7,21 @@ use heatrun::Error;
 pub fn for_error(err: &anyhow::Error) -> Option<String> {
     let e = err.downcast_ref::<Error>()?;
     let e = match e {
-        Error::InRecording { source, .. } => source.as_ref(),
+        Error::InRecording { error, .. } => error.as_ref(),
         other => other,
     };
     Some(match e {
         Error::NoFieldTemperature | Error::FieldScalingRise { .. } => {
             "give `field_winding_final_temp_c` in a machine file with --machine FILE.toml".into()
+        }
+        Error::MissingNameplateKey { .. } | Error::BadNameplateValue { .. } => {
+            "give the key in a machine file with --machine FILE.toml".into()
+        }
+        Error::Decimate(heatrun::decimate::DecimateError::SampleTime { .. }) => {
+            "give --ts a sample time between 0.001 s and 3600 s".into()
+        }
+        Error::Decimate(heatrun::decimate::DecimateError::SparseSpan { .. }) => {
+            "`heatrun info FILE` shows each channel's span; a longer --ts shrinks the grid".into()
         }
         Error::MissingChannel { .. } => {
             "`heatrun info FILE` lists the channels; a recording of another system needs \

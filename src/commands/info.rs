@@ -1,11 +1,15 @@
-//! `heatrun info`.
+//! `heatrun info`: what is in a recording, before replaying it.
 
-use heatrun::decimate::{profile_alignments, ChannelGrid, Decimator};
-use heatrun::recording::{self, format_time, SensorChannel, Storage};
+use std::path::Path;
+
+use heatrun::decimate::{profile_alignments, ChannelGrid, DecimatedRecording, Decimator};
+use heatrun::recording::{self, format_time, RecordingSummary, SensorChannel, Storage};
 
 use super::Outcome;
 use crate::cli::InfoArgs;
 
+/// Reads the recording, lays it on a 1 s grid for the channels' periods and gaps, and
+/// prints both (text or JSON).
 pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     let mut decimator = Decimator::new(1.0, profile_alignments())?;
     let summary = recording::read_recording(&args.file, &mut decimator)?;
@@ -23,103 +27,53 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         });
         println!("{}", serde_json::to_string_pretty(&value)?);
     } else {
-        println!("{} ({} bytes)", args.file.display(), summary.file_bytes);
-        if let Some((a, b)) = summary.time_span_ns {
-            println!(
-                "  span {} to {} ({:.1} s)",
-                format_time(a),
-                format_time(b),
-                (b - a) as f64 * 1e-9
-            );
-        }
-        println!("  heat-run channels: {}", summary.channels.len());
-        for (i, c) in summary.channels.iter().enumerate() {
-            let g = grid.as_ref().and_then(|g| g.channels.get(i));
-            println!(
-                "    {:<40} {:<26} {:<5} {:>9} samples  {}{}",
-                c.topic,
-                c.signal.name(),
-                c.unit,
-                summary.samples_per_channel[i],
-                timing(c, g),
-                c.sensor
-                    .as_ref()
-                    .map(|s| format!("  sensor {s}"))
-                    .unwrap_or_default()
-            );
-        }
-        if !summary.ignored_channels.is_empty() {
-            println!(
-                "  other channels (not heat-run data): {}",
-                summary.ignored_channels.len()
-            );
-            for c in &summary.ignored_channels {
-                println!("    {:<40} {}", c.topic, c.reason);
-            }
-        }
-        if summary.nameplate.is_empty() {
-            println!("  nameplate: none (give one with --machine FILE.toml when replaying)");
-        } else {
-            println!("  nameplate:");
-            for (k, v) in summary.nameplate.iter() {
-                println!("    {k:<32} {v}");
-            }
-        }
-        for (name, m) in &summary.metadata {
-            println!(
-                "  metadata {name}: {}",
-                m.iter()
-                    .map(|(k, v)| format!("{k}={v}"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-        if summary.bad_quality_dropped > 0 {
-            println!("  samples marked bad: {}", summary.bad_quality_dropped);
-        }
-        for (i, c) in summary.channels.iter().enumerate() {
-            if let Some((t, v)) = summary.first_implausible[i] {
-                println!(
-                    "  {}: {} implausible sample(s), the first {v} {} at {}",
-                    c.topic,
-                    summary.implausible_per_channel[i],
-                    c.canonical_unit(),
-                    format_time(t)
-                );
-            }
-            if let Some(t) = summary.first_dropout[i] {
-                println!(
-                    "  {}: {} dropout(s) (value null or NaN), the first at {}",
-                    c.topic,
-                    summary.dropouts_per_channel[i],
-                    format_time(t)
-                );
-            }
-            if let Some(jump) = grid.as_ref().and_then(|g| g.channels.get(i)?.clock_jump) {
-                println!(
-                    "  {}: its clock jumps back: from {} to {} it holds {:.1} times the samples its rate allows",
-                    c.topic,
-                    format_time(jump.overlap_start_ns),
-                    format_time(jump.overlap_end_ns),
-                    jump.density_ratio
-                );
-            }
-        }
-        for n in &summary.notes {
-            println!("  note: {n}");
-        }
-        for l in &summary.data_loss {
-            println!("  data lost: {l}");
-        }
-        if summary.channels.is_empty() {
-            println!("  this recording holds no heat-run data");
-        }
+        print_channels(&args.file, &summary, grid.as_ref());
+        print_records(&summary);
+        print_findings(&summary, grid.as_ref());
     }
     Ok(if summary.data_loss.is_empty() {
         Outcome::Complete
     } else {
         Outcome::DataLoss
     })
+}
+
+/// The file, its span and the channel table.
+fn print_channels(file: &Path, summary: &RecordingSummary, grid: Option<&DecimatedRecording>) {
+    println!("{} ({} bytes)", file.display(), summary.file_bytes);
+    if let Some((a, b)) = summary.time_span_ns {
+        println!(
+            "  span {} to {} ({:.1} s)",
+            format_time(a),
+            format_time(b),
+            (b - a) as f64 * 1e-9
+        );
+    }
+    println!("  heat-run channels: {}", summary.channels.len());
+    for (i, c) in summary.channels.iter().enumerate() {
+        let g = grid.and_then(|g| g.channels.get(i));
+        println!(
+            "    {:<40} {:<26} {:<5} {:>9} samples  {}{}",
+            c.topic,
+            c.signal.name(),
+            c.unit,
+            summary.samples_per_channel[i],
+            timing(c, g),
+            c.sensor
+                .as_ref()
+                .map(|s| format!("  sensor {s}"))
+                .unwrap_or_default()
+        );
+    }
+    if !summary.ignored_channels.is_empty() {
+        println!(
+            "  other channels (not heat-run data): {}",
+            summary.ignored_channels.len()
+        );
+        for c in &summary.ignored_channels {
+            println!("    {:<40} {}", c.topic, c.reason);
+        }
+    }
 }
 
 /// A channel's storage, nominal period and gaps, as one column of the channel table
@@ -137,5 +91,70 @@ fn timing(c: &SensorChannel, g: Option<&ChannelGrid>) -> String {
             c.unit,
             max_interval_s.map_or("-".into(), |m| format!("{m} s"))
         ),
+    }
+}
+
+/// The nameplate and the other metadata records.
+fn print_records(summary: &RecordingSummary) {
+    if summary.nameplate.is_empty() {
+        println!("  nameplate: none (give one with --machine FILE.toml when replaying)");
+    } else {
+        println!("  nameplate:");
+        for (k, v) in summary.nameplate.iter() {
+            println!("    {k:<32} {v}");
+        }
+    }
+    for (name, m) in &summary.metadata {
+        println!(
+            "  metadata {name}: {}",
+            m.iter()
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+}
+
+/// Samples left out (bad, implausible, dropouts), clock jumps, notes and data loss.
+fn print_findings(summary: &RecordingSummary, grid: Option<&DecimatedRecording>) {
+    if summary.bad_quality_dropped > 0 {
+        println!("  samples marked bad: {}", summary.bad_quality_dropped);
+    }
+    for (i, c) in summary.channels.iter().enumerate() {
+        if let Some((t, v)) = summary.first_implausible[i] {
+            println!(
+                "  {}: {} implausible sample(s), the first {v} {} at {}",
+                c.topic,
+                summary.implausible_per_channel[i],
+                c.canonical_unit(),
+                format_time(t)
+            );
+        }
+        if let Some(t) = summary.first_dropout[i] {
+            println!(
+                "  {}: {} dropout(s) (value null or NaN), the first at {}",
+                c.topic,
+                summary.dropouts_per_channel[i],
+                format_time(t)
+            );
+        }
+        if let Some(jump) = grid.and_then(|g| g.channels.get(i)?.clock_jump) {
+            println!(
+                "  {}: its clock jumps back: from {} to {} it holds {:.1} times the samples its rate allows",
+                c.topic,
+                format_time(jump.overlap_start_ns),
+                format_time(jump.overlap_end_ns),
+                jump.density_ratio
+            );
+        }
+    }
+    for n in &summary.notes {
+        println!("  note: {n}");
+    }
+    for l in &summary.data_loss {
+        println!("  data lost: {l}");
+    }
+    if summary.channels.is_empty() {
+        println!("  this recording holds no heat-run data");
     }
 }

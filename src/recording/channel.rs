@@ -21,7 +21,7 @@ pub const SAMPLE_MESSAGE_ENCODING: &str = "json";
 
 /// How a channel's samples were stored (channel metadata `storage`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
-#[serde(tag = "storage", rename_all = "snake_case")]
+#[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Storage {
     /// Samples at a nominal rate (the profile's default): a longer silence is a gap.
     #[default]

@@ -72,54 +72,83 @@ pub enum ChunkError {
 
 /// Decompresses a chunk's records field and checks its size and CRC.
 pub fn decompress(header: &ChunkHeader, data: &[u8]) -> Result<Vec<u8>, ChunkError> {
-    let size = header.uncompressed_size;
-    let limit = (data.len() as u64)
-        .saturating_mul(MAX_EXPANSION)
-        .saturating_add(1 << 20)
-        .min(MAX_CHUNK_BYTES);
-    if size > limit {
-        return Err(ChunkError::ImplausibleSize {
-            claimed: size,
-            stored: data.len() as u64,
-        });
-    }
-    let broken = |compression: &'static str| {
-        move |e: std::io::Error| ChunkError::Decompression {
-            compression,
-            message: e.to_string(),
-        }
-    };
-    let out = match header.compression.as_str() {
-        "" => data.to_vec(),
-        "zstd" => zstd::bulk::decompress(data, size as usize).map_err(broken("zstd"))?,
-        "lz4" => {
-            use std::io::Read;
-            let decoder = lz4::Decoder::new(data).map_err(broken("lz4"))?;
-            let mut out = Vec::with_capacity(size as usize);
-            decoder
-                .take(size + 1)
-                .read_to_end(&mut out)
-                .map_err(broken("lz4"))?;
-            out
-        }
-        other => return Err(ChunkError::UnknownCompression(other.to_owned())),
-    };
-    if out.len() as u64 != size {
-        return Err(ChunkError::SizeMismatch {
-            declared: size,
-            actual: out.len() as u64,
-        });
-    }
-    if header.uncompressed_crc != 0 {
-        let calculated = crc32fast::hash(&out);
-        if calculated != header.uncompressed_crc {
-            return Err(ChunkError::BadChunkCrc {
-                saved: header.uncompressed_crc,
-                calculated,
+    let mut decoder = ChunkDecoder::default();
+    decoder.decompress(header, data)?;
+    Ok(decoder.plain)
+}
+
+/// Decompresses chunk after chunk into one buffer and one zstd context, so that a reader
+/// thread allocates nothing per chunk once its buffer has grown to the largest chunk.
+#[derive(Default)]
+pub struct ChunkDecoder {
+    zstd: Option<zstd::bulk::Decompressor<'static>>,
+    plain: Vec<u8>,
+}
+
+impl ChunkDecoder {
+    /// Decompresses a chunk's records field, checks its size and CRC, and returns the
+    /// records (valid until the next call).
+    pub fn decompress(&mut self, header: &ChunkHeader, data: &[u8]) -> Result<&[u8], ChunkError> {
+        let size = header.uncompressed_size;
+        let limit = (data.len() as u64)
+            .saturating_mul(MAX_EXPANSION)
+            .saturating_add(1 << 20)
+            .min(MAX_CHUNK_BYTES);
+        if size > limit {
+            return Err(ChunkError::ImplausibleSize {
+                claimed: size,
+                stored: data.len() as u64,
             });
         }
+        let broken = |compression: &'static str| {
+            move |e: std::io::Error| ChunkError::Decompression {
+                compression,
+                message: e.to_string(),
+            }
+        };
+        let out = &mut self.plain;
+        out.clear();
+        match header.compression.as_str() {
+            "" => out.extend_from_slice(data),
+            "zstd" => {
+                out.reserve(size as usize);
+                let zstd = match &mut self.zstd {
+                    Some(z) => z,
+                    None => self
+                        .zstd
+                        .insert(zstd::bulk::Decompressor::new().map_err(broken("zstd"))?),
+                };
+                zstd.decompress_to_buffer(data, out)
+                    .map_err(broken("zstd"))?;
+            }
+            "lz4" => {
+                use std::io::Read;
+                let decoder = lz4::Decoder::new(data).map_err(broken("lz4"))?;
+                out.reserve(size as usize);
+                decoder
+                    .take(size + 1)
+                    .read_to_end(out)
+                    .map_err(broken("lz4"))?;
+            }
+            other => return Err(ChunkError::UnknownCompression(other.to_owned())),
+        }
+        if out.len() as u64 != size {
+            return Err(ChunkError::SizeMismatch {
+                declared: size,
+                actual: out.len() as u64,
+            });
+        }
+        if header.uncompressed_crc != 0 {
+            let calculated = crc32fast::hash(out);
+            if calculated != header.uncompressed_crc {
+                return Err(ChunkError::BadChunkCrc {
+                    saved: header.uncompressed_crc,
+                    calculated,
+                });
+            }
+        }
+        Ok(&self.plain)
     }
-    Ok(out)
 }
 
 /// The records (opcode, body) of a decompressed chunk, each length checked.

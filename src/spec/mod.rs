@@ -181,9 +181,9 @@ impl ModelDescription {
             path: path.to_owned(),
             source,
         })?;
-        ModelDescription::from_toml(&text).map_err(|source| crate::Error::BadSpec {
+        ModelDescription::from_toml(&text).map_err(|problem| crate::Error::BadSpec {
             path: path.to_owned(),
-            source,
+            problem,
         })
     }
 
