@@ -107,10 +107,11 @@ const T_2024: u64 = 1_709_283_600 * S;
 
 #[test]
 fn comma_with_header_and_rfc3339_times_keeps_spacing_and_skips_missing_cells() {
+    // With the byte order mark of a spreadsheet export.
     let dir = common::tempdir();
     std::fs::write(
         dir.path().join("run.csv"),
-        "timestamp,Winding (degC),Q1 [%]\n\
+        "\u{feff}timestamp,Winding (degC),Q1 [%]\n\
          2024-03-01T10:00:00+01:00,20.5,0\n\
          2024-03-01T10:00:01.5+01:00,20.625,50\n\
          2024-03-01T09:00:03Z,,50\n\
@@ -202,7 +203,7 @@ fn semicolon_with_decimal_commas_and_local_times_in_the_maps_zone() {
     let dir = common::tempdir();
     std::fs::write(
         dir.path().join("export.csv"),
-        "Zeit;Kern\n01.03.2024 10:00:00;20,5\n01.03.2024 10:00:30;20,75\n",
+        "Zeit;Kern\n01.03.2024 10:00:00;20,5\n  \n01.03.2024 10:00:30;20,75\n\n",
     )
     .unwrap();
     std::fs::write(

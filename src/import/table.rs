@@ -39,6 +39,7 @@ pub fn first_lines(
         source,
     };
     let mut reader = BufReader::new(File::open(path).map_err(read_error)?);
+    skip_byte_order_mark(&mut reader).map_err(read_error)?;
     let mut lines = Vec::new();
     let mut buf = Vec::new();
     let mut number = 0u64;
@@ -59,6 +60,15 @@ pub fn first_lines(
         lines.push(line.to_owned());
     }
     Ok(lines)
+}
+
+/// Skips the UTF-8 byte order mark that spreadsheet exports put before the header.
+fn skip_byte_order_mark(reader: &mut BufReader<File>) -> std::io::Result<()> {
+    const BOM: &[u8] = b"\xEF\xBB\xBF";
+    if reader.fill_buf()?.starts_with(BOM) {
+        reader.consume(BOM.len());
+    }
+    Ok(())
 }
 
 /// Text of a field or line: UTF-8, or else Latin-1 (the other encoding of exports
@@ -187,6 +197,7 @@ impl Table {
             source,
         };
         let mut reader = BufReader::new(File::open(path).map_err(read_error)?);
+        skip_byte_order_mark(&mut reader).map_err(read_error)?;
         let mut discard = Vec::new();
         for _ in 0..dialect.skip_lines {
             discard.clear();
@@ -224,6 +235,8 @@ impl Table {
     pub fn next_row(&mut self) -> Result<bool, ImportError> {
         match &mut self.source {
             Source::Csv(reader) => match reader.read_byte_record(&mut self.record) {
+                // A line of spaces only is blank too.
+                Ok(true) if self.record.len() == 1 && self.record[0].is_empty() => self.next_row(),
                 Ok(more) => {
                     self.line = self.skipped + self.record.position().map_or(0, |p| p.line());
                     Ok(more)
