@@ -603,12 +603,29 @@ fn bad_maps_stop_with_one_line_naming_the_key_or_column() {
             assert!(msg.contains(e), "{e:?} not in {msg}");
         }
     }
-    // An output that would replace the input.
     std::fs::write(
         dir.path().join("ok.toml"),
         "[time]\ncolumn = 1\n[[column]]\ncolumn = 2\nchannel = \"T\"\nunit = \"degC\"\n",
     )
     .unwrap();
+    // A table that is not there.
+    let out = heatrun(
+        &[
+            "import",
+            "nothere.dat",
+            "--map",
+            "ok.toml",
+            "--out",
+            "out.mcap",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("nothere.dat: cannot read"), "{stderr}");
+    assert!(!dir.path().join("out.mcap").exists());
+    // An output that would replace the input.
     let out = heatrun(
         &["import", "run.dat", "--map", "ok.toml", "--out", "run.dat"],
         dir.path(),

@@ -233,9 +233,9 @@ struct RawColumn {
 impl ImportMap {
     /// Reads and checks the map at `path`.
     pub fn load(path: &Path) -> Result<ImportMap, ImportError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ImportError::Read {
+        let text = std::fs::read_to_string(path).map_err(|error| ImportError::Read {
             path: path.to_owned(),
-            source,
+            error,
         })?;
         ImportMap::parse(&text, path)
     }

@@ -34,9 +34,9 @@ pub fn first_lines(
     skip_lines: u64,
     comment: Option<u8>,
 ) -> Result<Vec<String>, ImportError> {
-    let read_error = |source| ImportError::Read {
+    let read_error = |error| ImportError::Read {
         path: path.to_owned(),
-        source,
+        error,
     };
     let mut reader = BufReader::new(File::open(path).map_err(read_error)?);
     skip_byte_order_mark(&mut reader).map_err(read_error)?;
@@ -192,9 +192,9 @@ pub struct Table {
 impl Table {
     /// Opens `path` in `dialect`.
     pub fn open(path: &Path, dialect: &Dialect) -> Result<Table, ImportError> {
-        let read_error = |source| ImportError::Read {
+        let read_error = |error| ImportError::Read {
             path: path.to_owned(),
-            source,
+            error,
         };
         let mut reader = BufReader::new(File::open(path).map_err(read_error)?);
         skip_byte_order_mark(&mut reader).map_err(read_error)?;
@@ -245,9 +245,9 @@ impl Table {
                     let line = self.skipped + e.position().map_or(0, |p| p.line());
                     let message = e.to_string();
                     Err(match e.into_kind() {
-                        csv::ErrorKind::Io(source) => ImportError::Read {
+                        csv::ErrorKind::Io(error) => ImportError::Read {
                             path: self.path.clone(),
-                            source,
+                            error,
                         },
                         _ => ImportError::Table {
                             path: self.path.clone(),
@@ -265,9 +265,9 @@ impl Table {
                 line.clear();
                 let n = reader
                     .read_until(b'\n', line)
-                    .map_err(|source| ImportError::Read {
+                    .map_err(|error| ImportError::Read {
                         path: self.path.clone(),
-                        source,
+                        error,
                     })?;
                 if n == 0 {
                     return Ok(false);
