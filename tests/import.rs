@@ -107,10 +107,11 @@ const T_2024: u64 = 1_709_283_600 * S;
 
 #[test]
 fn comma_with_header_and_rfc3339_times_keeps_spacing_and_skips_missing_cells() {
+    // With the byte order mark of a spreadsheet export.
     let dir = common::tempdir();
     std::fs::write(
         dir.path().join("run.csv"),
-        "timestamp,Winding (degC),Q1 [%]\n\
+        "\u{feff}timestamp,Winding (degC),Q1 [%]\n\
          2024-03-01T10:00:00+01:00,20.5,0\n\
          2024-03-01T10:00:01.5+01:00,20.625,50\n\
          2024-03-01T09:00:03Z,,50\n\
@@ -205,7 +206,7 @@ fn semicolon_with_decimal_commas_and_local_times_in_the_maps_zone() {
     let dir = common::tempdir();
     std::fs::write(
         dir.path().join("export.csv"),
-        "Zeit;Kern\n01.03.2024 10:00:00;20,5\n01.03.2024 10:00:30;20,75\n",
+        "Zeit;Kern\n01.03.2024 10:00:00;20,5\n  \n01.03.2024 10:00:30;20,75\n\n",
     )
     .unwrap();
     std::fs::write(
@@ -605,12 +606,29 @@ fn bad_maps_stop_with_one_line_naming_the_key_or_column() {
             assert!(msg.contains(e), "{e:?} not in {msg}");
         }
     }
-    // An output that would replace the input.
     std::fs::write(
         dir.path().join("ok.toml"),
         "[time]\ncolumn = 1\n[[column]]\ncolumn = 2\nchannel = \"T\"\nunit = \"degC\"\n",
     )
     .unwrap();
+    // A table that is not there.
+    let out = heatrun(
+        &[
+            "import",
+            "nothere.dat",
+            "--map",
+            "ok.toml",
+            "--out",
+            "out.mcap",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("nothere.dat: cannot read"), "{stderr}");
+    assert!(!dir.path().join("out.mcap").exists());
+    // An output that would replace the input.
     let out = heatrun(
         &["import", "run.dat", "--map", "ok.toml", "--out", "run.dat"],
         dir.path(),

@@ -7,12 +7,12 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {
     /// A file (the table or the map) could not be opened or read.
-    #[error("{path}: cannot read: {source}")]
+    #[error("{path}: cannot read: {error}")]
     Read {
         /// The file.
         path: PathBuf,
-        /// The operating-system error.
-        source: std::io::Error,
+        /// The operating-system error (not a `source`: the message already says it).
+        error: std::io::Error,
     },
     /// The map is not valid TOML or has a key it does not know.
     #[error("{path}: line {line}: {message}")]

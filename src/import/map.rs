@@ -233,9 +233,9 @@ struct RawColumn {
 impl ImportMap {
     /// Reads and checks the map at `path`.
     pub fn load(path: &Path) -> Result<ImportMap, ImportError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ImportError::Read {
+        let text = std::fs::read_to_string(path).map_err(|error| ImportError::Read {
             path: path.to_owned(),
-            source,
+            error,
         })?;
         ImportMap::parse(&text, path)
     }
@@ -385,48 +385,59 @@ fn time_spec(raw: RawTime, bad: &Bad) -> Result<TimeSpec, ImportError> {
                 sample_time_ns: sample_time_ns as i128,
             }
         }
-        (Some(column), None) => {
-            check_ref(&column, bad, "time.column")?;
-            let format = match raw.format.as_deref() {
-                None => TimeFormat::Auto,
-                Some("seconds") => TimeFormat::Seconds,
-                Some("timestamp") => TimeFormat::Timestamp,
-                Some(other) => {
-                    return Err(bad(
-                        "time.format",
-                        format!("`{other}` is not \"seconds\" or \"timestamp\""),
-                    ))
-                }
-            };
-            let unit_ns = match raw.unit.as_deref().unwrap_or("s") {
-                "s" => 1_000_000_000,
-                "ms" => 1_000_000,
-                "us" => 1_000,
-                "min" => 60_000_000_000,
-                "h" => 3_600_000_000_000,
-                other => {
-                    return Err(bad(
-                        "time.unit",
-                        format!("`{other}` is not one of s, ms, us, min, h"),
-                    ))
-                }
-            };
-            TimeSource::Column {
-                column,
-                format: if raw.pattern.is_some() {
-                    TimeFormat::Timestamp
-                } else {
-                    format
-                },
-                unit_ns,
-                pattern: raw.pattern,
-            }
-        }
+        (Some(column), None) => time_column(column, raw.format, raw.unit, raw.pattern, bad)?,
     };
     Ok(TimeSpec {
         source,
         start_ns,
         zone,
+    })
+}
+
+/// A time column: how it is written and in which unit.
+fn time_column(
+    column: ColumnRef,
+    format: Option<String>,
+    unit: Option<String>,
+    pattern: Option<String>,
+    bad: &Bad,
+) -> Result<TimeSource, ImportError> {
+    check_ref(&column, bad, "time.column")?;
+    let format = match (format.as_deref(), &pattern) {
+        (None, None) => TimeFormat::Auto,
+        (None | Some("timestamp"), _) => TimeFormat::Timestamp,
+        (Some("seconds"), None) => TimeFormat::Seconds,
+        (Some("seconds"), Some(_)) => {
+            return Err(bad(
+                "time.pattern",
+                "a pattern describes timestamps, not seconds".into(),
+            ))
+        }
+        (Some(other), _) => {
+            return Err(bad(
+                "time.format",
+                format!("`{other}` is not \"seconds\" or \"timestamp\""),
+            ))
+        }
+    };
+    let unit_ns = match unit.as_deref().unwrap_or("s") {
+        "s" => 1_000_000_000,
+        "ms" => 1_000_000,
+        "us" => 1_000,
+        "min" => 60_000_000_000,
+        "h" => 3_600_000_000_000,
+        other => {
+            return Err(bad(
+                "time.unit",
+                format!("`{other}` is not one of s, ms, us, min, h"),
+            ))
+        }
+    };
+    Ok(TimeSource::Column {
+        column,
+        format,
+        unit_ns,
+        pattern,
     })
 }
 
@@ -481,43 +492,8 @@ pub fn is_channel_name(name: &str) -> bool {
 fn column_map(raw: RawColumn, bad: &Bad) -> Result<ColumnMap, ImportError> {
     let key = |field: &str| format!("[[column]] {}.{field}", raw.column);
     check_ref(&raw.column, bad, &key("column"))?;
-    let name = match (&raw.channel, &raw.quantity) {
-        (Some(_), Some(_)) => {
-            return Err(bad(
-                &key("channel"),
-                "give `channel` (a free name) or `quantity` (a profile quantity), not both"
-                    .into(),
-            ))
-        }
-        (None, None) => {
-            return Err(bad(
-                &key("channel"),
-                "give `channel` (a free name such as T1) or `quantity` (a profile quantity), or `skip = true`".into(),
-            ))
-        }
-        (None, Some(q)) => {
-            if Quantity::from_name(q).is_none() {
-                return Err(bad(
-                    &key("quantity"),
-                    format!(
-                        "`{q}` is not a profile quantity ({}); a free name goes in `channel`",
-                        Quantity::ALL.map(|q| q.name()).join(", ")
-                    ),
-                ));
-            }
-            q.clone()
-        }
-        (Some(c), None) => {
-            if !is_channel_name(c) {
-                return Err(bad(
-                    &key("channel"),
-                    format!("`{c}` is not a channel name: a letter or _, then letters, digits or _"),
-                ));
-            }
-            c.clone()
-        }
-    };
-    let unit = raw.unit.ok_or_else(|| {
+    let name = channel_name(&raw, &key, bad)?;
+    let unit = raw.unit.clone().ok_or_else(|| {
         bad(
             &key("unit"),
             "no unit: give it (\"1\" for a dimensionless value)".into(),
@@ -545,39 +521,76 @@ fn column_map(raw: RawColumn, bad: &Bad) -> Result<ColumnMap, ImportError> {
         }
         channel = channel.with_sensor(sensor);
     }
-    let quality = match raw.quality_column {
-        None if !raw.quality_values.is_empty() => {
-            return Err(bad(
-                &key("quality_values"),
-                "there is no `quality_column` for them to read".into(),
-            ))
-        }
-        None => None,
-        Some(column) => {
-            check_ref(&column, bad, &key("quality_column"))?;
-            let mut values = BTreeMap::new();
-            for (text, flag) in raw.quality_values {
-                let q = match flag.as_str() {
-                    "good" => Quality::Good,
-                    "uncertain" => Quality::Uncertain,
-                    "bad" => Quality::Bad,
-                    other => {
-                        return Err(bad(
-                            &key(&format!("quality_values.{text}")),
-                            format!("`{other}` is not good, uncertain or bad"),
-                        ))
-                    }
-                };
-                values.insert(text, q);
-            }
-            Some(QualitySource { column, values })
-        }
-    };
+    let quality = quality_source(raw.quality_column, raw.quality_values, &key, bad)?;
     Ok(ColumnMap {
         column: raw.column,
         channel,
         quality,
     })
+}
+
+/// The channel's name: a profile quantity (`quantity`) or a free name (`channel`).
+fn channel_name(
+    raw: &RawColumn,
+    key: &dyn Fn(&str) -> String,
+    bad: &Bad,
+) -> Result<String, ImportError> {
+    match (&raw.channel, &raw.quantity) {
+        (Some(_), Some(_)) => Err(bad(
+            &key("channel"),
+            "give `channel` (a free name) or `quantity` (a profile quantity), not both".into(),
+        )),
+        (None, None) => Err(bad(
+            &key("channel"),
+            "give `channel` (a free name such as T1) or `quantity` (a profile quantity), or `skip = true`".into(),
+        )),
+        (None, Some(q)) if Quantity::from_name(q).is_none() => Err(bad(
+            &key("quantity"),
+            format!(
+                "`{q}` is not a profile quantity ({}); a free name goes in `channel`",
+                Quantity::ALL.map(|q| q.name()).join(", ")
+            ),
+        )),
+        (Some(c), None) if !is_channel_name(c) => Err(bad(
+            &key("channel"),
+            format!("`{c}` is not a channel name: a letter or _, then letters, digits or _"),
+        )),
+        (Some(name), None) | (None, Some(name)) => Ok(name.clone()),
+    }
+}
+
+fn quality_source(
+    column: Option<ColumnRef>,
+    spellings: BTreeMap<String, String>,
+    key: &dyn Fn(&str) -> String,
+    bad: &Bad,
+) -> Result<Option<QualitySource>, ImportError> {
+    let Some(column) = column else {
+        if spellings.is_empty() {
+            return Ok(None);
+        }
+        return Err(bad(
+            &key("quality_values"),
+            "there is no `quality_column` for them to read".into(),
+        ));
+    };
+    check_ref(&column, bad, &key("quality_column"))?;
+    let mut values = BTreeMap::new();
+    for (text, flag) in spellings {
+        let q = match flag.as_str() {
+            "good" => Quality::Good,
+            "uncertain" => Quality::Uncertain,
+            "bad" => Quality::Bad,
+            other => {
+                return Err(bad(
+                    &key(&format!("quality_values.{text}")),
+                    format!("`{other}` is not good, uncertain or bad"),
+                ))
+            }
+        };
+        values.insert(text, q);
+    }
+    Ok(Some(QualitySource { column, values }))
 }
 
 fn storage(

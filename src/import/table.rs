@@ -34,11 +34,12 @@ pub fn first_lines(
     skip_lines: u64,
     comment: Option<u8>,
 ) -> Result<Vec<String>, ImportError> {
-    let read_error = |source| ImportError::Read {
+    let read_error = |error| ImportError::Read {
         path: path.to_owned(),
-        source,
+        error,
     };
     let mut reader = BufReader::new(File::open(path).map_err(read_error)?);
+    skip_byte_order_mark(&mut reader).map_err(read_error)?;
     let mut lines = Vec::new();
     let mut buf = Vec::new();
     let mut number = 0u64;
@@ -59,6 +60,15 @@ pub fn first_lines(
         lines.push(line.to_owned());
     }
     Ok(lines)
+}
+
+/// Skips the UTF-8 byte order mark that spreadsheet exports put before the header.
+fn skip_byte_order_mark(reader: &mut BufReader<File>) -> std::io::Result<()> {
+    const BOM: &[u8] = b"\xEF\xBB\xBF";
+    if reader.fill_buf()?.starts_with(BOM) {
+        reader.consume(BOM.len());
+    }
+    Ok(())
 }
 
 /// Text of a field or line: UTF-8, or else Latin-1 (the other encoding of exports
@@ -182,11 +192,12 @@ pub struct Table {
 impl Table {
     /// Opens `path` in `dialect`.
     pub fn open(path: &Path, dialect: &Dialect) -> Result<Table, ImportError> {
-        let read_error = |source| ImportError::Read {
+        let read_error = |error| ImportError::Read {
             path: path.to_owned(),
-            source,
+            error,
         };
         let mut reader = BufReader::new(File::open(path).map_err(read_error)?);
+        skip_byte_order_mark(&mut reader).map_err(read_error)?;
         let mut discard = Vec::new();
         for _ in 0..dialect.skip_lines {
             discard.clear();
@@ -224,6 +235,8 @@ impl Table {
     pub fn next_row(&mut self) -> Result<bool, ImportError> {
         match &mut self.source {
             Source::Csv(reader) => match reader.read_byte_record(&mut self.record) {
+                // A line of spaces only is blank too.
+                Ok(true) if self.record.len() == 1 && self.record[0].is_empty() => self.next_row(),
                 Ok(more) => {
                     self.line = self.skipped + self.record.position().map_or(0, |p| p.line());
                     Ok(more)
@@ -232,9 +245,9 @@ impl Table {
                     let line = self.skipped + e.position().map_or(0, |p| p.line());
                     let message = e.to_string();
                     Err(match e.into_kind() {
-                        csv::ErrorKind::Io(source) => ImportError::Read {
+                        csv::ErrorKind::Io(error) => ImportError::Read {
                             path: self.path.clone(),
-                            source,
+                            error,
                         },
                         _ => ImportError::Table {
                             path: self.path.clone(),
@@ -252,9 +265,9 @@ impl Table {
                 line.clear();
                 let n = reader
                     .read_until(b'\n', line)
-                    .map_err(|source| ImportError::Read {
+                    .map_err(|error| ImportError::Read {
                         path: self.path.clone(),
-                        source,
+                        error,
                     })?;
                 if n == 0 {
                     return Ok(false);
