@@ -218,3 +218,64 @@ impl InstrumentalVariables {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::testing::{exact_data, theta_error, two_state_model, with_noise};
+
+    #[test]
+    fn noise_free_data_give_the_true_matrices() {
+        let truth = two_state_model();
+        let data = exact_data(&truth, 1500, 1);
+        let first = lagged_output_iv(&data).unwrap();
+        assert!(theta_error(&first, &truth) < 1e-9, "{first:?}");
+        let e = InstrumentalVariables::default().estimate(&data).unwrap();
+        assert!(theta_error(&e.model, &truth) < 1e-9, "{:?}", e.model);
+        assert_eq!(e.method, "iv");
+        assert_eq!(e.rows_used, 1499);
+    }
+
+    #[test]
+    fn the_regressors_as_instruments_give_least_squares() {
+        // Z = F: θ_i = (FᵀF)⁻¹ Fᵀ y_i, the least-squares estimate, noise and all.
+        let truth = two_state_model();
+        let mut data = exact_data(&truth, 1500, 2);
+        data.outputs = with_noise(&data.outputs, 0.01, 3);
+        let rows = data.usable_rows();
+        let iv = solve(&data, &rows, |k, j| data.outputs[(k - 1, j)]).unwrap();
+        let ls = WeightedLeastSquares::default().estimate(&data).unwrap();
+        // Equal to rounding: the moments square F's condition number, which QR does not.
+        assert!(theta_error(&iv.model, &ls.model) < 1e-8);
+        assert!(theta_error(&ls.model, &truth) > 1e-3, "the noise biases it");
+    }
+
+    #[test]
+    fn output_noise_biases_least_squares_but_not_iv() {
+        let truth = two_state_model();
+        let mut data = exact_data(&truth, 20000, 4);
+        data.outputs = with_noise(&data.outputs, 0.1, 5);
+        let ls = WeightedLeastSquares::default().estimate(&data).unwrap();
+        let iv = InstrumentalVariables::default().estimate(&data).unwrap();
+        let (ls_err, iv_err) = (
+            theta_error(&ls.model, &truth),
+            theta_error(&iv.model, &truth),
+        );
+        assert!(ls_err > 0.3, "least squares: {ls_err}, iv {iv_err}");
+        assert!(iv_err < 0.03, "least squares: {ls_err}, iv {iv_err}");
+    }
+
+    #[test]
+    fn constant_inputs_do_not_determine_theta() {
+        let truth = two_state_model();
+        let mut data = exact_data(&truth, 500, 6);
+        data.inputs.fill(1.0);
+        match InstrumentalVariables::default().estimate(&data) {
+            Err(EstimationError::NoExcitation {
+                singular_value_ratio,
+                ..
+            }) => assert!(singular_value_ratio < 1e-10),
+            other => panic!("{other:?}"),
+        }
+    }
+}

@@ -14,6 +14,8 @@ pub mod iv;
 pub mod oe;
 pub mod qr;
 pub mod rls;
+#[cfg(test)]
+pub(crate) mod testing;
 pub mod wls;
 
 pub use data::IdentificationData;

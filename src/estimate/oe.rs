@@ -631,3 +631,136 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
         j.iter().all(|v| v.is_finite()).then_some(j)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    use crate::estimate::testing::{
+        exact_data, simulate, step_inputs, theta_error, two_state_model, with_noise,
+    };
+
+    /// The model with every entry of Θ 3 % off, alternately up and down.
+    fn perturbed(truth: &DiscreteModel) -> DiscreteModel {
+        truth.with_theta(
+            &truth
+                .theta()
+                .iter()
+                .enumerate()
+                .map(|(q, t)| t * if q % 2 == 0 { 1.03 } else { 0.97 })
+                .collect::<Vec<_>>(),
+        )
+    }
+
+    #[test]
+    fn from_a_perturbed_start_noise_free_data_give_the_true_matrices() {
+        let truth = two_state_model();
+        let data = exact_data(&truth, 1500, 11);
+        let start = perturbed(&truth);
+        assert!(theta_error(&start, &truth) > 0.02);
+        let e = OutputError::default().refine(&data, &start).unwrap();
+        assert!(theta_error(&e.model, &truth) < 1e-8, "{:?}", e.model);
+        assert_eq!(e.method, "oe");
+        assert_eq!(e.rows_used, 1499);
+        // The residuals are zero, so is the covariance.
+        assert!(e.covariance.unwrap().amax() < 1e-12);
+    }
+
+    #[test]
+    fn an_unobserved_start_state_is_estimated() {
+        // Output 1 is not kept over the first 50 instants: its part of x0 is a parameter.
+        // From a perturbed Θ the start's fill of it is wrong; the minimum is the truth.
+        let truth = two_state_model();
+        let full = exact_data(&truth, 1500, 12);
+        let x0_true = full.outputs[(0, 1)];
+        let data = full.with_output_observed(DMatrix::from_fn(1500, 2, |k, j| j == 0 || k >= 50));
+        let start = perturbed(&truth);
+        let filled = start.initial_state(&data, 0..1500)[1];
+        assert!((filled - x0_true).abs() > 1e-3, "{filled} vs {x0_true}");
+        let e = OutputError::default().refine(&data, &start).unwrap();
+        assert!(theta_error(&e.model, &truth) < 1e-8, "{:?}", e.model);
+    }
+
+    #[test]
+    fn outputs_observed_at_their_own_instants_give_the_true_matrices() {
+        // Output 0 kept every 7th instant, output 1 at 13 % of them at random: almost
+        // no instant has both known twice in a row, so IV on the data's own rows cannot
+        // start; OE starts from the interpolated data and fits the kept values.
+        let truth = two_state_model();
+        let full = exact_data(&truth, 3000, 13);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(14);
+        let kept = DMatrix::from_fn(3000, 2, |k, j| {
+            if j == 0 {
+                k % 7 == 3
+            } else {
+                rng.random_range(0.0..1.0) < 0.13
+            }
+        });
+        let data = full.with_output_observed(kept);
+        assert!(matches!(
+            InstrumentalVariables::default().estimate(&data),
+            Err(EstimationError::TooFewRows { .. })
+        ));
+        let e = OutputError::default().estimate(&data).unwrap();
+        assert!(theta_error(&e.model, &truth) < 1e-7, "{:?}", e.model);
+    }
+
+    #[test]
+    fn output_noise_leaves_the_estimate_unbiased() {
+        // σ = 0.02 on outputs of about 0.5: least squares is far off, OE within its
+        // statistical error (the 95 % interval of each entry of Θ).
+        let truth = two_state_model();
+        let u = step_inputs(20000, 2, 15);
+        let y = simulate(&truth, &u, &[0.5, 0.2]);
+        let data = IdentificationData::complete(1.0, with_noise(&y, 0.02, 16), u);
+        let e = OutputError::default().estimate(&data).unwrap();
+        let cov = e.covariance.as_ref().unwrap();
+        let theta = e.model.theta();
+        let mut outside = 0;
+        for (q, t) in truth.theta().iter().enumerate() {
+            let half = 1.96 * cov[(q, q)].sqrt();
+            assert!(
+                half > 0.0 && half < 0.05 * t.abs().max(0.01),
+                "entry {q}: ±{half}"
+            );
+            if (theta[q] - t).abs() > half {
+                outside += 1;
+            }
+        }
+        assert!(
+            outside <= 1,
+            "{outside} of 8 entries outside their 95 % interval"
+        );
+        // The noise variance is the sensor's.
+        for v in &e.noise_variance {
+            assert!((v.sqrt() / 0.02 - 1.0).abs() < 0.05, "σ = {}", v.sqrt());
+        }
+    }
+
+    #[test]
+    fn weights_are_one_positive_number_per_output() {
+        let data = exact_data(&two_state_model(), 500, 17);
+        let wrong = OutputError {
+            weights: Some(vec![1.0]),
+        };
+        assert!(matches!(
+            wrong.estimate(&data),
+            Err(EstimationError::WeightShape {
+                given_columns: 1,
+                columns: 2,
+                ..
+            })
+        ));
+        let negative = OutputError {
+            weights: Some(vec![1.0, -2.0]),
+        };
+        assert_eq!(
+            negative.estimate(&data).unwrap_err(),
+            EstimationError::InvalidWeight {
+                state: 1,
+                value: -2.0
+            }
+        );
+    }
+}

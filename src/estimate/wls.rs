@@ -241,4 +241,42 @@ mod tests {
         assert!((plain.model.phi.clone() - &phi).norm() > 1e-3);
         assert!((weighted.model.phi - phi).norm() < 1e-5);
     }
+
+    #[test]
+    fn the_method_is_named_by_whether_it_is_weighted() {
+        let (data, _, _) = simulated(300, 10);
+        let plain = WeightedLeastSquares::default().estimate(&data).unwrap();
+        assert_eq!(plain.method, "ls");
+        let weighted = WeightedLeastSquares {
+            weights: Some(DMatrix::from_element(300, 2, 1.0)),
+        }
+        .estimate(&data)
+        .unwrap();
+        assert_eq!(weighted.method, "wls");
+        assert!(plain.trajectory.is_none());
+        let wrong = WeightedLeastSquares {
+            weights: Some(DMatrix::from_element(299, 2, 1.0)),
+        };
+        assert!(matches!(
+            wrong.estimate(&data),
+            Err(EstimationError::WeightShape {
+                given_rows: 299,
+                rows: 300,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn too_few_rows_are_named_with_the_figures() {
+        let (data, _, _) = simulated(25, 11);
+        assert_eq!(
+            WeightedLeastSquares::default().estimate(&data).unwrap_err(),
+            EstimationError::TooFewRows {
+                rows: 24,
+                needed: 30,
+                parameters: 3
+            }
+        );
+    }
 }

@@ -141,4 +141,27 @@ mod tests {
         assert_eq!(a.autocorrelation_outside_band[1], 1.0);
         assert!((a.band99 - 2.5758 / (n as f64).sqrt()).abs() < 1e-4);
     }
+
+    #[test]
+    fn a_delayed_input_shows_at_its_positive_lag() {
+        // e(k) = u(k − 5): the cross-correlation of e with u(k − τ) is 1 at τ = +5 and
+        // near zero elsewhere (u white), whatever the sign convention of the lag axis is
+        // taken to be elsewhere.
+        let (n, delay, max_lag) = (4000, 5usize, 20usize);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(8);
+        let normal = Normal::new(0.0, 1.0).unwrap();
+        let u: Vec<f64> = (0..n).map(|_| normal.sample(&mut rng)).collect();
+        let e = DMatrix::from_fn(n, 1, |k, _| if k >= delay { u[k - delay] } else { 0.0 });
+        let data = IdentificationData::complete(1.0, e, DMatrix::from_column_slice(n, 1, &u));
+        let a = analyse(&data, &DMatrix::zeros(n, 1), max_lag);
+        let r = &a.cross_correlation[0][0];
+        let peak = (0..r.len()).max_by(|&i, &j| r[i].total_cmp(&r[j])).unwrap();
+        assert_eq!(peak as i64 - max_lag as i64, delay as i64);
+        assert!(r[peak] > 0.99, "{}", r[peak]);
+        assert!(
+            r[max_lag - delay].abs() < 0.1,
+            "the mirrored lag: {}",
+            r[max_lag - delay]
+        );
+    }
 }
