@@ -7,6 +7,7 @@
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+pub mod censored;
 pub mod data;
 pub mod discrete;
 pub mod error;
@@ -18,7 +19,7 @@ pub mod rls;
 pub(crate) mod testing;
 pub mod wls;
 
-pub use data::IdentificationData;
+pub use data::{ExceptionStorage, IdentificationData};
 pub use discrete::DiscreteModel;
 pub use error::EstimationError;
 pub use iv::InstrumentalVariables;

@@ -18,6 +18,7 @@ use std::ops::Range;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
+use super::censored;
 use super::iv::InstrumentalVariables;
 use super::wls::WeightedLeastSquares;
 use super::{
@@ -43,8 +44,22 @@ impl Estimator for OutputError {
 
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
         let start = self.start(data)?;
-        self.refine(data, &start)
+        let fitted = self.fit(data, &start)?;
+        if censored::applies(data) {
+            censored::maximise_likelihood(self, data, fitted)
+        } else {
+            Ok(fitted.estimate)
+        }
     }
+}
+
+/// An output-error fit: the estimate and each segment's initial state.
+#[derive(Debug, Clone)]
+pub(crate) struct Fitted {
+    /// The estimate.
+    pub estimate: Estimate,
+    /// ŷ(start) of each segment of the data, in order.
+    pub initial_states: Vec<DVector<f64>>,
 }
 
 impl OutputError {
@@ -79,8 +94,26 @@ impl OutputError {
         }
     }
 
-    /// Minimises the simulation error starting from `start`.
+    /// Minimises the simulation error starting from `start` (the observed entries only;
+    /// an exception-stored record is fitted as its kept values, without the censoring
+    /// [`Estimator::estimate`] adds).
     pub fn refine(&self, data: &IdentificationData, start: &DiscreteModel) -> Result<Estimate> {
+        Ok(self.fit(data, start)?.estimate)
+    }
+
+    /// [`OutputError::refine`], with the initial states it estimated.
+    pub(crate) fn fit(&self, data: &IdentificationData, start: &DiscreteModel) -> Result<Fitted> {
+        self.fit_weighted(data, start, None)
+    }
+
+    /// [`OutputError::fit`] with a factor on each entry's weight (N × n), where entries
+    /// carry unequal information.
+    pub(crate) fn fit_weighted(
+        &self,
+        data: &IdentificationData,
+        start: &DiscreteModel,
+        entry_weight: Option<DMatrix<f64>>,
+    ) -> Result<Fitted> {
         self.check_weights(data)?;
         let segments = data.segments();
         let rows_used = compared_instants(data, &segments);
@@ -95,9 +128,13 @@ impl OutputError {
                     .collect::<Vec<_>>(),
             ),
         };
-        let problem = Problem::new(data, segments, start, &weights);
+        let mut problem = Problem::new(data, segments, start, &weights);
+        problem.entry_weight = entry_weight;
         let (problem, evaluations) = self.minimise(problem)?;
-        Ok(conclude(&problem, self.name(), rows_used, evaluations))
+        Ok(Fitted {
+            estimate: conclude(&problem, self.name(), rows_used, evaluations),
+            initial_states: problem.initial_states(),
+        })
     }
 
     /// Weights, when given, are one finite positive number per output.
@@ -247,6 +284,43 @@ fn covariance_from_gram(gram: &DMatrix<f64>, sigma2: f64) -> (DMatrix<f64>, f64)
     (full, (e_max / e_min.max(1e-300)).sqrt())
 }
 
+/// Θ's block of σ² (JᵀJ)⁻¹ and the condition number of the scaled J.
+fn theta_covariance(problem: &Problem, gram: &DMatrix<f64>, sigma2: f64) -> (DMatrix<f64>, f64) {
+    let (full, condition_number) = covariance_from_gram(gram, sigma2);
+    let p_theta = problem.p_theta();
+    (
+        full.view((0, 0), (p_theta, p_theta)).into_owned(),
+        condition_number,
+    )
+}
+
+/// The covariance of Θ from the information of each entry: (Σ_k e_kc/σ_c² J_kᵀJ_k)⁻¹
+/// over the entries of `data` at `model` and `initial_states`, with e_kc the entry's
+/// share of a full observation's information (`entry_information`, N × n) and σ_c² the
+/// noise variance per output. Returns it with the condition number.
+pub(crate) fn information_covariance(
+    data: &IdentificationData,
+    model: &DiscreteModel,
+    initial_states: &[DVector<f64>],
+    noise_variance: &[f64],
+    entry_information: DMatrix<f64>,
+) -> (DMatrix<f64>, f64) {
+    let weights = normalised_inverse(noise_variance);
+    let mut problem = Problem::new(data, data.segments(), model, &weights);
+    if problem.estimate_x0 {
+        let p_theta = problem.p_theta();
+        for (s, x0) in initial_states.iter().enumerate() {
+            let at = p_theta + s * problem.n;
+            problem.params.rows_mut(at, problem.n).copy_from(x0);
+        }
+    }
+    problem.entry_weight = Some(entry_information);
+    let evaluation = problem.evaluate_full();
+    // The weights are (1/σ_c²)/M with M the mean of 1/σ²: σ² = 1/M scales them back.
+    let mean_inverse = noise_variance.iter().map(|v| 1.0 / v).sum::<f64>() / weights.len() as f64;
+    theta_covariance(&problem, &evaluation.gram, 1.0 / mean_inverse)
+}
+
 /// The estimate at the minimum: Θ's block of the covariance, the noise variance per
 /// output from the unweighted residuals.
 fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usize) -> Estimate {
@@ -256,8 +330,7 @@ fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usiz
     let entries: usize = problem.counts.iter().sum();
     let dof = entries.saturating_sub(problem.params.len()).max(1) as f64;
     let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
-    let (full, condition_number) = covariance_from_gram(&evaluation.gram, sigma2);
-    let p_theta = problem.p_theta();
+    let (covariance, condition_number) = theta_covariance(problem, &evaluation.gram, sigma2);
     let noise_variance: Vec<f64> = (0..n)
         .map(|c| evaluation.sse[c] / problem.counts[c].max(1) as f64 / w[c].max(1e-300))
         .collect();
@@ -266,7 +339,7 @@ fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usiz
         method: method.into(),
         rows_used,
         condition_number,
-        covariance: Some(full.view((0, 0), (p_theta, p_theta)).into_owned()),
+        covariance: Some(covariance),
         noise_variance,
         iterations: evaluations,
         output_offset: None,
@@ -284,6 +357,8 @@ struct Problem<'a> {
     /// Observed entries per output over the segments.
     counts: Vec<usize>,
     sqrt_w: Vec<f64>,
+    /// A factor on each entry's weight (N × n), where entries count unequally.
+    entry_weight: Option<DMatrix<f64>>,
     n: usize,
     m: usize,
     params: DVector<f64>,
@@ -323,6 +398,7 @@ impl<'a> Problem<'a> {
             fixed_x0: if estimate_x0 { Vec::new() } else { x0 },
             counts,
             sqrt_w: weights.iter().map(|v| v.max(0.0).sqrt()).collect(),
+            entry_weight: None,
             n,
             m,
             params: DVector::from_vec(params),
@@ -350,6 +426,13 @@ impl<'a> Problem<'a> {
         } else {
             self.fixed_x0[s].as_slice()
         }
+    }
+
+    /// ŷ(start) of each segment at the current parameters.
+    fn initial_states(&self) -> Vec<DVector<f64>> {
+        (0..self.segments.len())
+            .map(|s| DVector::from_column_slice(self.x0(s)))
+            .collect()
     }
 
     /// √w_i from 1/σ_i² of the current residuals (normalised to mean 1).
@@ -398,10 +481,14 @@ impl<'a> Problem<'a> {
                     state.step();
                 }
                 for c in (0..n).filter(|&c| self.data.observed(k, c)) {
-                    let r = self.sqrt_w[c] * (self.data.outputs[(k, c)] - state.y[c]);
+                    let sqrt_w = match &self.entry_weight {
+                        None => self.sqrt_w[c],
+                        Some(e) => self.sqrt_w[c] * e[(k, c)].max(0.0).sqrt(),
+                    };
+                    let r = sqrt_w * (self.data.outputs[(k, c)] - state.y[c]);
                     sse[c] += r * r;
                     if let Some((gram, grad)) = normal.as_mut() {
-                        state.jacobian_row(c, self.sqrt_w[c], x0_at);
+                        state.jacobian_row(c, sqrt_w, x0_at);
                         state.accumulate(r, gram, grad);
                     }
                 }
