@@ -287,7 +287,7 @@ fn complete_output(
 pub(crate) fn truncated_normal(mu: f64, sigma: f64, a: f64, b: f64) -> (f64, f64) {
     let (alpha, beta) = ((a - mu) / sigma, (b - mu) / sigma);
     let z = normal_interval(alpha, beta);
-    if !(z > 1e-12) {
+    if z.is_nan() || z <= 1e-12 {
         // The band lies many σ from the model: its nearest edge, with no spread.
         return (mu.clamp(a, b), 0.0);
     }

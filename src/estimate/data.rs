@@ -301,11 +301,8 @@ mod tests {
     fn masked(n: usize, observed: impl Fn(usize, usize) -> bool) -> IdentificationData {
         let outputs = DMatrix::from_fn(n, 2, |k, j| (k * (j + 1)) as f64);
         let inputs = DMatrix::from_element(n, 1, 1.0);
-        IdentificationData::complete(1.0, outputs, inputs).with_output_observed(DMatrix::from_fn(
-            n,
-            2,
-            |k, j| observed(k, j),
-        ))
+        IdentificationData::complete(1.0, outputs, inputs)
+            .with_output_observed(DMatrix::from_fn(n, 2, observed))
     }
 
     #[test]

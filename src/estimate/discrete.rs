@@ -52,8 +52,17 @@ impl DiscreteModel {
         DiscreteModel::from_theta(self.phi.nrows(), self.gamma.ncols(), self.ts_s, theta)
     }
 
-    /// Largest modulus of Φ's eigenvalues (the model is stable below 1).
+    /// Whether every eigenvalue of Φ lies inside the unit circle (false for NaN entries).
+    pub fn is_stable(&self) -> bool {
+        self.spectral_radius() < 1.0
+    }
+
+    /// Largest modulus of Φ's eigenvalues (the model is stable below 1); NaN where Φ
+    /// has non-finite entries.
     pub fn spectral_radius(&self) -> f64 {
+        if !self.phi.iter().all(|v| v.is_finite()) {
+            return f64::NAN;
+        }
         self.phi
             .clone()
             .complex_eigenvalues()

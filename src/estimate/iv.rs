@@ -9,7 +9,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::wls::WeightedLeastSquares;
+use super::wls::{full_rank, WeightedLeastSquares};
 use super::{
     block_diagonal_covariance, check_enough_rows, equation_error_sse, DiscreteModel, Estimate,
     EstimationError, Estimator, IdentificationData, Result,
@@ -42,7 +42,7 @@ impl Estimator for InstrumentalVariables {
         // The lagged-output IV start is consistent but can be unstable on short or very
         // noisy records; least squares is biased but stable, and the iteration mends it.
         let first = match lagged_output_iv(data) {
-            Ok(model) if model.spectral_radius() < 1.0 => model,
+            Ok(model) if model.is_stable() => model,
             _ => WeightedLeastSquares::default().estimate(data)?.model,
         };
         self.refine(data, first)
@@ -128,7 +128,7 @@ fn solve(
         method: "instrumental variables",
         singular_value_ratio: s_min / s_max,
     };
-    if !(s_min > 1e-12 * s_max) {
+    if !full_rank(s_min, s_max, 1e-12) {
         return Err(no_excitation());
     }
     let inv_scaled = moment.try_inverse().ok_or_else(no_excitation)?;
@@ -155,12 +155,13 @@ fn stable_step(model: &DiscreteModel, target: &DiscreteModel) -> Option<(Discret
     let mut step = DVector::from_vec(target.theta()) - &old;
     let mut next = model.with_theta((&old + &step).as_slice());
     let mut halvings = 0;
-    while !(next.spectral_radius() < 1.0) && halvings < 30 {
+    while !next.is_stable() && halvings < 30 {
         step *= 0.5;
         next = model.with_theta((&old + &step).as_slice());
         halvings += 1;
     }
-    (next.spectral_radius() < 1.0).then(|| (next, step.norm() / old.norm().max(1e-300)))
+    let change = step.norm() / old.norm().max(1e-300);
+    next.is_stable().then_some((next, change))
 }
 
 impl InstrumentalVariables {
@@ -171,7 +172,7 @@ impl InstrumentalVariables {
         let rows: Vec<usize> = data.usable_rows();
         check_enough_rows(data, rows.len())?;
         let p = data.states() + data.input_count();
-        if !(first.spectral_radius() < 1.0) {
+        if !first.is_stable() {
             return Err(EstimationError::UnstableStart {
                 method: "instrumental variables",
                 spectral_radius: first.spectral_radius(),

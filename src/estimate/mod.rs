@@ -37,7 +37,8 @@ pub struct Estimate {
     pub model: DiscreteModel,
     /// The method's name (`ls`, `wls`, `rls`, `iv`, `oe`), set by the estimator.
     pub method: String,
-    /// Number of equations (regression rows) used.
+    /// Number of equations used: regression rows, or for output error the instants after
+    /// each segment's start where some output is compared.
     pub rows_used: usize,
     /// 2-norm condition number of the column-scaled regression (or Jacobian) matrix.
     pub condition_number: f64,

@@ -143,7 +143,7 @@ impl WeightedLeastSquares {
             method: self.name(),
             singular_value_ratio: s_min / s_max,
         };
-        if !(s_min > RANK_TOLERANCE * s_max) {
+        if !full_rank(s_min, s_max, RANK_TOLERANCE) {
             return Err(no_excitation());
         }
         let r_inv = r.clone().try_inverse().ok_or_else(no_excitation)?;
@@ -163,6 +163,11 @@ impl WeightedLeastSquares {
             condition_number: s_max / s_min,
         })
     }
+}
+
+/// Whether σ_min > tolerance·σ_max (false where either is NaN).
+pub(crate) fn full_rank(s_min: f64, s_max: f64, tolerance: f64) -> bool {
+    s_min.partial_cmp(&(tolerance * s_max)) == Some(std::cmp::Ordering::Greater)
 }
 
 /// 1/‖column j‖ of the regression matrix over `rows`. Columns scaled to unit norm make
