@@ -25,7 +25,7 @@ use std::f64::consts::{FRAC_1_SQRT_2, PI};
 
 use nalgebra::DMatrix;
 
-use super::oe::{information_covariance, Fitted, OutputError};
+use super::oe::{information_covariance, normalised_inverse, Fitted, OutputError};
 use super::{Estimate, IdentificationData, Result};
 
 /// Most reweighting iterations.
@@ -104,12 +104,10 @@ pub(crate) fn maximise_likelihood(
 
 /// The working fit's weights: the user's, or the normalised inverse noise variances.
 fn normalised(noise_variance: &[f64], given: &Option<Vec<f64>>) -> Vec<f64> {
-    if let Some(w) = given {
-        return w.clone();
+    match given {
+        Some(w) => w.clone(),
+        None => normalised_inverse(noise_variance),
     }
-    let inv: Vec<f64> = noise_variance.iter().map(|v| 1.0 / v.max(1e-300)).collect();
-    let mean = inv.iter().sum::<f64>() / inv.len() as f64;
-    inv.iter().map(|v| v / mean).collect()
 }
 
 /// Largest |b − a| / |a| over the entries.

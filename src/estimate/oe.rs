@@ -10,7 +10,9 @@
 //! Only observed output entries enter J: with outputs stored by exception (a mask in
 //! [`IdentificationData`]) the simulation runs through the instants between them and
 //! is compared where a value was kept. A segment may start where outputs are unknown:
-//! its x0 is estimated.
+//! its x0 is estimated. Where the storage is declared (a deadband), the instants between
+//! kept values are censored observations as well, and [`Estimator::estimate`] maximises
+//! their likelihood too ([`super::censored`]).
 
 use std::cell::RefCell;
 use std::ops::Range;
@@ -204,7 +206,7 @@ impl OutputError {
 
 /// w_i = (1/v_i) / mean_j(1/v_j): inverse variances scaled to mean 1, so that J stays
 /// in the units of the data whatever the noise level.
-fn normalised_inverse(variances: &[f64]) -> Vec<f64> {
+pub(crate) fn normalised_inverse(variances: &[f64]) -> Vec<f64> {
     let inv: Vec<f64> = variances.iter().map(|v| 1.0 / v).collect();
     let mean = inv.iter().sum::<f64>() / inv.len() as f64;
     inv.iter().map(|v| v / mean).collect()
