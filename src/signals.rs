@@ -13,9 +13,9 @@ use nalgebra::DMatrix;
 
 use crate::decimate::{DecimatedRecording, DecimatedSeries};
 use crate::error::{Error, Result};
-use crate::estimate::IdentificationData;
+use crate::estimate::{ExceptionStorage, IdentificationData};
 use crate::losses::{self, FieldTemperatureSource, GeneratorLosses};
-use crate::recording::{Nameplate, Signal};
+use crate::recording::{Nameplate, Signal, Storage};
 use crate::series::Series;
 use crate::spec::{
     InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
@@ -45,6 +45,9 @@ pub struct StateSignal {
     /// For channels stored by exception: the instants that hold a stored sample (exact
     /// values); between them `measured` is interpolated and not used as an output.
     pub observed: Option<Vec<bool>>,
+    /// The channel's storage by exception, where declared: (deadband in the channel's
+    /// unit, heartbeat in s). Between stored samples the value stayed within the deadband.
+    pub exception: Option<(f64, Option<f64>)>,
 }
 
 impl StateSignal {
@@ -174,11 +177,24 @@ impl ModelSignals {
             }
         }
         let data = IdentificationData::new(self.ts_s, outputs, inputs, outputs_known, inputs_known);
-        if self.states.iter().any(|s| s.observed.is_some()) {
-            data.with_output_observed(observed)
-        } else {
-            data
+        if !self.states.iter().any(|s| s.observed.is_some()) {
+            return data;
         }
+        // The estimator treats the instants between stored samples as "within the
+        // deadband" (censored), not as unknown: in the model's scaling and instants.
+        let storage = self
+            .states
+            .iter()
+            .map(|s| {
+                s.exception.map(|(deadband, heartbeat_s)| ExceptionStorage {
+                    deadband: deadband / self.temperature_base_k,
+                    max_interval: heartbeat_s
+                        .map_or(usize::MAX, |h| (h / self.ts_s).round().max(1.0) as usize),
+                })
+            })
+            .collect();
+        data.with_output_observed(observed)
+            .with_exception_storage(storage)
     }
 }
 
@@ -197,7 +213,9 @@ pub fn compute(
     };
     let mut states = Vec::with_capacity(description.states.len());
     for s in &description.states {
-        states.push(state_signal(s, series(&s.channel)?, &series)?);
+        let mut state = state_signal(s, series(&s.channel)?, &series)?;
+        state.exception = exception_storage(decimated, &s.channel);
+        states.push(state);
     }
     let n = decimated.len;
     let initial_index = (0..n)
@@ -250,6 +268,22 @@ pub fn compute(
     })
 }
 
+/// The storage by exception of a state's channel (the first of its sensors that declares
+/// one): (deadband, heartbeat s).
+fn exception_storage(decimated: &DecimatedRecording, signal: &Signal) -> Option<(f64, Option<f64>)> {
+    decimated
+        .channels
+        .iter()
+        .filter(|c| &c.signal == signal)
+        .find_map(|c| match c.storage {
+            Storage::Exception {
+                deadband,
+                max_interval_s,
+            } => Some((deadband, max_interval_s)),
+            Storage::Sampled => None,
+        })
+}
+
 fn state_signal<'a>(
     s: &StateDescription,
     measured: &DecimatedSeries,
@@ -267,6 +301,7 @@ fn state_signal<'a>(
         measured: measured.values.clone(),
         reference,
         observed: measured.observed.clone(),
+        exception: None,
     })
 }
 

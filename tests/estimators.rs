@@ -3,8 +3,11 @@
 
 use crate::common;
 
-use heatrun::pipeline::{replay, Method, Replay, ReplayOptions, ValidationSource};
+use heatrun::estimate::{DiscreteModel, Estimator, ExceptionStorage, OutputError};
+use heatrun::model::Spectrum;
+use heatrun::pipeline::{prepare, replay, Method, Replay, ReplayOptions, ValidationSource};
 use heatrun::synth::{self, SynthOptions, Truth};
+use nalgebra::DMatrix;
 
 fn run(level: f64, seed: u64, method: Method) -> (Replay, Truth) {
     let dir = common::tempdir();
@@ -223,4 +226,182 @@ fn residuals_of_the_true_structure_are_white() {
         .iter()
         .flatten()
         .all(|c| c.abs() < 0.1));
+}
+
+/// A second machine with other time constants (about 60 s, 1100 s and 5400 s), as in
+/// `benches/accuracy.rs`.
+fn second_machine() -> DiscreteModel {
+    let a_c = DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            -1.0 / 1100.0,
+            0.00010,
+            0.00020,
+            0.00005,
+            -1.0 / 5000.0,
+            0.00030,
+            0.00050,
+            0.00030,
+            -1.0 / 60.0,
+        ],
+    );
+    let b_c = DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            0.050, 0.060, -0.020, 0.004, 0.006, 0.012, 0.010, -0.080, 0.140,
+        ],
+    );
+    let (phi, gamma) = heatrun::model::matrix::discretize(&a_c, &b_c, 1.0);
+    DiscreteModel {
+        phi,
+        gamma,
+        ts_s: 1.0,
+    }
+}
+
+/// Which samples a historian storing by exception keeps of a series (°C, one per grid
+/// instant): the first, then each that moved more than `deadband_k` from the last kept
+/// one, or comes `heartbeat` instants after it.
+fn kept_by_exception(values: &[Option<f64>], deadband_k: f64, heartbeat: usize) -> Vec<bool> {
+    let mut last: Option<(usize, f64)> = None;
+    values
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let Some(v) = *v else { return false };
+            let keep = match last {
+                None => true,
+                Some((at, kept)) => (v - kept).abs() > deadband_k || k - at >= heartbeat,
+            };
+            if keep {
+                last = Some((k, v));
+            }
+            keep
+        })
+        .collect()
+}
+
+/// Worst relative time-constant errors on a heat run whose temperatures were stored by
+/// exception, three ways.
+struct ExceptionFigures {
+    /// Share of the temperature samples kept.
+    kept: f64,
+    /// OE with the storage declared (kept values and the censored instants between them).
+    censored: f64,
+    /// OE on the kept values alone, as exact values at their own times.
+    kept_only: f64,
+    /// OE on the kept values interpolated linearly onto the grid.
+    interpolated: f64,
+}
+
+/// A PT100-noise heat run whose three temperatures were stored by exception
+/// (deadband 0.1 K, heartbeat 600 s), identified three ways.
+fn exception_storage_errors(options: SynthOptions) -> ExceptionFigures {
+    let dir = common::tempdir();
+    let path = dir.path().join("run.mcap");
+    let truth = synth::write(&path, &options.with_noise_level(1.0)).unwrap();
+    let prepared = prepare(&path, &ReplayOptions::default()).unwrap();
+    let heartbeat = (600.0 / prepared.data.ts_s).round() as usize;
+    let columns: Vec<Vec<bool>> = prepared
+        .signals
+        .states
+        .iter()
+        .map(|state| &state.measured)
+        .map(|series| {
+            let values: Vec<Option<f64>> = (0..series.len()).map(|k| series.get(k)).collect();
+            kept_by_exception(&values, 0.1, heartbeat)
+        })
+        .collect();
+    let n = prepared.data.len();
+    let observed = DMatrix::from_fn(n, 3, |k, j| columns[j][k] && prepared.data.outputs_known[k]);
+    let kept = observed.iter().filter(|&&o| o).count() as f64 / (3 * n) as f64;
+    let storage = ExceptionStorage {
+        deadband: 0.1 / prepared.signals.temperature_base_k,
+        max_interval: heartbeat,
+    };
+    let thinned = prepared.data.with_output_observed(observed);
+    let declared = thinned
+        .clone()
+        .with_exception_storage(vec![Some(storage); 3]);
+    let worst = |e: heatrun::estimate::Estimate| {
+        Spectrum::of(&e.model)
+            .unwrap()
+            .time_constants_s
+            .iter()
+            .zip(&truth.time_constants_s)
+            .map(|(t, w)| ((t - w) / w).abs())
+            .fold(0.0, f64::max)
+    };
+    let oe = OutputError::default();
+    ExceptionFigures {
+        kept,
+        censored: worst(oe.estimate(&declared).unwrap()),
+        kept_only: worst(oe.estimate(&thinned).unwrap()),
+        interpolated: worst(oe.estimate(&thinned.interpolated()).unwrap()),
+    }
+}
+
+fn exception_storage_runs(seed: u64) -> [(&'static str, SynthOptions); 2] {
+    [
+        (
+            "paper model",
+            SynthOptions {
+                seed,
+                ..SynthOptions::default()
+            },
+        ),
+        (
+            "second machine",
+            SynthOptions {
+                seed,
+                truth: second_machine(),
+                duration_s: 30000.0,
+                ..SynthOptions::default()
+            },
+        ),
+    ]
+}
+
+#[test]
+fn temperatures_stored_by_exception_identify_within_five_percent() {
+    for (machine, options) in exception_storage_runs(1) {
+        let f = exception_storage_errors(options);
+        eprintln!(
+            "{machine}: {:.1} % of the temperature samples kept; worst time-constant error \
+             {:.2} % (kept values alone {:.2} %, interpolated {:.2} %)",
+            100.0 * f.kept,
+            100.0 * f.censored,
+            100.0 * f.kept_only,
+            100.0 * f.interpolated
+        );
+        assert!(f.kept < 0.5, "{machine}: the thinning keeps {}", f.kept);
+        assert!(
+            f.censored < 0.05,
+            "{machine}: worst time-constant error {}",
+            f.censored
+        );
+    }
+}
+
+/// The five-seed figures: `cargo test --release --test estimators exception_storage_over_seeds
+/// -- --ignored --nocapture`.
+#[test]
+#[ignore = "about 30 s: the figures over five seeds"]
+fn exception_storage_over_seeds() {
+    for seed in 1..=5 {
+        for (machine, options) in exception_storage_runs(seed) {
+            let f = exception_storage_errors(options);
+            eprintln!(
+                "{machine:<15} seed {seed}: kept {:4.1} %  censored {:5.2} %  kept alone {:5.2} %  \
+                 interpolated {:5.2} %",
+                100.0 * f.kept,
+                100.0 * f.censored,
+                100.0 * f.kept_only,
+                100.0 * f.interpolated
+            );
+            assert!(f.censored < 0.05, "{machine} seed {seed}: {}", f.censored);
+        }
+    }
 }

@@ -30,6 +30,22 @@ pub struct IdentificationData {
     /// Per-entry output knowledge (N × n), or `None`: every output known wherever
     /// `outputs_known[k]`.
     pub output_observed: Option<DMatrix<bool>>,
+    /// Per output, how it was stored when it was stored by exception (with a mask):
+    /// then an instant without a value says the value stayed within the deadband of
+    /// the last kept one. `None`: an unobserved instant says nothing.
+    pub exception_storage: Vec<Option<ExceptionStorage>>,
+}
+
+/// Storage by exception, as SCADA historians keep a slow signal: a value is kept when it
+/// has moved more than `deadband` from the last kept value, or `max_interval` instants
+/// after it (the heartbeat). Between kept values the signal was within the deadband.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExceptionStorage {
+    /// The deadband, in the output's units (> 0).
+    pub deadband: f64,
+    /// The heartbeat, in instants: the longest interval between kept values. An instant
+    /// without a value this long after the last kept one is a gap, not a censored value.
+    pub max_interval: usize,
 }
 
 impl IdentificationData {
@@ -44,6 +60,7 @@ impl IdentificationData {
         debug_assert_eq!(outputs.nrows(), inputs.nrows());
         debug_assert_eq!(outputs_known.len(), outputs.nrows());
         debug_assert_eq!(inputs_known.len(), inputs.nrows());
+        let n = outputs.ncols();
         IdentificationData {
             ts_s,
             outputs,
@@ -51,6 +68,7 @@ impl IdentificationData {
             outputs_known,
             inputs_known,
             output_observed: None,
+            exception_storage: vec![None; n],
         }
     }
 
@@ -71,6 +89,14 @@ impl IdentificationData {
         self
     }
 
+    /// The same data with each output's storage declared (one entry per output; needs
+    /// a mask to mean anything).
+    pub fn with_exception_storage(mut self, storage: Vec<Option<ExceptionStorage>>) -> Self {
+        debug_assert_eq!(storage.len(), self.states());
+        self.exception_storage = storage;
+        self
+    }
+
     /// The instants in `range` as data of their own.
     pub fn slice(&self, range: Range<usize>) -> IdentificationData {
         IdentificationData {
@@ -83,6 +109,7 @@ impl IdentificationData {
                 .output_observed
                 .as_ref()
                 .map(|o| o.rows(range.start, range.len()).into_owned()),
+            exception_storage: self.exception_storage.clone(),
         }
     }
 

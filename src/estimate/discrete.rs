@@ -52,8 +52,17 @@ impl DiscreteModel {
         DiscreteModel::from_theta(self.phi.nrows(), self.gamma.ncols(), self.ts_s, theta)
     }
 
-    /// Largest modulus of Φ's eigenvalues (the model is stable below 1).
+    /// Whether every eigenvalue of Φ lies inside the unit circle (false for NaN entries).
+    pub fn is_stable(&self) -> bool {
+        self.spectral_radius() < 1.0
+    }
+
+    /// Largest modulus of Φ's eigenvalues (the model is stable below 1); NaN where Φ
+    /// has non-finite entries.
     pub fn spectral_radius(&self) -> f64 {
+        if !self.phi.iter().all(|v| v.is_finite()) {
+            return f64::NAN;
+        }
         self.phi
             .clone()
             .complex_eigenvalues()
@@ -141,13 +150,25 @@ impl DiscreteModel {
     /// [`DiscreteModel::initial_state`] (the measured y(start) where known). Returns one
     /// row per instant of the range.
     pub fn simulate(&self, data: &IdentificationData, range: Range<usize>) -> DMatrix<f64> {
-        let n = self.phi.nrows();
+        if range.is_empty() {
+            return DMatrix::zeros(0, self.phi.nrows());
+        }
+        let x0 = self.initial_state(data, range.clone());
+        self.simulate_from(data, range, x0.as_slice())
+    }
+
+    /// Simulates eq. (8) over `range` from ŷ(start) = `x0`, one row per instant.
+    pub fn simulate_from(
+        &self,
+        data: &IdentificationData,
+        range: Range<usize>,
+        x0: &[f64],
+    ) -> DMatrix<f64> {
+        let (n, m) = (self.phi.nrows(), self.gamma.ncols());
         let mut out = DMatrix::zeros(range.len(), n);
         if range.is_empty() {
             return out;
         }
-        let m = self.gamma.ncols();
-        let x0 = self.initial_state(data, range.clone());
         for j in 0..n {
             out[(0, j)] = x0[j];
         }

@@ -9,7 +9,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::wls::WeightedLeastSquares;
+use super::wls::{full_rank, WeightedLeastSquares};
 use super::{
     block_diagonal_covariance, check_enough_rows, equation_error_sse, DiscreteModel, Estimate,
     EstimationError, Estimator, IdentificationData, Result,
@@ -42,7 +42,7 @@ impl Estimator for InstrumentalVariables {
         // The lagged-output IV start is consistent but can be unstable on short or very
         // noisy records; least squares is biased but stable, and the iteration mends it.
         let first = match lagged_output_iv(data) {
-            Ok(model) if model.spectral_radius() < 1.0 => model,
+            Ok(model) if model.is_stable() => model,
             _ => WeightedLeastSquares::default().estimate(data)?.model,
         };
         self.refine(data, first)
@@ -128,7 +128,7 @@ fn solve(
         method: "instrumental variables",
         singular_value_ratio: s_min / s_max,
     };
-    if !(s_min > 1e-12 * s_max) {
+    if !full_rank(s_min, s_max, 1e-12) {
         return Err(no_excitation());
     }
     let inv_scaled = moment.try_inverse().ok_or_else(no_excitation)?;
@@ -155,12 +155,13 @@ fn stable_step(model: &DiscreteModel, target: &DiscreteModel) -> Option<(Discret
     let mut step = DVector::from_vec(target.theta()) - &old;
     let mut next = model.with_theta((&old + &step).as_slice());
     let mut halvings = 0;
-    while !(next.spectral_radius() < 1.0) && halvings < 30 {
+    while !next.is_stable() && halvings < 30 {
         step *= 0.5;
         next = model.with_theta((&old + &step).as_slice());
         halvings += 1;
     }
-    (next.spectral_radius() < 1.0).then(|| (next, step.norm() / old.norm().max(1e-300)))
+    let change = step.norm() / old.norm().max(1e-300);
+    next.is_stable().then_some((next, change))
 }
 
 impl InstrumentalVariables {
@@ -171,7 +172,7 @@ impl InstrumentalVariables {
         let rows: Vec<usize> = data.usable_rows();
         check_enough_rows(data, rows.len())?;
         let p = data.states() + data.input_count();
-        if !(first.spectral_radius() < 1.0) {
+        if !first.is_stable() {
             return Err(EstimationError::UnstableStart {
                 method: "instrumental variables",
                 spectral_radius: first.spectral_radius(),
@@ -216,5 +217,66 @@ impl InstrumentalVariables {
             output_offset: None,
             trajectory: None,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::testing::{exact_data, theta_error, two_state_model, with_noise};
+
+    #[test]
+    fn noise_free_data_give_the_true_matrices() {
+        let truth = two_state_model();
+        let data = exact_data(&truth, 1500, 1);
+        let first = lagged_output_iv(&data).unwrap();
+        assert!(theta_error(&first, &truth) < 1e-9, "{first:?}");
+        let e = InstrumentalVariables::default().estimate(&data).unwrap();
+        assert!(theta_error(&e.model, &truth) < 1e-9, "{:?}", e.model);
+        assert_eq!(e.method, "iv");
+        assert_eq!(e.rows_used, 1499);
+    }
+
+    #[test]
+    fn the_regressors_as_instruments_give_least_squares() {
+        // Z = F: θ_i = (FᵀF)⁻¹ Fᵀ y_i, the least-squares estimate, noise and all.
+        let truth = two_state_model();
+        let mut data = exact_data(&truth, 1500, 2);
+        data.outputs = with_noise(&data.outputs, 0.01, 3);
+        let rows = data.usable_rows();
+        let iv = solve(&data, &rows, |k, j| data.outputs[(k - 1, j)]).unwrap();
+        let ls = WeightedLeastSquares::default().estimate(&data).unwrap();
+        // Equal to rounding: the moments square F's condition number, which QR does not.
+        assert!(theta_error(&iv.model, &ls.model) < 1e-8);
+        assert!(theta_error(&ls.model, &truth) > 1e-3, "the noise biases it");
+    }
+
+    #[test]
+    fn output_noise_biases_least_squares_but_not_iv() {
+        let truth = two_state_model();
+        let mut data = exact_data(&truth, 20000, 4);
+        data.outputs = with_noise(&data.outputs, 0.1, 5);
+        let ls = WeightedLeastSquares::default().estimate(&data).unwrap();
+        let iv = InstrumentalVariables::default().estimate(&data).unwrap();
+        let (ls_err, iv_err) = (
+            theta_error(&ls.model, &truth),
+            theta_error(&iv.model, &truth),
+        );
+        assert!(ls_err > 0.3, "least squares: {ls_err}, iv {iv_err}");
+        assert!(iv_err < 0.03, "least squares: {ls_err}, iv {iv_err}");
+    }
+
+    #[test]
+    fn constant_inputs_do_not_determine_theta() {
+        let truth = two_state_model();
+        let mut data = exact_data(&truth, 500, 6);
+        data.inputs.fill(1.0);
+        match InstrumentalVariables::default().estimate(&data) {
+            Err(EstimationError::NoExcitation {
+                singular_value_ratio,
+                ..
+            }) => assert!(singular_value_ratio < 1e-10),
+            other => panic!("{other:?}"),
+        }
     }
 }

@@ -7,6 +7,7 @@
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+pub mod censored;
 pub mod data;
 pub mod discrete;
 pub mod error;
@@ -14,9 +15,11 @@ pub mod iv;
 pub mod oe;
 pub mod qr;
 pub mod rls;
+#[cfg(test)]
+pub(crate) mod testing;
 pub mod wls;
 
-pub use data::IdentificationData;
+pub use data::{ExceptionStorage, IdentificationData};
 pub use discrete::DiscreteModel;
 pub use error::EstimationError;
 pub use iv::InstrumentalVariables;
@@ -34,7 +37,8 @@ pub struct Estimate {
     pub model: DiscreteModel,
     /// The method's name (`ls`, `wls`, `rls`, `iv`, `oe`), set by the estimator.
     pub method: String,
-    /// Number of equations (regression rows) used.
+    /// Number of equations used: regression rows, or for output error the instants after
+    /// each segment's start where some output is compared.
     pub rows_used: usize,
     /// 2-norm condition number of the column-scaled regression (or Jacobian) matrix.
     pub condition_number: f64,

@@ -137,3 +137,99 @@ impl Estimator for RecursiveLeastSquares {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::testing::{
+        exact_data, simulate, step_inputs, theta_error, two_state_model, with_noise,
+    };
+    use crate::estimate::WeightedLeastSquares;
+
+    #[test]
+    fn without_forgetting_it_ends_at_batch_least_squares() {
+        let truth = two_state_model();
+        let mut data = exact_data(&truth, 2000, 21);
+        data.outputs = with_noise(&data.outputs, 0.01, 22);
+        data.outputs_known[700] = false;
+        let rls = RecursiveLeastSquares::default().estimate(&data).unwrap();
+        let ls = WeightedLeastSquares::default().estimate(&data).unwrap();
+        // The diffuse prior weighs like 1e-8 of an equation: equal to far below the noise.
+        assert!(theta_error(&rls.model, &ls.model) < 1e-6);
+        assert!(
+            theta_error(&ls.model, &truth) > 1e-3,
+            "noisy enough to matter"
+        );
+        assert_eq!(rls.rows_used, ls.rows_used);
+        assert_eq!(rls.method, "rls");
+        let trajectory = rls.trajectory.as_ref().unwrap();
+        let rows = data.usable_rows();
+        assert_eq!(trajectory[0].instant, rows[0]);
+        assert_eq!(trajectory[1].instant, rows[10]);
+        assert_eq!(trajectory.last().unwrap().instant, *rows.last().unwrap());
+        assert_eq!(trajectory.last().unwrap().theta, rls.model.theta());
+    }
+
+    #[test]
+    fn forgetting_follows_a_change_of_the_system() {
+        // The system's Γ doubles halfway: with λ = 0.95 the old half is forgotten (its
+        // weight 0.95^1000 ≈ 5e-23), without forgetting the estimate lies in between.
+        let before = two_state_model();
+        let after = before.with_theta(
+            &before
+                .theta()
+                .iter()
+                .enumerate()
+                .map(|(q, t)| if q % 4 >= 2 { 2.0 * t } else { *t })
+                .collect::<Vec<_>>(),
+        );
+        let u = step_inputs(2000, 2, 23);
+        let first = simulate(&before, &u.rows(0, 1000).into_owned(), &[0.5, 0.2]);
+        let x = &before.phi * first.row(999).transpose() + &before.gamma * u.row(999).transpose();
+        let second = simulate(&after, &u.rows(1000, 1000).into_owned(), x.as_slice());
+        let y = DMatrix::from_fn(2000, 2, |k, j| {
+            if k < 1000 {
+                first[(k, j)]
+            } else {
+                second[(k - 1000, j)]
+            }
+        });
+        let data = IdentificationData::complete(1.0, y, u);
+        let forgetting = RecursiveLeastSquares {
+            forgetting: 0.95,
+            keep_every: 1,
+        }
+        .estimate(&data)
+        .unwrap();
+        assert!(theta_error(&forgetting.model, &after) < 1e-6);
+        let remembering = RecursiveLeastSquares::default().estimate(&data).unwrap();
+        assert!(theta_error(&remembering.model, &after) > 0.05);
+        assert!(theta_error(&remembering.model, &before) > 0.05);
+        // Just before the change the forgetting estimate was the first system.
+        let at_change = forgetting
+            .trajectory
+            .as_ref()
+            .unwrap()
+            .iter()
+            .find(|pt| pt.instant == 999)
+            .unwrap();
+        assert!(theta_error(&before.with_theta(&at_change.theta), &before) < 1e-6);
+    }
+
+    #[test]
+    fn a_forgetting_factor_outside_the_interval_is_refused() {
+        let data = exact_data(&two_state_model(), 300, 24);
+        for value in [0.0, 1.5, f64::NAN] {
+            let e = RecursiveLeastSquares {
+                forgetting: value,
+                keep_every: 1,
+            }
+            .estimate(&data)
+            .unwrap_err();
+            assert!(
+                matches!(e, EstimationError::ForgettingFactor { value: v } if v.to_bits() == value.to_bits()),
+                "{e}"
+            );
+        }
+    }
+}

@@ -143,7 +143,7 @@ impl WeightedLeastSquares {
             method: self.name(),
             singular_value_ratio: s_min / s_max,
         };
-        if !(s_min > RANK_TOLERANCE * s_max) {
+        if !full_rank(s_min, s_max, RANK_TOLERANCE) {
             return Err(no_excitation());
         }
         let r_inv = r.clone().try_inverse().ok_or_else(no_excitation)?;
@@ -163,6 +163,11 @@ impl WeightedLeastSquares {
             condition_number: s_max / s_min,
         })
     }
+}
+
+/// Whether σ_min > tolerance·σ_max (false where either is NaN).
+pub(crate) fn full_rank(s_min: f64, s_max: f64, tolerance: f64) -> bool {
+    s_min.partial_cmp(&(tolerance * s_max)) == Some(std::cmp::Ordering::Greater)
 }
 
 /// 1/‖column j‖ of the regression matrix over `rows`. Columns scaled to unit norm make
@@ -240,5 +245,43 @@ mod tests {
             .unwrap();
         assert!((plain.model.phi.clone() - &phi).norm() > 1e-3);
         assert!((weighted.model.phi - phi).norm() < 1e-5);
+    }
+
+    #[test]
+    fn the_method_is_named_by_whether_it_is_weighted() {
+        let (data, _, _) = simulated(300, 10);
+        let plain = WeightedLeastSquares::default().estimate(&data).unwrap();
+        assert_eq!(plain.method, "ls");
+        let weighted = WeightedLeastSquares {
+            weights: Some(DMatrix::from_element(300, 2, 1.0)),
+        }
+        .estimate(&data)
+        .unwrap();
+        assert_eq!(weighted.method, "wls");
+        assert!(plain.trajectory.is_none());
+        let wrong = WeightedLeastSquares {
+            weights: Some(DMatrix::from_element(299, 2, 1.0)),
+        };
+        assert!(matches!(
+            wrong.estimate(&data),
+            Err(EstimationError::WeightShape {
+                given_rows: 299,
+                rows: 300,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn too_few_rows_are_named_with_the_figures() {
+        let (data, _, _) = simulated(25, 11);
+        assert_eq!(
+            WeightedLeastSquares::default().estimate(&data).unwrap_err(),
+            EstimationError::TooFewRows {
+                rows: 24,
+                needed: 30,
+                parameters: 3
+            }
+        );
     }
 }

@@ -91,4 +91,21 @@ mod tests {
         assert!((f.rmse_k[0] - 80.0 / 3f64.sqrt()).abs() < 1e-12);
         assert_eq!(f.max_abs_error_k[0], 80.0);
     }
+
+    #[test]
+    fn only_observed_entries_are_compared() {
+        // Output 0 = [1, 2, 3, 4] with instant 3 not kept (a wild value there must not
+        // count); output 1 kept only at 0 and 3. ŷ = y − [0, 0, 1, ·] and y − [·, ·, ·, 2].
+        let outputs = DMatrix::from_row_slice(4, 2, &[1.0, 5.0, 2.0, 0.0, 3.0, 0.0, 1e9, 7.0]);
+        let data =
+            IdentificationData::complete(1.0, outputs, DMatrix::zeros(4, 1)).with_output_observed(
+                DMatrix::from_row_slice(4, 2, &[true, true, true, false, true, false, false, true]),
+            );
+        let sim = DMatrix::from_row_slice(4, 2, &[1.0, 5.0, 2.0, 0.0, 2.0, 0.0, 0.0, 5.0]);
+        let f = fit(&data, &sim, 1.0);
+        assert_eq!(f.samples, 4);
+        assert!((f.rmse_k[0] - (1.0f64 / 3.0).sqrt()).abs() < 1e-12);
+        assert!((f.rmse_k[1] - 2.0f64.sqrt()).abs() < 1e-12);
+        assert_eq!(f.max_abs_error_k, vec![1.0, 2.0]);
+    }
 }

@@ -34,64 +34,35 @@ pub fn analyse(
     simulated: &DMatrix<f64>,
     max_lag: usize,
 ) -> ResidualAnalysis {
-    let n = data.states();
-    let m = data.input_count();
-    let len = data.len();
-    // Observed entries where the simulation exists (all outputs of an instant, without a mask).
-    let valid = |k: usize, i: usize| data.observed(k, i) && simulated[(k, 0)].is_finite();
-    let samples = (0..len).filter(|&k| (0..n).any(|i| valid(k, i))).count();
-    // The centred series are read on the fly rather than stored: a week at Ts = 1 s
-    // would otherwise hold n + m more series of 604,800 instants.
-    let mean = |f: &dyn Fn(usize) -> Option<f64>| {
-        let (sum, count) = (0..len)
-            .filter_map(f)
-            .fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
-        sum / count.max(1) as f64
-    };
-    let residual_means: Vec<f64> = (0..n)
-        .map(|i| mean(&|k| valid(k, i).then(|| data.outputs[(k, i)] - simulated[(k, i)])))
+    let (n, m, len) = (data.states(), data.input_count(), data.len());
+    let centred = Centred::new(data, simulated);
+    let samples = (0..len)
+        .filter(|&k| (0..n).any(|i| centred.valid(k, i)))
+        .count();
+    let residual_energy: Vec<f64> = (0..n)
+        .map(|i| energy(len, &|k| centred.residual(i, k)))
         .collect();
-    let input_means: Vec<f64> = (0..m)
-        .map(|j| mean(&|k| data.inputs_known[k].then(|| data.inputs[(k, j)])))
+    let input_energy: Vec<f64> = (0..m)
+        .map(|j| energy(len, &|k| centred.input(j, k)))
         .collect();
-    let residual = |i: usize, k: usize| {
-        valid(k, i).then(|| data.outputs[(k, i)] - simulated[(k, i)] - residual_means[i])
-    };
-    let input =
-        |j: usize, k: usize| data.inputs_known[k].then(|| data.inputs[(k, j)] - input_means[j]);
-    let energy =
-        |f: &dyn Fn(usize) -> Option<f64>| (0..len).filter_map(f).map(|x| x * x).sum::<f64>();
-    let residual_energy: Vec<f64> = (0..n).map(|i| energy(&|k| residual(i, k))).collect();
-    let input_energy: Vec<f64> = (0..m).map(|j| energy(&|k| input(j, k))).collect();
-    // r_ab(lag) = Σ_k a(k) b(k − lag) / √(Σ a² Σ b²) over the instants where both are known.
-    let correlate = |a: &dyn Fn(usize) -> Option<f64>,
-                     b: &dyn Fn(usize) -> Option<f64>,
-                     energies: f64,
-                     lag: i64|
-     -> f64 {
-        let from = lag.max(0) as usize;
-        let to = (len as i64 + lag.min(0)).max(0) as usize;
-        let sab: f64 = (from..to)
-            .filter_map(|k| Some(a(k)? * b((k as i64 - lag) as usize)?))
-            .sum();
-        sab / energies.sqrt().max(1e-300)
-    };
     let autocorrelation: Vec<Vec<f64>> = (0..n)
         .map(|i| {
-            let e = |k: usize| residual(i, k);
+            let e = |k: usize| centred.residual(i, k);
+            let energies = residual_energy[i] * residual_energy[i];
             (0..=max_lag)
-                .map(|lag| correlate(&e, &e, residual_energy[i] * residual_energy[i], lag as i64))
+                .map(|lag| correlate(len, &e, &e, energies, lag as i64))
                 .collect()
         })
         .collect();
     let cross_correlation = (0..n)
         .map(|i| {
-            let e = |k: usize| residual(i, k);
+            let e = |k: usize| centred.residual(i, k);
             (0..m)
                 .map(|j| {
-                    let u = |k: usize| input(j, k);
+                    let u = |k: usize| centred.input(j, k);
+                    let energies = residual_energy[i] * input_energy[j];
                     (-(max_lag as i64)..=max_lag as i64)
-                        .map(|lag| correlate(&e, &u, residual_energy[i] * input_energy[j], lag))
+                        .map(|lag| correlate(len, &e, &u, energies, lag))
                         .collect()
                 })
                 .collect()
@@ -110,6 +81,81 @@ pub fn analyse(
         samples,
         autocorrelation_outside_band,
     }
+}
+
+/// The residuals and inputs with their means removed, read on the fly rather than
+/// stored: a week at Ts = 1 s would otherwise hold n + m more series of 604,800 instants.
+struct Centred<'a> {
+    data: &'a IdentificationData,
+    simulated: &'a DMatrix<f64>,
+    residual_means: Vec<f64>,
+    input_means: Vec<f64>,
+}
+
+impl<'a> Centred<'a> {
+    fn new(data: &'a IdentificationData, simulated: &'a DMatrix<f64>) -> Centred<'a> {
+        let len = data.len();
+        let mut centred = Centred {
+            data,
+            simulated,
+            residual_means: vec![0.0; data.states()],
+            input_means: vec![0.0; data.input_count()],
+        };
+        centred.residual_means = (0..data.states())
+            .map(|i| mean(len, &|k| centred.residual(i, k)))
+            .collect();
+        centred.input_means = (0..data.input_count())
+            .map(|j| mean(len, &|k| centred.input(j, k)))
+            .collect();
+        centred
+    }
+
+    /// An observed entry where the simulation exists (without a mask: every output of
+    /// an instant whose outputs are known).
+    fn valid(&self, k: usize, i: usize) -> bool {
+        self.data.observed(k, i) && self.simulated[(k, 0)].is_finite()
+    }
+
+    /// e_i(k) − mean, where known.
+    fn residual(&self, i: usize, k: usize) -> Option<f64> {
+        self.valid(k, i)
+            .then(|| self.data.outputs[(k, i)] - self.simulated[(k, i)] - self.residual_means[i])
+    }
+
+    /// u_j(k) − mean, where known.
+    fn input(&self, j: usize, k: usize) -> Option<f64> {
+        self.data.inputs_known[k].then(|| self.data.inputs[(k, j)] - self.input_means[j])
+    }
+}
+
+/// Mean of a series over the instants where it is known.
+fn mean(len: usize, f: &dyn Fn(usize) -> Option<f64>) -> f64 {
+    let (sum, count) = (0..len)
+        .filter_map(f)
+        .fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
+    sum / count.max(1) as f64
+}
+
+/// Σ x² over the instants where x is known.
+fn energy(len: usize, f: &dyn Fn(usize) -> Option<f64>) -> f64 {
+    (0..len).filter_map(f).map(|x| x * x).sum::<f64>()
+}
+
+/// r_ab(lag) = Σ_k a(k) b(k − lag) / √(Σ a² Σ b²) over the instants where both are
+/// known; `energies` is Σ a² Σ b².
+fn correlate(
+    len: usize,
+    a: &dyn Fn(usize) -> Option<f64>,
+    b: &dyn Fn(usize) -> Option<f64>,
+    energies: f64,
+    lag: i64,
+) -> f64 {
+    let from = lag.max(0) as usize;
+    let to = (len as i64 + lag.min(0)).max(0) as usize;
+    let sab: f64 = (from..to)
+        .filter_map(|k| Some(a(k)? * b((k as i64 - lag) as usize)?))
+        .sum();
+    sab / energies.sqrt().max(1e-300)
 }
 
 #[cfg(test)]
@@ -140,5 +186,28 @@ mod tests {
         );
         assert_eq!(a.autocorrelation_outside_band[1], 1.0);
         assert!((a.band99 - 2.5758 / (n as f64).sqrt()).abs() < 1e-4);
+    }
+
+    #[test]
+    fn a_delayed_input_shows_at_its_positive_lag() {
+        // e(k) = u(k − 5): the cross-correlation of e with u(k − τ) is 1 at τ = +5 and
+        // near zero elsewhere (u white), whatever the sign convention of the lag axis is
+        // taken to be elsewhere.
+        let (n, delay, max_lag) = (4000, 5usize, 20usize);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(8);
+        let normal = Normal::new(0.0, 1.0).unwrap();
+        let u: Vec<f64> = (0..n).map(|_| normal.sample(&mut rng)).collect();
+        let e = DMatrix::from_fn(n, 1, |k, _| if k >= delay { u[k - delay] } else { 0.0 });
+        let data = IdentificationData::complete(1.0, e, DMatrix::from_column_slice(n, 1, &u));
+        let a = analyse(&data, &DMatrix::zeros(n, 1), max_lag);
+        let r = &a.cross_correlation[0][0];
+        let peak = (0..r.len()).max_by(|&i, &j| r[i].total_cmp(&r[j])).unwrap();
+        assert_eq!(peak as i64 - max_lag as i64, delay as i64);
+        assert!(r[peak] > 0.99, "{}", r[peak]);
+        assert!(
+            r[max_lag - delay].abs() < 0.1,
+            "the mirrored lag: {}",
+            r[max_lag - delay]
+        );
     }
 }

@@ -168,8 +168,8 @@ pub fn sensitivities(
                 *acc += rel[kk] * rel[kk];
             }
         });
-        for (row, sq) in norms.iter_mut().zip(&sum_sq) {
-            row[i] = (sq / simulated.max(1) as f64).sqrt();
+        for (row, sum) in norms.iter_mut().zip(&sum_sq) {
+            row[i] = (sum / simulated.max(1) as f64).sqrt();
         }
     }
     Ok(Sensitivities {
@@ -258,7 +258,8 @@ mod tests {
         };
         let recursion = SensitivityModel::new(&model, &[t_c], ts).unwrap();
         let mut visited = 0;
-        recursion.for_each_response(0, &data, std::slice::from_ref(&(0..n)), |k, rel| {
+        let whole: Vec<Range<usize>> = std::iter::once(0..n).collect();
+        recursion.for_each_response(0, &data, &whole, |k, rel| {
             assert_eq!(k, visited);
             let expect = closed_form(k);
             assert!(
@@ -271,7 +272,7 @@ mod tests {
         assert_eq!(visited, n);
         // The norm is the RMS of the response over the simulated instants.
         let rms = ((0..n).map(|k| closed_form(k).powi(2)).sum::<f64>() / n as f64).sqrt();
-        let s = sensitivities(&model, &[t_c], ts, &data, std::slice::from_ref(&(0..n))).unwrap();
+        let s = sensitivities(&model, &[t_c], ts, &data, &whole).unwrap();
         assert!((s.norms[0][0] - rms).abs() < 1e-12 * rms);
     }
 

@@ -71,3 +71,71 @@ pub fn propagate(estimate: &Estimate, u: &[f64]) -> Option<Uncertainty> {
             .collect(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::DiscreteModel;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn a_scalar_model_worked_by_hand() {
+        // x(k) = a x(k−1) + b u(k−1), Ts = 2 s: T = −Ts/ln a, so ∂T/∂a = Ts/(a ln²a),
+        // ∂T/∂b = 0; y(∞) = b u/(1 − a), so ∂y/∂a = b u/(1 − a)², ∂y/∂b = u/(1 − a).
+        let (a, b, u, ts) = (0.98_f64, 0.05_f64, 0.5_f64, 2.0_f64);
+        let (sa, sb, rho) = (1e-4_f64, 2e-4_f64, 0.3_f64);
+        let cov = DMatrix::from_row_slice(2, 2, &[sa * sa, rho * sa * sb, rho * sa * sb, sb * sb]);
+        let estimate = Estimate {
+            model: DiscreteModel {
+                phi: DMatrix::from_element(1, 1, a),
+                gamma: DMatrix::from_element(1, 1, b),
+                ts_s: ts,
+            },
+            method: "test".into(),
+            rows_used: 0,
+            condition_number: 1.0,
+            covariance: Some(cov),
+            noise_variance: vec![0.0],
+            iterations: 0,
+            output_offset: None,
+            trajectory: None,
+        };
+        let got = propagate(&estimate, &[u]).unwrap();
+        let dt_da = ts / (a * a.ln().powi(2));
+        let t_half = Z95 * dt_da * sa;
+        let (gy_a, gy_b) = (b * u / (1.0 - a).powi(2), u / (1.0 - a));
+        let y_var =
+            gy_a * gy_a * sa * sa + 2.0 * gy_a * gy_b * rho * sa * sb + gy_b * gy_b * sb * sb;
+        let y_half = Z95 * y_var.sqrt();
+        let rel = |x: f64, want: f64| ((x - want) / want).abs();
+        assert!(
+            rel(got.time_constants_ci95_s[0], t_half) < 1e-6,
+            "{got:?} vs {t_half}"
+        );
+        assert!(
+            rel(got.steady_state_ci95[0], y_half) < 1e-6,
+            "{got:?} vs {y_half}"
+        );
+        assert_eq!(got.theta_standard_error, vec![sa, sb]);
+    }
+
+    #[test]
+    fn no_covariance_no_intervals() {
+        let estimate = Estimate {
+            model: DiscreteModel {
+                phi: DMatrix::from_element(1, 1, 0.9),
+                gamma: DMatrix::from_element(1, 1, 0.1),
+                ts_s: 1.0,
+            },
+            method: "test".into(),
+            rows_used: 0,
+            condition_number: 1.0,
+            covariance: None,
+            noise_variance: vec![0.0],
+            iterations: 0,
+            output_offset: None,
+            trajectory: None,
+        };
+        assert!(propagate(&estimate, &[1.0]).is_none());
+    }
+}
