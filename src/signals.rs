@@ -270,7 +270,10 @@ pub fn compute(
 
 /// The storage by exception of a state's channel (the first of its sensors that declares
 /// one): (deadband, heartbeat s).
-fn exception_storage(decimated: &DecimatedRecording, signal: &Signal) -> Option<(f64, Option<f64>)> {
+fn exception_storage(
+    decimated: &DecimatedRecording,
+    signal: &Signal,
+) -> Option<(f64, Option<f64>)> {
     decimated
         .channels
         .iter()

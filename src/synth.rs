@@ -367,9 +367,9 @@ fn check_options(o: &SynthOptions) -> Result<()> {
                 "the deadband must be a number of kelvin ≥ 0, not {deadband}"
             )));
         }
-        if !(max_interval_s.is_finite() && max_interval_s > 0.0) {
+        if let Some(h) = max_interval_s.filter(|h| !(h.is_finite() && *h > 0.0)) {
             return Err(Error::Usage(format!(
-                "the heartbeat must be a positive number of seconds, not {max_interval_s}"
+                "the heartbeat must be a positive number of seconds, not {h}"
             )));
         }
     }
@@ -412,9 +412,10 @@ fn add_channels(writer: &mut RecordingWriter, o: &SynthOptions) -> Result<Vec<Sy
                 Storage::Exception {
                     deadband,
                     max_interval_s,
-                } if quantity.is_temperature() => {
-                    Some(ExceptionFilter::new(deadband, max_interval_s))
-                }
+                } if quantity.is_temperature() => Some(ExceptionFilter::new(
+                    deadband,
+                    max_interval_s.unwrap_or(f64::INFINITY),
+                )),
                 _ => None,
             };
             let spec = ChannelSpec::new(quantity.name(), unit)
@@ -703,7 +704,7 @@ mod tests {
         let exception = SynthOptions {
             temperature_storage: Storage::Exception {
                 deadband: 0.1,
-                max_interval_s: 600.0,
+                max_interval_s: Some(600.0),
             },
             ..base.clone()
         };

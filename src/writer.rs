@@ -49,22 +49,9 @@ impl Default for WriterOptions {
     }
 }
 
-/// How a channel's samples were stored (profile: channel metadata `storage`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Storage {
-    /// Samples at a nominal rate; a longer silence is a gap. The profile's default,
-    /// so no metadata key is written for it.
-    Sampled,
-    /// A historian stored a sample only when the value moved by more than `deadband`
-    /// (in the channel's unit) since the last stored one, or when `max_interval_s`
-    /// passed without one (the heartbeat).
-    Exception {
-        /// The deadband, in the channel's unit.
-        deadband: f64,
-        /// The heartbeat: the longest silence between stored samples, s.
-        max_interval_s: f64,
-    },
-}
+/// How a channel's samples were stored (profile: channel metadata `storage`): the
+/// reader's own type, so what is written is what is read.
+pub use crate::recording::Storage;
 
 /// A channel to add to a recording.
 #[derive(Debug, Clone, PartialEq)]
@@ -123,7 +110,9 @@ impl ChannelSpec {
         {
             m.insert("storage".to_owned(), "exception".to_owned());
             m.insert("deadband".to_owned(), format!("{deadband}"));
-            m.insert("max_interval_s".to_owned(), format!("{max_interval_s}"));
+            if let Some(h) = max_interval_s {
+                m.insert("max_interval_s".to_owned(), format!("{h}"));
+            }
         }
         m
     }
@@ -342,6 +331,7 @@ impl ExceptionFilter {
     pub fn new(deadband: f64, max_interval_s: f64) -> ExceptionFilter {
         ExceptionFilter {
             deadband,
+            // No heartbeat: never forced (an infinite interval saturates).
             max_interval_ns: (max_interval_s * 1e9).round() as u64,
             last_kept: None,
         }
@@ -351,7 +341,8 @@ impl ExceptionFilter {
     pub fn storage(&self) -> Storage {
         Storage::Exception {
             deadband: self.deadband,
-            max_interval_s: self.max_interval_ns as f64 * 1e-9,
+            max_interval_s: (self.max_interval_ns < u64::MAX)
+                .then_some(self.max_interval_ns as f64 * 1e-9),
         }
     }
 
@@ -391,7 +382,7 @@ mod tests {
             f.storage(),
             Storage::Exception {
                 deadband: 0.1,
-                max_interval_s: 10.0
+                max_interval_s: Some(10.0)
             }
         );
     }
@@ -405,7 +396,7 @@ mod tests {
             .with_sensor("rtd2")
             .with_storage(Storage::Exception {
                 deadband: 0.1,
-                max_interval_s: 600.0,
+                max_interval_s: Some(600.0),
             })
             .metadata();
         assert_eq!(m["quantity"], "core_temp");

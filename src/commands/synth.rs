@@ -24,7 +24,7 @@ pub fn run(args: SynthArgs) -> anyhow::Result<Outcome> {
         temperature_storage: match args.deadband {
             Some(deadband) => Storage::Exception {
                 deadband,
-                max_interval_s: args.heartbeat,
+                max_interval_s: Some(args.heartbeat),
             },
             None => Storage::Sampled,
         },

@@ -637,7 +637,7 @@ fn storage(
             }
             Ok(Storage::Exception {
                 deadband,
-                max_interval_s,
+                max_interval_s: Some(max_interval_s),
             })
         }
         Some(other) => Err(bad(
@@ -724,7 +724,7 @@ mod tests {
             c.channel.storage,
             Storage::Exception {
                 deadband: 0.1,
-                max_interval_s: 600.0
+                max_interval_s: Some(600.0)
             }
         );
         assert_eq!(

@@ -402,18 +402,19 @@ impl InputFile {
                 })
             }
         };
-        let from_initial =
-            match self.reference.as_deref() {
-                None | Some("none") => false,
-                Some("initial") => true,
-                Some(other) => return Err(SpecError::Entry {
+        let from_initial = match self.reference.as_deref() {
+            None | Some("none") => false,
+            Some("initial") => true,
+            Some(other) => {
+                return Err(SpecError::Entry {
                     what: "input",
                     name: self.name,
                     problem: format!(
                         "reference = \"{other}\": an input's reference is \"initial\" or \"none\""
                     ),
-                }),
-            };
+                })
+            }
+        };
         Ok(InputDescription {
             name: self.name,
             source,
