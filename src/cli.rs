@@ -8,7 +8,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 #[derive(Debug, Parser)]
 #[command(name = "heatrun", version, about, long_about = None)]
 pub struct Cli {
-    /// The command.
+    /// The command to run (`heatrun <COMMAND> --help` for its options).
     #[command(subcommand)]
     pub command: Command,
 }

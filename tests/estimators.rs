@@ -385,7 +385,7 @@ fn temperatures_stored_by_exception_identify_within_five_percent() {
     }
 }
 
-/// The five-seed figures: `cargo test --release --test estimators exception_storage_over_seeds
+/// The five-seed figures: `cargo test --release --test integration exception_storage_over_seeds
 /// -- --ignored --nocapture`.
 #[test]
 #[ignore = "about 30 s: the figures over five seeds"]

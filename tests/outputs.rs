@@ -88,7 +88,7 @@ fn rrd_holds_the_expected_entities_and_rows() {
         "line_voltage",
         "field_voltage",
     ] {
-        assert_eq!(rows[&format!("/raw/{q}")], n);
+        assert_eq!(rows[&format!("/decimated/{q}")], n);
     }
     assert!(!rows.contains_key("/summary"), "the summary is static");
     // No temporary file is left beside the output.
@@ -269,7 +269,7 @@ fn raw_publishes_every_sample_at_full_rate() {
     assert_eq!(rows["/full_rate/scada/armature_current"], 10_000);
     assert_eq!(rows["/full_rate/scada/core_temp"], 2000);
     // The decimated traces are there too.
-    assert_eq!(rows["/raw/armature_current"], 2000);
+    assert_eq!(rows["/decimated/armature_current"], 2000);
 }
 
 #[test]

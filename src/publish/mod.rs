@@ -87,7 +87,7 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Blueprint {
         .with_name("residuals and losses")
         .into(),
         TimeSeriesView::new("decimated quantities")
-            .with_origin("raw")
+            .with_origin("decimated")
             .into(),
         Horizontal::new(sensitivity_views)
             .with_name("sensitivities")
@@ -415,7 +415,7 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
         )?;
     }
     for (i, series) in replay.decimated.series.values().enumerate() {
-        let entity = format!("raw/{}", series.signal.name());
+        let entity = format!("decimated/{}", series.signal.name());
         let name = format!("{} [{}]", series.signal.name(), series.unit);
         style(rec, &entity, &name, PALETTE[i % PALETTE.len()])?;
         send_series(rec, &entity, on_grid(t, series.values.iter()))?;
