@@ -10,6 +10,7 @@
 //! | [`bad_input`] | every bad-input path: exit 2, one line, no output, input untouched |
 //! | [`corpus`] | generated damaged and odd recordings, each with its documented outcome |
 //! | [`import`] | `heatrun import`: every table format, bad cells and rows, the fixture round trip |
+//! | [`datasets`] | measured data: the TCLab validation fit, as its example runs it |
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
 //!
@@ -21,6 +22,7 @@ mod common;
 mod bad_input;
 mod broken_pipe;
 mod corpus;
+mod datasets;
 mod estimators;
 mod import;
 mod layouts;
