@@ -56,6 +56,30 @@ pub fn paper_model() -> DiscreteModel {
     }
 }
 
+/// A second machine of other time constants (about 60 s, 1100 s and 5000 s), for
+/// accuracy figures that do not hang on the paper's model alone: A_c, B_c given in
+/// continuous form and discretised (ZOH) at Ts = 1 s.
+pub fn second_machine_model() -> DiscreteModel {
+    #[rustfmt::skip]
+    let a_c = DMatrix::from_row_slice(3, 3, &[
+        -1.0 / 1100.0, 0.00010, 0.00020,
+        0.00005, -1.0 / 5000.0, 0.00030,
+        0.00050, 0.00030, -1.0 / 60.0,
+    ]);
+    #[rustfmt::skip]
+    let b_c = DMatrix::from_row_slice(3, 3, &[
+        0.050, 0.060, -0.020,
+        0.004, 0.006, 0.012,
+        0.010, -0.080, 0.140,
+    ]);
+    let (phi, gamma) = crate::model::matrix::discretize(&a_c, &b_c, 1.0);
+    DiscreteModel {
+        phi,
+        gamma,
+        ts_s: 1.0,
+    }
+}
+
 /// How the field winding temperature reaches the recording.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FieldChannel {

@@ -1,5 +1,5 @@
 //! Regression checks on measured data: the TCLab MIMO heaters (Apache-2.0, shipped in
-//! `tests/data/tclab/` with its notice), imported with the example's map and identified
+//! `tests/datasets/tclab/` with its notice), imported with the example's map and identified
 //! with its spec, validated on the other experiment, as `examples/tclab_mimo_heaters/run`
 //! does. The bounds sit just under the figures measured when the example was made (README,
 //! "Measured data sets"): a change that makes heatrun fit real data worse fails here.
@@ -22,7 +22,10 @@ fn import(root: &Path, dir: &Path, file: &str) -> String {
     let result = heatrun(
         &[
             "import",
-            root.join("tests/data/tclab").join(file).to_str().unwrap(),
+            root.join("tests/datasets/tclab")
+                .join(file)
+                .to_str()
+                .unwrap(),
             "--map",
             root.join("examples/tclab_mimo_heaters/map.toml")
                 .to_str()
@@ -63,7 +66,11 @@ fn tclab_validation_fit_holds() {
         ],
         dir.path(),
     );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let report: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
             .unwrap();
@@ -82,8 +89,18 @@ fn tclab_validation_fit_holds() {
     // Heater 1's static gain on T1, −(A_c⁻¹ B_c)_11 by the 2 × 2 inverse: measured
     // 83.8 K/W, 0.84 °C/% at the nominal 0.01 W/% (the course's FOPDT value: 0.9 °C/%).
     assert_eq!(report["states"], serde_json::json!(["T1", "T2"]));
-    let a: Vec<Vec<f64>> = report["a_c"].as_array().unwrap().iter().map(numbers).collect();
-    let b: Vec<Vec<f64>> = report["b_c"].as_array().unwrap().iter().map(numbers).collect();
+    let a: Vec<Vec<f64>> = report["a_c"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(numbers)
+        .collect();
+    let b: Vec<Vec<f64>> = report["b_c"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(numbers)
+        .collect();
     let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
     let gain_11 = -(a[1][1] * b[0][0] - a[0][1] * b[1][0]) / det;
     assert!((gain_11 - 83.8).abs() < 5.0, "gain {gain_11} K/W");

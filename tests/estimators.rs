@@ -228,37 +228,8 @@ fn residuals_of_the_true_structure_are_white() {
         .all(|c| c.abs() < 0.1));
 }
 
-/// A second machine with other time constants (about 60 s, 1100 s and 5400 s), as in
-/// `benches/accuracy.rs`.
 fn second_machine() -> DiscreteModel {
-    let a_c = DMatrix::from_row_slice(
-        3,
-        3,
-        &[
-            -1.0 / 1100.0,
-            0.00010,
-            0.00020,
-            0.00005,
-            -1.0 / 5000.0,
-            0.00030,
-            0.00050,
-            0.00030,
-            -1.0 / 60.0,
-        ],
-    );
-    let b_c = DMatrix::from_row_slice(
-        3,
-        3,
-        &[
-            0.050, 0.060, -0.020, 0.004, 0.006, 0.012, 0.010, -0.080, 0.140,
-        ],
-    );
-    let (phi, gamma) = heatrun::model::matrix::discretize(&a_c, &b_c, 1.0);
-    DiscreteModel {
-        phi,
-        gamma,
-        ts_s: 1.0,
-    }
+    synth::second_machine_model()
 }
 
 /// Which samples a historian storing by exception keeps of a series (°C, one per grid
