@@ -74,6 +74,10 @@ fn tclab_validation_fit_holds() {
     let report: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
             .unwrap();
+    // A spec's report follows the schema too, with its own state and input names.
+    crate::outputs::ReportSchema::load()
+        .check(&report)
+        .unwrap_or_else(|e| panic!("{e}"));
     let fit = numbers(&report["validation"]["fit"]["nrmse_fit_percent"]);
     let rmse = numbers(&report["validation"]["fit"]["rmse_k"]);
     // Measured: 62.8 % and 86.6 %, RMSE 3.18 K and 0.90 K.

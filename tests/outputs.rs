@@ -100,13 +100,13 @@ fn rrd_holds_the_expected_entities_and_rows() {
 }
 
 /// `schemas/report.schema.json`, compiled by a JSON Schema (draft 2020-12) validator.
-struct ReportSchema {
+pub(crate) struct ReportSchema {
     schemas: boon::Schemas,
     index: boon::SchemaIndex,
 }
 
 impl ReportSchema {
-    fn load() -> ReportSchema {
+    pub(crate) fn load() -> ReportSchema {
         let path = common::package_root().join("schemas/report.schema.json");
         let mut schemas = boon::Schemas::new();
         let index = boon::Compiler::new()
@@ -116,7 +116,7 @@ impl ReportSchema {
     }
 
     /// Every violation, one a line: `- at '<where in the report>' [S#<schema keyword>]: what`.
-    fn check(&self, report: &Value) -> Result<(), String> {
+    pub(crate) fn check(&self, report: &Value) -> Result<(), String> {
         self.schemas
             .validate(report, self.index)
             .map_err(|e| format!("{e:#}"))
