@@ -226,24 +226,6 @@ fn window_of(ts_ns: i64, alignment: Alignment, t: i64) -> i64 {
     }
 }
 
-/// The alignment of every profile quantity as the generator's thermal model wants it:
-/// temperatures (states, and the field temperature of a resistance correction) at the
-/// instants, the electrical quantities and the flow (sources of the inputs) over the
-/// intervals. A model description that names other signals gives its own map.
-pub fn profile_alignments() -> BTreeMap<Signal, Alignment> {
-    Quantity::ALL
-        .into_iter()
-        .map(|q| {
-            let alignment = if q.is_temperature() {
-                Alignment::Instant
-            } else {
-                Alignment::Interval
-            };
-            (Signal::Profile(q), alignment)
-        })
-        .collect()
-}
-
 /// Streams samples into per-channel grid windows.
 #[derive(Debug)]
 pub struct Decimator {
@@ -802,7 +784,8 @@ mod tests {
     const S: u64 = 1_000_000_000;
 
     fn decimator(chans: &[SensorChannel]) -> Decimator {
-        let mut d = Decimator::new(1.0, profile_alignments()).unwrap();
+        let alignments = crate::spec::ModelDescription::generator().alignments();
+        let mut d = Decimator::new(1.0, alignments).unwrap();
         for c in chans {
             d.channel(c);
         }

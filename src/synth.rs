@@ -43,6 +43,20 @@ pub const PAPER_GAMMA: [[f64; 3]; 3] = [
     [0.0088751, -0.2395500, 0.3480100],
 ];
 
+/// The paper's printed continuous system matrix A_c, 1/s (eq. 22).
+pub const PAPER_A_C: [[f64; 3]; 3] = [
+    [-0.00119970, 0.00045965, 0.0007745],
+    [0.00019001, -0.00057742, 0.0031408],
+    [0.00206200, 0.00112490, -0.041717],
+];
+
+/// The paper's printed continuous input matrix B_c, 1/s (eq. 23).
+pub const PAPER_B_C: [[f64; 3]; 3] = [
+    [0.0710460, 0.1160400, -0.0612630],
+    [-0.0027851, -0.0106720, -0.0066313],
+    [0.0089894, -0.2447000, 0.3553900],
+];
+
 /// Measured initial temperatures of the paper: θ_Cu0, θ_Fe0, θ_cw0 in °C.
 pub const PAPER_INITIAL_TEMPERATURES_C: [f64; 3] = [36.7, 36.3, 10.5];
 

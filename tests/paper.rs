@@ -192,29 +192,8 @@ fn continuous_eigenvalues_and_time_constants_match_eqs24_26() {
 
 #[test]
 fn steady_state_from_printed_ac_bc_gives_eq32() {
-    let a_c = DMatrix::from_row_slice(
-        3,
-        3,
-        &[
-            -0.00119970,
-            0.00045965,
-            0.0007745,
-            0.00019001,
-            -0.00057742,
-            0.0031408,
-            0.00206200,
-            0.00112490,
-            -0.041717,
-        ],
-    );
-    let b_c = DMatrix::from_row_slice(
-        3,
-        3,
-        &[
-            0.0710460, 0.1160400, -0.0612630, -0.0027851, -0.0106720, -0.0066313, 0.0089894,
-            -0.2447000, 0.3553900,
-        ],
-    );
+    let a_c = DMatrix::from_fn(3, 3, |i, j| heatrun::synth::PAPER_A_C[i][j]);
+    let b_c = DMatrix::from_fn(3, 3, |i, j| heatrun::synth::PAPER_B_C[i][j]);
     let model = ContinuousModel { a_c, b_c };
     let u = [0.0027397, 0.0024230, 0.0035920]; // eq. 30
     let rise: Vec<f64> = model

@@ -11,7 +11,7 @@ use heatrun::recording::read_stream;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let mut decimator = Decimator::new(1.0, heatrun::decimate::profile_alignments()).expect("a valid sample time");
+    let mut decimator = Decimator::new(1.0, heatrun::spec::ModelDescription::generator().alignments()).expect("a valid sample time");
     if let Ok(summary) = read_stream(data, Path::new("fuzz.mcap"), data.len() as u64, &mut decimator) {
         if !summary.channels.is_empty() {
             let _ = decimator.finish(&summary.channels);

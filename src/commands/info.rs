@@ -2,8 +2,9 @@
 
 use std::path::Path;
 
-use heatrun::decimate::{profile_alignments, ChannelGrid, DecimatedRecording, Decimator};
+use heatrun::decimate::{ChannelGrid, DecimatedRecording, Decimator};
 use heatrun::recording::{self, format_time, RecordingSummary, SensorChannel, Storage};
+use heatrun::spec::ModelDescription;
 
 use super::Outcome;
 use crate::cli::InfoArgs;
@@ -11,7 +12,9 @@ use crate::cli::InfoArgs;
 /// Reads the recording, lays it on a 1 s grid for the channels' periods and gaps, and
 /// prints both (text or JSON).
 pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
-    let mut decimator = Decimator::new(1.0, profile_alignments())?;
+    // The generator's placement of each profile quantity on the grid; channels it does not
+    // name are averaged over intervals.
+    let mut decimator = Decimator::new(1.0, ModelDescription::generator().alignments())?;
     let summary = recording::read_recording(&args.file, &mut decimator)?;
     // `inspect`, not `finish`: a channel whose clock jumped is shown, not refused.
     let grid = if summary.channels.is_empty() {

@@ -318,29 +318,8 @@ fn json_block_has_the_report_keys() {
 /// The paper's A_c and B_c (eqs. 22–23), S_n = 100 MVA, θ_base = 80 K, and the cooling
 /// water's c·ρ·Q = 4183 J/(kg·K) · 1 kg/l · 48.2 l/s (eq. 17).
 fn paper_network() -> Network {
-    let a = DMatrix::from_row_slice(
-        3,
-        3,
-        &[
-            -0.00119970,
-            0.00045965,
-            0.0007745,
-            0.00019001,
-            -0.00057742,
-            0.0031408,
-            0.00206200,
-            0.00112490,
-            -0.041717,
-        ],
-    );
-    let b = DMatrix::from_row_slice(
-        3,
-        3,
-        &[
-            0.0710460, 0.1160400, -0.0612630, -0.0027851, -0.0106720, -0.0066313, 0.0089894,
-            -0.2447000, 0.3553900,
-        ],
-    );
+    let a = DMatrix::from_fn(3, 3, |i, j| crate::synth::PAPER_A_C[i][j]);
+    let b = DMatrix::from_fn(3, 3, |i, j| crate::synth::PAPER_B_C[i][j]);
     let labels = Labels {
         states: vec![
             "stator winding".into(),
