@@ -54,6 +54,10 @@ pub struct ReplayArgs {
     /// [default: the hydro generator of the profile and its loss model].
     #[arg(long, value_name = "SPEC.toml")]
     pub spec: Option<PathBuf>,
+    /// Identify the field winding as a fourth state (its rise, from field_winding_temp or
+    /// by the resistance method U_f/I_f from field_voltage).
+    #[arg(long, conflicts_with = "spec")]
+    pub field_state: bool,
     /// Machine file (TOML) whose keys override the recording's nameplate.
     #[arg(long, value_name = "FILE.toml")]
     pub machine: Option<PathBuf>,
@@ -279,9 +283,18 @@ mod tests {
         assert_eq!(r.forgetting, 1.0);
         assert_eq!((r.holdout, r.split_at, r.validate), (None, None, None));
         assert_eq!((r.rrd, r.report, r.connect), (None, None, None));
-        assert!(!r.spawn && !r.raw && !r.quiet);
+        assert!(!r.spawn && !r.raw && !r.quiet && !r.field_state);
         assert_eq!(r.out_dir, PathBuf::from("."));
         assert_eq!(r.jobs, None);
+    }
+
+    #[test]
+    fn the_field_state_is_a_flag_that_a_spec_excludes() {
+        assert!(replay(&["--field-state"]).field_state);
+        assert_eq!(
+            error(&["replay", "--field-state", "--spec", "s.toml"]),
+            ErrorKind::ArgumentConflict
+        );
     }
 
     #[test]

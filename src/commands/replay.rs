@@ -33,6 +33,7 @@ fn default_fixture() -> PathBuf {
 fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
     let model = match &args.spec {
         Some(path) => ModelDescription::from_toml_file(path)?,
+        None if args.field_state => ModelDescription::generator_with_field_state(),
         None => ModelDescription::generator(),
     };
     let method = match (args.method, model.method.as_deref()) {
