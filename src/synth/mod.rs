@@ -391,6 +391,14 @@ fn check_machine(o: &SynthOptions) -> Result<()> {
             network.name
         )));
     }
+    if network.node(Quantity::FieldWindingTemp).is_none()
+        && o.field_channel == FieldChannel::Nameplate
+        && d.start_above_k != 0.0
+    {
+        return Err(Error::Usage(
+            "a warm start with the nameplate's field temperature: the paper's method scales the field from the stator winding's rise above its start, which a warm start does not follow; record the field winding's voltage or temperature".into(),
+        ));
+    }
     let finite = |what: &str, v: f64, ok: bool| {
         if v.is_finite() && ok {
             Ok(())

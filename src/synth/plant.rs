@@ -64,12 +64,16 @@ pub struct Piece {
 /// How the field winding's temperature follows from the states.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum FieldTemperature {
-    /// The paper's method: θ_f = θ_W0 + s·(θ_W − θ_W0) of the stator winding's θ_W.
+    /// The paper's method: θ_f = θ_0 + s·(θ_W − θ_0) of the stator winding's θ_W, θ_0 its
+    /// initial temperature (a discrete model) or the coolant inlet's (a network machine,
+    /// which may start warm).
     Scaled {
         /// The stator winding's state.
         winding: usize,
         /// s.
         scale: f64,
+        /// θ_0, °C.
+        reference_c: f64,
     },
     /// A node of the network.
     Node(usize),
@@ -113,10 +117,11 @@ impl Trajectory {
     pub fn field_temperature(&self, x: &DVector<f64>, base: f64) -> f64 {
         match self.field {
             FieldTemperature::Node(i) => self.temperature(x, i, base),
-            FieldTemperature::Scaled { winding, scale } => {
-                let start = self.temperature(&self.states[0], winding, base);
-                start + scale * (self.temperature(x, winding, base) - start)
-            }
+            FieldTemperature::Scaled {
+                winding,
+                scale,
+                reference_c,
+            } => reference_c + scale * (self.temperature(x, winding, base) - reference_c),
         }
     }
 }
@@ -288,12 +293,23 @@ pub fn simulate(o: &SynthOptions) -> Result<Trajectory> {
         .ok_or_else(|| Error::Usage("the machine has no stator winding".into()))?;
     let field_node = states.iter().position(|&q| q == Quantity::FieldWindingTemp);
     let final_field = o.nameplate.field_winding_final_temp_c.unwrap_or(81.0);
-    let th_w0 = reference_c[winding] + base * x0[winding];
+    // A network machine's field scales with the winding's rise above the coolant and is
+    // iterated to end at the nameplate's final field temperature, whatever its channel; a
+    // discrete model's, as the paper, from the winding's start (iterated for the nameplate
+    // method only, the figures published from it so far unchanged).
+    let (th_0, iterate) = match &o.machine {
+        Machine::Model { .. } => (
+            reference_c[winding] + base * x0[winding],
+            o.field_channel == FieldChannel::Nameplate,
+        ),
+        Machine::Network(_) => (o.coolant.inlet_temp_c, true),
+    };
     let mut field = match field_node {
         Some(i) => FieldTemperature::Node(i),
         None => FieldTemperature::Scaled {
             winding,
-            scale: (final_field - th_w0) / 26.3,
+            scale: (final_field - th_0) / 26.3,
+            reference_c: th_0,
         },
     };
     let inlet_offsets: Vec<f64> = (0..steps)
@@ -318,20 +334,23 @@ pub fn simulate(o: &SynthOptions) -> Result<Trajectory> {
         let FieldTemperature::Scaled { scale, .. } = field else {
             break;
         };
-        let final_rise = traj.temperature(&traj.states[steps], winding, base) - th_w0;
-        if final_rise <= 0.5 {
-            return Err(Error::Usage(
-                "the synthetic run's stator winding does not heat up".into(),
-            ));
+        if !iterate {
+            break;
         }
-        let new_scale = (final_field - th_w0) / final_rise;
-        let converged = (new_scale - scale).abs() < 1e-13 * scale.abs();
-        if converged || o.field_channel != FieldChannel::Nameplate {
+        let final_rise = traj.temperature(&traj.states[steps], winding, base) - th_0;
+        if final_rise <= 0.5 {
+            return Err(Error::Usage(format!(
+                "the synthetic run's stator winding ends {final_rise:.2} K above {th_0} °C, too little to scale the field winding's temperature to {final_field} °C"
+            )));
+        }
+        let new_scale = (final_field - th_0) / final_rise;
+        if (new_scale - scale).abs() < 1e-13 * scale.abs() {
             break;
         }
         field = FieldTemperature::Scaled {
             winding,
             scale: new_scale,
+            reference_c: th_0,
         };
     }
     Ok(traj)

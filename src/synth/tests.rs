@@ -130,7 +130,6 @@ fn integrate(o: &SynthOptions, m: &NetworkMachine, traj: &plant::Trajectory) -> 
     let field = m.node(Quantity::FieldWindingTemp);
     let steps = (o.duration_s / m.ts_s).round() as usize;
     let mut theta = vec![o.coolant.inlet_temp_c + d.start_above_k; n];
-    let theta_w0 = theta[0];
     let mut out = vec![theta.clone()];
     for k in 0..steps {
         let t = k as f64;
@@ -151,9 +150,12 @@ fn integrate(o: &SynthOptions, m: &NetworkMachine, traj: &plant::Trajectory) -> 
         let p = traj.points[k];
         let theta_f = match (field, traj.field) {
             (Some(i), _) => theta[i],
-            (None, plant::FieldTemperature::Scaled { scale, .. }) => {
-                theta_w0 + scale * (theta[0] - theta_w0)
-            }
+            (
+                None,
+                plant::FieldTemperature::Scaled {
+                    scale, reference_c, ..
+                },
+            ) => reference_c + scale * (theta[0] - reference_c),
             (None, plant::FieldTemperature::Node(_)) => unreachable!(),
         };
         let losses = [
@@ -464,5 +466,33 @@ fn disturbances_and_options_a_machine_cannot_take_are_refused() {
         network_options(NetworkMachine::rc_unit(), 100.0, bad),
         "flow factor",
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_warm_start_decays_and_the_field_winding_ends_at_the_nameplates_temperature() {
+    let d = Disturbances {
+        start_above_k: 25.0,
+        ..Disturbances::default()
+    };
+    let o = network_options(NetworkMachine::rc_unit(), 20_868.0, d);
+    let traj = plant::simulate(&o).unwrap();
+    let truth = truth::truth_of(&o, &traj).unwrap();
+    assert_eq!(truth.initial_temperatures_c, vec![35.5; 3]);
+    // The winding first cools towards its loaded equilibrium (its rise at the end is below
+    // the start's 25 K), and the field ends at the nameplate's 81 °C.
+    assert!(truth.final_temperatures_c[0] < 35.5, "{truth:?}");
+    let end = traj.field_temps.last().unwrap();
+    assert!((end - 81.0).abs() < 1e-9, "{end}");
+    let dir = temp_dir("warm");
+    let refused = write(
+        &dir.join("x.mcap"),
+        &SynthOptions {
+            field_channel: FieldChannel::Nameplate,
+            ..o
+        },
+    )
+    .expect_err("the paper's field method cannot follow a warm start");
+    assert!(refused.to_string().contains("warm start"), "{refused}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
