@@ -41,6 +41,19 @@ pub enum MethodArg {
     Oe,
 }
 
+/// What the temperature rises are measured from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
+pub enum ReferenceArg {
+    /// The coolant inlet where cooling_water_inlet_temp varies or the machine starts warm
+    /// (its outlet above the inlet); elsewhere each temperature's initial value.
+    #[default]
+    Auto,
+    /// Each temperature's initial value, the losses the only inputs (the paper).
+    Initial,
+    /// The coolant inlet's initial level, its drift an input where it varies.
+    Inlet,
+}
+
 /// Arguments of `heatrun replay`.
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
@@ -58,6 +71,10 @@ pub struct ReplayArgs {
     /// by the resistance method U_f/I_f from field_voltage).
     #[arg(long, conflicts_with = "spec")]
     pub field_state: bool,
+    /// What the rises are measured from: the coolant inlet (auto: where it varies or the
+    /// machine starts warm) or each temperature's initial value (the paper).
+    #[arg(long, value_enum, default_value_t)]
+    pub reference: ReferenceArg,
     /// Machine file (TOML) whose keys override the recording's nameplate.
     #[arg(long, value_name = "FILE.toml")]
     pub machine: Option<PathBuf>,

@@ -22,6 +22,7 @@ use crate::recording::{
     self, Nameplate, NameplateEntries, ReadOptions, RecordingSummary, SampleSink,
 };
 use crate::signals::{self, ModelSignals};
+use crate::spec::coolant::{self, ReferencePolicy};
 use crate::spec::ModelDescription;
 use crate::warnings;
 
@@ -74,6 +75,9 @@ pub struct ReplayOptions {
     pub validation: Option<ValidationSource>,
     /// The thermal system: its states, inputs and scaling.
     pub model: ModelDescription,
+    /// What the states are measured from: the description's references, or the coolant
+    /// inlet where the recording calls for it ([`coolant::resolve`]).
+    pub reference: ReferencePolicy,
 }
 
 /// Data the model is validated on, not estimated from.
@@ -108,6 +112,7 @@ impl Default for ReplayOptions {
             forgetting: 1.0,
             validation: None,
             model: ModelDescription::generator(),
+            reference: ReferencePolicy::Auto,
         }
     }
 }
@@ -117,7 +122,8 @@ impl Default for ReplayOptions {
 pub struct Replay {
     /// The recording replayed.
     pub path: PathBuf,
-    /// The model description the replay identified.
+    /// The model description the replay identified (the options' one, resolved against
+    /// the recording's coolant inlet).
     pub model: ModelDescription,
     /// What the recording stage found.
     pub recording: RecordingSummary,
@@ -154,6 +160,9 @@ impl Replay {
 /// The stages up to the estimator's input, for one recording.
 #[derive(Debug, Clone)]
 pub struct Prepared {
+    /// The model description the signals follow (the options', resolved against the
+    /// recording's coolant inlet).
+    pub model: ModelDescription,
     /// What the recording stage found.
     pub recording: RecordingSummary,
     /// The nameplate used, where the model needs one.
@@ -227,10 +236,20 @@ pub fn prepare_with(
     let decimated = decimator
         .finish(&summary.channels)
         .map_err(|e| e.in_recording(path))?;
-    let signals = signals::compute(model, &decimated, nameplate.as_ref())
+    let model = coolant::resolve(
+        model,
+        options.reference,
+        coolant::inlet_behaviour(&decimated).as_ref(),
+    )
+    .map_err(|channel| Error::MissingChannel {
+        channel: channel.to_owned(),
+    })
+    .map_err(|e| e.in_recording(path))?;
+    let signals = signals::compute(&model, &decimated, nameplate.as_ref())
         .map_err(|e| e.in_recording(path))?;
     let data = signals.identification_data();
     Ok(Prepared {
+        model,
         recording: summary,
         nameplate,
         decimated,
@@ -316,7 +335,7 @@ pub fn replay_with(
     .map_err(|e| in_file(e.into()))?;
     let validation = validate(&prepared, &estimate, &estimation_range, options)?;
     let network = network::stage::analyse(
-        &options.model,
+        &prepared.model,
         &analysis.continuous,
         &analysis.spectrum.time_constants_s,
         &prepared.signals,
@@ -325,7 +344,7 @@ pub fn replay_with(
     let warnings = warnings::collect(&prepared, &analysis, &network);
     Ok(Replay {
         path: path.to_owned(),
-        model: options.model.clone(),
+        model: prepared.model,
         recording: prepared.recording,
         nameplate: prepared.nameplate,
         decimated: prepared.decimated,
@@ -399,7 +418,13 @@ fn validate(
             })
         }
         Some(ValidationSource::Recording(other)) => {
-            let other_data = prepare(other, options)?;
+            // The same description as this recording's, whatever the other's inlet does.
+            let same = ReplayOptions {
+                model: prepared.model.clone(),
+                reference: ReferencePolicy::Initial,
+                ..options.clone()
+            };
+            let other_data = prepare(other, &same)?;
             Some(Validation {
                 source: other.display().to_string(),
                 fit: fit_on(&other_data.data, other_data.signals.temperature_base_k),

@@ -108,6 +108,86 @@ pub struct SteadyStateEntry {
     pub measured_final_temperature_c: Vec<f64>,
     /// Measured rises at the end of the recording, K.
     pub measured_final_rise_k: Vec<f64>,
+    /// Where the rises are measured from the coolant inlet: the steady state at the final
+    /// inlet temperature and at a stated reference inlet temperature.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coolant_inlet: Option<InletSteadyState>,
+}
+
+/// The steady state against the coolant inlet (the network's reference node).
+#[derive(Debug, Clone, Serialize)]
+pub struct InletSteadyState {
+    /// θ_in,0: the inlet's initial level the rises are measured from, °C.
+    pub initial_inlet_c: f64,
+    /// The inlet temperature of the steady-state input (the last measured), °C.
+    pub final_inlet_c: f64,
+    /// Predicted rise above the final inlet temperature, K.
+    pub rise_above_inlet_k: Vec<f64>,
+    /// The stated reference inlet temperature, °C ([`REFERENCE_INLET_C`]).
+    pub reference_inlet_c: f64,
+    /// Predicted temperatures with the inlet at the reference, °C: θ_in,0 +
+    /// θ_base·(−A_c⁻¹B_c u) with the inlet's entry of u at the reference.
+    pub temperature_at_reference_inlet_c: Vec<f64>,
+}
+
+/// The inlet temperature the steady state is also stated at, °C: 25 °C, the water
+/// inlet temperature that temperature limits of water-cooled machines are commonly stated
+/// for.
+pub const REFERENCE_INLET_C: f64 = 25.0;
+
+impl InletSteadyState {
+    /// The block where the states are measured from the inlet's initial level
+    /// ([`crate::spec::Reference::InitialOf`]), else `None`.
+    fn new(r: &Replay) -> Option<InletSteadyState> {
+        use crate::spec::{InputKind, Reference};
+        if !r
+            .model
+            .states
+            .iter()
+            .any(|s| matches!(s.reference, Reference::InitialOf(_)))
+        {
+            return None;
+        }
+        let (a, s) = (&r.analysis, &r.signals);
+        let base = s.temperature_base_k;
+        let initial_inlet_c = *s.initial_references().first()?;
+        let inlet = r
+            .model
+            .inputs
+            .iter()
+            .position(|i| i.kind == InputKind::Boundary);
+        let final_rise = inlet.map_or(0.0, |j| a.steady_state_input[j]);
+        let final_inlet_c = initial_inlet_c + final_rise * base;
+        let rise_above_inlet_k = a
+            .steady_state
+            .iter()
+            .map(|y| (y - final_rise) * base)
+            .collect::<Vec<f64>>();
+        let temperature_at_reference_inlet_c = match inlet {
+            Some(j) => {
+                let mut u = a.steady_state_input.clone();
+                u[j] = (REFERENCE_INLET_C - initial_inlet_c) / base;
+                a.continuous
+                    .steady_state(&u)
+                    .ok()?
+                    .iter()
+                    .map(|y| initial_inlet_c + y * base)
+                    .collect()
+            }
+            // A constant inlet: the machine's rises above it, at the reference.
+            None => rise_above_inlet_k
+                .iter()
+                .map(|x| REFERENCE_INLET_C + x)
+                .collect(),
+        };
+        Some(InletSteadyState {
+            initial_inlet_c,
+            final_inlet_c,
+            rise_above_inlet_k,
+            reference_inlet_c: REFERENCE_INLET_C,
+            temperature_at_reference_inlet_c,
+        })
+    }
 }
 
 /// The recording block (an extension of the profile).
@@ -293,6 +373,7 @@ impl SteadyStateEntry {
                 .map(|(m, t)| m - t)
                 .collect(),
             measured_final_temperature_c: measured_final,
+            coolant_inlet: InletSteadyState::new(r),
         }
     }
 }
@@ -617,6 +698,20 @@ impl Report {
             &ss.measured_final_temperature_c,
             3,
         );
+        if let Some(c) = &ss.coolant_inlet {
+            row(
+                s,
+                &format!("  rise above the inlet ({:.2} °C), K", c.final_inlet_c),
+                &c.rise_above_inlet_k,
+                3,
+            );
+            row(
+                s,
+                &format!("  temperature at inlet {:.1} °C, °C", c.reference_inlet_c),
+                &c.temperature_at_reference_inlet_c,
+                3,
+            );
+        }
     }
 
     fn summary_network(&self, s: &mut String) {

@@ -18,7 +18,7 @@ use crate::losses::{self, FieldTemperatureSource, GeneratorLosses};
 use crate::recording::{Nameplate, Quantity, Signal, Storage};
 use crate::series::Series;
 use crate::spec::{
-    InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
+    coolant, InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
     StateDescription,
 };
 
@@ -231,10 +231,20 @@ pub fn compute(
         .ok_or_else(|| Error::NoCommonInstant {
             what: "the states and their references".into(),
         })?;
-    for s in &mut states {
+    let level = |c: &Signal| -> Result<f64> {
+        coolant::initial_level(&series(c)?.values, initial_index, decimated.ts_s()).ok_or_else(
+            || Error::NoCommonInstant {
+                what: format!("the reference channel {}", c.name()),
+            },
+        )
+    };
+    for (s, d) in states.iter_mut().zip(&description.states) {
         if let ReferenceValues::Constant(c) = &mut s.reference {
             if c.is_nan() {
-                *c = s.measured.get(initial_index).unwrap_or(f64::NAN);
+                *c = match &d.reference {
+                    Reference::InitialOf(r) => level(r)?,
+                    _ => s.measured.get(initial_index).unwrap_or(f64::NAN),
+                };
             }
         }
     }
@@ -259,7 +269,13 @@ pub fn compute(
     let inputs = description
         .inputs
         .iter()
-        .map(|i| input_signal(i, decimated, generator.as_ref(), power_base, &series))
+        .map(|i| {
+            let scale = Scales {
+                power_base,
+                temperature_base_k,
+            };
+            input_signal(i, decimated, generator.as_ref(), scale, &series, &level)
+        })
         .collect::<Result<Vec<_>>>()?;
     Ok(ModelSignals {
         ts_s: decimated.ts_s(),
@@ -324,7 +340,7 @@ fn state_signal<'a>(
 ) -> Result<StateSignal> {
     let reference = match &s.reference {
         // NaN until the initial instant is known.
-        Reference::Initial => ReferenceValues::Constant(f64::NAN),
+        Reference::Initial | Reference::InitialOf(_) => ReferenceValues::Constant(f64::NAN),
         Reference::Absolute => ReferenceValues::Constant(0.0),
         Reference::Channel(c) => ReferenceValues::Channel(series(c)?.values.clone()),
     };
@@ -338,13 +354,22 @@ fn state_signal<'a>(
     })
 }
 
+/// The units of the model's scaling: per power and per kelvin.
+#[derive(Debug, Clone, Copy)]
+struct Scales {
+    power_base: f64,
+    temperature_base_k: f64,
+}
+
 fn input_signal<'a>(
     i: &InputDescription,
     decimated: &DecimatedRecording,
     generator: Option<&GeneratorLosses>,
-    power_base: f64,
+    scale: Scales,
     series: &impl Fn(&Signal) -> Result<&'a DecimatedSeries>,
+    level: &impl Fn(&Signal) -> Result<f64>,
 ) -> Result<InputSignal> {
+    let power_base = scale.power_base;
     let values: Series = match &i.source {
         InputSource::Channel(c) => series(c)?
             .values
@@ -371,6 +396,15 @@ fn input_signal<'a>(
             .ok_or(Error::NameplateNeeded)?
             .heat_source(*h)
             .clone(),
+        // θ_in(k) − θ_in,0 in the states' scaling: the reference node's drift.
+        InputSource::BoundaryRise(c) => {
+            let at = level(c)?;
+            series(c)?
+                .values
+                .iter()
+                .map(|v| v.map(|v| (v - at) / scale.temperature_base_k))
+                .collect()
+        }
     };
     let values = if i.from_initial {
         let first = values.iter().flatten().next().unwrap_or(0.0);

@@ -8,6 +8,11 @@ use crate::network::NetworkAnalysis;
 use crate::pipeline::Prepared;
 use crate::recording::format_time;
 
+/// The flow is constant when its 10-minute means stay within this share of their median.
+const FLOW_TOLERANCE: f64 = 0.05;
+/// The span of the flow's means, s.
+const FLOW_WINDOW_S: f64 = 600.0;
+
 /// A channel that stops this long before the recording ends gets a warning, s.
 const EARLY_STOP_S: f64 = 600.0;
 
@@ -23,6 +28,7 @@ pub fn collect(
     implausible(prepared, &mut out);
     dropouts(prepared, &mut out);
     early_stops(prepared, &mut out);
+    out.extend(flow_change(prepared));
     if prepared.recording.bad_quality_dropped > 0 {
         out.push(format!(
             "{} samples marked `bad` were dropped",
@@ -110,4 +116,36 @@ fn early_stops(p: &Prepared, out: &mut Vec<String>) {
             }
         }
     }
+}
+
+/// A cooling-water flow that changed during the run (a pump switched): the coolant
+/// conductance c·ρ·Q changed with it, and the model assumes it constant.
+fn flow_change(p: &Prepared) -> Option<String> {
+    let flow = &p
+        .decimated
+        .get(crate::recording::Quantity::CoolingWaterFlow)?
+        .values;
+    let window = (FLOW_WINDOW_S / p.decimated.ts_s()).round().max(1.0) as usize;
+    let means: Vec<(usize, f64)> = (0..flow.len())
+        .step_by(window)
+        .filter_map(|k| {
+            let block: Vec<f64> = flow.iter().skip(k).take(window).flatten().collect();
+            (block.len() * 2 >= window).then(|| (k, block.iter().sum::<f64>() / block.len() as f64))
+        })
+        .collect();
+    let mut sorted: Vec<f64> = means.iter().map(|m| m.1).collect();
+    sorted.sort_by(f64::total_cmp);
+    let median = *sorted.get(sorted.len() / 2)?;
+    let first = means.first()?.1;
+    let (k, changed) = means
+        .iter()
+        .find(|m| (m.1 - first).abs() > FLOW_TOLERANCE * median.abs())?;
+    Some(format!(
+        "cooling_water_flow changes during the run (from {first:.1} to {changed:.1} l/s by {}; \
+         10-minute means from {:.1} to {:.1}): the model assumes a constant flow (the coolant \
+         conductance c·ρ·Q), so its estimate mixes the machine before and after the change",
+        format_time(p.decimated.time_ns(*k).max(0) as u64),
+        sorted[0],
+        sorted[sorted.len() - 1]
+    ))
 }

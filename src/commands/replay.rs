@@ -9,11 +9,12 @@ use heatrun::atomic::write_atomically;
 use heatrun::pipeline::{self, Method, Replay, ReplayOptions, ValidationSource};
 use heatrun::publish::{Publisher, RerunSink};
 use heatrun::report::Report;
+use heatrun::spec::coolant::ReferencePolicy;
 use heatrun::spec::ModelDescription;
 use rayon::prelude::*;
 
 use super::Outcome;
-use crate::cli::{MethodArg, ReplayArgs};
+use crate::cli::{MethodArg, ReferenceArg, ReplayArgs};
 
 /// The fixture replayed when no file is named.
 pub const DEFAULT_FIXTURE: &str = "fixtures/paper_heat_run.mcap";
@@ -65,6 +66,11 @@ fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
             (None, None, None) => None,
         },
         model,
+        reference: match args.reference {
+            ReferenceArg::Auto => ReferencePolicy::Auto,
+            ReferenceArg::Initial => ReferencePolicy::Initial,
+            ReferenceArg::Inlet => ReferencePolicy::Inlet,
+        },
     })
 }
 

@@ -88,11 +88,8 @@ fn network(
     signals: &ModelSignals,
     calorimetry: Option<&Calorimetry>,
 ) -> Result<Network, String> {
-    if let Some(i) = model
-        .inputs
-        .iter()
-        .find(|i| i.kind != crate::spec::InputKind::Heat)
-    {
+    use crate::spec::InputKind;
+    if let Some(i) = model.inputs.iter().find(|i| i.kind == InputKind::Exogenous) {
         return Err(format!(
             "the input `{}` is not heat, so the model is no thermal network",
             i.name
@@ -110,14 +107,16 @@ fn network(
         theta_base_k: signals.temperature_base_k,
         p_base_w: signals.power_base,
     };
-    Network::from_continuous(
-        &continuous.a_c,
-        &continuous.b_c,
-        scaling,
-        coolant,
-        &labels(model),
-    )
-    .map_err(|e| e.to_string())
+    // The reference node's column (the coolant inlet, C⁻¹g₀) is no heat source: the
+    // network is drawn from the heat inputs' columns.
+    let heat: Vec<usize> = (0..model.inputs.len())
+        .filter(|&j| model.inputs[j].kind == InputKind::Heat)
+        .collect();
+    let b_heat = continuous.b_c.select_columns(&heat);
+    let mut labels = labels(model);
+    labels.inputs = heat.iter().map(|&j| labels.inputs[j].clone()).collect();
+    Network::from_continuous(&continuous.a_c, &b_heat, scaling, coolant, &labels)
+        .map_err(|e| e.to_string())
 }
 
 /// The balance of eqs. 17-18 where `cooling_water_flow` is recorded (the generator's
@@ -208,11 +207,16 @@ fn equilibrium_checks(signals: &ModelSignals, time_constants_s: &[f64]) -> Equil
 }
 
 /// How long the final load was held: the time since any input last left a band of
-/// [`HELD_TOLERANCE`] of its range around its final value.
+/// [`HELD_TOLERANCE`] of its range around its final value. The coolant inlet's drift
+/// is not load: it is left out.
 fn held_s(signals: &ModelSignals) -> f64 {
     let len = signals.len();
     let mut since = 0;
-    for input in &signals.inputs {
+    let load = signals
+        .inputs
+        .iter()
+        .filter(|i| i.kind != crate::spec::InputKind::Boundary);
+    for input in load {
         let known: Vec<f64> = input.values.iter().flatten().collect();
         let (Some(&last), true) = (known.last(), known.len() > 1) else {
             continue;

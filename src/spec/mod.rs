@@ -9,6 +9,7 @@
 //! three heat sources); a TOML spec ([`ModelDescription::from_toml_file`]) describes any
 //! other thermal system of n states and m inputs.
 
+pub mod coolant;
 pub mod expression;
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -31,6 +32,12 @@ pub enum Reference {
     Absolute,
     /// The rise above another channel at the same instant (an ambient or coolant inlet).
     Channel(Signal),
+    /// The rise above another channel's initial level, a constant (the mean of its first
+    /// [`coolant::INITIAL_LEVEL_S`] seconds): the coolant inlet at the start, the thermal
+    /// network's reference node. Its changes from there enter as an input
+    /// ([`InputSource::BoundaryRise`]), and a start away from it is the model's free
+    /// response from an estimated initial state.
+    InitialOf(Signal),
 }
 
 /// One state of the model: a temperature channel, as a rise above its reference.
@@ -57,6 +64,10 @@ pub enum InputKind {
     Heat,
     /// Not heat (a fan speed, a flow): the model is identified, but no thermal network.
     Exogenous,
+    /// The temperature of the network's reference node (the coolant inlet): not heat,
+    /// but its column is the conductances to the reference (C⁻¹g₀), so the network is
+    /// drawn from the heat inputs' columns.
+    Boundary,
 }
 
 /// How an input's value at an instant is computed.
@@ -70,6 +81,11 @@ pub enum InputSource {
     Expression(Box<InputExpression>),
     /// One of the profile's loss model's heat sources (the generator).
     Loss(HeatSource),
+    /// A boundary temperature's rise above its initial level, the same constant the
+    /// states are measured from ([`Reference::InitialOf`]): the coolant inlet's drift
+    /// θ_in(k) − θ_in,0. For a network C·dθ/dt = −L·θ + g₀·θ_in + K·P its column of B_c
+    /// is C⁻¹g₀ = −A_c·1.
+    BoundaryRise(Signal),
 }
 
 /// One input of the model.
@@ -221,9 +237,12 @@ impl ModelDescription {
         self.inputs.len()
     }
 
-    /// Whether every input is heat, so that a thermal network can be drawn from the model.
+    /// Whether every input is heat or the reference node's temperature, so that a thermal
+    /// network can be drawn from the model.
     pub fn inputs_are_heat(&self) -> bool {
-        self.inputs.iter().all(|i| i.kind == InputKind::Heat)
+        self.inputs
+            .iter()
+            .all(|i| matches!(i.kind, InputKind::Heat | InputKind::Boundary))
     }
 
     /// Whether the signals need the machine's nameplate (the loss model, the pu bases).
@@ -244,13 +263,13 @@ impl ModelDescription {
         let mut map = BTreeMap::new();
         for s in &self.states {
             map.insert(s.channel.clone(), Alignment::Instant);
-            if let Reference::Channel(r) = &s.reference {
+            if let Reference::Channel(r) | Reference::InitialOf(r) = &s.reference {
                 map.insert(r.clone(), Alignment::Instant);
             }
         }
         for i in &self.inputs {
             match &i.source {
-                InputSource::Channel(c) => {
+                InputSource::Channel(c) | InputSource::BoundaryRise(c) => {
                     map.entry(c.clone()).or_insert(Alignment::Interval);
                 }
                 InputSource::Expression(e) => {

@@ -1,0 +1,185 @@
+//! The coolant inlet as the model's reference (issue 9, items 1 and 2): an inlet that
+//! drifts and a machine that starts warm, on the rc unit of known truth at PT100-like
+//! noise, replayed by the default method.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use crate::common::{self, heatrun};
+use crate::outputs::ReportSchema;
+use heatrun::pipeline::{replay, Replay, ReplayOptions};
+use heatrun::spec::coolant::ReferencePolicy;
+use heatrun::spec::{InputKind, Reference};
+use heatrun::synth::{self, Disturbances, Machine, NetworkMachine, SynthOptions, Truth};
+
+/// The rc unit (true constants 70.8 s, 710 s, 4504 s) at PT100-like noise. Every test
+/// uses seed 1: the same noise with and without each disturbance (the spread over seeds
+/// is in the README's table, `cargo bench --bench coolant`).
+fn rc_run(path: &Path, disturbances: Disturbances, seed: u64) -> Truth {
+    synth::write(
+        path,
+        &SynthOptions {
+            machine: Machine::Network(NetworkMachine::rc_unit()),
+            disturbances,
+            seed,
+            ..SynthOptions::default().with_noise_level(1.0)
+        },
+    )
+    .unwrap()
+}
+
+fn sorted(v: &[f64]) -> Vec<f64> {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v
+}
+
+/// The largest relative error of the time constants against the truth.
+fn worst_error(time_constants: &[f64], truth: &Truth) -> f64 {
+    sorted(time_constants)
+        .iter()
+        .zip(sorted(&truth.time_constants_s))
+        .map(|(t, want)| (t / want - 1.0).abs())
+        .fold(0.0, f64::max)
+}
+
+fn replay_with(path: &Path, reference: ReferencePolicy) -> Replay {
+    replay(
+        path,
+        &ReplayOptions {
+            reference,
+            ..ReplayOptions::default()
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn a_drifting_inlet_is_an_input_and_the_machine_is_identified_within_3_percent() {
+    let dir = common::tempdir();
+    let mcap = dir.path().join("drift.mcap");
+    let truth = rc_run(
+        &mcap,
+        Disturbances {
+            inlet_drift_k: 3.0,
+            ..Disturbances::default()
+        },
+        1,
+    );
+    let out = heatrun(
+        &[
+            "replay",
+            "drift.mcap",
+            "--report",
+            "report.json",
+            "--rrd",
+            "drift.rrd",
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();
+    ReportSchema::load()
+        .check(&report)
+        .unwrap_or_else(|e| panic!("the report breaks the schema:\n{e}"));
+    let numbers = |v: &Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let tc = numbers(&report["time_constants_s"]);
+    assert!(
+        worst_error(&tc, &truth) < 0.03,
+        "{tc:?} s against {:?} s",
+        truth.time_constants_s
+    );
+    assert_eq!(report["inputs"][3], "cooling_water_inlet_rise");
+    assert_eq!(report["model"]["inputs"][3]["kind"], "boundary");
+    // The machine's own steady state: its rise above the final inlet temperature.
+    let inlet = &report["steady_state"]["coolant_inlet"];
+    for (r, want) in numbers(&inlet["rise_above_inlet_k"])
+        .iter()
+        .zip(&truth.steady_state_rise_k)
+    {
+        assert!(
+            (r - want).abs() < 0.2,
+            "{inlet} against {:?}",
+            truth.steady_state_rise_k
+        );
+    }
+    // At the stated reference inlet the temperatures are that inlet plus about the same
+    // rises (the model's own inlet gain, near 1).
+    let at_reference = numbers(&inlet["temperature_at_reference_inlet_c"]);
+    for (t, want) in at_reference.iter().zip(&truth.steady_state_rise_k) {
+        assert!((t - 25.0 - want).abs() < 0.3, "{inlet}");
+    }
+    // The paper's formulation cannot tell the river from the machine.
+    let paper = replay_with(&mcap, ReferencePolicy::Initial);
+    assert!(worst_error(&paper.analysis.spectrum.time_constants_s, &truth) > 0.2);
+}
+
+#[test]
+fn a_constant_inlet_keeps_the_papers_formulation_and_its_estimate() {
+    let dir = common::tempdir();
+    let mcap = dir.path().join("constant.mcap");
+    let truth = rc_run(&mcap, Disturbances::default(), 1);
+    let auto = replay_with(&mcap, ReferencePolicy::Auto);
+    assert_eq!(auto.model.inputs.len(), 3);
+    assert!(auto
+        .model
+        .states
+        .iter()
+        .all(|s| s.reference == Reference::Initial));
+    let paper = replay_with(&mcap, ReferencePolicy::Initial);
+    assert_eq!(auto.estimate.model, paper.estimate.model);
+    assert!(worst_error(&auto.analysis.spectrum.time_constants_s, &truth) < 0.03);
+}
+
+#[test]
+fn a_start_25_k_above_the_coolant_is_the_free_response_of_an_estimated_state() {
+    let dir = common::tempdir();
+    let mcap = dir.path().join("warm.mcap");
+    let truth = rc_run(
+        &mcap,
+        Disturbances {
+            start_above_k: 25.0,
+            ..Disturbances::default()
+        },
+        1,
+    );
+    let warm = replay_with(&mcap, ReferencePolicy::Auto);
+    // A constant inlet: no inlet input, the rises measured from its level.
+    assert!(warm.model.inputs.iter().all(|i| i.kind == InputKind::Heat));
+    assert!(warm
+        .model
+        .states
+        .iter()
+        .all(|s| matches!(s.reference, Reference::InitialOf(_))));
+    let tc = &warm.analysis.spectrum.time_constants_s;
+    assert!(
+        worst_error(tc, &truth) < 0.03,
+        "{tc:?} s against {:?} s",
+        truth.time_constants_s
+    );
+    for (r, want) in warm
+        .analysis
+        .steady_state
+        .iter()
+        .zip(&truth.steady_state_rise_k)
+    {
+        let rise_k = r * warm.signals.temperature_base_k;
+        assert!((rise_k - want).abs() < 0.2, "{rise_k} K against {want} K");
+    }
+    // The paper's formulation takes the cooling-down for the machine's dynamics.
+    let paper = replay_with(&mcap, ReferencePolicy::Initial);
+    assert!(worst_error(&paper.analysis.spectrum.time_constants_s, &truth) > 0.1);
+}
