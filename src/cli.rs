@@ -336,6 +336,19 @@ mod tests {
     }
 
     #[test]
+    fn the_reference_defaults_to_auto() {
+        assert_eq!(replay(&[]).reference, ReferenceArg::Auto);
+        assert_eq!(
+            replay(&["--reference", "initial"]).reference,
+            ReferenceArg::Initial
+        );
+        assert_eq!(
+            replay(&["--reference", "inlet"]).reference,
+            ReferenceArg::Inlet
+        );
+    }
+
+    #[test]
     fn holdout_and_validate_exclude_each_other() {
         assert_eq!(replay(&["--holdout", "0.25"]).holdout, Some(0.25));
         assert_eq!(

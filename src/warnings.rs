@@ -119,8 +119,10 @@ fn early_stops(p: &Prepared, out: &mut Vec<String>) {
 }
 
 /// A cooling-water flow that changed during the run (a pump switched): the coolant
-/// conductance c·ρ·Q changed with it, and the model assumes it constant.
-fn flow_change(p: &Prepared) -> Option<String> {
+/// conductance c·ρ·Q changed with it, and the model assumes it constant. Its 10-minute
+/// means are compared with the first; a change beyond [`FLOW_TOLERANCE`] of their median
+/// is named with its time.
+pub fn flow_change(p: &Prepared) -> Option<String> {
     let flow = &p
         .decimated
         .get(crate::recording::Quantity::CoolingWaterFlow)?

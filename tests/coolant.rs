@@ -183,3 +183,66 @@ fn a_start_25_k_above_the_coolant_is_the_free_response_of_an_estimated_state() {
     let paper = replay_with(&mcap, ReferencePolicy::Initial);
     assert!(worst_error(&paper.analysis.spectrum.time_constants_s, &truth) > 0.1);
 }
+
+#[test]
+fn a_pump_switch_is_detected_and_the_inlet_reference_needs_the_inlet() {
+    let dir = common::tempdir();
+    let mcap = dir.path().join("pump.mcap");
+    synth::write(
+        &mcap,
+        &SynthOptions {
+            machine: Machine::Network(NetworkMachine::rc_unit()),
+            disturbances: Disturbances {
+                pump_switch: Some(synth::PumpSwitch {
+                    time_s: 10_000.0,
+                    factor: 0.6,
+                }),
+                ..Disturbances::default()
+            },
+            duration_s: 20_000.0,
+            ..SynthOptions::default().with_noise_level(1.0)
+        },
+    )
+    .unwrap();
+    let prepared = heatrun::pipeline::prepare(&mcap, &ReplayOptions::default()).unwrap();
+    let warning = heatrun::warnings::flow_change(&prepared).expect("a flow change");
+    assert!(warning.contains("cooling_water_flow") && warning.contains("constant flow"));
+    // Named in the 10-minute block the switch falls in (10,000 s: 08:46:40).
+    assert!(warning.contains("T08:40:00"), "{warning}");
+    // The constant-flow runs above get no such warning.
+    let constant = dir.path().join("constant.mcap");
+    rc_run(&constant, Disturbances::default(), 1);
+    let prepared = heatrun::pipeline::prepare(&constant, &ReplayOptions::default()).unwrap();
+    assert_eq!(heatrun::warnings::flow_change(&prepared), None);
+    // `--reference inlet` on a recording without the inlet: exit 2 naming the channel.
+    let bare = dir.path().join("bare.mcap");
+    synth::write(
+        &bare,
+        &SynthOptions {
+            machine: Machine::Network(NetworkMachine::rc_unit()),
+            coolant: synth::Coolant {
+                channels: false,
+                ..synth::Coolant::default()
+            },
+            duration_s: 3000.0,
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
+    let out = heatrun(
+        &[
+            "replay",
+            "bare.mcap",
+            "--reference",
+            "inlet",
+            "--rrd",
+            "b.rrd",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("cooling_water_inlet_temp"), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(!dir.path().join("b.rrd").exists());
+}
