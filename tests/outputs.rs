@@ -16,6 +16,12 @@ use rerun::log::{Chunk, LogMsg};
 use rerun::StoreKind;
 use serde_json::Value;
 
+thread_local! {
+    /// Static entities seen by the last [`rows_and_blueprint`] on this thread.
+    static STATICS: std::cell::RefCell<std::collections::BTreeSet<String>> =
+        Default::default();
+}
+
 /// Rows per entity of the recording store (not the blueprint) in an .rrd file.
 fn rows_per_entity(path: &std::path::Path) -> (BTreeMap<String, usize>, bool) {
     let (rows, blueprint) = rows_and_blueprint(path);
@@ -39,7 +45,9 @@ fn rows_and_blueprint(
             }
             let chunk = Chunk::from_arrow_msg(arrow).unwrap();
             if chunk.is_static() {
-                continue; // series styles and the summary text
+                // Series styles, the summary text and the network graph.
+                STATICS.with(|s| s.borrow_mut().insert(chunk.entity_path().to_string()));
+                continue;
             }
             *rows.entry(chunk.entity_path().to_string()).or_insert(0) += chunk.num_rows();
         }
@@ -70,6 +78,7 @@ fn rrd_holds_the_expected_entities_and_rows() {
         String::from_utf8_lossy(&out.stderr)
     );
     let (rows, blueprint) = rows_and_blueprint(&dir.path().join("run.rrd"));
+    let statics = STATICS.with(|s| s.borrow().clone());
     assert!(
         blueprint.contains("/viewport"),
         "a blueprint is sent with the recording"
@@ -110,6 +119,11 @@ fn rrd_holds_the_expected_entities_and_rows() {
         assert_eq!(rows[&format!("/decimated/{q}")], n);
     }
     assert!(!rows.contains_key("/summary"), "the summary is static");
+    // The thermal network is drawn as a graph, with a view of its own.
+    assert!(
+        statics.contains("/network/graph"),
+        "the network graph is logged: {statics:?}"
+    );
     // No temporary file is left beside the output.
     let names: Vec<String> = common::files_in(dir.path())
         .iter()

@@ -18,6 +18,16 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Layout {
     if replay.estimate.trajectory.is_some() {
         tabs.push(recursive_estimate());
     }
+    if replay.network.network.is_ok() {
+        tabs.push(
+            View::new(
+                ViewKind::Graph,
+                "thermal network at the end of the run (Fig. 9)",
+                super::network::GRAPH,
+            )
+            .into(),
+        );
+    }
     tabs.push(raw_channels(full_rate));
     tabs.push(View::new(ViewKind::TextDocument, "summary", "summary").into());
     Layout {

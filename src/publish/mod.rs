@@ -18,6 +18,7 @@ use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeC
 mod analysis;
 pub mod blueprint;
 pub mod layout;
+pub mod network;
 mod style;
 mod text;
 mod traces;
@@ -219,6 +220,7 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
     analysis::log_sensitivities(rec, replay)?;
     analysis::log_residual_correlation(rec, replay)?;
     analysis::log_trajectory(rec, replay)?;
+    network::log_network(rec, replay)?;
     let figures = text::model_figures(&crate::report::Report::new(replay));
     rec.log_static(
         "model",
