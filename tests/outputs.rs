@@ -16,26 +16,43 @@ use rerun::log::{Chunk, LogMsg};
 use rerun::StoreKind;
 use serde_json::Value;
 
+thread_local! {
+    /// Static entities seen by the last [`rows_and_blueprint`] on this thread.
+    static STATICS: std::cell::RefCell<std::collections::BTreeSet<String>> =
+        Default::default();
+}
+
 /// Rows per entity of the recording store (not the blueprint) in an .rrd file.
 fn rows_per_entity(path: &std::path::Path) -> (BTreeMap<String, usize>, bool) {
+    let (rows, blueprint) = rows_and_blueprint(path);
+    (rows, !blueprint.is_empty())
+}
+
+/// Rows per entity of the recording store, and the blueprint's entity paths.
+fn rows_and_blueprint(
+    path: &std::path::Path,
+) -> (BTreeMap<String, usize>, std::collections::BTreeSet<String>) {
     let file = std::fs::File::open(path).unwrap();
     let mut rows = BTreeMap::new();
-    let mut saw_blueprint = false;
+    let mut blueprint = std::collections::BTreeSet::new();
     for msg in DecoderApp::decode_eager(BufReader::new(file)).unwrap() {
         let msg = msg.unwrap();
         if let LogMsg::ArrowMsg(store, arrow) = &msg {
             if store.kind() == StoreKind::Blueprint {
-                saw_blueprint = true;
+                let chunk = Chunk::from_arrow_msg(arrow).unwrap();
+                blueprint.insert(chunk.entity_path().to_string());
                 continue;
             }
             let chunk = Chunk::from_arrow_msg(arrow).unwrap();
             if chunk.is_static() {
-                continue; // series styles and the summary text
+                // Series styles, the summary text and the network graph.
+                STATICS.with(|s| s.borrow_mut().insert(chunk.entity_path().to_string()));
+                continue;
             }
             *rows.entry(chunk.entity_path().to_string()).or_insert(0) += chunk.num_rows();
         }
     }
-    (rows, saw_blueprint)
+    (rows, blueprint)
 }
 
 #[test]
@@ -60,8 +77,19 @@ fn rrd_holds_the_expected_entities_and_rows() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let (rows, saw_blueprint) = rows_per_entity(&dir.path().join("run.rrd"));
-    assert!(saw_blueprint, "a blueprint is sent with the recording");
+    let (rows, blueprint) = rows_and_blueprint(&dir.path().join("run.rrd"));
+    let statics = STATICS.with(|s| s.borrow().clone());
+    assert!(
+        blueprint.contains("/viewport"),
+        "a blueprint is sent with the recording"
+    );
+    // Every time-series view shows the whole recording: three parts, residuals, inputs,
+    // three sensitivities, three correlations, the decimated quantities.
+    let whole_range = blueprint
+        .iter()
+        .filter(|p| p.ends_with("/TimeAxis"))
+        .count();
+    assert_eq!(whole_range, 12, "{blueprint:?}");
     let n = duration as usize; // one instant per second
     for state in [
         "stator_winding_temp",
@@ -91,6 +119,11 @@ fn rrd_holds_the_expected_entities_and_rows() {
         assert_eq!(rows[&format!("/decimated/{q}")], n);
     }
     assert!(!rows.contains_key("/summary"), "the summary is static");
+    // The thermal network is drawn as a graph, with a view of its own.
+    assert!(
+        statics.contains("/network/graph"),
+        "the network graph is logged: {statics:?}"
+    );
     // No temporary file is left beside the output.
     let names: Vec<String> = common::files_in(dir.path())
         .iter()
