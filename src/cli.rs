@@ -17,13 +17,31 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Replay a heat-run recording into a thermal model, a report and a rerun recording.
+    #[command(
+        after_help = "Examples:\n  heatrun replay                                   # the shipped fixture\n  heatrun replay run.mcap --report run.json --rrd run.rrd\n  heatrun replay run.mcap --split-at 14400 --summary json | jq .validation\n  heatrun replay archive/ --out-dir results --jobs 4   # a fleet"
+    )]
     Replay(ReplayArgs),
     /// Write a synthetic heat run simulated from a known model (the paper's by default).
+    #[command(
+        after_help = "Examples:\n  heatrun synth run.mcap --temperature-noise 0.05 --seed 7\n  heatrun synth drift.mcap --machine rc-unit --inlet-drift 3"
+    )]
     Synth(SynthArgs),
     /// Show what a recording holds: channels, quantities, units, rates, span, gaps, nameplate.
+    #[command(after_help = "Example:\n  heatrun info run.mcap --json")]
     Info(InfoArgs),
     /// Convert a table (CSV, historian export, whitespace-separated .dat) into a recording.
+    #[command(
+        after_help = "Examples:\n  heatrun import --guess export.csv > map.toml   # a starting map to edit\n  heatrun import export.csv --map map.toml --out run.mcap"
+    )]
     Import(ImportArgs),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    #[command(
+        after_help = "Example:\n  heatrun completions bash > ~/.local/share/bash-completion/completions/heatrun"
+    )]
+    Completions(CompletionsArgs),
+    /// Print heatrun's man page (roff).
+    #[command(after_help = "Example:\n  heatrun man --out heatrun.1 && man ./heatrun.1")]
+    Man(ManArgs),
 }
 
 /// Identification method.
@@ -122,6 +140,34 @@ pub struct ReplayArgs {
     /// Do not print the summary.
     #[arg(long, short)]
     pub quiet: bool,
+    /// How the summary is printed: `text` for people, `json` (the report's JSON on stdout,
+    /// nothing else) for scripts.
+    #[arg(long, value_enum, default_value_t = SummaryFormat::Text, conflicts_with = "quiet")]
+    pub summary: SummaryFormat,
+}
+
+/// How `replay` prints its summary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SummaryFormat {
+    /// The paper-style tables.
+    Text,
+    /// The report (profile section "Report") as JSON.
+    Json,
+}
+
+/// Arguments of `heatrun completions`.
+#[derive(Debug, Args)]
+pub struct CompletionsArgs {
+    /// The shell to complete for.
+    pub shell: clap_complete::Shell,
+}
+
+/// Arguments of `heatrun man`.
+#[derive(Debug, Args)]
+pub struct ManArgs {
+    /// Write the page here instead of stdout.
+    #[arg(long, value_name = "PATH")]
+    pub out: Option<PathBuf>,
 }
 
 /// How the synthetic recording carries the field winding temperature.
@@ -279,6 +325,16 @@ mod tests {
             Command::Replay(r) => r,
             other => panic!("not a replay: {other:?}"),
         }
+    }
+
+    #[test]
+    fn the_summary_is_text_unless_json_is_asked_for_and_quiet_excludes_json() {
+        assert_eq!(replay(&[]).summary, SummaryFormat::Text);
+        assert_eq!(replay(&["--summary", "json"]).summary, SummaryFormat::Json);
+        assert_eq!(
+            error(&["replay", "--summary", "json", "--quiet"]),
+            ErrorKind::ArgumentConflict
+        );
     }
 
     fn error(args: &[&str]) -> ErrorKind {

@@ -22,6 +22,7 @@ mod common;
 
 mod bad_input;
 mod broken_pipe;
+mod comfort;
 mod coolant;
 mod corpus;
 mod datasets;

@@ -1,8 +1,10 @@
 //! One handler per command, behind [`dispatch`].
 
+mod completions;
 pub mod hint;
 mod import;
 mod info;
+mod man;
 mod replay;
 mod synth;
 
@@ -24,5 +26,7 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Synth(args) => synth::run(args),
         Command::Info(args) => info::run(args),
         Command::Import(args) => import::run(args),
+        Command::Completions(args) => completions::run(args),
+        Command::Man(args) => man::run(args),
     }
 }

@@ -14,7 +14,7 @@ use heatrun::spec::ModelDescription;
 use rayon::prelude::*;
 
 use super::Outcome;
-use crate::cli::{MethodArg, ReferenceArg, ReplayArgs};
+use crate::cli::{MethodArg, ReferenceArg, ReplayArgs, SummaryFormat};
 
 /// The fixture replayed when no file is named.
 pub const DEFAULT_FIXTURE: &str = "fixtures/paper_heat_run.mcap";
@@ -201,9 +201,12 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
     // Everything is written before anything is printed: a closed stdout (`| head`)
     // ends the process at the first print and must not cut an output short.
     let replayed = replay_one(&args, file, &sink, args.report.as_deref())?;
-    if args.quiet {
+    if args.quiet || args.summary == SummaryFormat::Json {
         for w in &replayed.replay.warnings {
             eprintln!("warning: {w}");
+        }
+        if args.summary == SummaryFormat::Json {
+            println!("{}", replayed.report.to_json());
         }
     } else {
         print!("{}", replayed.summary);
