@@ -39,6 +39,9 @@ pub enum MethodArg {
     Iv,
     /// Output error: minimises the simulation error by Levenberg-Marquardt from IV.
     Oe,
+    /// Grey-box output error in the thermal network's C, G and K (passive by
+    /// construction, 95 % intervals on each), started from oe's network; heat inputs only.
+    Rc,
 }
 
 /// Arguments of `heatrun replay`.
@@ -244,6 +247,7 @@ mod tests {
             ("rls", MethodArg::Rls),
             ("iv", MethodArg::Iv),
             ("oe", MethodArg::Oe),
+            ("rc", MethodArg::Rc),
         ] {
             assert_eq!(replay(&["--method", name]).method, Some(method));
         }
