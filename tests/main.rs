@@ -11,6 +11,7 @@
 //! | [`corpus`] | generated damaged and odd recordings, each with its documented outcome |
 //! | [`import`] | `heatrun import`: every table format, bad cells and rows, the fixture round trip |
 //! | [`datasets`] | measured data: the TCLab validation fit, as its example runs it |
+//! | [`network_rc`] | a known RC machine's C, G and K from the identified model and from `--method rc` |
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
 //!
@@ -26,6 +27,7 @@ mod datasets;
 mod estimators;
 mod import;
 mod layouts;
+mod network_rc;
 mod outputs;
 mod paper;
 mod recovery;

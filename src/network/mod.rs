@@ -26,6 +26,7 @@
 
 pub mod calorimetry;
 pub mod equilibrium;
+pub mod example;
 mod passivity;
 mod reciprocity;
 pub mod stage;
