@@ -29,7 +29,7 @@
 
 use std::cell::RefCell;
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 use super::oe::{self, Evaluation, OutputError, Problem};
@@ -138,9 +138,27 @@ impl ResistanceCapacitance {
             .with_xtol(1e-10)
             .with_gtol(1e-10);
         for pass in 0..2 {
+            let before = problem.params.clone();
             let (solved, report) = lm.minimize(problem);
             problem = solved;
             evaluations += report.number_of_evaluations;
+            // A step into parameters where the model cannot be evaluated (an exponential
+            // out of range) ends the minimiser there; the fit is the last good point.
+            let stopped_on_bad_point = matches!(report.termination, TerminationReason::User(_))
+                || problem.residuals().is_none();
+            if stopped_on_bad_point {
+                let best = problem.best.borrow().clone().map(|(_, p)| p);
+                match best {
+                    Some(p) => problem.set_params(&p),
+                    None if pass == 1 => problem.set_params(&before),
+                    None => {
+                        return Err(EstimationError::MinimisationFailed {
+                            termination: report.termination,
+                        })
+                    }
+                }
+                break;
+            }
             if !report.objective_function.is_finite() {
                 return Err(EstimationError::MinimisationFailed {
                     termination: report.termination,
@@ -158,9 +176,16 @@ impl ResistanceCapacitance {
                 .fold(0.0, f64::max);
             problem.inner.sqrt_w = next;
             *problem.cache.borrow_mut() = None;
+            // Objectives under the old weights are not comparable with the new ones.
+            *problem.best.borrow_mut() = None;
             if change < 0.05 {
                 break;
             }
+        }
+        if !problem.inner.params.iter().all(|v| v.is_finite()) {
+            return Err(EstimationError::MinimisationFailed {
+                termination: TerminationReason::Numerical("a network the model cannot hold"),
+            });
         }
         Ok(problem.conclude(self.name(), rows_used, evaluations, start_model))
     }
@@ -532,6 +557,9 @@ struct RcProblem<'a> {
     /// D = ∂Θ/∂p at `params`.
     d: DMatrix<f64>,
     cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
+    /// The lowest objective evaluated so far and its parameters: where the minimiser
+    /// stops on a point the model cannot be evaluated at, the fit returns here.
+    best: RefCell<Option<(f64, DVector<f64>)>>,
 }
 
 impl<'a> RcProblem<'a> {
@@ -547,6 +575,7 @@ impl<'a> RcProblem<'a> {
             map,
             params: DVector::from_vec(params),
             cache: RefCell::new(None),
+            best: RefCell::new(None),
         };
         let params = problem.params.clone();
         problem.set_params(&params);
@@ -686,7 +715,15 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
             return None;
         }
         let (r, _) = self.evaluated().square_root_form()?;
-        r.iter().all(|v| v.is_finite()).then_some(r)
+        if !r.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let objective = r.norm_squared();
+        let mut best = self.best.borrow_mut();
+        if best.as_ref().is_none_or(|(b, _)| objective < *b) {
+            *best = Some((objective, self.params.clone()));
+        }
+        Some(r)
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
