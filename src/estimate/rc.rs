@@ -85,7 +85,7 @@ impl Estimator for ResistanceCapacitance {
         let start = map.start.clone();
         let mut estimate = self.fit_from(data, map, &start)?;
         if let Some(network) = estimate.network.as_mut() {
-            network.output_error = Box::new(oe);
+            *network.output_error = oe;
         }
         Ok(estimate)
     }
@@ -485,8 +485,8 @@ impl Parametrisation {
             })
         };
         let mut conductance = vec![vec![None; n]; n];
-        for i in 0..n {
-            conductance[i][i] = log_normal(parts.conductance_w_per_k[(i, i)], n + i);
+        for (i, row) in conductance.iter_mut().enumerate() {
+            row[i] = log_normal(parts.conductance_w_per_k[(i, i)], n + i);
         }
         for (q, &(i, j)) in self.pairs.iter().enumerate() {
             let interval = log_normal(parts.conductance_w_per_k[(i, j)], 2 * n + q);
