@@ -209,6 +209,10 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
             assert!(summary.contains("beside it, oe"), "{summary}");
             assert!(summary.contains("95 % interval"), "{summary}");
             let json: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+            crate::outputs::ReportSchema::load()
+                .check(&json)
+                .unwrap_or_else(|e| panic!("the rc report breaks the schema:\n{e}"));
+            assert!(json["output_error_beside"]["fit"]["nrmse_fit_percent"].is_array());
             assert!(json["network"]["intervals_95"]["loss_distribution"][2][1]["low"].is_number());
         }
     }
