@@ -49,7 +49,7 @@ fn main() {
             for &seed in &seeds {
                 let path = dir.path().join(format!("run-{seed}-{level}.mcap"));
                 let options = SynthOptions {
-                    truth: truth_model.clone(),
+                    machine: synth::Machine::from_model(truth_model.clone()),
                     duration_s: duration,
                     seed,
                     ..SynthOptions::default()

@@ -166,7 +166,7 @@ fn run_scenario(
             synth::write(
                 &path,
                 &SynthOptions {
-                    truth: truth.clone(),
+                    machine: synth::Machine::from_model(truth.clone()),
                     seed,
                     profile: profile.clone(),
                     duration_s,

@@ -57,6 +57,10 @@ pub struct ReplayArgs {
     /// [default: the hydro generator of the profile and its loss model].
     #[arg(long, value_name = "SPEC.toml")]
     pub spec: Option<PathBuf>,
+    /// Identify the field winding as a fourth state (its rise, from field_winding_temp or
+    /// by the resistance method U_f/I_f from field_voltage).
+    #[arg(long, conflicts_with = "spec")]
+    pub field_state: bool,
     /// Machine file (TOML) whose keys override the recording's nameplate.
     #[arg(long, value_name = "FILE.toml")]
     pub machine: Option<PathBuf>,
@@ -152,6 +156,30 @@ pub struct SynthArgs {
     /// Write uncompressed chunks instead of zstd.
     #[arg(long)]
     pub uncompressed: bool,
+    /// The machine simulated: the paper's model, or a thermal RC network (required for
+    /// the disturbances below).
+    #[arg(long, value_enum, default_value_t = MachineArg::Paper)]
+    pub machine: MachineArg,
+    /// Network machines: the coolant inlet warms by K kelvin as river water over a day (a
+    /// ramp of 0.6·K over the run and a daily swing of 0.4·K).
+    #[arg(long, value_name = "K")]
+    pub inlet_drift: Option<f64>,
+    /// Network machines: every part starts K kelvin above the coolant (a warm start).
+    #[arg(long, value_name = "K")]
+    pub start_above: Option<f64>,
+    /// Network machines: the flow is multiplied by FACTOR from T seconds (a pump switch;
+    /// the coolant conductance c·ρ·Q follows it).
+    #[arg(long, value_name = "T:FACTOR", value_parser = parse_pump_switch)]
+    pub pump_switch: Option<(f64, f64)>,
+    /// Network machines: a fouled cooler from T seconds (with --fault-conductance-drop).
+    #[arg(long, value_name = "T", requires = "fault_conductance_drop")]
+    pub fault_at: Option<f64>,
+    /// With --fault-at: the fraction, in [0, 1), the conductances to the coolant fall by.
+    #[arg(long, value_name = "F", requires = "fault_at")]
+    pub fault_conductance_drop: Option<f64>,
+    /// Leave out the cooling_water_inlet_temp and cooling_water_flow channels.
+    #[arg(long)]
+    pub no_coolant_channels: bool,
     /// Store the temperatures by exception, as a SCADA historian does: a sample only
     /// when it moved by more than this many kelvin since the last stored one (or the
     /// heartbeat passed).
@@ -160,6 +188,30 @@ pub struct SynthArgs {
     /// With --deadband: the heartbeat, the longest time between stored samples, s.
     #[arg(long, value_name = "S", default_value_t = 600.0, requires = "deadband")]
     pub heartbeat: f64,
+}
+
+/// The machine of a synthetic run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MachineArg {
+    /// The paper's Φ and Γ (eqs. 19-20) from its initial temperatures.
+    Paper,
+    /// A 3-node thermal RC network (stator winding, core, cooling-water outlet).
+    RcUnit,
+    /// The RC unit with a fourth node, the field winding.
+    RcField,
+}
+
+/// `T:FACTOR`, two numbers.
+fn parse_pump_switch(s: &str) -> Result<(f64, f64), String> {
+    let (t, f) = s
+        .split_once(':')
+        .ok_or_else(|| format!("`{s}` is not T:FACTOR (e.g. 7200:0.7)"))?;
+    let num = |v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("`{v}` in `{s}` is not a number"))
+    };
+    Ok((num(t)?, num(f)?))
 }
 
 /// Operating profile of a synthetic run.
@@ -234,9 +286,18 @@ mod tests {
         assert_eq!(r.forgetting, 1.0);
         assert_eq!((r.holdout, r.split_at, r.validate), (None, None, None));
         assert_eq!((r.rrd, r.report, r.connect), (None, None, None));
-        assert!(!r.spawn && !r.raw && !r.quiet);
+        assert!(!r.spawn && !r.raw && !r.quiet && !r.field_state);
         assert_eq!(r.out_dir, PathBuf::from("."));
         assert_eq!(r.jobs, None);
+    }
+
+    #[test]
+    fn the_field_state_is_a_flag_that_a_spec_excludes() {
+        assert!(replay(&["--field-state"]).field_state);
+        assert_eq!(
+            error(&["replay", "--field-state", "--spec", "s.toml"]),
+            ErrorKind::ArgumentConflict
+        );
     }
 
     #[test]
@@ -349,6 +410,13 @@ mod tests {
             (FieldArg::Voltage, ProfileArg::LoadSteps)
         );
         assert!(!s.uncompressed);
+        assert_eq!(s.machine, MachineArg::Paper);
+        assert_eq!(
+            (s.inlet_drift, s.start_above, s.pump_switch),
+            (None, None, None)
+        );
+        assert_eq!((s.fault_at, s.fault_conductance_drop), (None, None));
+        assert!(!s.no_coolant_channels);
         assert_eq!(error(&["synth"]), ErrorKind::MissingRequiredArgument);
         assert_eq!(error(&["info"]), ErrorKind::MissingRequiredArgument);
         assert_eq!(
@@ -358,6 +426,54 @@ mod tests {
         assert_eq!(
             error(&["replay", "--no-such-option"]),
             ErrorKind::UnknownArgument
+        );
+    }
+
+    #[test]
+    fn synth_disturbances_parse_and_bad_ones_are_refused() {
+        let synth = |args: &[&str]| match parse(&[&["synth", "o.mcap"][..], args].concat())
+            .unwrap()
+            .command
+        {
+            Command::Synth(s) => s,
+            other => panic!("not synth: {other:?}"),
+        };
+        let s = synth(&[
+            "--machine",
+            "rc-field",
+            "--inlet-drift",
+            "3",
+            "--start-above",
+            "25",
+            "--pump-switch",
+            "7200:0.7",
+            "--fault-at",
+            "9000",
+            "--fault-conductance-drop",
+            "0.3",
+        ]);
+        assert_eq!(s.machine, MachineArg::RcField);
+        assert_eq!((s.inlet_drift, s.start_above), (Some(3.0), Some(25.0)));
+        assert_eq!(s.pump_switch, Some((7200.0, 0.7)));
+        assert_eq!(
+            (s.fault_at, s.fault_conductance_drop),
+            (Some(9000.0), Some(0.3))
+        );
+        assert_eq!(synth(&["--machine", "rc-unit"]).machine, MachineArg::RcUnit);
+        for args in [
+            &["synth", "o.mcap", "--pump-switch", "7200"][..],
+            &["synth", "o.mcap", "--pump-switch", "7200:x"],
+            &["synth", "o.mcap", "--inlet-drift", "3K"],
+        ] {
+            assert_eq!(error(args), ErrorKind::ValueValidation, "{args:?}");
+        }
+        assert_eq!(
+            error(&["synth", "o.mcap", "--machine", "rc"]),
+            ErrorKind::InvalidValue
+        );
+        assert_eq!(
+            error(&["synth", "o.mcap", "--fault-at", "100"]),
+            ErrorKind::MissingRequiredArgument
         );
     }
 }

@@ -102,6 +102,13 @@ pub enum Error {
          nor a `field_voltage` channel, and nameplate key `field_winding_final_temp_c` is missing"
     )]
     NoFieldTemperature,
+    /// A field-winding state, and the recording measures the field winding's temperature
+    /// neither directly nor by its resistance.
+    #[error(
+        "the field winding state needs a `field_winding_temp` channel, or `field_voltage` \
+         (with `field_current`) for the resistance method; the recording has neither"
+    )]
+    NoFieldState,
     /// The paper's field-temperature scaling needs a stator rise to scale.
     #[error(
         "the stator winding rises only {rise_k:.2} K, too little to scale the field \
@@ -196,6 +203,7 @@ impl Error {
                 | Error::MissingChannel { .. }
                 | Error::NoCommonInstant { .. }
                 | Error::NoFieldTemperature
+                | Error::NoFieldState
                 | Error::FieldScalingRise { .. }
                 | Error::Channel { .. }
                 | Error::MissingNameplateKey { .. }

@@ -171,6 +171,26 @@ pub fn compute(
     })
 }
 
+/// θ_f on the grid by the resistance method, R_f(θ_f) = U_f / I_f, where the recording
+/// has `field_voltage` (`None` otherwise); unknown where I_f is below 0.1 % of its rated
+/// value, where U_f / I_f is noise over noise.
+pub fn field_temperature_by_resistance(
+    decimated: &DecimatedRecording,
+    np: &Nameplate,
+    i_f: &Series,
+) -> Option<Series> {
+    let u_f = decimated.get(Quantity::FieldVoltage)?;
+    let floor = 1e-3 * np.rated_field_current_a.unwrap_or(1000.0);
+    Some(
+        (0..decimated.len)
+            .map(|k| match (u_f.values.get(k), i_f.get(k)) {
+                (Some(u), Some(i)) if i.abs() > floor => Some(field_temp_from_resistance(np, u, i)),
+                _ => None,
+            })
+            .collect(),
+    )
+}
+
 /// The field winding temperature θ_f, in the profile's order of preference: measured,
 /// the resistance method U_f / I_f, or the paper's scaling of the armature rise.
 fn field_temperature(
@@ -182,15 +202,7 @@ fn field_temperature(
     if let Some(measured) = decimated.get(Quantity::FieldWindingTemp) {
         return Ok((measured.values.clone(), FieldTemperatureSource::Measured));
     }
-    if let Some(u_f) = decimated.get(Quantity::FieldVoltage) {
-        // Below 0.1 % of the rated field current U_f / I_f is noise over noise.
-        let floor = 1e-3 * np.rated_field_current_a.unwrap_or(1000.0);
-        let theta: Series = (0..decimated.len)
-            .map(|k| match (u_f.values.get(k), i_f.get(k)) {
-                (Some(u), Some(i)) if i.abs() > floor => Some(field_temp_from_resistance(np, u, i)),
-                _ => None,
-            })
-            .collect();
+    if let Some(theta) = field_temperature_by_resistance(decimated, np, i_f) {
         return Ok((theta, FieldTemperatureSource::ResistanceMethod));
     }
     let final_temp_c = np

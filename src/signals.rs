@@ -15,7 +15,7 @@ use crate::decimate::{DecimatedRecording, DecimatedSeries};
 use crate::error::{Error, Result};
 use crate::estimate::{ExceptionStorage, IdentificationData};
 use crate::losses::{self, FieldTemperatureSource, GeneratorLosses};
-use crate::recording::{Nameplate, Signal, Storage};
+use crate::recording::{Nameplate, Quantity, Signal, Storage};
 use crate::series::Series;
 use crate::spec::{
     InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
@@ -213,7 +213,15 @@ pub fn compute(
     };
     let mut states = Vec::with_capacity(description.states.len());
     for s in &description.states {
-        let mut state = state_signal(s, series(&s.channel)?, &series)?;
+        let mut state = match decimated.get_signal(&s.channel) {
+            Some(measured) => state_signal(
+                s,
+                measured.values.clone(),
+                measured.observed.clone(),
+                &series,
+            )?,
+            None => state_signal(s, derived_state(s, decimated, nameplate)?, None, &series)?,
+        };
         state.exception = exception_storage(decimated, &s.channel);
         states.push(state);
     }
@@ -287,9 +295,31 @@ fn exception_storage(
         })
 }
 
+/// A state whose channel the recording lacks. The field winding's temperature is also
+/// measured by its resistance, R_f(θ_f) = U_f / I_f (the loss model's second source of
+/// θ_f), so a field-winding state is read either way; any other state's channel is
+/// missing.
+fn derived_state(
+    s: &StateDescription,
+    decimated: &DecimatedRecording,
+    nameplate: Option<&Nameplate>,
+) -> Result<Series> {
+    if s.channel != Signal::Profile(Quantity::FieldWindingTemp) {
+        return Err(Error::MissingChannel {
+            channel: s.channel.name().to_owned(),
+        });
+    }
+    let np = nameplate.ok_or(Error::NameplateNeeded)?;
+    decimated
+        .get(Quantity::FieldCurrent)
+        .and_then(|i_f| losses::field_temperature_by_resistance(decimated, np, &i_f.values))
+        .ok_or(Error::NoFieldState)
+}
+
 fn state_signal<'a>(
     s: &StateDescription,
-    measured: &DecimatedSeries,
+    measured: Series,
+    observed: Option<Vec<bool>>,
     series: &impl Fn(&Signal) -> Result<&'a DecimatedSeries>,
 ) -> Result<StateSignal> {
     let reference = match &s.reference {
@@ -301,9 +331,9 @@ fn state_signal<'a>(
     Ok(StateSignal {
         name: s.name.clone(),
         part: s.part.clone(),
-        measured: measured.values.clone(),
+        measured,
         reference,
-        observed: measured.observed.clone(),
+        observed,
         exception: None,
     })
 }

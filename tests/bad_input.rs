@@ -236,3 +236,41 @@ fn a_git_lfs_pointer_is_named_as_such() {
     assert_eq!(info.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&info.stderr).contains("Git LFS pointer"));
 }
+
+#[test]
+fn synth_refuses_disturbances_the_paper_model_cannot_take() {
+    let dir = common::tempdir();
+    for (args, flag) in [
+        (&["--inlet-drift", "3"][..], "--inlet-drift"),
+        (&["--start-above", "25"], "--start-above"),
+        (&["--pump-switch", "7200:0.7"], "--pump-switch"),
+        (
+            &["--fault-at", "9000", "--fault-conductance-drop", "0.3"],
+            "--fault-at",
+        ),
+    ] {
+        let out = heatrun(&[&["synth", "out.mcap"][..], args].concat(), dir.path());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+        assert!(
+            stderr.contains(flag) && stderr.contains("--machine rc-unit"),
+            "{stderr}"
+        );
+        assert!(common::files_in(dir.path()).is_empty(), "no output");
+    }
+    let out = heatrun(
+        &[
+            "synth",
+            "out.mcap",
+            "--machine",
+            "rc-field",
+            "--field",
+            "nameplate",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--field voltage"));
+    assert!(common::files_in(dir.path()).is_empty(), "no output");
+}

@@ -168,6 +168,11 @@ fn clean_run(dir: &Path, chunk_size: u64) -> std::path::PathBuf {
         &SynthOptions {
             duration_s: 8000.0,
             chunk_size,
+            // The layouts of the paper's channels (the offsets below sit in its chunks).
+            coolant: synth::Coolant {
+                channels: false,
+                ..synth::Coolant::default()
+            },
             ..SynthOptions::default()
         },
     )

@@ -327,7 +327,7 @@ fn exception_storage_runs(seed: u64) -> [(&'static str, SynthOptions); 2] {
             "second machine",
             SynthOptions {
                 seed,
-                truth: second_machine(),
+                machine: synth::Machine::from_model(second_machine()),
                 duration_s: 30000.0,
                 ..SynthOptions::default()
             },

@@ -53,7 +53,7 @@ fn run(seed: u64, method: Method) -> Replay {
     synth::write(
         &path,
         &SynthOptions {
-            truth: truth_model(&machine()),
+            machine: synth::Machine::from_model(truth_model(&machine())),
             seed,
             profile: rich_heat_run(),
             duration_s: 40000.0,

@@ -126,7 +126,8 @@ fn fast_channels_are_block_averaged_onto_the_model_grid() {
     {
         assert!((ss * 80.0 - want).abs() < 0.02, "{ss} vs {want}");
     }
-    assert_eq!(r.recording.channels.len(), 7);
+    // Seven of the heat run and the coolant's inlet temperature and flow.
+    assert_eq!(r.recording.channels.len(), 9);
     assert!(r.decimated.channels.iter().all(|c| c.block_averaged));
 }
 
@@ -147,7 +148,11 @@ fn temperatures_slower_than_the_grid_are_interpolated() {
         .iter()
         .filter(|c| !c.block_averaged)
         .collect();
-    assert_eq!(slow.len(), 3, "the three temperatures are interpolated");
+    assert_eq!(
+        slow.len(),
+        5,
+        "the three temperatures, the inlet and the flow are interpolated"
+    );
     for (t, want) in r
         .analysis
         .spectrum

@@ -14,6 +14,10 @@ pub fn for_error(err: &anyhow::Error) -> Option<String> {
         Error::NoFieldTemperature | Error::FieldScalingRise { .. } => {
             "give `field_winding_final_temp_c` in a machine file with --machine FILE.toml".into()
         }
+        Error::NoFieldState => {
+            "replay it without --field-state, or record the field winding's temperature or voltage"
+                .into()
+        }
         Error::MissingNameplateKey { .. } | Error::BadNameplateValue { .. } => {
             "give the key in a machine file with --machine FILE.toml".into()
         }

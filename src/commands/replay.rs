@@ -33,6 +33,7 @@ fn default_fixture() -> PathBuf {
 fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
     let model = match &args.spec {
         Some(path) => ModelDescription::from_toml_file(path)?,
+        None if args.field_state => ModelDescription::generator_with_field_state(),
         None => ModelDescription::generator(),
     };
     let method = match (args.method, model.method.as_deref()) {
@@ -279,20 +280,29 @@ impl FleetTally {
     }
 }
 
-/// The columns of `fleet-summary.csv`.
-const FLEET_CSV_HEADER: [&str; 11] = [
-    "recording",
-    "status",
-    "t1_s",
-    "t2_s",
-    "t3_s",
-    "fit_stator_pct",
-    "fit_core_pct",
-    "fit_water_pct",
-    "steady_stator_c",
-    "steady_core_c",
-    "steady_water_c",
-];
+/// A state's short name in the fleet summary: the generator's parts as they have always
+/// been named there (stator, core, water, field), any other state by its own name.
+fn short_name(state: &heatrun::spec::StateDescription) -> String {
+    use heatrun::recording::{Quantity, Signal};
+    match &state.channel {
+        Signal::Profile(Quantity::StatorWindingTemp) => "stator".into(),
+        Signal::Profile(Quantity::CoreTemp) => "core".into(),
+        Signal::Profile(Quantity::CoolingWaterOutletTemp) => "water".into(),
+        Signal::Profile(Quantity::FieldWindingTemp) => "field".into(),
+        _ => state.name.clone(),
+    }
+}
+
+/// The columns of `fleet-summary.csv` for a model of n states: the recording, its status,
+/// T1..Tn, then each state's fit and steady state.
+fn fleet_csv_header(model: &ModelDescription) -> Vec<String> {
+    let short: Vec<String> = model.states.iter().map(short_name).collect();
+    let mut header = vec!["recording".to_owned(), "status".to_owned()];
+    header.extend((1..=short.len()).map(|i| format!("t{i}_s")));
+    header.extend(short.iter().map(|s| format!("fit_{s}_pct")));
+    header.extend(short.iter().map(|s| format!("steady_{s}_c")));
+    header
+}
 
 /// Replays many recordings, `--jobs` at a time; each gets `<stem>.rrd` and
 /// `<stem>.report.json` in `--out-dir`, and the fleet a summary table (written as
@@ -307,8 +317,12 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
         .max(1);
     let started = Instant::now();
     let rows = replay_fleet(args, files, jobs)?;
-    write_atomically(&args.out_dir.join("fleet-summary.csv"), &fleet_csv(&rows)?)?;
-    print_fleet_table(&rows);
+    let model = options(args)?.model;
+    write_atomically(
+        &args.out_dir.join("fleet-summary.csv"),
+        &fleet_csv(&rows, &fleet_csv_header(&model))?,
+    )?;
+    print_fleet_table(&rows, &model);
     let tally = FleetTally::of(&rows);
     println!(
         "{} recordings in {:.2} s ({} jobs): {} ok, {} with data loss, {} failed; reports and .rrd files in {}",
@@ -376,9 +390,9 @@ fn fleet_row(args: &ReplayArgs, file: &Path) -> FleetRow {
 }
 
 /// `fleet-summary.csv`: one line per recording, empty figures where it failed.
-fn fleet_csv(rows: &[FleetRow]) -> anyhow::Result<Vec<u8>> {
+fn fleet_csv(rows: &[FleetRow], header: &[String]) -> anyhow::Result<Vec<u8>> {
     let mut csv = csv::Writer::from_writer(Vec::new());
-    csv.write_record(FLEET_CSV_HEADER)?;
+    csv.write_record(header)?;
     for row in rows {
         let mut record = vec![row.file.display().to_string()];
         match &row.outcome {
@@ -389,7 +403,7 @@ fn fleet_csv(rows: &[FleetRow]) -> anyhow::Result<Vec<u8>> {
             }
             Err(reason) => record.push(format!("failed: {reason}")),
         }
-        record.resize(FLEET_CSV_HEADER.len(), String::new());
+        record.resize(header.len(), String::new());
         csv.write_record(&record)?;
     }
     csv.into_inner()
@@ -397,10 +411,18 @@ fn fleet_csv(rows: &[FleetRow]) -> anyhow::Result<Vec<u8>> {
 }
 
 /// The fleet table on stdout, one line per recording.
-fn print_fleet_table(rows: &[FleetRow]) {
+fn print_fleet_table(rows: &[FleetRow], model: &ModelDescription) {
+    let n = model.states.len();
+    let short: Vec<String> = model.states.iter().map(short_name).collect();
     println!(
-        "{:<32} {:>9} {:>9} {:>9}  {:>22}  {:>22}  status",
-        "recording", "T1 s", "T2 s", "T3 s", "NRMSE fit % (Cu Fe cw)", "steady state °C"
+        "{:<32} {}  {:>22}  {:>22}  status",
+        "recording",
+        (1..=n)
+            .map(|i| format!("{:>9}", format!("T{i} s")))
+            .collect::<Vec<_>>()
+            .join(" "),
+        format!("NRMSE fit % ({})", short.join(" ")),
+        "steady state °C"
     );
     for row in rows {
         let name = row.file.display().to_string();
@@ -458,9 +480,14 @@ mod tests {
 
     #[test]
     fn fleet_csv_quotes_what_needs_it_and_pads_failures() {
-        let csv = String::from_utf8(fleet_csv(&rows()).unwrap()).unwrap();
+        let header = fleet_csv_header(&ModelDescription::generator());
+        let csv = String::from_utf8(fleet_csv(&rows(), &header).unwrap()).unwrap();
         let lines: Vec<&str> = csv.lines().collect();
-        assert_eq!(lines[0], FLEET_CSV_HEADER.join(","));
+        assert_eq!(
+            lines[0],
+            "recording,status,t1_s,t2_s,t3_s,fit_stator_pct,fit_core_pct,fit_water_pct,\
+             steady_stator_c,steady_core_c,steady_water_c"
+        );
         assert_eq!(
             lines[1],
             "\"unit 3, run 1.mcap\",ok,23.9,737.25,3305.5,99.5,98,97.25,55.5,47.125,13"
@@ -475,17 +502,40 @@ mod tests {
 
     #[test]
     fn fleet_csv_reads_back_with_every_column() {
-        let bytes = fleet_csv(&rows()).unwrap();
+        let header = fleet_csv_header(&ModelDescription::generator());
+        let bytes = fleet_csv(&rows(), &header).unwrap();
         let mut reader = csv::Reader::from_reader(bytes.as_slice());
         let records: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
         assert_eq!(records.len(), 3);
-        assert!(records.iter().all(|r| r.len() == FLEET_CSV_HEADER.len()));
+        assert!(records.iter().all(|r| r.len() == header.len()));
         assert_eq!(&records[0][0], "unit 3, run 1.mcap");
         assert_eq!(
             &records[2][1],
             "failed: broken.mcap: not an MCAP file, \"magic\" missing"
         );
         assert_eq!(records[0][8].parse::<f64>().unwrap(), 55.5);
+    }
+
+    #[test]
+    fn a_four_state_fleet_has_a_column_for_every_figure() {
+        let header = fleet_csv_header(&ModelDescription::generator_with_field_state());
+        assert_eq!(header.len(), 2 + 3 * 4);
+        assert_eq!(&header[5..7], ["t4_s", "fit_stator_pct"]);
+        assert_eq!(header.last().unwrap(), "steady_field_c");
+        let row = FleetRow {
+            file: "field.mcap".into(),
+            outcome: Ok(FleetFigures {
+                time_constants_s: vec![70.0, 690.0, 1592.0, 4496.0],
+                nrmse_fit_percent: vec![99.0, 98.0, 95.0, 98.5],
+                steady_state_c: vec![31.9, 27.3, 14.6, 60.4],
+                data_lost: false,
+            }),
+        };
+        let csv = String::from_utf8(fleet_csv(&[row], &header).unwrap()).unwrap();
+        assert_eq!(
+            csv.lines().nth(1).unwrap(),
+            "field.mcap,ok,70,690,1592,4496,99,98,95,98.5,31.9,27.3,14.6,60.4"
+        );
     }
 
     #[test]

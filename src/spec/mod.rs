@@ -175,6 +175,22 @@ impl ModelDescription {
         }
     }
 
+    /// The generator with the field winding as a fourth state (the paper's "further
+    /// improvement"): the rise of `field_winding_temp` above its initial value, measured by
+    /// that channel or, where the recording lacks it, by the resistance method U_f / I_f.
+    pub fn generator_with_field_state() -> ModelDescription {
+        let mut model = ModelDescription::generator();
+        model.name = "hydro generator with field winding state (heatrun-scada/1)".into();
+        model.states.push(StateDescription {
+            name: Quantity::FieldWindingTemp.name().into(),
+            channel: Signal::Profile(Quantity::FieldWindingTemp),
+            reference: Reference::Initial,
+            part: "field winding (rotor)".into(),
+            unit: "degC".into(),
+        });
+        model
+    }
+
     /// Reads a TOML spec (format: README, "Any thermal system").
     pub fn from_toml_file(path: &Path) -> crate::Result<ModelDescription> {
         let text = std::fs::read_to_string(path).map_err(|source| crate::Error::ReadInput {

@@ -1,13 +1,21 @@
-//! Synthetic heat runs: a recording in the profile simulated from a known model.
+//! Synthetic heat runs: a recording in the profile simulated from a known machine.
 //!
-//! The truth is the continuous system dy/dt = A_c y + B_c u (by default the
-//! continuous equivalent of the paper's Φ and Γ, eqs. 19–20) driven by the loss
-//! model of the profile: the operating point (I_g, U_g, I_f) is held over each
-//! interval [t_k, t_k + Ts) and the losses use the temperatures at t_k, so the
-//! exact discretisation at Ts is the model x(k) = Φ x(k−1) + Γ u(k−1). Every channel
-//! is sampled at its own rate with optional Gaussian noise and resolution, and the
-//! temperatures are optionally stored by exception as a SCADA historian does
-//! (deadband and heartbeat).
+//! The machine ([`Machine`]) is either a model given by its discrete form (by default the
+//! paper's Φ and Γ, eqs. 19–20, on the rises above its initial temperatures) or a thermal
+//! RC network simulated in absolute temperatures with the coolant inlet as its reference
+//! node ([`NetworkMachine`]: the "rc unit" of three nodes, the "rc field" unit with a
+//! field-winding node). Either is driven by the loss model of the profile: the operating
+//! point (I_g, U_g, I_f) is held over each interval [t_k, t_k + Ts) and the losses use
+//! the temperatures at t_k, so the exact discretisation at Ts is the model
+//! x(k) = Φ x(k−1) + Γ u(k−1) (see [`plant`]). A network machine takes disturbances
+//! ([`Disturbances`]): an inlet drifting as river water over a day, a warm start, a pump
+//! switch and a fouled cooler. Every channel is sampled at its own rate with optional
+//! Gaussian noise and resolution, and the temperatures are optionally stored by
+//! exception as a SCADA historian does (deadband and heartbeat).
+
+mod machines;
+pub mod plant;
+mod truth;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -18,79 +26,93 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::estimate::DiscreteModel;
-use crate::losses::{self, copper_resistance};
-use crate::model::matrix::{discretize, rows};
-use crate::model::{ContinuousModel, Spectrum};
+use crate::losses::copper_resistance;
+use crate::model::matrix::discretize;
 use crate::recording::{Nameplate, Quantity};
 use crate::writer::{
     ChannelId, ChannelSpec, ExceptionFilter, RecordingWriter, Storage, WriterOptions,
 };
+use plant::Trajectory;
 
 pub use crate::writer::SAMPLE_SCHEMA;
+pub use machines::{
+    paper_model, second_machine_model, Machine, NetworkMachine, PAPER_A_C, PAPER_B_C,
+    PAPER_COOLING_WATER_FLOW_L_PER_S, PAPER_COOLING_WATER_INLET_C, PAPER_GAMMA,
+    PAPER_INITIAL_TEMPERATURES_C, PAPER_PHI,
+};
+pub use plant::ChangeCause;
+pub use truth::{truth_path, NetworkChange, Truth, TruthCoolant, TruthNetwork};
 
-/// Φ of the paper, eq. (19), Ts = 1 s.
-pub const PAPER_PHI: [[f64; 3]; 3] = [
-    [0.99880000, 0.00045967, 0.00078830],
-    [0.00019304, 0.99942000, 0.00307540],
-    [0.00201840, 0.00110190, 0.95914000],
-];
+/// The coolant of a run: the inlet temperature at the start and the flow, recorded as
+/// `cooling_water_inlet_temp` and `cooling_water_flow` (unless `channels` is false).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coolant {
+    /// θ_in at the start, °C.
+    pub inlet_temp_c: f64,
+    /// Q, l/s; a network's outlet node loses c·ρ·Q W/K to the coolant.
+    pub flow_l_per_s: f64,
+    /// Whether the recording has the inlet and flow channels.
+    pub channels: bool,
+}
 
-/// Γ of the paper, eq. (20), Ts = 1 s.
-pub const PAPER_GAMMA: [[f64; 3]; 3] = [
-    [0.0710060, 0.1158700, -0.0610920],
-    [-0.0027636, -0.0110370, -0.0060849],
-    [0.0088751, -0.2395500, 0.3480100],
-];
-
-/// The paper's printed continuous system matrix A_c, 1/s (eq. 22).
-pub const PAPER_A_C: [[f64; 3]; 3] = [
-    [-0.00119970, 0.00045965, 0.0007745],
-    [0.00019001, -0.00057742, 0.0031408],
-    [0.00206200, 0.00112490, -0.041717],
-];
-
-/// The paper's printed continuous input matrix B_c, 1/s (eq. 23).
-pub const PAPER_B_C: [[f64; 3]; 3] = [
-    [0.0710460, 0.1160400, -0.0612630],
-    [-0.0027851, -0.0106720, -0.0066313],
-    [0.0089894, -0.2447000, 0.3553900],
-];
-
-/// Measured initial temperatures of the paper: θ_Cu0, θ_Fe0, θ_cw0 in °C.
-pub const PAPER_INITIAL_TEMPERATURES_C: [f64; 3] = [36.7, 36.3, 10.5];
-
-/// The paper's model as a [`DiscreteModel`].
-pub fn paper_model() -> DiscreteModel {
-    let m = |a: [[f64; 3]; 3]| DMatrix::from_fn(3, 3, |i, j| a[i][j]);
-    DiscreteModel {
-        phi: m(PAPER_PHI),
-        gamma: m(PAPER_GAMMA),
-        ts_s: 1.0,
+impl Default for Coolant {
+    /// The paper's: 10.5 °C (its water at the start) and 48.2 l/s (eqs. 17–18).
+    fn default() -> Self {
+        Coolant {
+            inlet_temp_c: PAPER_COOLING_WATER_INLET_C,
+            flow_l_per_s: PAPER_COOLING_WATER_FLOW_L_PER_S,
+            channels: true,
+        }
     }
 }
 
-/// A second machine of other time constants (about 60 s, 1100 s and 5000 s), for
-/// accuracy figures that do not hang on the paper's model alone: A_c, B_c given in
-/// continuous form and discretised (ZOH) at Ts = 1 s.
-pub fn second_machine_model() -> DiscreteModel {
-    #[rustfmt::skip]
-    let a_c = DMatrix::from_row_slice(3, 3, &[
-        -1.0 / 1100.0, 0.00010, 0.00020,
-        0.00005, -1.0 / 5000.0, 0.00030,
-        0.00050, 0.00030, -1.0 / 60.0,
-    ]);
-    #[rustfmt::skip]
-    let b_c = DMatrix::from_row_slice(3, 3, &[
-        0.050, 0.060, -0.020,
-        0.004, 0.006, 0.012,
-        0.010, -0.080, 0.140,
-    ]);
-    let (phi, gamma) = crate::model::matrix::discretize(&a_c, &b_c, 1.0);
-    DiscreteModel {
-        phi,
-        gamma,
-        ts_s: 1.0,
+/// A pump switched during the run: the flow is multiplied by `factor` from `time_s`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PumpSwitch {
+    /// From this time, s after the start.
+    pub time_s: f64,
+    /// The flow's factor (> 0).
+    pub factor: f64,
+}
+
+/// A fouled cooler: the conductances to the coolant fall by `conductance_drop` from
+/// `time_s`, the recorded flow unchanged.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CoolerFault {
+    /// From this time, s after the start.
+    pub time_s: f64,
+    /// The fraction the conductances fall by, in [0, 1).
+    pub conductance_drop: f64,
+}
+
+/// Disturbances of a network machine's heat run (none by default).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Disturbances {
+    /// D, K: the inlet warms by a ramp of 0.6·D over the run and a daily swing of
+    /// 0.4·D·sin(2π·t/1 day) (see [`plant::inlet_temperature_c`]).
+    pub inlet_drift_k: f64,
+    /// Every node starts this many kelvin above the coolant inlet (a warm start).
+    pub start_above_k: f64,
+    /// A pump switch.
+    pub pump_switch: Option<PumpSwitch>,
+    /// A fouled cooler.
+    pub fault: Option<CoolerFault>,
+}
+
+impl Disturbances {
+    /// The name of the first disturbance set, if any (for the message that refuses it).
+    pub fn first(&self) -> Option<&'static str> {
+        if self.inlet_drift_k != 0.0 {
+            Some("an inlet drift")
+        } else if self.start_above_k != 0.0 {
+            Some("a warm start")
+        } else if self.pump_switch.is_some() {
+            Some("a pump switch")
+        } else if self.fault.is_some() {
+            Some("a cooler fault")
+        } else {
+            None
+        }
     }
 }
 
@@ -161,12 +183,14 @@ pub fn heat_run_with_load_steps() -> Vec<OperatingPoint> {
 /// Options of a synthetic heat run.
 #[derive(Debug, Clone)]
 pub struct SynthOptions {
-    /// The true model at its sample time (the interval the operating point is held over).
-    pub truth: DiscreteModel,
-    /// The machine.
+    /// The machine simulated (its hold interval is the model's sample time).
+    pub machine: Machine,
+    /// The machine's nameplate.
     pub nameplate: Nameplate,
-    /// Initial temperatures, °C.
-    pub initial_temperatures_c: [f64; 3],
+    /// The coolant.
+    pub coolant: Coolant,
+    /// Disturbances (a network machine only).
+    pub disturbances: Disturbances,
     /// Duration, s.
     pub duration_s: f64,
     /// Rate of the electrical channels, Hz.
@@ -199,9 +223,10 @@ pub struct SynthOptions {
 impl Default for SynthOptions {
     fn default() -> Self {
         SynthOptions {
-            truth: paper_model(),
+            machine: Machine::paper(),
             nameplate: Nameplate::paper_table1(),
-            initial_temperatures_c: PAPER_INITIAL_TEMPERATURES_C,
+            coolant: Coolant::default(),
+            disturbances: Disturbances::default(),
             duration_s: 20868.0,
             electrical_rate_hz: 1.0,
             temperature_rate_hz: 1.0,
@@ -233,126 +258,12 @@ impl SynthOptions {
     }
 }
 
-/// What a synthetic run was made from, written beside it as `<OUT>.truth.json`.
-#[derive(Debug, Clone, Serialize)]
-pub struct Truth {
-    /// The true Φ.
-    pub phi: Vec<Vec<f64>>,
-    /// The true Γ.
-    pub gamma: Vec<Vec<f64>>,
-    /// The true A_c.
-    pub a_c: Vec<Vec<f64>>,
-    /// The true B_c.
-    pub b_c: Vec<Vec<f64>>,
-    /// Sample time of Φ and Γ, s.
-    pub sample_time_s: f64,
-    /// True time constants, s, ascending.
-    pub time_constants_s: Vec<f64>,
-    /// The last input, pu.
-    pub final_input_pu: Vec<f64>,
-    /// The true steady-state rises for it, K.
-    pub steady_state_rise_k: Vec<f64>,
-    /// Initial temperatures, °C.
-    pub initial_temperatures_c: Vec<f64>,
-    /// Noise-free temperatures at the end, °C.
-    pub final_temperatures_c: Vec<f64>,
-    /// The operating schedule.
-    pub profile: Vec<OperatingPoint>,
-    /// The seed.
-    pub seed: u64,
-}
-
-/// The noise-free simulated run on the model's grid.
-struct Trajectory {
-    /// States (rise, pu) at each grid instant, N + 1 of them.
-    states: Vec<DVector<f64>>,
-    /// Operating point per interval.
-    points: Vec<OperatingPoint>,
-    /// Field winding temperature at each instant, °C.
-    field_temps: Vec<f64>,
-    /// Inputs per interval, pu.
-    inputs: Vec<DVector<f64>>,
-    /// Field scale used for the nameplate method.
-    field_scale: f64,
-}
-
-fn simulate(o: &SynthOptions) -> Result<Trajectory> {
-    let ts = o.truth.ts_s;
-    let steps = (o.duration_s / ts).round() as usize;
-    let np = &o.nameplate;
-    let base = np.temperature_base_k;
-    let th0 = o.initial_temperatures_c;
-    let final_field = np.field_winding_final_temp_c.unwrap_or(81.0);
-    let point_at = |k: usize| {
-        let f = k as f64 / steps as f64;
-        *o.profile
-            .iter()
-            .rev()
-            .find(|p| p.start_fraction <= f + 1e-12)
-            .unwrap_or(&o.profile[0])
-    };
-    // The paper's field temperature θ_f = θ_Cu0 + s (θ_Cu − θ_Cu0): iterate s to its fixed
-    // point so that the final field temperature is the nameplate's.
-    let mut scale = (final_field - th0[0]) / 26.3;
-    let mut result = None;
-    for _ in 0..30 {
-        let mut x = DVector::zeros(3);
-        let mut states = Vec::with_capacity(steps + 1);
-        let mut field_temps = Vec::with_capacity(steps + 1);
-        let mut inputs = Vec::with_capacity(steps);
-        let mut points = Vec::with_capacity(steps);
-        for k in 0..=steps {
-            let theta_cu = th0[0] + base * x[0];
-            let theta_f = th0[0] + scale * (theta_cu - th0[0]);
-            states.push(x.clone());
-            field_temps.push(theta_f);
-            if k == steps {
-                break;
-            }
-            let p = point_at(k);
-            let i_g = p.armature_current_pu * np.rated_current_a;
-            let i_f = p.field_current_pu * np.rated_field_current_a.unwrap_or(1000.0);
-            let u_g = p.line_voltage_pu * np.rated_voltage_v;
-            let s_n = np.rated_apparent_power_va;
-            let u = DVector::from_vec(vec![
-                losses::armature_copper_loss_w(np, i_g, theta_cu) / s_n,
-                losses::field_copper_loss_w(np, i_f, theta_f) / s_n,
-                losses::iron_loss_w(np, u_g) / s_n,
-            ]);
-            x = &o.truth.phi * &x + &o.truth.gamma * &u;
-            inputs.push(u);
-            points.push(p);
-        }
-        let final_rise = base * states[steps][0];
-        if final_rise <= 0.5 {
-            return Err(Error::Usage(
-                "the synthetic run's stator winding does not heat up".into(),
-            ));
-        }
-        let new_scale = (final_field - th0[0]) / final_rise;
-        let converged = (new_scale - scale).abs() < 1e-13 * scale.abs();
-        result = Some(Trajectory {
-            states,
-            points,
-            field_temps,
-            inputs,
-            field_scale: scale,
-        });
-        if converged || o.field_channel != FieldChannel::Nameplate {
-            break;
-        }
-        scale = new_scale;
-    }
-    result.ok_or_else(|| Error::Usage("empty synthetic run".into()))
-}
-
 /// Writes a synthetic heat run to `out` and its truth to `<out>.truth.json`;
 /// returns the truth.
 pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
     check_options(o)?;
-    let traj = simulate(o)?;
-    let continuous = ContinuousModel::from_discrete(&o.truth)?;
-    let spectrum = Spectrum::of(&o.truth)?;
+    let traj = plant::simulate(o)?;
+    let truth = truth::truth_of(o, &traj)?;
 
     let mut writer = RecordingWriter::create(
         out,
@@ -363,11 +274,10 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
     )?;
     let mut channels = add_channels(&mut writer, o)?;
     write_records(&mut writer, o)?;
-    let mut source = SampleSource::new(o, &traj, &continuous)?;
+    let mut source = SampleSource::new(o, &traj)?;
     write_samples(&mut writer, &mut channels, &mut source, o)?;
     writer.finish()?;
 
-    let truth = truth_of(o, &traj, &continuous, spectrum)?;
     crate::atomic::write_atomically(
         &truth_path(out),
         serde_json::to_string_pretty(&truth)
@@ -390,11 +300,12 @@ fn check_options(o: &SynthOptions) -> Result<()> {
             )));
         }
     }
-    if o.duration_s < 10.0 * o.truth.ts_s {
+    if o.duration_s < 10.0 * o.machine.ts_s() {
         return Err(Error::Usage(
             "the duration must cover at least 10 sample times".into(),
         ));
     }
+    check_machine(o)?;
     if let Storage::Exception {
         deadband,
         max_interval_s,
@@ -434,12 +345,92 @@ fn channel_list(o: &SynthOptions) -> Vec<(Quantity, &'static str)> {
         FieldChannel::Temperature => channels.push((Quantity::FieldWindingTemp, "degC")),
         FieldChannel::Nameplate => {}
     }
-    channels.extend([
-        (Quantity::StatorWindingTemp, "degC"),
-        (Quantity::CoreTemp, "degC"),
-        (Quantity::CoolingWaterOutletTemp, "degC"),
-    ]);
+    // The field winding's node, if the machine has one, is recorded by the field channel.
+    channels.extend(
+        o.machine
+            .states()
+            .into_iter()
+            .filter(|&q| q != Quantity::FieldWindingTemp)
+            .map(|q| (q, "degC")),
+    );
+    if o.coolant.channels {
+        channels.extend([
+            (Quantity::CoolingWaterInletTemp, "degC"),
+            (Quantity::CoolingWaterFlow, "l/s"),
+        ]);
+    }
     channels
+}
+
+/// Whether a channel is sampled at the temperature rate (the temperatures and the flow,
+/// a slow process quantity) rather than the electrical one.
+fn slow(quantity: Quantity) -> bool {
+    quantity.is_temperature() || quantity == Quantity::CoolingWaterFlow
+}
+
+/// Rejects a machine and options that do not go together: disturbances on a machine
+/// that is not a network, a field node without a field channel, a bad disturbance.
+fn check_machine(o: &SynthOptions) -> Result<()> {
+    let d = &o.disturbances;
+    let network = match &o.machine {
+        Machine::Model { .. } => {
+            return match d.first() {
+                Some(what) => Err(Error::Usage(format!(
+                    "{what} needs a machine built from a thermal network; the model given as Φ and Γ has no coolant node"
+                ))),
+                None => Ok(()),
+            };
+        }
+        Machine::Network(n) => n,
+    };
+    if network.node(Quantity::FieldWindingTemp).is_some()
+        && o.field_channel == FieldChannel::Nameplate
+    {
+        return Err(Error::Usage(format!(
+            "the machine '{}' has a field-winding node, recorded by its voltage or its temperature, not by the nameplate",
+            network.name
+        )));
+    }
+    if network.node(Quantity::FieldWindingTemp).is_none()
+        && o.field_channel == FieldChannel::Nameplate
+        && d.start_above_k != 0.0
+    {
+        return Err(Error::Usage(
+            "a warm start with the nameplate's field temperature: the paper's method scales the field from the stator winding's rise above its start, which a warm start does not follow; record the field winding's voltage or temperature".into(),
+        ));
+    }
+    let finite = |what: &str, v: f64, ok: bool| {
+        if v.is_finite() && ok {
+            Ok(())
+        } else {
+            Err(Error::Usage(format!("{what} {v} is out of range")))
+        }
+    };
+    finite("the inlet drift", d.inlet_drift_k, true)?;
+    finite("the start above the coolant", d.start_above_k, true)?;
+    finite(
+        "the inlet temperature",
+        o.coolant.inlet_temp_c,
+        (0.0..=100.0).contains(&o.coolant.inlet_temp_c),
+    )?;
+    finite(
+        "the flow",
+        o.coolant.flow_l_per_s,
+        o.coolant.flow_l_per_s > 0.0,
+    )?;
+    if let Some(s) = d.pump_switch {
+        finite("the pump switch's time", s.time_s, s.time_s >= 0.0)?;
+        finite("the pump switch's flow factor", s.factor, s.factor > 0.0)?;
+    }
+    if let Some(f) = d.fault {
+        finite("the fault's time", f.time_s, f.time_s >= 0.0)?;
+        finite(
+            "the fault's conductance drop",
+            f.conductance_drop,
+            (0.0..1.0).contains(&f.conductance_drop),
+        )?;
+    }
+    Ok(())
 }
 
 fn add_channels(writer: &mut RecordingWriter, o: &SynthOptions) -> Result<Vec<SynthChannel>> {
@@ -511,7 +502,7 @@ fn write_samples(
     source: &mut SampleSource,
     o: &SynthOptions,
 ) -> Result<()> {
-    let ts = o.truth.ts_s;
+    let ts = o.machine.ts_s();
     let (ts_ns, steps) = (source.ts_ns, source.steps);
     let duration_ns = steps as u64 * ts_ns;
     let elec_times = sample_times(o.electrical_rate_hz, false, ts_ns, duration_ns);
@@ -532,7 +523,7 @@ fn write_samples(
         };
         let log_time = o.start_time_ns + t_rel;
         for c in channels.iter_mut() {
-            if c.quantity.is_temperature() == take_elec {
+            if slow(c.quantity) == take_elec {
                 continue;
             }
             // The noise is drawn for every sample, stored or not, so a run stored by
@@ -556,50 +547,53 @@ fn write_samples(
 struct SampleSource<'a> {
     o: &'a SynthOptions,
     traj: &'a Trajectory,
-    continuous: &'a ContinuousModel,
     ts_ns: u64,
     steps: usize,
-    /// Φ(τ), Γ(τ) of the propagation inside an interval, cached by τ in ns.
-    propagators: HashMap<u64, (DMatrix<f64>, DMatrix<f64>)>,
+    /// Φ(τ), Γ(τ) of the propagation inside an interval, cached by piece and τ in ns.
+    propagators: HashMap<(usize, u64), (DMatrix<f64>, DMatrix<f64>)>,
     rng: rand::rngs::StdRng,
+    /// The coolant channels' own noise, so that adding them leaves the other channels'
+    /// noise as it was.
+    coolant_rng: rand::rngs::StdRng,
     temperature_noise: Normal<f64>,
     electrical_noise: Normal<f64>,
 }
 
 impl<'a> SampleSource<'a> {
-    fn new(
-        o: &'a SynthOptions,
-        traj: &'a Trajectory,
-        continuous: &'a ContinuousModel,
-    ) -> Result<SampleSource<'a>> {
+    fn new(o: &'a SynthOptions, traj: &'a Trajectory) -> Result<SampleSource<'a>> {
         let noise =
             |sigma: f64| Normal::new(0.0, sigma.max(0.0)).map_err(|e| Error::Usage(e.to_string()));
         Ok(SampleSource {
             o,
             traj,
-            continuous,
-            ts_ns: (o.truth.ts_s * 1e9).round() as u64,
+            ts_ns: (o.machine.ts_s() * 1e9).round() as u64,
             steps: traj.inputs.len(),
             propagators: HashMap::new(),
             rng: rand::rngs::StdRng::seed_from_u64(o.seed),
+            coolant_rng: rand::rngs::StdRng::seed_from_u64(o.seed ^ 0x0063_6f6f_6c61_6e74),
             temperature_noise: noise(o.temperature_noise_k)?,
             electrical_noise: noise(o.electrical_noise_pu)?,
         })
     }
 
-    /// The state at `t_rel_ns` after the start: x(t_k + τ) = Φ(τ) x(k) + Γ(τ) u(k).
+    /// The state at `t_rel_ns` after the start: x(t_k + τ) = Φ(τ) x(k) + Γ(τ) [u(k); inlet(k)]
+    /// with the piece of interval k.
     fn state_at(&mut self, t_rel_ns: u64) -> DVector<f64> {
         let k = ((t_rel_ns / self.ts_ns) as usize).min(self.steps);
         let tau = t_rel_ns - k as u64 * self.ts_ns;
         if tau == 0 || k == self.steps {
             return self.traj.states[k].clone();
         }
-        let c = self.continuous;
+        let piece_index = self.traj.piece_index(k);
+        let piece = &self.traj.pieces[piece_index];
         let (phi, gamma) = self
             .propagators
-            .entry(tau)
-            .or_insert_with(|| discretize(&c.a_c, &c.b_c, tau as f64 * 1e-9));
-        &*phi * &self.traj.states[k] + &*gamma * &self.traj.inputs[k]
+            .entry((piece_index, tau))
+            .or_insert_with(|| discretize(&piece.a_c, &piece.b_c, tau as f64 * 1e-9));
+        let u = self.traj.inputs[k]
+            .clone()
+            .insert_row(self.traj.inputs[k].len(), self.traj.inlet_offsets[k]);
+        &*phi * &self.traj.states[k] + &*gamma * &u
     }
 
     /// The value `quantity`'s sensor reads at `t_rel_ns` after the start, in the
@@ -628,6 +622,15 @@ impl<'a> SampleSource<'a> {
                 );
                 i_f * r * self.electrical_factor()
             }
+            Quantity::CoolingWaterFlow => {
+                let noise = self.electrical_noise.sample(&mut self.coolant_rng);
+                plant::flow_l_per_s(self.o, t_rel_ns as f64 * 1e-9) * (1.0 + noise)
+            }
+            Quantity::CoolingWaterInletTemp => {
+                let t = plant::inlet_temperature_c(self.o, t_rel_ns as f64 * 1e-9);
+                let noise = self.temperature_noise.sample(&mut self.coolant_rng);
+                self.quantize(t + noise)
+            }
             _ => {
                 let temperature = self.true_temperature(quantity, t_rel_ns);
                 let noise = self.temperature_noise.sample(&mut self.rng);
@@ -642,22 +645,14 @@ impl<'a> SampleSource<'a> {
         1.0 + self.electrical_noise.sample(&mut self.rng)
     }
 
-    /// The noise-free temperature of a temperature quantity, °C.
+    /// The noise-free temperature of a state's quantity (or the field winding's), °C.
     fn true_temperature(&mut self, quantity: Quantity, t_rel_ns: u64) -> f64 {
         let x = self.state_at(t_rel_ns);
-        let th0 = self.o.initial_temperatures_c;
         let base = self.o.nameplate.temperature_base_k;
-        let j = match quantity {
-            Quantity::StatorWindingTemp => 0,
-            Quantity::CoreTemp => 1,
-            Quantity::CoolingWaterOutletTemp => 2,
-            _ => {
-                // The field winding temperature, from the stator winding's.
-                let cu = th0[0] + base * x[0];
-                return th0[0] + self.traj.field_scale * (cu - th0[0]);
-            }
-        };
-        th0[j] + base * x[j]
+        match self.o.machine.states().iter().position(|&q| q == quantity) {
+            Some(j) => self.traj.temperature(&x, j, base),
+            None => self.traj.field_temperature(&x, base),
+        }
     }
 
     /// A temperature at the transducer's resolution.
@@ -671,43 +666,6 @@ impl<'a> SampleSource<'a> {
     }
 }
 
-/// The truth beside the recording.
-fn truth_of(
-    o: &SynthOptions,
-    traj: &Trajectory,
-    continuous: &ContinuousModel,
-    spectrum: Spectrum,
-) -> Result<Truth> {
-    let steps = traj.inputs.len();
-    let base = o.nameplate.temperature_base_k;
-    let th0 = o.initial_temperatures_c;
-    let last_u = traj.inputs[steps - 1].clone();
-    let ss = continuous.steady_state(last_u.as_slice())?;
-    Ok(Truth {
-        phi: rows(&o.truth.phi),
-        gamma: rows(&o.truth.gamma),
-        a_c: rows(&continuous.a_c),
-        b_c: rows(&continuous.b_c),
-        sample_time_s: o.truth.ts_s,
-        time_constants_s: spectrum.time_constants_s,
-        final_input_pu: last_u.iter().copied().collect(),
-        steady_state_rise_k: ss.iter().map(|v| v * base).collect(),
-        initial_temperatures_c: th0.to_vec(),
-        final_temperatures_c: (0..3)
-            .map(|j| th0[j] + base * traj.states[steps][j])
-            .collect(),
-        profile: o.profile.clone(),
-        seed: o.seed,
-    })
-}
-
-/// Where the truth of a synthetic recording is written: `<OUT>.truth.json`.
-pub fn truth_path(out: &Path) -> std::path::PathBuf {
-    let mut s = out.as_os_str().to_owned();
-    s.push(".truth.json");
-    s.into()
-}
-
 /// A value rounded to 12 significant digits: exact to 1e-12 relative, and written
 /// (shortest form that reads back) without trailing noise.
 fn round_to_12_digits(v: f64) -> f64 {
@@ -715,87 +673,4 @@ fn round_to_12_digits(v: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Reads a recording's messages: (topic, log time, JSON text).
-    fn messages(path: &Path) -> Vec<(String, u64, String)> {
-        let bytes = std::fs::read(path).unwrap();
-        mcap::MessageStream::new(&bytes)
-            .unwrap()
-            .map(|m| {
-                let m = m.unwrap();
-                let text = String::from_utf8(m.data.to_vec()).unwrap();
-                (m.channel.topic.clone(), m.log_time, text)
-            })
-            .collect()
-    }
-
-    #[test]
-    fn storage_by_exception_keeps_a_subset_that_obeys_deadband_and_heartbeat() {
-        let dir = std::env::temp_dir().join(format!("heatrun-synth-exc-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let base = SynthOptions {
-            duration_s: 3000.0,
-            ..SynthOptions::default().with_noise_level(1.0)
-        };
-        let exception = SynthOptions {
-            temperature_storage: Storage::Exception {
-                deadband: 0.1,
-                max_interval_s: Some(600.0),
-            },
-            ..base.clone()
-        };
-        write(&dir.join("all.mcap"), &base).unwrap();
-        write(&dir.join("exc.mcap"), &exception).unwrap();
-        let all = messages(&dir.join("all.mcap"));
-        let exc = messages(&dir.join("exc.mcap"));
-        std::fs::remove_dir_all(&dir).unwrap();
-
-        let value = |text: &str| -> f64 {
-            serde_json::from_str::<serde_json::Value>(text).unwrap()["value"]
-                .as_f64()
-                .unwrap()
-        };
-        let topic = "/scada/stator_winding_temp";
-        let full: Vec<(u64, f64)> = all
-            .iter()
-            .filter(|m| m.0 == topic)
-            .map(|m| (m.1, value(&m.2)))
-            .collect();
-        let kept: Vec<(u64, f64)> = exc
-            .iter()
-            .filter(|m| m.0 == topic)
-            .map(|m| (m.1, value(&m.2)))
-            .collect();
-        // The electrical channels are untouched.
-        let electrical = |ms: &[(String, u64, String)]| {
-            ms.iter()
-                .filter(|m| m.0 == "/scada/armature_current")
-                .count()
-        };
-        assert_eq!(electrical(&all), electrical(&exc));
-        assert!(
-            kept.len() < full.len() / 2,
-            "{} of {}",
-            kept.len(),
-            full.len()
-        );
-        // Each stored sample is the full run's sample at that time; every sample in
-        // between stayed within the deadband of the last stored one, inside the heartbeat.
-        let mut j = 0;
-        let mut last = full[0];
-        assert_eq!(kept[0], full[0]);
-        for &(t, v) in &full[1..] {
-            let stored = j + 1 < kept.len() && kept[j + 1].0 == t;
-            let due = (v - last.1).abs() > 0.1 || t - last.0 >= 600_000_000_000;
-            assert_eq!(stored, due, "at {t}: {v} after {last:?}");
-            if stored {
-                assert_eq!(kept[j + 1].1, v);
-                j += 1;
-                last = (t, v);
-            }
-        }
-        assert_eq!(j + 1, kept.len());
-    }
-}
+mod tests;
