@@ -46,6 +46,10 @@ use crate::network::{Interval, Labels, Network, NetworkIntervals, Parts, Scaling
 /// need a finite start, and the fit takes it from there.
 const START_FLOOR: f64 = 1e-2;
 
+/// How far (in natural logarithms) a parameter may move from its start: a factor of
+/// e^25 ≈ 7·10¹⁰, far beyond any physical correction, short of overflowing the model.
+const LOG_RANGE: f64 = 25.0;
+
 /// The grey-box network estimator.
 #[derive(Debug, Clone)]
 pub struct ResistanceCapacitance {
@@ -132,8 +136,11 @@ impl ResistanceCapacitance {
         let inner = Problem::new(data, segments, &start_model, &weights);
         let mut problem = RcProblem::new(inner, map, start);
         let mut evaluations = 0;
+        // Fewer evaluations than OE's 200·(p+1): a conductance or share that is zero in
+        // truth walks its logarithm towards −∞ with ever smaller gains, and the fit stops
+        // there rather than following it.
         let lm = LevenbergMarquardt::new()
-            .with_patience(200)
+            .with_patience(50)
             .with_ftol(1e-10)
             .with_xtol(1e-10)
             .with_gtol(1e-10);
@@ -694,6 +701,12 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
     fn set_params(&mut self, x: &DVector<f64>) {
         self.params.copy_from(x);
         let pp = self.map.len();
+        // Logarithms within e^±LOG_RANGE of the start: the exponentials stay finite.
+        for q in 0..pp {
+            let s = self.map.start[q];
+            self.params[q] = self.params[q].clamp(s - LOG_RANGE, s + LOG_RANGE);
+        }
+        let x = &self.params.clone();
         let p = &x.as_slice()[..pp];
         let theta = self.map.model(p).theta();
         let pt = self.inner.p_theta();
