@@ -214,7 +214,7 @@ fn run_scenario(
             if method == Method::Rc {
                 "the grey-box fit in C, G, K"
             } else {
-                "the identified model (reciprocity, energy conservation)"
+                "the identified model (reciprocity; the calorimetric scale, the runs record the flow)"
             }
         );
         println!(
