@@ -57,6 +57,9 @@ pub enum MethodArg {
     Iv,
     /// Output error: minimises the simulation error by Levenberg-Marquardt from IV.
     Oe,
+    /// Grey-box output error in the thermal network's C, G and K (passive by
+    /// construction, 95 % intervals on each), started from oe's network; heat inputs only.
+    Rc,
 }
 
 /// What the temperature rises are measured from.
@@ -378,6 +381,7 @@ mod tests {
             ("rls", MethodArg::Rls),
             ("iv", MethodArg::Iv),
             ("oe", MethodArg::Oe),
+            ("rc", MethodArg::Rc),
         ] {
             assert_eq!(replay(&["--method", name]).method, Some(method));
         }

@@ -13,8 +13,8 @@ use std::borrow::Cow;
 use crate::decimate::{DecimatedRecording, Decimator};
 use crate::error::{Error, Result};
 use crate::estimate::{
-    Estimate, Estimator, IdentificationData, InstrumentalVariables, OutputError,
-    RecursiveLeastSquares, WeightedLeastSquares,
+    Estimate, EstimationError, Estimator, IdentificationData, InstrumentalVariables, OutputError,
+    RecursiveLeastSquares, ResistanceCapacitance, WeightedLeastSquares,
 };
 use crate::model::{self, ModelAnalysis};
 use crate::network::{self, NetworkAnalysis};
@@ -39,6 +39,9 @@ pub enum Method {
     Iv,
     /// Output error by Levenberg–Marquardt from the IV estimate (the default).
     Oe,
+    /// Grey-box output error in the thermal network's own parameters (C, G, K), passive
+    /// by construction, from the OE estimate's network.
+    Rc,
 }
 
 impl Method {
@@ -50,10 +53,12 @@ impl Method {
             Method::Rls => "rls",
             Method::Iv => "iv",
             Method::Oe => "oe",
+            Method::Rc => "rc",
         }
     }
 
-    /// Every method, for benchmarks and tests.
+    /// Every method that identifies Φ and Γ freely (black box), for benchmarks and tests;
+    /// `rc` fits a network and has its own benchmark (`benches/network.rs`).
     pub const ALL: [Method; 5] = [Method::Ls, Method::Wls, Method::Rls, Method::Iv, Method::Oe];
 }
 
@@ -117,6 +122,37 @@ impl Default for ReplayOptions {
     }
 }
 
+/// Another estimate's figures, set beside the replay's own (rc beside oe).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Beside {
+    /// Its method.
+    pub method: String,
+    /// Its time constants, ascending, s.
+    pub time_constants_s: Vec<f64>,
+    /// Its fit on the estimation range.
+    pub fit: crate::model::Fit,
+}
+
+impl Beside {
+    /// The figures of `model` on `data`'s `range`, where it has real time constants.
+    fn of(
+        method: &str,
+        model: &crate::estimate::DiscreteModel,
+        data: &IdentificationData,
+        range: Range<usize>,
+        temperature_base_k: f64,
+    ) -> Option<Beside> {
+        let spectrum = model::Spectrum::of(model).ok()?;
+        let data = data.slice(range);
+        let sim = model::fit::simulate(model, &data, &data.segments());
+        Some(Beside {
+            method: method.into(),
+            time_constants_s: spectrum.time_constants_s,
+            fit: model::fit::fit(&data, &sim, temperature_base_k),
+        })
+    }
+}
+
 /// Everything a replay produced, stage by stage.
 #[derive(Debug, Clone)]
 pub struct Replay {
@@ -146,6 +182,9 @@ pub struct Replay {
     pub analysis: ModelAnalysis,
     /// The physical network, calorimetric balance and equilibrium checks.
     pub network: NetworkAnalysis,
+    /// For `rc`: the output-error model it started from, fitted on the same instants, to
+    /// set beside it.
+    pub output_error_beside: Option<Beside>,
     /// Warnings for the user (data loss, gaps).
     pub warnings: Vec<String>,
 }
@@ -318,7 +357,11 @@ pub fn replay_with(
         } else {
             Cow::Owned(prepared.data.slice(estimation_range.clone()))
         };
-        estimate(&estimation_data, options).map_err(in_file)?
+        let scaling = network::Scaling {
+            theta_base_k: prepared.signals.temperature_base_k,
+            p_base_w: prepared.signals.power_base,
+        };
+        estimate_in(&estimation_data, options, scaling).map_err(in_file)?
     };
     let (_, steady_input) = prepared.signals.last_inputs().ok_or_else(|| {
         in_file(Error::NoCommonInstant {
@@ -334,8 +377,19 @@ pub fn replay_with(
     )
     .map_err(|e| in_file(e.into()))?;
     let validation = validate(&prepared, &estimate, &estimation_range, options)?;
+    let grey_box = estimate.network.as_deref();
+    let output_error_beside = grey_box.and_then(|n| {
+        Beside::of(
+            &n.output_error.method,
+            &n.output_error.model,
+            &prepared.data,
+            estimation_range.clone(),
+            prepared.signals.temperature_base_k,
+        )
+    });
     let network = network::stage::analyse(
         &prepared.model,
+        grey_box,
         &analysis.continuous,
         &analysis.spectrum.time_constants_s,
         &prepared.signals,
@@ -355,6 +409,7 @@ pub fn replay_with(
         estimate,
         analysis,
         network,
+        output_error_beside,
         warnings,
     })
 }
@@ -433,8 +488,20 @@ fn validate(
     })
 }
 
-/// Runs the chosen estimator on the data.
+/// Runs the chosen estimator on the data; `rc`'s network is then in the data's own units
+/// (states in K, inputs in W): [`estimate_in`] gives it the model's scaling.
 pub fn estimate(data: &IdentificationData, options: &ReplayOptions) -> Result<Estimate> {
+    estimate_in(data, options, network::Scaling::PHYSICAL)
+}
+
+/// Runs the chosen estimator on data in `scaling` (x = θ/θ_base, u = P/P_base), which
+/// `rc` needs to put its network in J/K and W/K. `rc` refuses a model with an input that
+/// is not heat: a thermal network has no place for it.
+pub fn estimate_in(
+    data: &IdentificationData,
+    options: &ReplayOptions,
+    scaling: network::Scaling,
+) -> Result<Estimate> {
     if let Some(w) = &options.weights {
         if w.len() != data.states() || w.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
             return Err(Error::Weights {
@@ -458,6 +525,23 @@ pub fn estimate(data: &IdentificationData, options: &ReplayOptions) -> Result<Es
         Method::Oe => Box::new(OutputError {
             weights: options.weights.clone(),
         }),
+        Method::Rc => {
+            if let Some(input) = options
+                .model
+                .inputs
+                .iter()
+                .find(|i| i.kind != crate::spec::InputKind::Heat)
+            {
+                return Err(EstimationError::InputNotHeat {
+                    input: input.name.clone(),
+                }
+                .into());
+            }
+            Box::new(ResistanceCapacitance {
+                weights: options.weights.clone(),
+                scaling,
+            })
+        }
     };
     Ok(estimator.estimate(data)?)
 }

@@ -318,8 +318,22 @@ pub struct Report {
     pub calorimetry: Option<crate::network::Calorimetry>,
     /// Whether the recording reached thermal equilibrium (IEC 60034-1; five time constants).
     pub equilibrium: crate::network::equilibrium::Equilibrium,
+    /// For `rc`: the black-box output-error model it started from, on the same instants.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub output_error_beside: Option<BesideEntry>,
     /// Warnings.
     pub warnings: Vec<String>,
+}
+
+/// Another method's figures beside the report's own (`rc` beside `oe`).
+#[derive(Debug, Clone, Serialize)]
+pub struct BesideEntry {
+    /// Its method.
+    pub method: String,
+    /// Its time constants, ascending, s.
+    pub time_constants_s: Vec<f64>,
+    /// Its fit on the estimation instants.
+    pub fit: FitEntry,
 }
 
 /// The report's `network` block: the network, or why the model has none.
@@ -510,6 +524,11 @@ impl Report {
             },
             calorimetry: r.network.calorimetry.clone(),
             equilibrium: r.network.equilibrium.clone(),
+            output_error_beside: r.output_error_beside.as_ref().map(|b| BesideEntry {
+                method: b.method.clone(),
+                time_constants_s: b.time_constants_s.clone(),
+                fit: FitEntry::from(&b.fit),
+            }),
             warnings: r.warnings.clone(),
         }
     }
@@ -660,6 +679,17 @@ impl Report {
         row(s, "  NRMSE fit, %", &self.fit.nrmse_fit_percent, 2);
         row(s, "  RMSE, K", &self.fit.rmse_k, 3);
         row(s, "  largest error, K", &self.fit.max_abs_error_k, 3);
+        if let Some(b) = &self.output_error_beside {
+            let _ = writeln!(
+                s,
+                "beside it, {} (black box, the start of {}): time constants [{}] s",
+                b.method,
+                self.method,
+                join(&b.time_constants_s, |v| format!("{v:.2}"))
+            );
+            row(s, "  NRMSE fit, %", &b.fit.nrmse_fit_percent, 2);
+            row(s, "  RMSE, K", &b.fit.rmse_k, 3);
+        }
     }
 
     fn summary_steady_state(&self, s: &mut String) {
@@ -728,6 +758,9 @@ impl Report {
                     }
                 };
                 let _ = writeln!(s, "thermal network (Fig. 9), scale from {scale}:");
+                if let Some(note) = &n.scale_note {
+                    let _ = writeln!(s, "  ({note})");
+                }
                 let labels = self.state_labels();
                 row(
                     s,
@@ -735,15 +768,30 @@ impl Report {
                     &scaled(&n.capacitance_j_per_k, 1e-6),
                     3,
                 );
+                if let Some(iv) = &n.intervals_95 {
+                    interval_row(s, "    95 % interval", &iv.capacitance_j_per_k, 1e-6);
+                }
                 let to_coolant: Vec<f64> = (0..labels.len())
                     .map(|i| n.conductance_w_per_k[i][i] * 1e-3)
                     .collect();
                 row(s, "  conductance to coolant G_i0, kW/K", &to_coolant, 3);
+                let iv = n.intervals_95.as_ref();
+                if let Some(iv) = iv {
+                    let diagonal: Vec<_> = (0..labels.len())
+                        .map(|i| iv.conductance_w_per_k[i][i])
+                        .collect();
+                    interval_row(s, "    95 % interval", &diagonal, 1e-3);
+                }
                 for (i, a) in labels.iter().enumerate() {
                     for (j, b) in labels.iter().enumerate().skip(i + 1) {
+                        let ci = iv
+                            .map(|iv| {
+                                format!(" ({})", interval(iv.conductance_w_per_k[i][j], 1e-3, 3))
+                            })
+                            .unwrap_or_default();
                         let _ = writeln!(
                             s,
-                            "  G between {a} and {b}: {:.3} kW/K",
+                            "  G between {a} and {b}: {:.3} kW/K{ci}",
                             n.conductance_w_per_k[i][j] * 1e-3
                         );
                     }
@@ -751,6 +799,10 @@ impl Report {
                 for (j, input) in n.inputs.iter().enumerate() {
                     let k: Vec<f64> = n.loss_distribution.iter().map(|r| r[j]).collect();
                     row(s, &format!("  share of {input}"), &k, 3);
+                    if let Some(iv) = iv {
+                        let column: Vec<_> = iv.loss_distribution.iter().map(|r| r[j]).collect();
+                        interval_row(s, "    95 % interval", &column, 1.0);
+                    }
                 }
                 if let Some(alt) = &n.alternative_scale {
                     let _ = writeln!(
@@ -822,6 +874,23 @@ impl Report {
             row(s, "  largest error, K", &v.fit.max_abs_error_k, 3);
         }
     }
+}
+
+/// "low–high" of an interval times `factor`, or "unbounded".
+fn interval(i: Option<crate::network::Interval>, factor: f64, digits: usize) -> String {
+    match i {
+        Some(i) => format!("{:.digits$}–{:.digits$}", i.low * factor, i.high * factor),
+        None => "unbounded".into(),
+    }
+}
+
+/// A row of intervals in the columns of [`row`].
+fn interval_row(s: &mut String, label: &str, v: &[Option<crate::network::Interval>], factor: f64) {
+    let cells: String = v
+        .iter()
+        .map(|i| format!("{:>16}", interval(*i, factor, 3)))
+        .collect();
+    let _ = writeln!(s, "{label:<37}{cells}");
 }
 
 fn scaled(v: &[f64], factor: f64) -> Vec<f64> {

@@ -20,10 +20,21 @@ fn the_json_summary_is_the_report_alone_on_stdout() {
     )
     .unwrap();
     let out = common::heatrun(
-        &["replay", "run.mcap", "--rrd", "run.rrd", "--summary", "json"],
+        &[
+            "replay",
+            "run.mcap",
+            "--rrd",
+            "run.rrd",
+            "--summary",
+            "json",
+        ],
         dir.path(),
     );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     // The whole of stdout is one JSON document: no summary table, no "replayed in".
     let report: Value = serde_json::from_slice(&out.stdout).expect("stdout is JSON");
     ReportSchema::load().check(&report).unwrap();
@@ -43,7 +54,10 @@ fn completions_and_the_man_page_name_every_command() {
     let man = common::heatrun(&["man", "--out", "heatrun.1"], dir.path());
     assert!(man.status.success());
     let page = std::fs::read_to_string(dir.path().join("heatrun.1")).unwrap();
-    assert!(page.starts_with(".ie") && page.contains(".SH NAME"), "{page:.200}");
+    assert!(
+        page.starts_with(".ie") && page.contains(".SH NAME"),
+        "{page:.200}"
+    );
     assert!(page.contains("replay"));
     let bad = common::heatrun(&["completions", "tcsh"], dir.path());
     assert_eq!(bad.status.code(), Some(2));

@@ -12,6 +12,7 @@
 //! | [`import`] | `heatrun import`: every table format, bad cells and rows, the fixture round trip |
 //! | [`datasets`] | measured data: the TCLab validation fit, as its example runs it |
 //! | [`field_state`] | `replay --field-state`: a four-node machine whose field winding is seen through U_f/I_f |
+//! | [`network_rc`] | a known RC machine's C, G and K from the identified model and from `--method rc` |
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
 //!
@@ -30,6 +31,7 @@ mod estimators;
 mod field_state;
 mod import;
 mod layouts;
+mod network_rc;
 mod outputs;
 mod paper;
 mod recovery;

@@ -37,6 +37,9 @@ pub fn for_error(err: &anyhow::Error) -> Option<String> {
             "give --split-at a time inside the recording, in seconds from its start".into()
         }
         Error::Weights { .. } => "give --weights one positive number per state".into(),
+        Error::Estimation(heatrun::estimate::EstimationError::InputNotHeat { .. }) => {
+            "identify it with --method oe (a black-box model takes any input)".into()
+        }
         Error::BadSpec { .. } => "the README's \"Any thermal system\" shows the spec's keys".into(),
         _ => return None,
     })

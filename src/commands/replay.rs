@@ -41,7 +41,7 @@ fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
         (Some(m), _) => m,
         (None, Some(name)) => MethodArg::from_str(name, true).map_err(|_| {
             anyhow::anyhow!(
-                "{}: method = \"{name}\" is not one of oe, iv, rls, wls, ls",
+                "{}: method = \"{name}\" is not one of oe, rc, iv, rls, wls, ls",
                 args.spec.as_deref().unwrap_or(Path::new("spec")).display()
             )
         })?,
@@ -56,6 +56,7 @@ fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
             MethodArg::Rls => Method::Rls,
             MethodArg::Iv => Method::Iv,
             MethodArg::Oe => Method::Oe,
+            MethodArg::Rc => Method::Rc,
         },
         weights: args.weights.clone(),
         forgetting: args.forgetting,

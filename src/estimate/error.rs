@@ -88,6 +88,18 @@ pub enum EstimationError {
         /// Columns wanted (states).
         columns: usize,
     },
+    /// The grey-box network fit cannot start.
+    #[error("rc: no thermal network to start from: {reason}")]
+    NoNetworkStart {
+        /// Why.
+        reason: String,
+    },
+    /// The grey-box network fit was asked for a model with an input that is not heat.
+    #[error("rc fits a thermal network, whose inputs are heat; the input '{input}' is not (kind = \"exogenous\")")]
+    InputNotHeat {
+        /// The input's name.
+        input: String,
+    },
     /// A weight that is negative, zero where it must be positive, or not finite.
     #[error("the weight {value} of state {} is not allowed (weights are finite, and positive per state)", state + 1)]
     InvalidWeight {

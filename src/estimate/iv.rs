@@ -216,6 +216,7 @@ impl InstrumentalVariables {
             iterations,
             output_offset: None,
             trajectory: None,
+            network: None,
         })
     }
 }

@@ -14,6 +14,7 @@ pub mod error;
 pub mod iv;
 pub mod oe;
 pub mod qr;
+pub mod rc;
 pub mod rls;
 #[cfg(test)]
 pub(crate) mod testing;
@@ -24,6 +25,7 @@ pub use discrete::DiscreteModel;
 pub use error::EstimationError;
 pub use iv::InstrumentalVariables;
 pub use oe::OutputError;
+pub use rc::{NetworkEstimate, ResistanceCapacitance};
 pub use rls::{RecursiveLeastSquares, TrajectoryPoint};
 pub use wls::WeightedLeastSquares;
 
@@ -35,7 +37,7 @@ pub type Result<T, E = EstimationError> = std::result::Result<T, E>;
 pub struct Estimate {
     /// The model.
     pub model: DiscreteModel,
-    /// The method's name (`ls`, `wls`, `rls`, `iv`, `oe`), set by the estimator.
+    /// The method's name (`ls`, `wls`, `rls`, `iv`, `oe`, `rc`), set by the estimator.
     pub method: String,
     /// Number of equations used: regression rows, or for output error the instants after
     /// each segment's start where some output is compared.
@@ -56,6 +58,9 @@ pub struct Estimate {
     /// Θ along the way, for methods that move through the data (recursive least squares).
     #[serde(skip)]
     pub trajectory: Option<Vec<TrajectoryPoint>>,
+    /// The thermal network itself, for the method that estimates it (`rc`).
+    #[serde(skip)]
+    pub network: Option<Box<NetworkEstimate>>,
 }
 
 /// An identification method.

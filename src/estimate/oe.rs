@@ -213,7 +213,7 @@ pub(crate) fn normalised_inverse(variances: &[f64]) -> Vec<f64> {
 }
 
 /// Mean squared simulation error per output over the observed entries of `segments`.
-fn simulation_error_variance(
+pub(crate) fn simulation_error_variance(
     data: &IdentificationData,
     segments: &[Range<usize>],
     model: &DiscreteModel,
@@ -256,7 +256,7 @@ fn simulation_score(
 
 /// Instants after each segment's start with some output observed: the equations the
 /// fit compares (without a mask, the usable regression rows).
-fn compared_instants(data: &IdentificationData, segments: &[Range<usize>]) -> usize {
+pub(crate) fn compared_instants(data: &IdentificationData, segments: &[Range<usize>]) -> usize {
     segments
         .iter()
         .flat_map(|s| s.start + 1..s.end)
@@ -267,7 +267,7 @@ fn compared_instants(data: &IdentificationData, segments: &[Range<usize>]) -> us
 /// The covariance σ² (JᵀJ)⁻¹ from the eigen-decomposition of the symmetrically scaled
 /// JᵀJ (directions below 1e-14 of the largest eigenvalue left out), and the condition
 /// number of the scaled J.
-fn covariance_from_gram(gram: &DMatrix<f64>, sigma2: f64) -> (DMatrix<f64>, f64) {
+pub(crate) fn covariance_from_gram(gram: &DMatrix<f64>, sigma2: f64) -> (DMatrix<f64>, f64) {
     let p_all = gram.nrows();
     let scale: Vec<f64> = (0..p_all)
         .map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt())
@@ -350,29 +350,30 @@ fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usiz
         iterations: evaluations,
         output_offset: None,
         trajectory: None,
+        network: None,
     }
 }
 
 /// The least-squares problem LM sees: parameters [Θ; x0 of each segment].
-struct Problem<'a> {
+pub(crate) struct Problem<'a> {
     data: &'a IdentificationData,
     segments: Vec<Range<usize>>,
-    estimate_x0: bool,
+    pub(crate) estimate_x0: bool,
     /// Each segment's start state when it is not estimated.
     fixed_x0: Vec<DVector<f64>>,
     /// Observed entries per output over the segments.
-    counts: Vec<usize>,
-    sqrt_w: Vec<f64>,
+    pub(crate) counts: Vec<usize>,
+    pub(crate) sqrt_w: Vec<f64>,
     /// A factor on each entry's weight (N × n), where entries count unequally.
     entry_weight: Option<DMatrix<f64>>,
-    n: usize,
+    pub(crate) n: usize,
     m: usize,
-    params: DVector<f64>,
+    pub(crate) params: DVector<f64>,
     cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
 }
 
 impl<'a> Problem<'a> {
-    fn new(
+    pub(crate) fn new(
         data: &'a IdentificationData,
         segments: Vec<Range<usize>>,
         start: &DiscreteModel,
@@ -412,11 +413,11 @@ impl<'a> Problem<'a> {
         }
     }
 
-    fn p_theta(&self) -> usize {
+    pub(crate) fn p_theta(&self) -> usize {
         self.n * (self.n + self.m)
     }
 
-    fn model(&self) -> DiscreteModel {
+    pub(crate) fn model(&self) -> DiscreteModel {
         DiscreteModel::from_theta(
             self.n,
             self.m,
@@ -435,14 +436,14 @@ impl<'a> Problem<'a> {
     }
 
     /// ŷ(start) of each segment at the current parameters.
-    fn initial_states(&self) -> Vec<DVector<f64>> {
+    pub(crate) fn initial_states(&self) -> Vec<DVector<f64>> {
         (0..self.segments.len())
             .map(|s| DVector::from_column_slice(self.x0(s)))
             .collect()
     }
 
     /// √w_i from 1/σ_i² of the current residuals (normalised to mean 1).
-    fn residual_weights(&self) -> Vec<f64> {
+    pub(crate) fn residual_weights(&self) -> Vec<f64> {
         let sse = self.evaluate_sse();
         let variances: Vec<f64> = (0..self.n)
             .map(|c| (sse[c] / self.sqrt_w[c].powi(2) / self.counts[c].max(1) as f64).max(1e-30))
@@ -459,7 +460,7 @@ impl<'a> Problem<'a> {
     }
 
     /// The weighted squared error per output and the normal equations JᵀJ, Jᵀr.
-    fn evaluate_full(&self) -> Evaluation {
+    pub(crate) fn evaluate_full(&self) -> Evaluation {
         let cols = self.params.len();
         let mut gram = DMatrix::<f64>::zeros(cols, cols);
         let mut grad = DVector::<f64>::zeros(cols);
@@ -661,20 +662,20 @@ impl Propagation {
 
 /// The result of one pass over the data.
 #[derive(Debug, Clone)]
-struct Evaluation {
+pub(crate) struct Evaluation {
     /// Σ_k (√w_c (y_c − ŷ_c))² per output, over the observed entries.
-    sse: Vec<f64>,
+    pub(crate) sse: Vec<f64>,
     /// JᵀJ of the weighted residuals.
-    gram: DMatrix<f64>,
+    pub(crate) gram: DMatrix<f64>,
     /// Jᵀr of the weighted residuals.
-    grad: DVector<f64>,
+    pub(crate) grad: DVector<f64>,
 }
 
 impl Evaluation {
     /// The least-squares problem in square-root form: R with RᵀR = JᵀJ, and the reduced
     /// residual [R⁻ᵀJᵀr; √(‖r‖² − ‖R⁻ᵀJᵀr‖²)], whose norm is ‖r‖. Levenberg–Marquardt
     /// sees the same JᵀJ, Jᵀr and objective as with the full Jacobian, at p + 1 rows.
-    fn square_root_form(&self) -> Option<(DVector<f64>, DMatrix<f64>)> {
+    pub(crate) fn square_root_form(&self) -> Option<(DVector<f64>, DMatrix<f64>)> {
         let (gram, grad) = (&self.gram, &self.grad);
         let p = gram.nrows();
         // Symmetric scaling keeps the factorisation accurate; a whisper of ridge keeps it

@@ -134,6 +134,7 @@ impl Estimator for RecursiveLeastSquares {
             iterations: rows.len(),
             output_offset: None,
             trajectory: Some(trajectory),
+            network: None,
         })
     }
 }

@@ -80,6 +80,7 @@ impl Estimator for WeightedLeastSquares {
             iterations: 0,
             output_offset: None,
             trajectory: None,
+            network: None,
         })
     }
 }

@@ -99,6 +99,7 @@ mod tests {
             iterations: 0,
             output_offset: None,
             trajectory: None,
+            network: None,
         };
         let got = propagate(&estimate, &[u]).unwrap();
         let dt_da = ts / (a * a.ln().powi(2));
@@ -135,6 +136,7 @@ mod tests {
             iterations: 0,
             output_offset: None,
             trajectory: None,
+            network: None,
         };
         assert!(propagate(&estimate, &[1.0]).is_none());
     }

@@ -26,6 +26,7 @@
 
 pub mod calorimetry;
 pub mod equilibrium;
+pub mod example;
 mod passivity;
 mod reciprocity;
 pub mod stage;
@@ -240,6 +241,36 @@ pub struct Network {
     pub alternative_scale: Option<AlternativeScale>,
     /// How far the identified model is from this network.
     pub passivity: Passivity,
+    /// 95 % intervals of C, G and K, where the network's parameters were estimated
+    /// themselves (`--method rc`); absent for a network derived from an identified model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub intervals_95: Option<NetworkIntervals>,
+}
+
+/// A 95 % interval of one network parameter, with its standard error (delta method).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Interval {
+    /// Lower end.
+    pub low: f64,
+    /// Upper end.
+    pub high: f64,
+    /// Standard error (first order).
+    pub standard_error: f64,
+}
+
+/// 95 % intervals of every C, G and k_ij of a network estimated in its own parameters,
+/// laid out as the network's tables; `None` (null) where the fit does not bound the
+/// entry (an interval that does not fit in a number).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetworkIntervals {
+    /// How the intervals were made.
+    pub method: String,
+    /// Of C_i, J/K.
+    pub capacitance_j_per_k: Vec<Option<Interval>>,
+    /// Of G_ij (off the diagonal) and G_i0 (on it), W/K.
+    pub conductance_w_per_k: Vec<Vec<Option<Interval>>>,
+    /// Of k_ij.
+    pub loss_distribution: Vec<Vec<Option<Interval>>>,
 }
 
 /// C, G and K given directly (e.g. a synthetic machine or a grey-box estimate).
@@ -500,6 +531,7 @@ impl Network {
             scale_note: None,
             alternative_scale: None,
             passivity: Passivity::default(),
+            intervals_95: None,
         }
     }
 }

@@ -2,15 +2,17 @@
 //! network (Fig. 9), the calorimetric balance (eqs. 17-18) where the flow is recorded, and
 //! whether the recording reached thermal equilibrium.
 //!
-//! Input: the [`ModelDescription`], the [`ContinuousModel`] with its time constants, the
-//! [`ModelSignals`] and the [`DecimatedRecording`]. Output: [`NetworkAnalysis`].
+//! Input: the [`ModelDescription`], the network estimated directly where the method did
+//! (`rc`), the [`ContinuousModel`] with its time constants, the [`ModelSignals`] and the
+//! [`DecimatedRecording`]. Output: [`NetworkAnalysis`].
 
 use serde::Serialize;
 
 use super::calorimetry::{self, CoolantHeat, EndOfRun, Water, WaterModel};
 use super::equilibrium::{self, Equilibrium};
-use super::{CoolantLink, Labels, Network, Scaling};
+use super::{AlternativeScale, CoolantLink, Labels, Network, ScaleSource, Scaling};
 use crate::decimate::DecimatedRecording;
+use crate::estimate::NetworkEstimate;
 use crate::model::ContinuousModel;
 use crate::recording::{Quantity, Signal};
 use crate::signals::ModelSignals;
@@ -52,16 +54,21 @@ pub struct NetworkAnalysis {
     pub equilibrium: Equilibrium,
 }
 
-/// The network stage (see the module's documentation).
+/// The network stage (see the module's documentation): the network of the identified
+/// model, or where `grey_box` is given (`rc`), the network it estimated.
 pub fn analyse(
     model: &ModelDescription,
+    grey_box: Option<&NetworkEstimate>,
     continuous: &ContinuousModel,
     time_constants_s: &[f64],
     signals: &ModelSignals,
     decimated: &DecimatedRecording,
 ) -> NetworkAnalysis {
     let calorimetry = calorimetry(model, signals, decimated);
-    let network = network(model, continuous, signals, calorimetry.as_ref());
+    let network = match grey_box {
+        Some(estimate) => estimated_network(model, estimate, calorimetry.as_ref()),
+        None => network(model, continuous, signals, calorimetry.as_ref()),
+    };
     NetworkAnalysis {
         network,
         calorimetry,
@@ -95,14 +102,7 @@ fn network(
             i.name
         ));
     }
-    let outlet = Signal::Profile(Quantity::CoolingWaterOutletTemp);
-    let coolant = calorimetry.and_then(|c| {
-        let state = model.states.iter().position(|s| s.channel == outlet)?;
-        Some(CoolantLink {
-            state,
-            conductance_w_per_k: c.heat_per_litre_j_per_k * c.mean_flow_l_per_s,
-        })
-    });
+    let coolant = coolant_link(model, calorimetry);
     let scaling = Scaling {
         theta_base_k: signals.temperature_base_k,
         p_base_w: signals.power_base,
@@ -117,6 +117,55 @@ fn network(
     labels.inputs = heat.iter().map(|&j| labels.inputs[j].clone()).collect();
     Network::from_continuous(&continuous.a_c, &b_heat, scaling, coolant, &labels)
         .map_err(|e| e.to_string())
+}
+
+/// The outlet's conductance to the coolant, c·ρ·Q, where the outlet water is a state and
+/// the flow is recorded.
+fn coolant_link(
+    model: &ModelDescription,
+    calorimetry: Option<&Calorimetry>,
+) -> Option<CoolantLink> {
+    let outlet = Signal::Profile(Quantity::CoolingWaterOutletTemp);
+    calorimetry.and_then(|c| {
+        let state = model.states.iter().position(|s| s.channel == outlet)?;
+        Some(CoolantLink {
+            state,
+            conductance_w_per_k: c.heat_per_litre_j_per_k * c.mean_flow_l_per_s,
+        })
+    })
+}
+
+/// The network `rc` estimated, scaled by energy conservation (its K's columns sum to 1
+/// by construction), with the calorimetric scale beside it where the flow is recorded:
+/// c·ρ·Q over the estimated G_out,0.
+fn estimated_network(
+    model: &ModelDescription,
+    estimate: &NetworkEstimate,
+    calorimetry: Option<&Calorimetry>,
+) -> Result<Network, String> {
+    let mut network = Network::from_parts(
+        &estimate.parts,
+        estimate.scaling,
+        ScaleSource::EnergyConservation,
+        &labels(model),
+    )
+    .map_err(|e| e.to_string())?;
+    network.scale_note =
+        Some("estimated in C, G and K (--method rc) with each column of K summing to 1".into());
+    if let Some(link) = coolant_link(model, calorimetry) {
+        let ratio = link.conductance_w_per_k / network.conductance_w_per_k[link.state][link.state];
+        network.alternative_scale = Some(AlternativeScale {
+            scale_from: ScaleSource::Calorimetric,
+            capacitance_j_per_k: network
+                .capacitance_j_per_k
+                .iter()
+                .map(|c| c * ratio)
+                .collect(),
+            ratio_to_chosen: ratio,
+        });
+    }
+    network.intervals_95 = Some(estimate.intervals.clone());
+    Ok(network)
 }
 
 /// The balance of eqs. 17-18 where `cooling_water_flow` is recorded (the generator's
@@ -181,9 +230,11 @@ fn losses_at_end(signals: &ModelSignals) -> Option<f64> {
         .rev()
         .take(take)
         .filter_map(|k| {
+            // The losses: the heat inputs (a coolant inlet's rise is no loss).
             signals
                 .inputs
                 .iter()
+                .filter(|i| i.kind == crate::spec::InputKind::Heat)
                 .map(|i| i.values.get(k))
                 .sum::<Option<f64>>()
         })

@@ -1,0 +1,252 @@
+//! The thermal network of a known machine from synthetic heat runs, over seeds.
+//!
+//! `cargo bench --bench network` writes heat runs of [`generator_like`] (not the paper's
+//! model) at PT100-like noise (σ = 0.05 K, 0.01 K resolution, 0.05 % on the electrical
+//! channels; `SynthOptions::with_noise_level(1.0)`), the paper's 20,868 s heat-run profile
+//! at 1 Hz, and replays each with `oe` (the network of the identified model) and `rc`
+//! (the network estimated in C, G and K). It prints, per method, a table of every C, G and
+//! k_ij: the truth, the median over the seeds, the median and the worst error (relative
+//! for C and G, absolute for k_ij), then how many seeds met the acceptance bar (every C
+//! and G within 10 %, every k_ij within 0.05) and the median time of a replay.
+
+use std::time::Instant;
+
+use heatrun::estimate::DiscreteModel;
+use heatrun::model::matrix::discretize;
+use heatrun::network::example::{generator_like, rich_heat_run};
+use heatrun::network::{Labels, Network, Parts, ScaleSource, Scaling};
+use heatrun::pipeline::{replay, Method, ReplayOptions};
+use heatrun::recording::Nameplate;
+use heatrun::synth::{self, SynthOptions};
+
+/// One parameter: its name, unit factor for printing, truth, and whether its error is
+/// relative.
+struct Row {
+    name: String,
+    unit: &'static str,
+    factor: f64,
+    truth: f64,
+    relative: bool,
+    found: Vec<f64>,
+}
+
+fn rows(parts: &Parts, labels: &Labels) -> Vec<Row> {
+    let short = |s: &str| s.split_whitespace().last().unwrap_or(s).to_owned();
+    let mut rows = Vec::new();
+    for (i, c) in parts.capacitance_j_per_k.iter().enumerate() {
+        rows.push(Row {
+            name: format!("C {}", labels.states[i]),
+            unit: "MJ/K",
+            factor: 1e-6,
+            truth: *c,
+            relative: true,
+            found: Vec::new(),
+        });
+    }
+    let n = labels.states.len();
+    for i in 0..n {
+        for j in i..n {
+            let name = if i == j {
+                format!("G {} to coolant", labels.states[i])
+            } else {
+                format!(
+                    "G {}–{}",
+                    short(&labels.states[i]),
+                    short(&labels.states[j])
+                )
+            };
+            rows.push(Row {
+                name,
+                unit: "kW/K",
+                factor: 1e-3,
+                truth: parts.conductance_w_per_k[(i, j)],
+                relative: true,
+                found: Vec::new(),
+            });
+        }
+    }
+    for j in 0..labels.inputs.len() {
+        for i in 0..n {
+            rows.push(Row {
+                name: format!("k {} → {}", labels.inputs[j], short(&labels.states[i])),
+                unit: "",
+                factor: 1.0,
+                truth: parts.loss_distribution[(i, j)],
+                relative: false,
+                found: Vec::new(),
+            });
+        }
+    }
+    rows
+}
+
+/// The network's values in the order of [`rows`].
+fn values(network: &Network) -> Vec<f64> {
+    let n = network.capacitance_j_per_k.len();
+    let mut v = network.capacitance_j_per_k.clone();
+    for i in 0..n {
+        for j in i..n {
+            v.push(network.conductance_w_per_k[i][j]);
+        }
+    }
+    for j in 0..network.inputs.len() {
+        for i in 0..n {
+            v.push(network.loss_distribution[i][j]);
+        }
+    }
+    v
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let k = v.len();
+    if k % 2 == 1 {
+        v[k / 2]
+    } else {
+        0.5 * (v[k / 2 - 1] + v[k / 2])
+    }
+}
+
+fn error(row: &Row, x: f64) -> f64 {
+    if row.relative {
+        (x - row.truth).abs() / row.truth
+    } else {
+        (x - row.truth).abs()
+    }
+}
+
+fn main() {
+    let (parts, labels) = generator_like();
+    println!(
+        "# the network of `generator_like` (benches/network.rs), 10 seeds each, PT100-like noise"
+    );
+    for (scenario, profile, duration_s) in [
+        (
+            "the default heat run (20,868 s, the paper's profile)",
+            synth::heat_run_with_load_steps(),
+            20868.0,
+        ),
+        (
+            "a heat run moving every loss (40,000 s, 32 points)",
+            rich_heat_run(),
+            40000.0,
+        ),
+    ] {
+        println!("\n# {scenario}");
+        run_scenario(&parts, &labels, profile, duration_s);
+    }
+}
+
+fn run_scenario(
+    parts: &Parts,
+    labels: &Labels,
+    profile: Vec<synth::OperatingPoint>,
+    duration_s: f64,
+) {
+    let seeds: Vec<u64> = (1..=10).collect();
+    let nameplate = Nameplate::paper_table1();
+    let scaling = Scaling {
+        theta_base_k: nameplate.temperature_base_k,
+        p_base_w: nameplate.rated_apparent_power_va,
+    };
+    let network = Network::from_parts(parts, scaling, ScaleSource::EnergyConservation, labels)
+        .expect("a valid network");
+    let (a, b) = network.to_continuous();
+    let (phi, gamma) = discretize(&a, &b, 1.0);
+    let truth = DiscreteModel {
+        phi,
+        gamma,
+        ts_s: 1.0,
+    };
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let paths: Vec<_> = seeds
+        .iter()
+        .map(|&seed| {
+            let path = dir.path().join(format!("rc-{seed}.mcap"));
+            synth::write(
+                &path,
+                &SynthOptions {
+                    machine: synth::Machine::from_model(truth.clone()),
+                    seed,
+                    profile: profile.clone(),
+                    duration_s,
+                    ..SynthOptions::default()
+                }
+                .with_noise_level(1.0),
+            )
+            .expect("synthetic heat run");
+            path
+        })
+        .collect();
+    for method in [Method::Oe, Method::Rc] {
+        let mut table = rows(parts, labels);
+        let mut met = 0;
+        let mut times = Vec::new();
+        for path in &paths {
+            let start = Instant::now();
+            let r = replay(
+                path,
+                &ReplayOptions {
+                    method,
+                    ..ReplayOptions::default()
+                },
+            )
+            .expect("replay");
+            times.push(start.elapsed().as_secs_f64());
+            let Ok(network) = r.network.network.as_ref() else {
+                println!("{}: no network on {}", method.name(), path.display());
+                continue;
+            };
+            let v = values(network);
+            let ok = table
+                .iter()
+                .zip(&v)
+                .all(|(row, x)| error(row, *x) <= if row.relative { 0.10 } else { 0.05 });
+            met += usize::from(ok);
+            for (row, x) in table.iter_mut().zip(v) {
+                row.found.push(x);
+            }
+        }
+        println!(
+            "\n## {} ({} seeds, PT100-like noise): the network of {}",
+            method.name(),
+            seeds.len(),
+            if method == Method::Rc {
+                "the grey-box fit in C, G, K"
+            } else {
+                "the identified model (reciprocity; the calorimetric scale, the runs record the flow)"
+            }
+        );
+        println!(
+            "| parameter | unit | truth | median | median error | worst error |\n|---|---|---|---|---|---|"
+        );
+        for row in &table {
+            let mut errs: Vec<f64> = row.found.iter().map(|x| error(row, *x)).collect();
+            let worst = errs.iter().copied().fold(0.0, f64::max);
+            let med_err = median(&mut errs);
+            let mut found = row.found.clone();
+            let med = median(&mut found);
+            let e = |x: f64| {
+                if row.relative {
+                    format!("{:.1} %", 100.0 * x)
+                } else {
+                    format!("{x:.3}")
+                }
+            };
+            println!(
+                "| {} | {} | {:.3} | {:.3} | {} | {} |",
+                row.name,
+                row.unit,
+                row.truth * row.factor,
+                med * row.factor,
+                e(med_err),
+                e(worst)
+            );
+        }
+        println!(
+            "seeds meeting the bar (C, G within 10 %, k_ij within 0.05): {met} of {}; median replay {:.2} s",
+            seeds.len(),
+            median(&mut times)
+        );
+    }
+}

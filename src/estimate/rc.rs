@@ -1,0 +1,749 @@
+//! Grey-box output error in the thermal network's own parameters (`--method rc`).
+//!
+//! The model is the passive network of the paper's Fig. 9 (see [`crate::network`]),
+//!
+//! ```text
+//! C·dθ/dt = −L·θ + K·P,   A_c = −C⁻¹·L,   B_c = C⁻¹·K·P_base/θ_base,
+//! L_ij = −G_ij (i ≠ j),   L_ii = G_i0 + Σ_{j≠i} G_ij,
+//! ```
+//!
+//! parametrised so that every estimate is a physical network: p = [ln C_i; ln G_i0;
+//! ln G_ij (i < j); η], each loss column of K on the simplex by the additive log-ratio
+//! k_ij = e^{η_ij} / (1 + Σ_{l≠r_j} e^{η_lj}) with k_{r_j j} = 1 / (1 + Σ_l e^{η_lj})
+//! (r_j the part that takes the largest share of loss j at the start). The columns of K
+//! summing to 1 (energy conservation: every watt of loss enters a modelled part) is what
+//! fixes the absolute scale of C and G, which temperatures and losses alone leave open.
+//!
+//! Φ = e^{A_c·Ts} and Γ (zero-order hold) follow from p; the fit minimises the same
+//! simulation error as [`super::oe`], whose data pass gives the normal equations in
+//! Θ = [Φ Γ]. With D = ∂Θ/∂p (exact: the Fréchet derivative of the exponential of the
+//! block matrix [[A_c, B_c], [0, 0]]·Ts, from one exponential of a matrix twice its
+//! size) the Jacobian in p is J_Θ·D, so JᵀJ and Jᵀr in p are Dᵀ(J_ΘᵀJ_Θ)D and Dᵀ J_Θᵀr:
+//! one pass over the data per evaluation, as for OE. The start is the OE estimate's own
+//! network, projected onto the passive set; that OE estimate is kept for comparison.
+//!
+//! The covariance of p is σ²(JᵀJ)⁻¹ at the minimum; C and G get log-normal 95 %
+//! intervals (exp(ln C ± 1.96 σ)), k_ij the delta-method interval ± 1.96 σ clipped to
+//! [0, 1], and Θ the covariance D·cov(p)·Dᵀ that the model analysis propagates.
+//! A record stored by exception is fitted as its kept values (without OE's censoring).
+
+use std::cell::RefCell;
+
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+
+use super::oe::{self, Evaluation, OutputError, Problem};
+use super::{
+    check_enough_rows, DiscreteModel, Estimate, EstimationError, Estimator, IdentificationData,
+    Result,
+};
+use crate::model::uncertainty::Z95;
+use crate::model::ContinuousModel;
+use crate::network::{Interval, Labels, Network, NetworkIntervals, Parts, Scaling};
+
+/// Smallest share of a loss, and smallest conductance relative to the largest, that the
+/// start gives an entry the identified model makes zero or negative: the logarithms
+/// need a finite start, and the fit takes it from there.
+const START_FLOOR: f64 = 1e-2;
+
+/// How far (in natural logarithms) a parameter may move from its start: a factor of
+/// e^25 ≈ 7·10¹⁰, far beyond any physical correction, short of overflowing the model.
+const LOG_RANGE: f64 = 25.0;
+
+/// The grey-box network estimator.
+#[derive(Debug, Clone)]
+pub struct ResistanceCapacitance {
+    /// Per-output weights, as for [`OutputError::weights`].
+    pub weights: Option<Vec<f64>>,
+    /// The model's scaling (θ_base, P_base), which turns B_c·C into K.
+    pub scaling: Scaling,
+}
+
+/// What the grey-box fit found besides Φ and Γ: the network itself.
+#[derive(Debug, Clone)]
+pub struct NetworkEstimate {
+    /// C (J/K), G (W/K, G_i0 on the diagonal) and K at the minimum.
+    pub parts: Parts,
+    /// The scaling the network is in.
+    pub scaling: Scaling,
+    /// 95 % intervals of every C, G and k_ij.
+    pub intervals: NetworkIntervals,
+    /// Covariance of p = [ln C; ln G_i0; ln G_ij (i < j); η].
+    pub covariance: DMatrix<f64>,
+    /// The output-error estimate the fit started from (for comparison).
+    pub output_error: Box<Estimate>,
+}
+
+impl Estimator for ResistanceCapacitance {
+    fn name(&self) -> &'static str {
+        "rc"
+    }
+
+    fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
+        self.scaling_is_valid()?;
+        let oe = OutputError {
+            weights: self.weights.clone(),
+        }
+        .estimate(data)?;
+        let map = Parametrisation::new(data, self.scaling, &start_parts(&oe.model, self.scaling));
+        let start = map.start.clone();
+        let mut estimate = self.fit_from(data, map, &start)?;
+        if let Some(network) = estimate.network.as_mut() {
+            *network.output_error = oe;
+        }
+        Ok(estimate)
+    }
+}
+
+impl ResistanceCapacitance {
+    fn scaling_is_valid(&self) -> Result<()> {
+        let s = self.scaling;
+        let ok = |v: f64| v.is_finite() && v > 0.0;
+        if ok(s.theta_base_k) && ok(s.p_base_w) {
+            Ok(())
+        } else {
+            Err(EstimationError::NoNetworkStart {
+                reason: format!(
+                    "the scaling θ_base = {} K, P_base = {} W must be positive",
+                    s.theta_base_k, s.p_base_w
+                ),
+            })
+        }
+    }
+
+    /// Minimises the simulation error over the network parameters from `start` (laid out
+    /// as p); the estimate's `network` holds the parameters and their intervals, with the
+    /// start model as its `output_error` until [`Estimator::estimate`] puts OE's there.
+    fn fit_from(
+        &self,
+        data: &IdentificationData,
+        map: Parametrisation,
+        start: &[f64],
+    ) -> Result<Estimate> {
+        let segments = data.segments();
+        let rows_used = oe::compared_instants(data, &segments);
+        check_enough_rows(data, rows_used)?;
+        let start_model = map.model(start);
+        let weights = match &self.weights {
+            Some(w) => w.clone(),
+            None => oe::normalised_inverse(
+                &oe::simulation_error_variance(data, &segments, &start_model)
+                    .iter()
+                    .map(|v| v.max(1e-24))
+                    .collect::<Vec<_>>(),
+            ),
+        };
+        let inner = Problem::new(data, segments, &start_model, &weights);
+        let mut problem = RcProblem::new(inner, map, start);
+        let mut evaluations = 0;
+        // Fewer evaluations than OE's 200·(p+1): a conductance or share that is zero in
+        // truth walks its logarithm towards −∞ with ever smaller gains, and the fit stops
+        // there rather than following it.
+        let lm = LevenbergMarquardt::new()
+            .with_patience(50)
+            .with_ftol(1e-10)
+            .with_xtol(1e-10)
+            .with_gtol(1e-10);
+        for pass in 0..2 {
+            let before = problem.params.clone();
+            let (solved, report) = lm.minimize(problem);
+            problem = solved;
+            evaluations += report.number_of_evaluations;
+            // A step into parameters where the model cannot be evaluated (an exponential
+            // out of range) ends the minimiser there; the fit is the last good point.
+            let stopped_on_bad_point = matches!(report.termination, TerminationReason::User(_))
+                || problem.residuals().is_none();
+            if stopped_on_bad_point {
+                let best = problem.best.borrow().clone().map(|(_, p)| p);
+                match best {
+                    Some(p) => problem.set_params(&p),
+                    None if pass == 1 => problem.set_params(&before),
+                    None => {
+                        return Err(EstimationError::MinimisationFailed {
+                            termination: report.termination,
+                        })
+                    }
+                }
+                break;
+            }
+            if !report.objective_function.is_finite() {
+                return Err(EstimationError::MinimisationFailed {
+                    termination: report.termination,
+                });
+            }
+            if pass == 1 || self.weights.is_some() {
+                break;
+            }
+            // Second pass on 1/σ_i² of the first pass's residuals (the sensor noise).
+            let next = problem.inner.residual_weights();
+            let change = next
+                .iter()
+                .zip(&problem.inner.sqrt_w)
+                .map(|(a, b)| (a / b - 1.0).abs())
+                .fold(0.0, f64::max);
+            problem.inner.sqrt_w = next;
+            *problem.cache.borrow_mut() = None;
+            // Objectives under the old weights are not comparable with the new ones.
+            *problem.best.borrow_mut() = None;
+            if change < 0.05 {
+                break;
+            }
+        }
+        if !problem.inner.params.iter().all(|v| v.is_finite()) {
+            return Err(EstimationError::MinimisationFailed {
+                termination: TerminationReason::Numerical("a network the model cannot hold"),
+            });
+        }
+        Ok(problem.conclude(self.name(), rows_used, evaluations, start_model))
+    }
+}
+
+/// The start: the network of `model` (OE's), projected onto the passive set — conductances
+/// and shares floored at [`START_FLOOR`] (of the largest conductance; of 1), each column of
+/// K renormalised to 1. Where the model has no network, a rough one from its diagonal.
+fn start_parts(model: &DiscreteModel, scaling: Scaling) -> Parts {
+    let (n, m) = (model.phi.nrows(), model.gamma.ncols());
+    let continuous = ContinuousModel::from_discrete(model).ok();
+    let network = continuous.as_ref().and_then(|c| {
+        Network::from_continuous(&c.a_c, &c.b_c, scaling, None, &Labels::numbered(n, m)).ok()
+    });
+    let parts = match network {
+        Some(net) => Parts {
+            capacitance_j_per_k: net.capacitance_j_per_k.clone(),
+            conductance_w_per_k: DMatrix::from_fn(n, n, |i, j| net.conductance_w_per_k[i][j]),
+            loss_distribution: DMatrix::from_fn(n, m, |i, j| net.loss_distribution[i][j]),
+        },
+        None => rough_parts(continuous.as_ref(), model, scaling),
+    };
+    projected(parts)
+}
+
+/// A rough network where the identified model has none: rates from A_c's diagonal (or
+/// the sample time's 1000th part), shares from B_c's positive entries, equal capacitances
+/// scaled so that B_c's positive part is matched on average.
+fn rough_parts(
+    continuous: Option<&ContinuousModel>,
+    model: &DiscreteModel,
+    scaling: Scaling,
+) -> Parts {
+    let (n, m) = (model.phi.nrows(), model.gamma.ncols());
+    let w = scaling.p_base_w / scaling.theta_base_k;
+    let fallback_rate = 1e-3 / model.ts_s;
+    let (rates, b_plus): (Vec<f64>, DMatrix<f64>) = match continuous {
+        Some(c) => (
+            (0..n)
+                .map(|i| (-c.a_c[(i, i)]).max(fallback_rate))
+                .collect(),
+            c.b_c.map(|b| b.max(0.0)),
+        ),
+        None => (vec![fallback_rate; n], DMatrix::from_element(n, m, 1.0)),
+    };
+    let total_b = b_plus.sum().max(1e-300);
+    let c = w * m as f64 / total_b;
+    let loss_distribution = DMatrix::from_fn(n, m, |i, j| {
+        let col = b_plus.column(j).sum();
+        if col > 0.0 {
+            b_plus[(i, j)] / col
+        } else {
+            1.0 / n as f64
+        }
+    });
+    let conductance = DMatrix::from_fn(n, n, |i, j| {
+        if i == j {
+            0.5 * c * rates[i]
+        } else {
+            0.25 * c * rates[i].min(rates[j])
+        }
+    });
+    Parts {
+        capacitance_j_per_k: vec![c; n],
+        conductance_w_per_k: conductance,
+        loss_distribution,
+    }
+}
+
+/// Floors non-positive conductances and shares and renormalises K's columns.
+fn projected(mut parts: Parts) -> Parts {
+    let g_max = parts.conductance_w_per_k.amax().max(1e-300);
+    parts
+        .conductance_w_per_k
+        .apply(|g| *g = g.max(START_FLOOR * g_max));
+    let k = &mut parts.loss_distribution;
+    for mut column in k.column_iter_mut() {
+        column.apply(|v| *v = v.max(START_FLOOR));
+        let sum = column.sum();
+        column /= sum;
+    }
+    parts
+}
+
+/// The map p → (C, G, K) → (A_c, B_c) → Θ = [Φ Γ] and its Jacobian.
+#[derive(Debug, Clone)]
+struct Parametrisation {
+    n: usize,
+    m: usize,
+    ts_s: f64,
+    /// The model's scaling.
+    scaling: Scaling,
+    /// P_base/θ_base, W/K per input unit.
+    w: f64,
+    /// Per loss: the part whose share is the reference of its log-ratios.
+    reference: Vec<usize>,
+    /// The pairs (i, j), i < j, of the conductances between parts, in p's order.
+    pairs: Vec<(usize, usize)>,
+    /// The start, laid out as p.
+    start: Vec<f64>,
+}
+
+impl Parametrisation {
+    /// The map for data of this shape, with each loss's reference the part that takes
+    /// most of it in `start`, and `start` laid out as p.
+    fn new(data: &IdentificationData, scaling: Scaling, start: &Parts) -> Parametrisation {
+        let (n, m) = (data.states(), data.input_count());
+        let reference = (0..m)
+            .map(|j| start.loss_distribution.column(j).imax())
+            .collect();
+        let pairs = (0..n)
+            .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+            .collect();
+        let mut map = Parametrisation {
+            n,
+            m,
+            ts_s: data.ts_s,
+            scaling,
+            w: scaling.p_base_w / scaling.theta_base_k,
+            reference,
+            pairs,
+            start: Vec::new(),
+        };
+        map.start = map.params_of(start);
+        map
+    }
+
+    /// Number of parameters: n + n + n(n−1)/2 + m(n−1).
+    fn len(&self) -> usize {
+        2 * self.n + self.pairs.len() + self.m * (self.n - 1)
+    }
+
+    /// Index in p of the first log-ratio of loss j.
+    fn eta_at(&self, j: usize) -> usize {
+        2 * self.n + self.pairs.len() + j * (self.n - 1)
+    }
+
+    /// The parts (rows) of loss j's log-ratios, in p's order.
+    fn eta_parts(&self, j: usize) -> impl Iterator<Item = usize> + '_ {
+        (0..self.n).filter(move |&i| i != self.reference[j])
+    }
+
+    /// p of a network (positive C and G, K with positive entries).
+    fn params_of(&self, parts: &Parts) -> Vec<f64> {
+        let g = &parts.conductance_w_per_k;
+        let k = &parts.loss_distribution;
+        let mut p: Vec<f64> = parts.capacitance_j_per_k.iter().map(|c| c.ln()).collect();
+        p.extend((0..self.n).map(|i| g[(i, i)].ln()));
+        p.extend(self.pairs.iter().map(|&(i, j)| g[(i, j)].ln()));
+        for j in 0..self.m {
+            let r = self.reference[j];
+            p.extend(self.eta_parts(j).map(|i| (k[(i, j)] / k[(r, j)]).ln()));
+        }
+        p
+    }
+
+    /// C, G (G_i0 on the diagonal) and K of p.
+    fn parts(&self, p: &[f64]) -> Parts {
+        let n = self.n;
+        let mut g = DMatrix::zeros(n, n);
+        for i in 0..n {
+            g[(i, i)] = p[n + i].exp();
+        }
+        for (q, &(i, j)) in self.pairs.iter().enumerate() {
+            let v = p[2 * n + q].exp();
+            g[(i, j)] = v;
+            g[(j, i)] = v;
+        }
+        let mut k = DMatrix::zeros(n, self.m);
+        for j in 0..self.m {
+            let at = self.eta_at(j);
+            k[(self.reference[j], j)] = 1.0;
+            for (q, i) in self.eta_parts(j).enumerate() {
+                k[(i, j)] = p[at + q].exp();
+            }
+            let sum = k.column(j).sum();
+            k.column_mut(j).apply(|v| *v /= sum);
+        }
+        Parts {
+            capacitance_j_per_k: p[..n].iter().map(|v| v.exp()).collect(),
+            conductance_w_per_k: g,
+            loss_distribution: k,
+        }
+    }
+
+    /// A_c = −C⁻¹L and B_c = C⁻¹·K·w of p.
+    fn continuous(&self, p: &[f64]) -> (DMatrix<f64>, DMatrix<f64>) {
+        let parts = self.parts(p);
+        let l = laplacian(&parts.conductance_w_per_k);
+        let c = &parts.capacitance_j_per_k;
+        let a = DMatrix::from_fn(self.n, self.n, |i, j| -l[(i, j)] / c[i]);
+        let b = DMatrix::from_fn(self.n, self.m, |i, j| {
+            parts.loss_distribution[(i, j)] * self.w / c[i]
+        });
+        (a, b)
+    }
+
+    /// ∂A_c/∂p_q and ∂B_c/∂p_q for every q.
+    fn continuous_derivatives(&self, p: &[f64]) -> Vec<(DMatrix<f64>, DMatrix<f64>)> {
+        let (n, m) = (self.n, self.m);
+        let parts = self.parts(p);
+        let c = &parts.capacitance_j_per_k;
+        let g = &parts.conductance_w_per_k;
+        let k = &parts.loss_distribution;
+        let (a, b) = self.continuous(p);
+        let mut out = Vec::with_capacity(self.len());
+        // ln C_i: A_ij = −L_ij/C_i, B_ij = k_ij·w/C_i, so both rows scale by −1.
+        for i in 0..n {
+            let mut da = DMatrix::zeros(n, n);
+            let mut db = DMatrix::zeros(n, m);
+            da.row_mut(i).copy_from(&(-a.row(i)));
+            db.row_mut(i).copy_from(&(-b.row(i)));
+            out.push((da, db));
+        }
+        // ln G_i0: dL_ii = G_i0.
+        for i in 0..n {
+            let mut da = DMatrix::zeros(n, n);
+            da[(i, i)] = -g[(i, i)] / c[i];
+            out.push((da, DMatrix::zeros(n, m)));
+        }
+        // ln G_ij: dL_ii = dL_jj = G_ij, dL_ij = dL_ji = −G_ij.
+        for &(i, j) in &self.pairs {
+            let v = g[(i, j)];
+            let mut da = DMatrix::zeros(n, n);
+            da[(i, i)] = -v / c[i];
+            da[(j, j)] = -v / c[j];
+            da[(i, j)] = v / c[i];
+            da[(j, i)] = v / c[j];
+            out.push((da, DMatrix::zeros(n, m)));
+        }
+        // η_ij: ∂k_lj/∂η_ij = k_lj·(δ_li − k_ij).
+        for j in 0..m {
+            for i in self.eta_parts(j) {
+                let mut db = DMatrix::zeros(n, m);
+                for l in 0..n {
+                    let delta = if l == i { 1.0 } else { 0.0 };
+                    db[(l, j)] = k[(l, j)] * (delta - k[(i, j)]) * self.w / c[l];
+                }
+                out.push((DMatrix::zeros(n, n), db));
+            }
+        }
+        out
+    }
+
+    /// The discrete model (zero-order hold) of p.
+    fn model(&self, p: &[f64]) -> DiscreteModel {
+        let (a, b) = self.continuous(p);
+        let (phi, gamma) = crate::model::matrix::discretize(&a, &b, self.ts_s);
+        DiscreteModel {
+            phi,
+            gamma,
+            ts_s: self.ts_s,
+        }
+    }
+
+    /// D = ∂Θ/∂p (Θ laid out as [`DiscreteModel::theta`]): for each direction E of
+    /// M = [[A_c, B_c], [0, 0]]·Ts, the upper-right block of exp([[M, E], [0, M]]) is
+    /// the Fréchet derivative of e^M along E, whose top rows are [dΦ dΓ].
+    fn theta_jacobian(&self, p: &[f64]) -> DMatrix<f64> {
+        let (n, m) = (self.n, self.m);
+        let s = n + m;
+        let (a, b) = self.continuous(p);
+        let mut big = DMatrix::zeros(2 * s, 2 * s);
+        for block in [0, s] {
+            big.view_mut((block, block), (n, n))
+                .copy_from(&(&a * self.ts_s));
+            big.view_mut((block, block + n), (n, m))
+                .copy_from(&(&b * self.ts_s));
+        }
+        let derivatives = self.continuous_derivatives(p);
+        let mut d = DMatrix::zeros(n * s, derivatives.len());
+        for (q, (da, db)) in derivatives.iter().enumerate() {
+            let mut e = big.clone();
+            e.view_mut((0, s), (n, n)).copy_from(&(da * self.ts_s));
+            e.view_mut((0, s + n), (n, m)).copy_from(&(db * self.ts_s));
+            let x = e.exp();
+            for i in 0..n {
+                for j in 0..s {
+                    d[(i * s + j, q)] = x[(i, s + j)];
+                }
+            }
+        }
+        d
+    }
+
+    /// 95 % intervals of C, G (log-normal) and K (delta method) from cov(p).
+    fn intervals(&self, p: &[f64], cov: &DMatrix<f64>) -> NetworkIntervals {
+        let (n, m) = (self.n, self.m);
+        let parts = self.parts(p);
+        let log_normal = |value: f64, q: usize| -> Option<Interval> {
+            let sd = cov[(q, q)].max(0.0).sqrt();
+            let (low, high) = (value * (-Z95 * sd).exp(), value * (Z95 * sd).exp());
+            (low.is_finite() && high.is_finite()).then_some(Interval {
+                low,
+                high,
+                standard_error: value * sd,
+            })
+        };
+        let mut conductance = vec![vec![None; n]; n];
+        for (i, row) in conductance.iter_mut().enumerate() {
+            row[i] = log_normal(parts.conductance_w_per_k[(i, i)], n + i);
+        }
+        for (q, &(i, j)) in self.pairs.iter().enumerate() {
+            let interval = log_normal(parts.conductance_w_per_k[(i, j)], 2 * n + q);
+            conductance[i][j] = interval;
+            conductance[j][i] = interval;
+        }
+        let k = &parts.loss_distribution;
+        let loss = (0..n)
+            .map(|l| {
+                (0..m)
+                    .map(|j| {
+                        let at = self.eta_at(j);
+                        let grad: Vec<(usize, f64)> = self
+                            .eta_parts(j)
+                            .enumerate()
+                            .map(|(q, i)| {
+                                let delta = if l == i { 1.0 } else { 0.0 };
+                                (at + q, k[(l, j)] * (delta - k[(i, j)]))
+                            })
+                            .collect();
+                        let var: f64 = grad
+                            .iter()
+                            .flat_map(|&(a, ga)| grad.iter().map(move |&(b, gb)| (a, ga, b, gb)))
+                            .map(|(a, ga, b, gb)| ga * cov[(a, b)] * gb)
+                            .sum();
+                        let se = var.max(0.0).sqrt();
+                        se.is_finite().then_some(Interval {
+                            low: (k[(l, j)] - Z95 * se).max(0.0),
+                            high: (k[(l, j)] + Z95 * se).min(1.0),
+                            standard_error: se,
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        NetworkIntervals {
+            method: "grey-box output error (--method rc): C and G log-normal, exp(ln x ± 1.96 σ); \
+                     k_ij ± 1.96 σ by the delta method, within [0, 1]"
+                .into(),
+            capacitance_j_per_k: (0..n)
+                .map(|i| log_normal(parts.capacitance_j_per_k[i], i))
+                .collect(),
+            conductance_w_per_k: conductance,
+            loss_distribution: loss,
+        }
+    }
+}
+
+/// L of eq. (Fig. 9): L_ij = −G_ij, L_ii = G_i0 + Σ_{j≠i} G_ij.
+fn laplacian(g: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = g.nrows();
+    DMatrix::from_fn(n, n, |i, j| {
+        if i == j {
+            g[(i, i)] + (0..n).filter(|&l| l != i).map(|l| g[(i, l)]).sum::<f64>()
+        } else {
+            -g[(i, j)]
+        }
+    })
+}
+
+/// The least-squares problem LM sees: parameters [p; x0 of each segment], evaluated
+/// through OE's problem in [Θ; x0].
+struct RcProblem<'a> {
+    inner: Problem<'a>,
+    map: Parametrisation,
+    /// [p; x0 of each segment] (x0 only where OE estimates them).
+    params: DVector<f64>,
+    /// D = ∂Θ/∂p at `params`.
+    d: DMatrix<f64>,
+    cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
+    /// The lowest objective evaluated so far and its parameters: where the minimiser
+    /// stops on a point the model cannot be evaluated at, the fit returns here.
+    best: RefCell<Option<(f64, DVector<f64>)>>,
+}
+
+impl<'a> RcProblem<'a> {
+    fn new(inner: Problem<'a>, map: Parametrisation, start: &[f64]) -> RcProblem<'a> {
+        let p_theta = inner.p_theta();
+        let mut params: Vec<f64> = start.to_vec();
+        if inner.estimate_x0 {
+            params.extend(inner.params.iter().skip(p_theta).copied());
+        }
+        let mut problem = RcProblem {
+            d: DMatrix::zeros(0, 0),
+            inner,
+            map,
+            params: DVector::from_vec(params),
+            cache: RefCell::new(None),
+            best: RefCell::new(None),
+        };
+        let params = problem.params.clone();
+        problem.set_params(&params);
+        problem
+    }
+
+    fn p(&self) -> &[f64] {
+        &self.params.as_slice()[..self.map.len()]
+    }
+
+    /// OE's evaluation in [Θ; x0] carried to [p; x0] by T = diag(D, I).
+    fn evaluate(&self) -> Evaluation {
+        let e = self.inner.evaluate_full();
+        let (pt, pp) = (self.inner.p_theta(), self.map.len());
+        let rest = e.gram.nrows() - pt;
+        let d = &self.d;
+        let cols = pp + rest;
+        let mut gram = DMatrix::zeros(cols, cols);
+        let g_tt = e.gram.view((0, 0), (pt, pt));
+        gram.view_mut((0, 0), (pp, pp))
+            .copy_from(&(d.transpose() * g_tt * d));
+        if rest > 0 {
+            let g_tx = d.transpose() * e.gram.view((0, pt), (pt, rest));
+            gram.view_mut((0, pp), (pp, rest)).copy_from(&g_tx);
+            gram.view_mut((pp, 0), (rest, pp))
+                .copy_from(&g_tx.transpose());
+            gram.view_mut((pp, pp), (rest, rest))
+                .copy_from(&e.gram.view((pt, pt), (rest, rest)));
+        }
+        let mut grad = DVector::zeros(cols);
+        grad.rows_mut(0, pp)
+            .copy_from(&(d.transpose() * e.grad.rows(0, pt)));
+        grad.rows_mut(pp, rest).copy_from(&e.grad.rows(pt, rest));
+        Evaluation {
+            sse: e.sse,
+            gram,
+            grad,
+        }
+    }
+
+    fn evaluated(&self) -> std::cell::Ref<'_, Evaluation> {
+        let stale = self
+            .cache
+            .borrow()
+            .as_ref()
+            .is_none_or(|(at, _)| at != &self.params);
+        if stale {
+            let e = self.evaluate();
+            *self.cache.borrow_mut() = Some((self.params.clone(), e));
+        }
+        std::cell::Ref::map(self.cache.borrow(), |c| &c.as_ref().expect("just filled").1)
+    }
+
+    /// The estimate at the minimum, with the network and its intervals.
+    fn conclude(
+        &self,
+        method: &str,
+        rows_used: usize,
+        evaluations: usize,
+        start_model: DiscreteModel,
+    ) -> Estimate {
+        let n = self.inner.n;
+        let evaluation = self.evaluate();
+        let entries: usize = self.inner.counts.iter().sum();
+        let dof = entries.saturating_sub(self.params.len()).max(1) as f64;
+        let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
+        let (full, condition_number) = oe::covariance_from_gram(&evaluation.gram, sigma2);
+        let pp = self.map.len();
+        let cov_p = full.view((0, 0), (pp, pp)).into_owned();
+        let theta_cov = &self.d * &cov_p * self.d.transpose();
+        let noise_variance: Vec<f64> = (0..n)
+            .map(|c| {
+                let w = self.inner.sqrt_w[c].powi(2).max(1e-300);
+                evaluation.sse[c] / self.inner.counts[c].max(1) as f64 / w
+            })
+            .collect();
+        let p = self.p();
+        let start_estimate = Estimate {
+            model: start_model,
+            method: "start".into(),
+            rows_used,
+            condition_number: f64::NAN,
+            covariance: None,
+            noise_variance: Vec::new(),
+            iterations: 0,
+            output_offset: None,
+            trajectory: None,
+            network: None,
+        };
+        Estimate {
+            model: self.map.model(p),
+            method: method.into(),
+            rows_used,
+            condition_number,
+            covariance: Some(theta_cov),
+            noise_variance,
+            iterations: evaluations,
+            output_offset: None,
+            trajectory: None,
+            network: Some(Box::new(NetworkEstimate {
+                parts: self.map.parts(p),
+                scaling: self.map.scaling,
+                intervals: self.map.intervals(p, &cov_p),
+                covariance: cov_p,
+                output_error: Box::new(start_estimate),
+            })),
+        }
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.params.copy_from(x);
+        let pp = self.map.len();
+        // Logarithms within e^±LOG_RANGE of the start: the exponentials stay finite.
+        for q in 0..pp {
+            let s = self.map.start[q];
+            self.params[q] = self.params[q].clamp(s - LOG_RANGE, s + LOG_RANGE);
+        }
+        let x = &self.params.clone();
+        let p = &x.as_slice()[..pp];
+        let theta = self.map.model(p).theta();
+        let pt = self.inner.p_theta();
+        for (q, t) in theta.iter().enumerate() {
+            self.inner.params[q] = *t;
+        }
+        for q in pp..x.len() {
+            self.inner.params[pt + q - pp] = x[q];
+        }
+        self.d = self.map.theta_jacobian(p);
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.params.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        if !self.params.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let (r, _) = self.evaluated().square_root_form()?;
+        if !r.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let objective = r.norm_squared();
+        let mut best = self.best.borrow_mut();
+        if best.as_ref().is_none_or(|(b, _)| objective < *b) {
+            *best = Some((objective, self.params.clone()));
+        }
+        Some(r)
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let (_, j) = self.evaluated().square_root_form()?;
+        j.iter().all(|v| v.is_finite()).then_some(j)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,235 @@
+//! The grey-box network fit against networks simulated from known C, G and K.
+
+use nalgebra::DMatrix;
+
+use super::*;
+use crate::estimate::testing::{simulate, step_inputs, with_noise};
+
+/// Three parts in physical units (inputs in units of 20 W): C = [200, 1000, 100] J/K,
+/// G_10 = 1, G_20 = 2, G_30 = 5, G_12 = 3, G_13 = 0.5, G_23 = 4 W/K, every share positive.
+fn known() -> (Parts, Scaling) {
+    let parts = Parts {
+        capacitance_j_per_k: vec![200.0, 1000.0, 100.0],
+        conductance_w_per_k: DMatrix::from_row_slice(
+            3,
+            3,
+            &[1.0, 3.0, 0.5, 3.0, 2.0, 4.0, 0.5, 4.0, 5.0],
+        ),
+        loss_distribution: DMatrix::from_row_slice(
+            3,
+            3,
+            &[0.7, 0.1, 0.2, 0.2, 0.6, 0.1, 0.1, 0.3, 0.7],
+        ),
+    };
+    let scaling = Scaling {
+        theta_base_k: 1.0,
+        p_base_w: 20.0,
+    };
+    (parts, scaling)
+}
+
+fn data_of(parts: &Parts, scaling: Scaling, len: usize, sigma: f64) -> IdentificationData {
+    let template = IdentificationData::complete(1.0, DMatrix::zeros(2, 3), DMatrix::zeros(2, 3));
+    let map = Parametrisation::new(&template, scaling, parts);
+    let model = map.model(&map.start);
+    let u = step_inputs(len, 3, 21);
+    let y = simulate(&model, &u, &[2.0, 1.0, 0.5]);
+    let y = if sigma > 0.0 {
+        with_noise(&y, sigma, 22)
+    } else {
+        y
+    };
+    IdentificationData::complete(1.0, y, u)
+}
+
+fn relative(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+/// Largest relative error of C and G, and largest absolute error of K.
+fn errors(found: &Parts, truth: &Parts) -> (f64, f64) {
+    let mut cg = 0.0_f64;
+    for (c, t) in found
+        .capacitance_j_per_k
+        .iter()
+        .zip(&truth.capacitance_j_per_k)
+    {
+        cg = cg.max(relative(*c, *t));
+    }
+    for (g, t) in found
+        .conductance_w_per_k
+        .iter()
+        .zip(truth.conductance_w_per_k.iter())
+    {
+        cg = cg.max(relative(*g, *t));
+    }
+    let k = (&found.loss_distribution - &truth.loss_distribution).amax();
+    (cg, k)
+}
+
+#[test]
+fn the_map_gives_the_hand_worked_two_part_model() {
+    // The two parts of the network tests, worked by hand: C = [1000, 4000] J/K,
+    // G_12 = 50, G_10 = 10, G_20 = 200 W/K, K = [[0.8, 0.3], [0.2, 0.7]], P_base/θ_base
+    // = 12500 W/K: A_c = [[−0.06, 0.05], [0.0125, −0.0625]], B_c = [[10, 3.75],
+    // [0.625, 2.1875]]; and p = [ln C; ln G_i0; ln G_12; ln(k_2j/k_1j)] (part 1 takes
+    // the larger share of loss 1, part 2 of loss 2).
+    let parts = Parts {
+        capacitance_j_per_k: vec![1000.0, 4000.0],
+        conductance_w_per_k: DMatrix::from_row_slice(2, 2, &[10.0, 50.0, 50.0, 200.0]),
+        loss_distribution: DMatrix::from_row_slice(2, 2, &[0.8, 0.3, 0.2, 0.7]),
+    };
+    let scaling = Scaling {
+        theta_base_k: 80.0,
+        p_base_w: 1e6,
+    };
+    let template = IdentificationData::complete(1.0, DMatrix::zeros(2, 2), DMatrix::zeros(2, 2));
+    let map = Parametrisation::new(&template, scaling, &parts);
+    assert_eq!(map.reference, vec![0, 1]);
+    let expected_p = [
+        1000f64.ln(),
+        4000f64.ln(),
+        10f64.ln(),
+        200f64.ln(),
+        50f64.ln(),
+        (0.2f64 / 0.8).ln(),
+        (0.3f64 / 0.7).ln(),
+    ];
+    for (p, e) in map.start.iter().zip(expected_p) {
+        assert!((p - e).abs() < 1e-14, "{:?}", map.start);
+    }
+    let (a, b) = map.continuous(&map.start);
+    let a_hand = DMatrix::from_row_slice(2, 2, &[-0.06, 0.05, 0.0125, -0.0625]);
+    let b_hand = DMatrix::from_row_slice(2, 2, &[10.0, 3.75, 0.625, 2.1875]);
+    assert!((a - a_hand).amax() < 1e-15);
+    assert!((b - b_hand).amax() < 1e-12);
+    let back = map.parts(&map.start);
+    assert!(errors(&back, &parts).0 < 1e-14 && errors(&back, &parts).1 < 1e-15);
+}
+
+#[test]
+fn the_jacobian_of_theta_matches_central_differences() {
+    let (parts, scaling) = known();
+    let data = data_of(&parts, scaling, 10, 0.0);
+    let map = Parametrisation::new(&data, scaling, &parts);
+    let p = map.start.clone();
+    let d = map.theta_jacobian(&p);
+    assert_eq!(d.shape(), (18, 15));
+    for q in 0..p.len() {
+        let h = 1e-6;
+        let (mut plus, mut minus) = (p.clone(), p.clone());
+        plus[q] += h;
+        minus[q] -= h;
+        let (tp, tm) = (map.model(&plus).theta(), map.model(&minus).theta());
+        for r in 0..18 {
+            let fd = (tp[r] - tm[r]) / (2.0 * h);
+            assert!(
+                (fd - d[(r, q)]).abs() < 1e-7 * d.column(q).amax().max(1e-12),
+                "∂θ_{r}/∂p_{q}: {} vs {fd}",
+                d[(r, q)]
+            );
+        }
+    }
+}
+
+#[test]
+fn from_a_distant_start_noise_free_data_give_the_true_network() {
+    let (truth, scaling) = known();
+    let data = data_of(&truth, scaling, 4000, 0.0);
+    // Every C and G 40 % off, the shares flattened towards a third.
+    let mut start = truth.clone();
+    for (i, c) in start.capacitance_j_per_k.iter_mut().enumerate() {
+        *c *= if i % 2 == 0 { 1.4 } else { 0.6 };
+    }
+    start.conductance_w_per_k.apply(|g| *g *= 1.4);
+    start.loss_distribution = start.loss_distribution.map(|k| 0.5 * k + 0.5 / 3.0);
+    let map = Parametrisation::new(&data, scaling, &start);
+    let p0 = map.start.clone();
+    let estimator = ResistanceCapacitance {
+        weights: None,
+        scaling,
+    };
+    let e = estimator.fit_from(&data, map, &p0).unwrap();
+    let network = e.network.as_ref().unwrap();
+    let (cg, k) = errors(&network.parts, &truth);
+    assert!(cg < 1e-6 && k < 1e-7, "C, G off by {cg}, K by {k}");
+    assert_eq!(e.method, "rc");
+}
+
+#[test]
+fn pt100_noise_gives_c_and_g_within_ten_percent_and_intervals_that_hold_them() {
+    // σ = 0.05 K on rises of a few K: the bar of the acceptance test, from OE's start.
+    let (truth, scaling) = known();
+    let data = data_of(&truth, scaling, 20000, 0.05);
+    let e = ResistanceCapacitance {
+        weights: None,
+        scaling,
+    }
+    .estimate(&data)
+    .unwrap();
+    let network = e.network.as_ref().unwrap();
+    assert_eq!(network.output_error.method, "oe");
+    let (cg, k) = errors(&network.parts, &truth);
+    assert!(cg < 0.10 && k < 0.05, "C, G off by {cg}, K by {k}");
+    // The 95 % intervals: bounded, and at most one of the 15 entries misses the truth.
+    let iv = &network.intervals;
+    let mut outside = 0;
+    let mut check = |interval: Option<Interval>, t: f64| {
+        let i = interval.expect("bounded");
+        assert!(i.low <= i.high && i.standard_error > 0.0);
+        if t < i.low || t > i.high {
+            outside += 1;
+        }
+    };
+    for (i, c) in truth.capacitance_j_per_k.iter().enumerate() {
+        check(iv.capacitance_j_per_k[i], *c);
+    }
+    for i in 0..3 {
+        for j in i..3 {
+            check(
+                iv.conductance_w_per_k[i][j],
+                truth.conductance_w_per_k[(i, j)],
+            );
+        }
+    }
+    for i in 0..3 {
+        for j in 0..3 {
+            let interval = iv.loss_distribution[i][j].expect("bounded");
+            let t = truth.loss_distribution[(i, j)];
+            if t < interval.low || t > interval.high {
+                outside += 1;
+            }
+        }
+    }
+    assert!(
+        outside <= 2,
+        "{outside} of 21 entries outside their interval"
+    );
+    // The noise variance is the sensor's; K's columns sum to 1 by construction.
+    for v in &e.noise_variance {
+        assert!((v.sqrt() / 0.05 - 1.0).abs() < 0.05, "σ = {}", v.sqrt());
+    }
+    for col in network.parts.loss_distribution.column_iter() {
+        assert!((col.sum() - 1.0).abs() < 1e-12);
+    }
+    // Θ's covariance is the delta method's: positive on the diagonal.
+    let cov = e.covariance.as_ref().unwrap();
+    assert!((0..18).all(|q| cov[(q, q)] > 0.0));
+}
+
+#[test]
+fn a_model_without_a_network_still_gives_a_passive_start() {
+    // OE's model with a negative cross-gain (no network): the start is the rough one.
+    let model = DiscreteModel {
+        phi: DMatrix::from_row_slice(2, 2, &[0.95, 0.02, 0.01, 0.99]),
+        gamma: DMatrix::from_row_slice(2, 2, &[0.3, -0.1, 0.05, 0.08]),
+        ts_s: 1.0,
+    };
+    let parts = start_parts(&model, Scaling::PHYSICAL);
+    assert!(parts.capacitance_j_per_k.iter().all(|c| *c > 0.0));
+    assert!(parts.conductance_w_per_k.iter().all(|g| *g > 0.0));
+    for col in parts.loss_distribution.column_iter() {
+        assert!(col.iter().all(|k| *k > 0.0));
+        assert!((col.sum() - 1.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,270 @@
+//! The thermal network of a known RC machine (not the paper's model), from synthetic heat
+//! runs at PT100-like noise: from the identified (oe) model and from `--method rc`.
+
+use crate::common;
+
+use heatrun::estimate::{DiscreteModel, EstimationError, IdentificationData};
+use heatrun::model::matrix::discretize;
+use heatrun::model::ContinuousModel;
+use heatrun::network::example::rich_heat_run;
+use heatrun::network::{Interval, Labels, Network, NetworkIntervals, Parts, ScaleSource, Scaling};
+use heatrun::pipeline::{self, replay, Method, Replay, ReplayOptions};
+use heatrun::recording::Nameplate;
+use heatrun::spec::ModelDescription;
+use heatrun::synth::{self, SynthOptions};
+use heatrun::Error;
+use nalgebra::DMatrix;
+
+fn machine() -> Parts {
+    heatrun::network::example::generator_like().0
+}
+
+fn scaling() -> Scaling {
+    let nameplate = Nameplate::paper_table1();
+    Scaling {
+        theta_base_k: nameplate.temperature_base_k,
+        p_base_w: nameplate.rated_apparent_power_va,
+    }
+}
+
+/// The machine's discrete model at Ts = 1 s, in the generator's per-unit scaling.
+fn truth_model(parts: &Parts) -> DiscreteModel {
+    let network = Network::from_parts(
+        parts,
+        scaling(),
+        ScaleSource::EnergyConservation,
+        &Labels::numbered(3, 3),
+    )
+    .unwrap();
+    let (a, b) = network.to_continuous();
+    let (phi, gamma) = discretize(&a, &b, 1.0);
+    DiscreteModel {
+        phi,
+        gamma,
+        ts_s: 1.0,
+    }
+}
+
+/// A heat run of the machine at PT100-like noise over the profile that moves every loss
+/// (`rich_heat_run`, 40,000 s), replayed with `method`.
+fn run(seed: u64, method: Method) -> Replay {
+    let dir = common::tempdir();
+    let path = dir.path().join("rc.mcap");
+    synth::write(
+        &path,
+        &SynthOptions {
+            machine: synth::Machine::from_model(truth_model(&machine())),
+            seed,
+            profile: rich_heat_run(),
+            duration_s: 40000.0,
+            ..SynthOptions::default()
+        }
+        .with_noise_level(1.0),
+    )
+    .unwrap();
+    replay(
+        &path,
+        &ReplayOptions {
+            method,
+            ..ReplayOptions::default()
+        },
+    )
+    .unwrap()
+}
+
+/// C, G (upper triangle) and K of a network as one list, and their names.
+fn values(
+    c: &[f64],
+    g: impl Fn(usize, usize) -> f64,
+    k: impl Fn(usize, usize) -> f64,
+) -> Vec<(String, f64)> {
+    let mut v: Vec<(String, f64)> = c
+        .iter()
+        .enumerate()
+        .map(|(i, c)| (format!("C_{}", i + 1), *c))
+        .collect();
+    for i in 0..3 {
+        for j in i..3 {
+            let name = if i == j {
+                format!("G_{}0", i + 1)
+            } else {
+                format!("G_{}{}", i + 1, j + 1)
+            };
+            v.push((name, g(i, j)));
+        }
+    }
+    for i in 0..3 {
+        for j in 0..3 {
+            v.push((format!("k_{}{}", i + 1, j + 1), k(i, j)));
+        }
+    }
+    v
+}
+
+/// The intervals in the order of [`values`].
+fn interval_list(iv: &NetworkIntervals) -> Vec<Option<Interval>> {
+    let mut v = iv.capacitance_j_per_k.clone();
+    for i in 0..3 {
+        for j in i..3 {
+            v.push(iv.conductance_w_per_k[i][j]);
+        }
+    }
+    v.extend(iv.loss_distribution.iter().flatten().copied());
+    v
+}
+
+fn of_network(n: &Network) -> Vec<(String, f64)> {
+    values(
+        &n.capacitance_j_per_k,
+        |i, j| n.conductance_w_per_k[i][j],
+        |i, j| n.loss_distribution[i][j],
+    )
+}
+
+fn of_parts(p: &Parts) -> Vec<(String, f64)> {
+    values(
+        &p.capacitance_j_per_k,
+        |i, j| p.conductance_w_per_k[(i, j)],
+        |i, j| p.loss_distribution[(i, j)],
+    )
+}
+
+/// The entries off the acceptance bar (C and G within 10 %, k_ij within 0.05), with their
+/// errors.
+fn off_the_bar(found: &[f64], truth: &[(String, f64)]) -> Vec<String> {
+    found
+        .iter()
+        .zip(truth)
+        .filter_map(|(x, (name, t))| {
+            let (error, bar) = if name.starts_with('k') {
+                ((x - t).abs(), 0.05)
+            } else {
+                ((x - t).abs() / t, 0.10)
+            };
+            (error > bar).then(|| format!("{name} = {x:.4e} (truth {t:.4e})"))
+        })
+        .collect()
+}
+
+/// Entry-wise median over the runs.
+fn median(runs: &[Vec<(String, f64)>]) -> Vec<f64> {
+    (0..runs[0].len())
+        .map(|q| {
+            let mut v: Vec<f64> = runs.iter().map(|r| r[q].1).collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        })
+        .collect()
+}
+
+#[test]
+fn the_machines_network_from_rc_and_from_the_identified_model() {
+    // Three seeds; each replay with rc also holds the oe estimate it started from, whose
+    // network is the identified model's. The acceptance bar is held by the median over
+    // the seeds (benches/network.rs gives every seed's figures for ten).
+    let truth = of_parts(&machine());
+    let (mut rc, mut oe) = (Vec::new(), Vec::new());
+    for seed in 1..=3 {
+        let r = run(seed, Method::Rc);
+        assert_eq!(r.estimate.method, "rc");
+        let network = r.network.network.as_ref().unwrap();
+        assert!(
+            network.passivity.is_passive,
+            "{}",
+            network.passivity.verdict
+        );
+        assert_eq!(network.scale_from, ScaleSource::EnergyConservation);
+        // Every entry has a bounded 95 % interval around its estimate. (Whether they hold
+        // the truth is checked where the model class is exact, in the unit tests: here the
+        // rises start from one noisy sample, an offset neither oe nor rc models, and the
+        // iron loss's column misses its intervals; see the README.)
+        let intervals = interval_list(network.intervals_95.as_ref().unwrap());
+        for (i, (name, x)) in intervals.iter().zip(of_network(network)) {
+            let i = i.unwrap_or_else(|| panic!("{name} unbounded"));
+            assert!(
+                i.low <= x && x <= i.high && i.standard_error > 0.0,
+                "{name}"
+            );
+        }
+        rc.push(of_network(network));
+        let start = &r.estimate.network.as_ref().unwrap().output_error;
+        assert_eq!(start.method, "oe");
+        let continuous = ContinuousModel::from_discrete(&start.model).unwrap();
+        let identified = Network::from_continuous(
+            &continuous.a_c,
+            &continuous.b_c,
+            scaling(),
+            None,
+            &Labels::numbered(3, 3),
+        )
+        .unwrap();
+        oe.push(of_network(&identified));
+        // oe is set beside rc, on the same instants.
+        let beside = r.output_error_beside.as_ref().unwrap();
+        assert_eq!(beside.method, "oe");
+        assert_eq!(beside.time_constants_s.len(), 3);
+        if seed == 1 {
+            let report = heatrun::report::Report::new(&r);
+            let summary = report.summary();
+            assert!(summary.contains("beside it, oe"), "{summary}");
+            assert!(summary.contains("95 % interval"), "{summary}");
+            let json: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+            crate::outputs::ReportSchema::load()
+                .check(&json)
+                .unwrap_or_else(|e| panic!("the rc report breaks the schema:\n{e}"));
+            assert!(json["output_error_beside"]["fit"]["nrmse_fit_percent"].is_array());
+            assert!(json["network"]["intervals_95"]["loss_distribution"][2][1]["low"].is_number());
+        }
+    }
+    let off = off_the_bar(&median(&rc), &truth);
+    assert!(off.is_empty(), "rc, median of 3 seeds: {off:?}");
+    // The identified model's network misses the bar on a conductance to the coolant
+    // (measured: G_20 16 % low, the median of these seeds; benches/network.rs, 10 seeds:
+    // median errors of G_10 and G_20 12 % and 13 %, worst 35 %): with 18 free entries of Φ and Γ instead of 15
+    // network parameters, the small conductances to the coolant, a difference of row sums
+    // of C·A_c, carry the unconstrained fit's errors. Every other entry meets the bar.
+    let oe_median = median(&oe);
+    let off = off_the_bar(&oe_median, &truth);
+    assert!(
+        off.iter()
+            .all(|e| e.starts_with("G_10") || e.starts_with("G_20") || e.starts_with("G_30")),
+        "oe's network, median of 3 seeds: {off:?}"
+    );
+    for q in [3, 6, 8] {
+        let (name, t) = &truth[q];
+        assert!(
+            (oe_median[q] / t - 1.0).abs() < 0.2,
+            "oe's {name}: {}",
+            oe_median[q]
+        );
+    }
+}
+
+#[test]
+fn rc_refuses_an_input_that_is_not_heat() {
+    let spec = r#"
+[[state]]
+name = "T1"
+
+[[input]]
+name = "heater"
+channel = "Q1"
+
+[[input]]
+name = "fan"
+channel = "F"
+kind = "exogenous"
+"#;
+    let options = ReplayOptions {
+        method: Method::Rc,
+        model: ModelDescription::from_toml(spec).unwrap(),
+        ..ReplayOptions::default()
+    };
+    let data = IdentificationData::complete(1.0, DMatrix::zeros(100, 1), DMatrix::zeros(100, 2));
+    let err = pipeline::estimate(&data, &options).unwrap_err();
+    assert!(
+        matches!(&err, Error::Estimation(EstimationError::InputNotHeat { input }) if input == "fan"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("the input 'fan' is not"), "{err}");
+}
