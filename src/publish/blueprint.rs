@@ -28,6 +28,15 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Layout {
             .into(),
         );
     }
+    if replay.network.calorimetry.is_some() {
+        tabs.push(
+            View::time_series(
+                "calorimetric balance (eqs. 17-18): heat carried away by the water and the losses, kW",
+                super::traces::CALORIMETRY,
+            )
+            .into(),
+        );
+    }
     tabs.push(raw_channels(full_rate));
     tabs.push(View::new(ViewKind::TextDocument, "summary", "summary").into());
     Layout {

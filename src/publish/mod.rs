@@ -217,6 +217,7 @@ pub const LAG_TIMELINE: &str = "lag";
 fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result<()> {
     traces::log_temperatures(rec, replay)?;
     traces::log_inputs_and_quantities(rec, replay)?;
+    traces::log_calorimetry(rec, replay)?;
     analysis::log_sensitivities(rec, replay)?;
     analysis::log_residual_correlation(rec, replay)?;
     analysis::log_trajectory(rec, replay)?;

@@ -6,7 +6,7 @@ use rerun::{RecordingStream, Scalars, TimeColumn};
 
 use crate::error::Result;
 use crate::pipeline::Replay;
-use crate::spec::Scaling;
+use crate::spec::{InputKind, Scaling};
 
 use super::{publish_err, style, LAG_TIMELINE, TIMELINE};
 
@@ -59,6 +59,51 @@ pub(super) fn send_by_lag(
             .map_err(publish_err)?,
     )
     .map_err(publish_err)
+}
+
+/// Entity root of the calorimetric balance's traces.
+pub const CALORIMETRY: &str = "calorimetry";
+
+/// The calorimetric balance over time (paper eqs. 17-18), where the flow is recorded:
+/// the heat the cooling water carries away, c·ρ·(θ_out − θ_in)·Q, beside the sum of the
+/// computed losses, both in kW, so a wrong loss model or flow meter shows as a gap.
+pub(super) fn log_calorimetry(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let Some(c) = &replay.network.calorimetry else {
+        return Ok(());
+    };
+    let s = &replay.signals;
+    let water = format!("{CALORIMETRY}/heat_carried_away");
+    style::series(
+        rec,
+        &water,
+        "heat carried away by the water, kW",
+        style::input(0),
+        style::LINE_WIDTH,
+    )?;
+    send_series(
+        rec,
+        &water,
+        on_grid(&s.time_ns, c.heat.watts.iter().map(|w| w.map(|w| w / 1e3))),
+    )?;
+    let losses = format!("{CALORIMETRY}/losses");
+    style::series(
+        rec,
+        &losses,
+        "sum of the losses, kW",
+        style::input(1),
+        style::LINE_WIDTH,
+    )?;
+    let scale = input_plot_scale(replay);
+    let sum = (0..s.len()).map(|k| {
+        s.inputs
+            .iter()
+            .filter(|i| i.kind == InputKind::Heat)
+            .map(|i| i.values.get(k))
+            .sum::<Option<f64>>()
+            .map(|v| v * scale)
+    });
+    send_series(rec, &losses, on_grid(&s.time_ns, sum))?;
+    Ok(())
 }
 
 /// Pairs a grid series with the grid's times, keeping the instants where it is known.
@@ -174,7 +219,10 @@ pub(super) fn log_inputs_and_quantities(rec: &RecordingStream, replay: &Replay) 
     let t = &s.time_ns;
     let scale = input_plot_scale(replay);
     let per_unit = replay.model.scaling == Scaling::NameplatePerUnit;
-    for (j, input) in s.inputs.iter().enumerate() {
+    // The losses; a coolant inlet's rise is a temperature, published with the
+    // decimated quantities (its channel), not among the heat sources.
+    let heat = s.inputs.iter().filter(|i| i.kind == InputKind::Heat);
+    for (j, input) in heat.enumerate() {
         let entity = format!("loss/{}", input.name);
         let unit = if per_unit { "kW" } else { input.unit.as_str() };
         let name = format!("{}, {unit}", input.name.replace('_', " "));
