@@ -12,6 +12,7 @@
 //! | [`import`] | `heatrun import`: every table format, bad cells and rows, the fixture round trip |
 //! | [`datasets`] | measured data: the TCLab validation fit, as its example runs it |
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
+//! | [`html`] | `replay --html`: the page parsed, its sections, figures and tables; nothing outside it |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
 //!
 //! A new test file `tests/NAME.rs` becomes `mod NAME;` here; shared helpers are in
@@ -24,6 +25,7 @@ mod broken_pipe;
 mod corpus;
 mod datasets;
 mod estimators;
+mod html;
 mod import;
 mod layouts;
 mod outputs;
