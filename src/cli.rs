@@ -131,6 +131,17 @@ pub struct ReplayArgs {
     /// Write the JSON report (profile section "Report") to this file.
     #[arg(long, value_name = "PATH")]
     pub report: Option<PathBuf>,
+    /// Write the HTML report, one self-contained page that prints to PDF (without PATH:
+    /// <recording>.html here; in fleet mode, <stem>.report.html beside each report in
+    /// --out-dir).
+    #[arg(
+        long,
+        value_name = "PATH",
+        num_args = 0..=1,
+        default_missing_value = "",
+        value_parser = clap::value_parser!(std::ffi::OsString)
+    )]
+    pub html: Option<std::ffi::OsString>,
     /// Also publish every channel at its full rate (columns streamed as the file is read).
     #[arg(long)]
     pub raw: bool,
@@ -477,6 +488,15 @@ mod tests {
             (r.out_dir, r.jobs, r.quiet),
             (PathBuf::from("out"), Some(3), true)
         );
+    }
+
+    #[test]
+    fn html_takes_an_optional_path() {
+        assert_eq!(replay(&[]).html, None);
+        assert_eq!(replay(&["--html"]).html.as_deref(), Some("".as_ref()));
+        let r = replay(&["a.mcap", "--html", "out/page.html"]);
+        assert_eq!(r.html.as_deref(), Some("out/page.html".as_ref()));
+        assert_eq!(r.files, [PathBuf::from("a.mcap")]);
     }
 
     #[test]

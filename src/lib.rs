@@ -13,6 +13,7 @@
 //! | model analysis | [`model`] | estimate → [`model::ModelAnalysis`] (A_c, B_c, T_i, fit, …) |
 //! | publishing | [`publish`] | everything → a rerun recording |
 //! | report | [`report`] | everything → the profile's JSON report and a summary |
+//! | HTML report | [`html`] | the replay and its report → one self-contained page |
 //!
 //! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs,
 //! [`import`] turns tables (CSV, historian exports) into recordings, and [`writer`]
@@ -49,6 +50,7 @@ pub mod atomic;
 pub mod decimate;
 pub mod error;
 pub mod estimate;
+pub mod html;
 pub mod import;
 pub mod losses;
 pub mod model;

@@ -14,6 +14,7 @@
 //! | [`field_state`] | `replay --field-state`: a four-node machine whose field winding is seen through U_f/I_f |
 //! | [`network_rc`] | a known RC machine's C, G and K from the identified model and from `--method rc` |
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
+//! | [`html`] | `replay --html`: the page parsed, its sections, figures and tables; nothing outside it |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
 //!
 //! A new test file `tests/NAME.rs` becomes `mod NAME;` here; shared helpers are in
@@ -29,6 +30,7 @@ mod corpus;
 mod datasets;
 mod estimators;
 mod field_state;
+mod html;
 mod import;
 mod layouts;
 mod network_rc;

@@ -146,12 +146,20 @@ struct Replayed {
     summary: String,
 }
 
-/// Replays one recording into its sink and (if named) its report file.
+/// Where one recording's outputs besides the rerun recording go.
+struct Outputs<'a> {
+    /// The JSON report, if asked for.
+    report: Option<&'a Path>,
+    /// The HTML report, if asked for.
+    html: Option<&'a Path>,
+}
+
+/// Replays one recording into its sink and (if named) its report files.
 fn replay_one(
     args: &ReplayArgs,
     file: &Path,
     sink: &RerunSink,
-    report_path: Option<&Path>,
+    outputs: Outputs<'_>,
 ) -> anyhow::Result<Replayed> {
     let options = options(args)?;
     let name = file
@@ -170,8 +178,11 @@ fn replay_one(
     let report = Report::new(&replay);
     let summary = report.summary();
     publisher.finish(&replay, &summary)?;
-    if let Some(path) = report_path {
+    if let Some(path) = outputs.report {
         write_atomically(path, report.to_json().as_bytes())?;
+    }
+    if let Some(path) = outputs.html {
+        heatrun::html::replay_page(&replay, &report, &options).write(path)?;
     }
     Ok(Replayed {
         replay,
@@ -201,7 +212,12 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
     };
     // Everything is written before anything is printed: a closed stdout (`| head`)
     // ends the process at the first print and must not cut an output short.
-    let replayed = replay_one(&args, file, &sink, args.report.as_deref())?;
+    let html = html_path(&args, file)?;
+    let outputs = Outputs {
+        report: args.report.as_deref(),
+        html: html.as_deref(),
+    };
+    let replayed = replay_one(&args, file, &sink, outputs)?;
     if args.quiet || args.summary == SummaryFormat::Json {
         for w in &replayed.replay.warnings {
             eprintln!("warning: {w}");
@@ -222,6 +238,9 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
         if let Some(path) = &args.report {
             println!("report: {}", path.display());
         }
+        if let Some(path) = &html {
+            println!("html report: {}", path.display());
+        }
         println!("replayed in {:.2} s", started.elapsed().as_secs_f64());
     }
     Ok(if replayed.replay.had_data_loss() {
@@ -229,6 +248,28 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
     } else {
         Outcome::Complete
     })
+}
+
+/// The HTML report's path of a single replay: as given, or `<stem>.html` here for a bare
+/// `--html`. A path that names a recording is refused: `--html run.mcap` means the
+/// option took the recording as its value.
+fn html_path(args: &ReplayArgs, file: &Path) -> anyhow::Result<Option<PathBuf>> {
+    let Some(given) = &args.html else {
+        return Ok(None);
+    };
+    if given.is_empty() {
+        return Ok(Some(PathBuf::from(format!("{}.html", stem(file)))));
+    }
+    let path = PathBuf::from(given);
+    if path.extension().is_some_and(|x| x == "mcap") {
+        return Err(heatrun::Error::Usage(format!(
+            "--html would write the page over the recording {}; write --html=PAGE.html, \
+             or put --html after the recordings",
+            path.display()
+        ))
+        .into());
+    }
+    Ok(Some(path))
 }
 
 /// What the fleet table and `fleet-summary.csv` show of one recording: its report's
@@ -360,10 +401,17 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
 
 /// A fleet's outputs go to `--out-dir`: the options that name one output do not apply.
 fn check_fleet_args(args: &ReplayArgs) -> anyhow::Result<()> {
-    if args.rrd.is_some() || args.report.is_some() || args.spawn || args.connect.is_some() {
+    let html_named = args.html.as_ref().is_some_and(|h| !h.is_empty());
+    if args.rrd.is_some()
+        || args.report.is_some()
+        || html_named
+        || args.spawn
+        || args.connect.is_some()
+    {
         return Err(heatrun::Error::Usage(
-            "with several recordings, outputs go to --out-dir (one .rrd and report each); \
-             --rrd, --report, --spawn and --connect name one output"
+            "with several recordings, outputs go to --out-dir (one .rrd and report each, and \
+             an HTML page each with a bare --html); --rrd, --report, --html PATH, --spawn and \
+             --connect name one output"
                 .into(),
         )
         .into());
@@ -390,9 +438,17 @@ fn fleet_row(args: &ReplayArgs, file: &Path) -> FleetRow {
     let s = stem(file);
     let rrd = RerunSink::Rrd(args.out_dir.join(format!("{s}.rrd")));
     let report = args.out_dir.join(format!("{s}.report.json"));
+    let html = args
+        .html
+        .is_some()
+        .then(|| args.out_dir.join(format!("{s}.report.html")));
+    let outputs = Outputs {
+        report: Some(&report),
+        html: html.as_deref(),
+    };
     FleetRow {
         file: file.to_owned(),
-        outcome: replay_one(args, file, &rrd, Some(&report))
+        outcome: replay_one(args, file, &rrd, outputs)
             .map(|replayed| FleetFigures::of(&replayed))
             .map_err(|e| format!("{e:#}")),
     }

@@ -1,0 +1,455 @@
+//! The HTML report (`replay --html`): the page is parsed with an HTML parser (`tl`) and
+//! checked for its sections, its figures (each an inline `<svg>` with drawn content), the
+//! shape of its tables and their numbers against the JSON report, and that it refers to
+//! nothing outside itself — for the fixture, a recursive estimate with a hold-out, a
+//! spec model of two states and two inputs (TCLab), and a fleet.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use crate::common::{self, heatrun, package_root};
+
+/// The parsed page's facts the tests look at.
+struct Page {
+    html: String,
+}
+
+/// A table of the page: its caption and its rows of cells (header row first).
+#[derive(Debug)]
+struct ParsedTable {
+    caption: String,
+    rows: Vec<Vec<String>>,
+}
+
+impl Page {
+    fn read(path: &Path) -> Page {
+        Page {
+            html: std::fs::read_to_string(path).expect("the page is written"),
+        }
+    }
+
+    fn dom(&self) -> tl::VDom<'_> {
+        tl::parse(&self.html, tl::ParserOptions::default()).expect("the page parses")
+    }
+
+    /// Every element as (tag name, attributes).
+    fn elements(&self) -> Vec<(String, Vec<(String, String)>)> {
+        let dom = self.dom();
+        dom.nodes()
+            .iter()
+            .filter_map(|n| n.as_tag())
+            .map(|t| {
+                let attributes = t
+                    .attributes()
+                    .iter()
+                    .map(|(k, v)| {
+                        (
+                            k.to_lowercase(),
+                            v.map(|v| v.into_owned()).unwrap_or_default(),
+                        )
+                    })
+                    .collect();
+                (t.name().as_utf8_str().to_lowercase(), attributes)
+            })
+            .collect()
+    }
+
+    /// The `id`s of the `<section>`s, in order.
+    fn section_ids(&self) -> Vec<String> {
+        self.elements()
+            .into_iter()
+            .filter(|(name, _)| name == "section")
+            .filter_map(|(_, a)| a.into_iter().find(|(k, _)| k == "id").map(|(_, v)| v))
+            .collect()
+    }
+
+    /// Per `<figure>`: the number of `<svg>` elements in it and of drawing elements
+    /// (polylines, paths, lines, rectangles, text) in those.
+    fn figures(&self) -> Vec<(usize, usize)> {
+        let dom = self.dom();
+        let parser = dom.parser();
+        let drawing = [
+            "polyline", "path", "line", "rect", "text", "circle", "polygon",
+        ];
+        dom.query_selector("figure")
+            .expect("a selector")
+            .filter_map(|h| h.get(parser).and_then(|n| n.as_tag()))
+            .map(|figure| {
+                let svgs = figure
+                    .query_selector(parser, "svg")
+                    .expect("a selector")
+                    .count();
+                let marks: usize = drawing
+                    .iter()
+                    .map(|d| {
+                        figure
+                            .query_selector(parser, d)
+                            .expect("a selector")
+                            .count()
+                    })
+                    .sum();
+                (svgs, marks)
+            })
+            .collect()
+    }
+
+    fn tables(&self) -> Vec<ParsedTable> {
+        let dom = self.dom();
+        let parser = dom.parser();
+        let text = |h: tl::NodeHandle| {
+            h.get(parser)
+                .map(|n| n.inner_text(parser).trim().to_owned())
+                .unwrap_or_default()
+        };
+        dom.query_selector("table")
+            .expect("a selector")
+            .filter_map(|h| h.get(parser).and_then(|n| n.as_tag()))
+            .map(|table| {
+                let caption = table
+                    .query_selector(parser, "caption")
+                    .expect("a selector")
+                    .next()
+                    .map(text)
+                    .unwrap_or_default();
+                let rows = table
+                    .query_selector(parser, "tr")
+                    .expect("a selector")
+                    .filter_map(|h| h.get(parser).and_then(|n| n.as_tag()))
+                    .map(|tr| {
+                        tr.children()
+                            .top()
+                            .iter()
+                            .filter(|c| {
+                                c.get(parser).and_then(|n| n.as_tag()).is_some_and(|t| {
+                                    matches!(t.name().as_utf8_str().as_ref(), "th" | "td")
+                                })
+                            })
+                            .map(|c| text(*c))
+                            .collect()
+                    })
+                    .collect();
+                ParsedTable { caption, rows }
+            })
+            .collect()
+    }
+
+    fn table(&self, caption_start: &str) -> ParsedTable {
+        let mut found: Vec<ParsedTable> = self
+            .tables()
+            .into_iter()
+            .filter(|t| t.caption.contains(caption_start))
+            .collect();
+        assert_eq!(found.len(), 1, "one table captioned {caption_start:?}");
+        found.remove(0)
+    }
+}
+
+/// Asserts the page refers to nothing outside itself: no `src`, no `<link>`, `<script>`,
+/// `<img>`, `<iframe>`, `<object>` or `<embed>`, links only to its own anchors, and no
+/// address in it but the SVG namespace names.
+fn assert_self_contained(page: &Page) {
+    let elements = page.elements();
+    for (name, attributes) in &elements {
+        assert!(
+            !matches!(
+                name.as_str(),
+                "link" | "script" | "img" | "iframe" | "object" | "embed" | "base"
+            ),
+            "a <{name}> element"
+        );
+        for (key, value) in attributes {
+            assert_ne!(key, "src", "<{name} src={value:?}>");
+            if key == "href" || key == "xlink:href" || key == "action" {
+                assert!(
+                    value.starts_with('#'),
+                    "<{name} {key}={value:?}> leaves the page"
+                );
+            }
+        }
+    }
+    let anchors: Vec<&str> = elements
+        .iter()
+        .flat_map(|(_, a)| a.iter())
+        .filter(|(k, _)| k == "href")
+        .map(|(_, v)| v.trim_start_matches('#'))
+        .collect();
+    let ids = page.section_ids();
+    for a in &anchors {
+        assert!(
+            ids.iter().any(|id| id == a),
+            "a link to #{a}, which is not on the page"
+        );
+    }
+    let html = page.html.to_lowercase();
+    for needle in ["url(", "@import"] {
+        assert!(
+            !html.contains(needle),
+            "the page's CSS fetches something: {needle}"
+        );
+    }
+    let outside = html
+        .match_indices("http")
+        .filter(|(i, _)| !html[..*i].ends_with("xmlns=\""))
+        .count();
+    assert_eq!(outside, 0, "an address other than a namespace name");
+}
+
+/// Asserts every figure is one inline `<svg>` with drawn content.
+fn assert_figures_drawn(page: &Page, expected: usize) {
+    let figures = page.figures();
+    assert_eq!(figures.len(), expected, "figures: {figures:?}");
+    for (i, (svgs, marks)) in figures.iter().enumerate() {
+        assert_eq!(*svgs, 1, "figure {} holds {svgs} <svg>", i + 1);
+        assert!(*marks >= 10, "figure {} draws only {marks} marks", i + 1);
+    }
+}
+
+fn numbers(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .expect("an array")
+        .iter()
+        .map(|x| x.as_f64().expect("a number"))
+        .collect()
+}
+
+fn run(args: &[&str], dir: &Path) {
+    let out = heatrun(args, dir);
+    assert!(
+        out.status.success(),
+        "heatrun {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The fixture's page: every section, ten figures, the tables' shapes and numbers.
+#[test]
+fn the_fixtures_page_has_every_section_figure_and_table() {
+    let root = package_root();
+    let dir = common::tempdir();
+    let fixture = root.join("fixtures/paper_heat_run.mcap");
+    run(
+        &[
+            "replay",
+            fixture.to_str().unwrap(),
+            "--rrd",
+            "run.rrd",
+            "--report",
+            "report.json",
+            "--html",
+            "report.html",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    let page = Page::read(&dir.path().join("report.html"));
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+            .unwrap();
+    let has_calorimetry = report.get("calorimetry").is_some();
+    let mut expected = vec![
+        "recording",
+        "inputs",
+        "temperatures",
+        "model",
+        "time-constants",
+        "fit",
+        "steady-state",
+        "residuals",
+        "network",
+    ];
+    if has_calorimetry {
+        expected.push("calorimetry");
+    }
+    expected.push("estimator");
+    assert_eq!(page.section_ids(), expected);
+    // Inputs, three temperatures, three sensitivity responses, the autocorrelation, the
+    // network, and the calorimetric balance where present.
+    assert_figures_drawn(&page, 9 + has_calorimetry as usize);
+    assert_self_contained(&page);
+
+    let square = |t: &ParsedTable| (t.rows.len(), t.rows.iter().map(Vec::len).max().unwrap());
+    assert_eq!(square(&page.table("Φ (eq. 19)")), (4, 4));
+    assert_eq!(square(&page.table("Γ (eq. 20)")), (4, 4));
+    assert_eq!(square(&page.table("A_c (eq. 22)")), (4, 4));
+    assert_eq!(square(&page.table("B_c (eq. 23)")), (4, 4));
+    assert_eq!(square(&page.table("Sensitivity norms")), (4, 4));
+    assert_eq!(square(&page.table("Fit per part")), (6, 4));
+
+    // The time constants and the fit on the page are the report's, to their printed digits.
+    let constants = page.table("Time constants T_i");
+    assert_eq!(constants.rows.len(), 4);
+    for (row, t) in constants.rows[1..]
+        .iter()
+        .zip(numbers(&report["time_constants_s"]))
+    {
+        let shown: f64 = row[1].parse().unwrap();
+        assert!((shown - t).abs() <= 0.005 + 1e-9, "{shown} against {t}");
+    }
+    assert_eq!(constants.rows[2][4], "stator winding (copper)");
+    let fit = page.table("Fit per part");
+    let nrmse = fit.rows.iter().find(|r| r[0].starts_with("NRMSE")).unwrap();
+    for (cell, v) in nrmse[1..]
+        .iter()
+        .zip(numbers(&report["fit"]["nrmse_fit_percent"]))
+    {
+        assert_eq!(*cell, format!("{v:.2}"));
+    }
+    let steady = page.table("Steady state");
+    let measured = steady
+        .rows
+        .iter()
+        .find(|r| r[0].starts_with("measured final temperature"))
+        .unwrap();
+    for (cell, v) in measured[1..].iter().zip(numbers(
+        &report["steady_state"]["measured_final_temperature_c"],
+    )) {
+        assert_eq!(*cell, format!("{v:.3}"));
+    }
+    // The recording's metadata and the version.
+    assert!(page.html.contains("synthetic-seed-1"));
+    let version = report["heatrun_version"].as_str().unwrap();
+    let settings = page.table("Estimator and settings");
+    assert!(settings
+        .rows
+        .iter()
+        .any(|r| r[0] == "heatrun version" && r[1] == version));
+    // No leftover temporary file beside the page.
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".partial"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+/// A recursive estimate shows its convergence; a hold-out its validation table.
+#[test]
+fn a_recursive_estimate_with_a_hold_out_shows_convergence_and_validation() {
+    let root = package_root();
+    let dir = common::tempdir();
+    let fixture = root.join("fixtures/paper_heat_run.mcap");
+    run(
+        &[
+            "replay",
+            fixture.to_str().unwrap(),
+            "--method",
+            "rls",
+            "--holdout",
+            "0.3",
+            "--rrd",
+            "run.rrd",
+            "--html",
+            "rls.html",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    let page = Page::read(&dir.path().join("rls.html"));
+    let ids = page.section_ids();
+    for id in ["recursive", "validation"] {
+        assert!(ids.iter().any(|i| i == id), "no section {id} in {ids:?}");
+    }
+    let figures = page.figures();
+    assert!(figures
+        .iter()
+        .all(|&(svgs, marks)| svgs == 1 && marks >= 10));
+    let validation = page.table("Fit on the validation data");
+    assert_eq!(validation.rows[0].len(), 4);
+    let settings = page.table("Estimator and settings");
+    assert!(settings
+        .rows
+        .iter()
+        .any(|r| r[0] == "forgetting factor λ" && r[1].parse::<f64>() == Ok(1.0)));
+    assert_self_contained(&page);
+}
+
+/// A spec model of two states and two inputs gets its own names, 2 × 2 matrices and two
+/// temperature and sensitivity figures.
+#[test]
+fn a_spec_model_of_two_states_gets_its_own_page() {
+    let root = package_root();
+    let dir = common::tempdir();
+    let mcap = dir.path().join("tclab.mcap");
+    run(
+        &[
+            "import",
+            root.join("tests/datasets/tclab/tclab_mimo_data.csv")
+                .to_str()
+                .unwrap(),
+            "--map",
+            root.join("examples/tclab_mimo_heaters/map.toml")
+                .to_str()
+                .unwrap(),
+            "--out",
+            mcap.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    let spec = root.join("examples/tclab_mimo_heaters/spec.toml");
+    run(
+        &[
+            "replay",
+            mcap.to_str().unwrap(),
+            "--spec",
+            spec.to_str().unwrap(),
+            "--rrd",
+            "tclab.rrd",
+            "--html",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    // A bare --html writes <stem>.html here.
+    let page = Page::read(&dir.path().join("tclab.html"));
+    assert!(page.html.contains("<title>TCLab MIMO heaters (tclab.mcap)"));
+    let square = |t: &ParsedTable| (t.rows.len(), t.rows.iter().map(Vec::len).max().unwrap());
+    assert_eq!(square(&page.table("Φ (eq. 19)")), (3, 3));
+    assert_eq!(square(&page.table("B_c (eq. 23)")), (3, 3));
+    let gamma = page.table("Γ (eq. 20)");
+    assert_eq!(gamma.rows[0][1..], ["heater 1 power", "heater 2 power"]);
+    assert_eq!(gamma.rows[1][0], "heater 1");
+    // Inputs, two temperatures, two sensitivity responses, autocorrelation; no network
+    // diagram: TCLab's identified model is no passive network (the page says why).
+    assert_figures_drawn(&page, 6);
+    assert_self_contained(&page);
+}
+
+/// In fleet mode a bare --html writes one page beside each report; a named page is refused.
+#[test]
+fn a_fleet_writes_one_page_per_recording() {
+    let root = package_root();
+    let dir = common::tempdir();
+    let runs = dir.path().join("runs");
+    std::fs::create_dir(&runs).unwrap();
+    for name in ["unit1.mcap", "unit2.mcap"] {
+        std::fs::copy(root.join("fixtures/paper_heat_run.mcap"), runs.join(name)).unwrap();
+    }
+    run(
+        &[
+            "replay",
+            "runs",
+            "--out-dir",
+            "out",
+            "--jobs",
+            "2",
+            "--html",
+        ],
+        dir.path(),
+    );
+    for stem in ["unit1", "unit2"] {
+        let page = Page::read(&dir.path().join(format!("out/{stem}.report.html")));
+        assert!(page.html.contains(&format!("{stem}.mcap")));
+        assert_self_contained(&page);
+    }
+    let refused = heatrun(
+        &["replay", "runs", "--out-dir", "out2", "--html", "one.html"],
+        dir.path(),
+    );
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(!dir.path().join("one.html").exists());
+    // A page path that names a recording is the option taking the recording by mistake.
+    let mistaken = heatrun(&["replay", "--html", "runs/unit1.mcap"], dir.path());
+    assert_eq!(mistaken.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&mistaken.stderr).contains("--html=PAGE.html"));
+}
