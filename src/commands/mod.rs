@@ -3,6 +3,8 @@
 pub mod hint;
 mod import;
 mod info;
+mod predict;
+mod rating;
 mod replay;
 mod synth;
 
@@ -24,5 +26,7 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Synth(args) => synth::run(args),
         Command::Info(args) => info::run(args),
         Command::Import(args) => import::run(args),
+        Command::Predict(args) => predict::run(args),
+        Command::Rating(args) => rating::run(args),
     }
 }
