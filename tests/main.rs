@@ -28,5 +28,6 @@ mod import;
 mod layouts;
 mod outputs;
 mod paper;
+mod predict;
 mod recovery;
 mod spec;

@@ -52,6 +52,9 @@ pub struct Prediction {
     pub inputs_model: Vec<Vec<f64>>,
     /// The field winding temperature used for R_f, °C, where there is one.
     pub field_temperature_c: Vec<Option<f64>>,
+    /// Whether the field winding temperature is derived from the stator winding's (not a
+    /// state): it is then written as a column of its own, `field_winding_temp_c`.
+    pub field_derived: bool,
     /// What was assumed or ignored.
     pub warnings: Vec<String>,
 }
@@ -110,6 +113,10 @@ pub fn predict(
         temperatures_c: Vec::with_capacity(steps + 1),
         inputs_model: Vec::with_capacity(steps + 1),
         field_temperature_c: Vec::with_capacity(steps + 1),
+        field_derived: matches!(
+            model.field_temperature,
+            model::FieldTemperatureUse::FromStator { .. }
+        ),
         warnings,
     };
     for k in 0..=steps {
@@ -128,17 +135,24 @@ pub fn predict(
 }
 
 impl Prediction {
-    /// The prediction as CSV: `time_s` and `<state>_c` per state, °C.
+    /// The prediction as CSV: `time_s` and `<state>_c` per state, °C (and
+    /// `field_winding_temp_c` where the field winding is derived, not a state).
     pub fn to_csv(&self) -> String {
         let mut s = String::from("time_s");
         for name in &self.states {
             let _ = write!(s, ",{name}_c");
         }
+        if self.field_derived {
+            s.push_str(",field_winding_temp_c");
+        }
         s.push('\n');
-        for (t, theta) in self.time_s.iter().zip(&self.temperatures_c) {
+        for (k, (t, theta)) in self.time_s.iter().zip(&self.temperatures_c).enumerate() {
             let _ = write!(s, "{t}");
             for v in theta {
                 let _ = write!(s, ",{v:.4}");
+            }
+            if self.field_derived {
+                let _ = write!(s, ",{:.4}", self.field_temperature_c[k].unwrap_or(f64::NAN));
             }
             s.push('\n');
         }
