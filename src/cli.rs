@@ -42,6 +42,99 @@ pub enum Command {
     /// Print heatrun's man page (roff).
     #[command(after_help = "Example:\n  heatrun man --out heatrun.1 && man ./heatrun.1")]
     Man(ManArgs),
+    /// Predict every part's temperature under a load schedule, from a model report.
+    Predict(PredictArgs),
+    /// The machine's thermal rating: largest continuous power, limiting part, overloads.
+    Rating(RatingArgs),
+}
+
+/// Where a prediction starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum InitialArg {
+    /// The temperatures at the start of the model's recording.
+    Measured,
+    /// The steady state of the schedule's first row.
+    Steady,
+}
+
+/// Arguments of `heatrun predict`.
+#[derive(Debug, Args)]
+pub struct PredictArgs {
+    /// The model: a report written by `heatrun replay --report`.
+    #[arg(long, value_name = "REPORT.json")]
+    pub model: PathBuf,
+    /// The load schedule (CSV): time_s and either armature_current_a, field_current_a,
+    /// line_voltage_kv, or apparent_power_mva with power_factor; optional coolant_inlet_temp_c.
+    #[arg(long, value_name = "LOAD.csv")]
+    pub load: PathBuf,
+    /// The predicted temperatures (CSV: time_s and <state>_c per state).
+    #[arg(long, value_name = "PRED.csv")]
+    pub out: PathBuf,
+    /// Where the prediction starts.
+    #[arg(long, value_enum, default_value_t = InitialArg::Measured, conflicts_with = "initial_temps")]
+    pub initial: InitialArg,
+    /// Start from these temperatures, °C, one per state in the model's order.
+    #[arg(long, value_delimiter = ',', value_name = "T1,T2,...")]
+    pub initial_temps: Option<Vec<f64>>,
+    /// Do not print the summary.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Insulation thermal class.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ClassArg {
+    /// Class 130 (B).
+    #[value(name = "B")]
+    B,
+    /// Class 155 (F).
+    #[value(name = "F")]
+    F,
+    /// Class 180 (H).
+    #[value(name = "H")]
+    H,
+}
+
+/// Arguments of `heatrun rating`.
+#[derive(Debug, Args)]
+pub struct RatingArgs {
+    /// The model: a report written by `heatrun replay --report`.
+    #[arg(long, value_name = "REPORT.json")]
+    pub model: PathBuf,
+    /// Insulation class: the built-in limits (IEC 60034-1, Table 7) for the stator
+    /// winding, the field winding and the core.
+    #[arg(long, value_enum)]
+    pub class: Option<ClassArg>,
+    /// A part's limit, °C (repeatable; overrides the class's): STATE=°C.
+    #[arg(long, value_name = "STATE=°C", value_parser = parse_limit)]
+    pub limit: Vec<(String, f64)>,
+    /// Power factor of the rating (negative: leading) [default: the nameplate's rated one].
+    #[arg(long, allow_hyphen_values = true)]
+    pub power_factor: Option<f64>,
+    /// Line voltage, kV [default: rated].
+    #[arg(long, value_name = "KV")]
+    pub voltage: Option<f64>,
+    /// Coolant (cooling-water inlet) temperature of the rating, °C [default: the model's test].
+    #[arg(long, value_name = "°C", allow_hyphen_values = true)]
+    pub coolant: Option<f64>,
+    /// Overloads for the short-time ratings, % of rated current.
+    #[arg(long, value_delimiter = ',', default_value = "110,120,130,140,150")]
+    pub overloads: Vec<f64>,
+    /// Write the rating as JSON to this file.
+    #[arg(long, value_name = "OUT.json")]
+    pub json: Option<PathBuf>,
+}
+
+/// `STATE=°C`.
+fn parse_limit(text: &str) -> Result<(String, f64), String> {
+    let (name, value) = text
+        .split_once('=')
+        .ok_or_else(|| format!("`{text}` is not STATE=°C"))?;
+    let value: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{value}` is not a temperature in °C"))?;
+    Ok((name.trim().to_owned(), value))
 }
 
 /// Identification method.
@@ -358,6 +451,76 @@ mod tests {
     #[test]
     fn the_definitions_are_consistent() {
         Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn predict_and_rating_parse_their_options() {
+        let Command::Predict(p) = parse(&[
+            "predict", "--model", "r.json", "--load", "l.csv", "--out", "p.csv",
+        ])
+        .unwrap()
+        .command
+        else {
+            panic!("not predict");
+        };
+        assert_eq!((p.initial, p.initial_temps), (InitialArg::Measured, None));
+        let Command::Predict(p) = parse(&[
+            "predict",
+            "--model",
+            "r.json",
+            "--load",
+            "l.csv",
+            "--out",
+            "p.csv",
+            "--initial-temps",
+            "40,35.5,12",
+        ])
+        .unwrap()
+        .command
+        else {
+            panic!("not predict");
+        };
+        assert_eq!(p.initial_temps, Some(vec![40.0, 35.5, 12.0]));
+        assert_eq!(
+            error(&["predict", "--model", "r.json", "--load", "l.csv"]),
+            ErrorKind::MissingRequiredArgument
+        );
+        let Command::Rating(r) = parse(&[
+            "rating",
+            "--model",
+            "r.json",
+            "--class",
+            "F",
+            "--limit",
+            "core_temp=120",
+            "--limit",
+            "stator_winding_temp = 130.5",
+            "--power-factor",
+            "-0.95",
+        ])
+        .unwrap()
+        .command
+        else {
+            panic!("not rating");
+        };
+        assert_eq!(r.class, Some(ClassArg::F));
+        assert_eq!(
+            r.limit,
+            [
+                ("core_temp".to_owned(), 120.0),
+                ("stator_winding_temp".to_owned(), 130.5)
+            ]
+        );
+        assert_eq!(r.power_factor, Some(-0.95));
+        assert_eq!(r.overloads, [110.0, 120.0, 130.0, 140.0, 150.0]);
+        assert_eq!(
+            error(&["rating", "--model", "r.json", "--limit", "core_temp"]),
+            ErrorKind::ValueValidation
+        );
+        assert_eq!(
+            error(&["rating", "--model", "r.json", "--class", "Q"]),
+            ErrorKind::InvalidValue
+        );
     }
 
     #[test]

@@ -183,6 +183,9 @@ pub enum Error {
     /// A table could not be imported (a bad cell, row, time, or map).
     #[error(transparent)]
     Import(Box<crate::import::ImportError>),
+    /// A model report, load file or request of predict, rating or monitor is unusable.
+    #[error(transparent)]
+    ModelUse(Box<crate::predict::UseError>),
 }
 
 impl Error {
@@ -217,6 +220,7 @@ impl Error {
                 | Error::HoldOutFraction { .. }
                 | Error::Weights { .. }
                 | Error::SplitOutside { .. }
+                | Error::ModelUse(_)
         )
     }
 }

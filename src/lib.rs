@@ -56,8 +56,10 @@ pub mod losses;
 pub mod model;
 pub mod network;
 pub mod pipeline;
+pub mod predict;
 #[cfg(feature = "rerun")]
 pub mod publish;
+pub mod rating;
 pub mod recording;
 pub mod report;
 pub mod series;

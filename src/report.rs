@@ -255,6 +255,61 @@ pub struct EstimationEntry {
     /// Power base, MVA.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub power_base_mva: Option<f64>,
+    /// Each state's reference θ_ref,j at the initial instant, °C: a state's temperature
+    /// there is this plus its initial rise (what `heatrun predict` starts from).
+    pub initial_reference_c: Vec<f64>,
+    /// The mean cooling-water inlet temperature over the recording, °C, where it is
+    /// recorded: the coolant temperature the model's rises belong to.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coolant_inlet_temp_c: Option<f64>,
+    /// The field winding temperature as a straight line of the stator winding's
+    /// (least squares over the recording), where the loss model has a field temperature:
+    /// what `heatrun predict` uses for R_f when the field winding is not a state.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field_temperature_from_stator: Option<FieldFromStator>,
+}
+
+/// θ_f ≈ intercept + slope · θ_Cu: the field winding temperature from the stator
+/// winding's, fitted over the recording.
+#[derive(Debug, Clone, Serialize)]
+pub struct FieldFromStator {
+    /// Intercept, °C.
+    pub intercept_c: f64,
+    /// Slope, K per K.
+    pub slope: f64,
+    /// RMS of the fit's residual, K.
+    pub rms_residual_k: f64,
+}
+
+impl FieldFromStator {
+    /// The least-squares line θ_f = a + b·θ_Cu over the instants where both are known;
+    /// `None` with fewer than two such instants or no spread in θ_Cu.
+    pub fn fit(stator_c: &crate::series::Series, field_c: &crate::series::Series) -> Option<Self> {
+        let pairs: Vec<(f64, f64)> = stator_c
+            .iter()
+            .zip(field_c.iter())
+            .filter_map(|(x, y)| x.zip(y))
+            .collect();
+        let n = pairs.len() as f64;
+        let mean_x = pairs.iter().map(|p| p.0).sum::<f64>() / n;
+        let mean_y = pairs.iter().map(|p| p.1).sum::<f64>() / n;
+        let sxx: f64 = pairs.iter().map(|p| (p.0 - mean_x).powi(2)).sum();
+        let sxy: f64 = pairs.iter().map(|p| (p.0 - mean_x) * (p.1 - mean_y)).sum();
+        if pairs.len() < 2 || !(sxx > 0.0) {
+            return None;
+        }
+        let slope = sxy / sxx;
+        let intercept_c = mean_y - slope * mean_x;
+        let sse: f64 = pairs
+            .iter()
+            .map(|p| (p.1 - intercept_c - slope * p.0).powi(2))
+            .sum();
+        Some(FieldFromStator {
+            intercept_c,
+            slope,
+            rms_residual_k: (sse / n).sqrt(),
+        })
+    }
 }
 
 /// The report of `heatrun replay --report` (profile section "Report").
@@ -441,6 +496,20 @@ impl EstimationEntry {
             temperature_base_k: s.temperature_base_k,
             power_base_mva: (r.model.scaling == Scaling::NameplatePerUnit)
                 .then(|| s.power_base / 1e6),
+            initial_reference_c: s.initial_references(),
+            coolant_inlet_temp_c: r
+                .decimated
+                .get(crate::recording::Quantity::CoolingWaterInletTemp)
+                .and_then(|inlet| {
+                    let known: Vec<f64> = inlet.values.iter().flatten().collect();
+                    (!known.is_empty()).then(|| known.iter().sum::<f64>() / known.len() as f64)
+                }),
+            field_temperature_from_stator: s.field_temperature.as_ref().and_then(|f| {
+                let stator = r
+                    .decimated
+                    .get(crate::recording::Quantity::StatorWindingTemp)?;
+                FieldFromStator::fit(&stator.values, &f.values)
+            }),
         }
     }
 }

@@ -36,5 +36,6 @@ mod layouts;
 mod network_rc;
 mod outputs;
 mod paper;
+mod predict;
 mod recovery;
 mod spec;

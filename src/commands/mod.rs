@@ -5,6 +5,8 @@ pub mod hint;
 mod import;
 mod info;
 mod man;
+mod predict;
+mod rating;
 mod replay;
 mod synth;
 
@@ -28,5 +30,7 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Import(args) => import::run(args),
         Command::Completions(args) => completions::run(args),
         Command::Man(args) => man::run(args),
+        Command::Predict(args) => predict::run(args),
+        Command::Rating(args) => rating::run(args),
     }
 }

@@ -57,8 +57,9 @@ pub fn diagram(network: &Network) -> String {
         width / 2.0,
         rail + 26.0
     );
-    for i in 0..n {
-        for j in i + 1..n {
+    let pairs = (0..n).flat_map(|i| (i + 1..n).map(move |j| (i, j)));
+    for (i, j) in pairs {
+        {
             let (gij, rij) = (g[i][j], network.resistance_k_per_w[i][j]);
             if j == i + 1 {
                 resistor_horizontal(

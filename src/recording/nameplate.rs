@@ -13,7 +13,7 @@ pub const NAMEPLATE_RECORD: &str = "heatrun.nameplate";
 
 /// Machine data used by the loss model and the per-unit system (profile, table
 /// "Metadata record"). Powers are in W, resistances in Ω, temperatures in °C.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Nameplate {
     /// Rated apparent power S_n, in VA: the per-unit power base.
     pub rated_apparent_power_va: f64,
@@ -43,6 +43,16 @@ pub struct Nameplate {
     pub temperature_base_k: f64,
     /// Known final field winding temperature, in °C (the paper's field-temperature method).
     pub field_winding_final_temp_c: Option<f64>,
+    /// Unsaturated direct-axis synchronous reactance x_d, pu (the field current of a load
+    /// point from its phasor diagram; optional).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub direct_axis_reactance_pu: Option<f64>,
+    /// Quadrature-axis synchronous reactance x_q, pu (optional).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quadrature_axis_reactance_pu: Option<f64>,
+    /// Rated power factor cos φ_n (optional; the rated point of the phasor diagram).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rated_power_factor: Option<f64>,
 }
 
 /// Raw nameplate key/value pairs (decimal strings), merged from the recording and a
@@ -87,6 +97,12 @@ struct MachineFile {
     temperature_base_k: Option<Decimal>,
     #[serde(skip_serializing_if = "Option::is_none")]
     field_winding_final_temp_c: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    direct_axis_reactance_pu: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    quadrature_axis_reactance_pu: Option<Decimal>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rated_power_factor: Option<Decimal>,
     /// Not a key of the profile's table, but the conventional extra a machine file carries.
     #[serde(skip_serializing_if = "Option::is_none")]
     name: Option<Decimal>,
@@ -216,6 +232,13 @@ impl NameplateEntries {
         Ok(v)
     }
 
+    fn optional_positive(&self, key: &str) -> Result<Option<f64>> {
+        match self.number(key)? {
+            Some(v) if v <= 0.0 => Err(self.bad_value(key, "positive")),
+            v => Ok(v),
+        }
+    }
+
     /// Checks the entries and converts them to a [`Nameplate`]; `recording` names
     /// the recording in the message for a missing key.
     pub fn resolve(&self, recording: &str) -> Result<Nameplate> {
@@ -242,6 +265,14 @@ impl NameplateEntries {
             additional_losses_w: nonneg("additional_losses_kw")? * 1e3,
             temperature_base_k: self.positive("temperature_base_k", r)?,
             field_winding_final_temp_c: self.number("field_winding_final_temp_c")?,
+            direct_axis_reactance_pu: self.optional_positive("direct_axis_reactance_pu")?,
+            quadrature_axis_reactance_pu: self.optional_positive("quadrature_axis_reactance_pu")?,
+            rated_power_factor: match self.number("rated_power_factor")? {
+                Some(v) if !(v > 0.0 && v <= 1.0) => {
+                    return Err(self.bad_value("rated_power_factor", "in (0, 1]"))
+                }
+                v => v,
+            },
         })
     }
 }
@@ -265,6 +296,9 @@ impl Nameplate {
             additional_losses_w: 143.6e3,
             temperature_base_k: 80.0,
             field_winding_final_temp_c: Some(81.0),
+            direct_axis_reactance_pu: None,
+            quadrature_axis_reactance_pu: None,
+            rated_power_factor: None,
         }
     }
 
@@ -302,8 +336,21 @@ impl Nameplate {
         put("iron_losses_kw", self.iron_losses_w / 1e3);
         put("additional_losses_kw", self.additional_losses_w / 1e3);
         put("temperature_base_k", self.temperature_base_k);
-        if let Some(v) = self.field_winding_final_temp_c {
-            put("field_winding_final_temp_c", v);
+        for (key, value) in [
+            (
+                "field_winding_final_temp_c",
+                self.field_winding_final_temp_c,
+            ),
+            ("direct_axis_reactance_pu", self.direct_axis_reactance_pu),
+            (
+                "quadrature_axis_reactance_pu",
+                self.quadrature_axis_reactance_pu,
+            ),
+            ("rated_power_factor", self.rated_power_factor),
+        ] {
+            if let Some(v) = value {
+                put(key, v);
+            }
         }
         m
     }

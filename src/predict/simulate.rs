@@ -1,0 +1,199 @@
+//! The model run forward: temperatures from rises, the inputs of an operating point at
+//! the predicted temperatures, one step x(k+1) = Φ x(k) + Γ u(k), and the steady state.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::error::UseError;
+use super::load::OperatingPoint;
+use super::model::{FieldTemperatureUse, InputUse, StateReference, ThermalModel};
+use crate::losses::{self, HeatSource};
+use crate::recording::{Nameplate, Quantity};
+
+/// The model ready to run: the checks that every input can be computed are done once.
+#[derive(Debug, Clone)]
+pub struct Simulator<'a> {
+    /// The model.
+    pub model: &'a ThermalModel,
+    /// (I − Φ)⁻¹ Γ: the steady rise per unit input (eq. 31 in discrete form).
+    steady_gain: DMatrix<f64>,
+    /// The stator winding state, where the loss model needs its temperature.
+    stator: Option<usize>,
+}
+
+impl<'a> Simulator<'a> {
+    /// Checks that the model's inputs can be computed from operating points.
+    pub fn new(model: &'a ThermalModel) -> Result<Simulator<'a>, UseError> {
+        let n = model.state_count();
+        let losses = model
+            .inputs
+            .iter()
+            .any(|i| matches!(i.source, InputUse::Loss(_)));
+        if losses && model.nameplate.is_none() {
+            return Err(model.missing("nameplate", "the loss model's inputs need"));
+        }
+        let stator = model.state_of(Quantity::StatorWindingTemp);
+        let copper = model.inputs.iter().any(|i| {
+            matches!(
+                i.source,
+                InputUse::Loss(HeatSource::ArmatureCopperLoss | HeatSource::FieldCopperLoss)
+            )
+        });
+        if copper && stator.is_none() {
+            return Err(model.missing(
+                "model.states[stator_winding_temp]",
+                "the copper losses need (R_a and R_f at the stator winding's temperature)",
+            ));
+        }
+        let i_minus_phi = DMatrix::identity(n, n) - &model.phi;
+        let steady_gain = i_minus_phi.lu().solve(&model.gamma).ok_or_else(|| {
+            UseError::Request(format!(
+                "{}: I − Φ is singular: the model has no steady state",
+                model.path.display()
+            ))
+        })?;
+        Ok(Simulator {
+            model,
+            steady_gain,
+            stator,
+        })
+    }
+
+    fn nameplate(&self) -> &Nameplate {
+        // Checked in `new` wherever a loss input needs it.
+        self.model
+            .nameplate
+            .as_ref()
+            .expect("Simulator::new checked the nameplate")
+    }
+
+    /// The coolant shift Δ = θ_in − θ_in,test added to the rises measured from the
+    /// initial temperatures, where the schedule gives a coolant inlet temperature, the
+    /// model's recording had one, and the model does not carry the coolant itself.
+    pub fn coolant_shift(&self, p: &OperatingPoint) -> f64 {
+        match (p.coolant_inlet_c, self.model.coolant_inlet_temp_c) {
+            (Some(now), Some(test)) if !self.model.uses_coolant_inlet() => now - test,
+            _ => 0.0,
+        }
+    }
+
+    /// Whether the schedule's coolant temperature can be used (see [`Self::coolant_shift`]).
+    pub fn coolant_applies(&self) -> bool {
+        self.model.uses_coolant_inlet() || self.model.coolant_inlet_temp_c.is_some()
+    }
+
+    /// θ_ref,j + (shift for rises from the initial temperatures) at `p`, °C.
+    fn offset(&self, j: usize, p: &OperatingPoint) -> f64 {
+        let inlet = Quantity::CoolingWaterInletTemp.name();
+        match &self.model.states[j].reference {
+            StateReference::Initial(theta0) => theta0 + self.coolant_shift(p),
+            StateReference::Absolute => 0.0,
+            StateReference::Channel(c, r0) if c == inlet => p
+                .coolant_inlet_c
+                .or(self.model.coolant_inlet_temp_c)
+                .unwrap_or(*r0),
+            StateReference::Channel(c, r0) => p.channels.get(c).copied().unwrap_or(*r0),
+        }
+    }
+
+    /// Temperatures θ_j = θ_ref,j + θ_base · x_j, °C, of rises `x` (pu) at `p`.
+    pub fn temperatures(&self, x: &DVector<f64>, p: &OperatingPoint) -> Vec<f64> {
+        (0..x.len())
+            .map(|j| self.offset(j, p) + self.model.temperature_base_k * x[j])
+            .collect()
+    }
+
+    /// The rises of temperatures `theta` (°C) at `p`: the inverse of [`Self::temperatures`].
+    pub fn rises(&self, theta: &[f64], p: &OperatingPoint) -> DVector<f64> {
+        DVector::from_fn(theta.len(), |j, _| {
+            (theta[j] - self.offset(j, p)) / self.model.temperature_base_k
+        })
+    }
+
+    /// The field winding temperature for R_f, °C, where the loss model needs one.
+    pub fn field_temperature_c(&self, theta: &[f64], p: &OperatingPoint) -> Option<f64> {
+        match self.model.field_temperature {
+            FieldTemperatureUse::State(j) => Some(theta[j]),
+            FieldTemperatureUse::FromStator { intercept_c, slope } => {
+                let shift = self.coolant_shift(p);
+                let stator = theta[self.stator?];
+                Some(shift + intercept_c + slope * (stator - shift))
+            }
+            FieldTemperatureUse::NotNeeded => None,
+        }
+    }
+
+    /// The inputs u (model scaling) of operating point `p` at temperatures `theta` (°C):
+    /// the loss model with R_a at the stator winding's and R_f at the field winding's
+    /// temperature, channels from the schedule's columns.
+    pub fn inputs(&self, p: &OperatingPoint, theta: &[f64]) -> Result<DVector<f64>, UseError> {
+        let base = self.model.power_base_w;
+        let inlet = Quantity::CoolingWaterInletTemp.name();
+        let channel = |c: &str| -> f64 {
+            if c == inlet {
+                p.coolant_inlet_c
+                    .or(self.model.coolant_inlet_temp_c)
+                    .unwrap_or(f64::NAN)
+            } else {
+                p.channels.get(c).copied().unwrap_or(f64::NAN)
+            }
+        };
+        let mut u = DVector::zeros(self.model.inputs.len());
+        for (i, input) in self.model.inputs.iter().enumerate() {
+            u[i] = match &input.source {
+                InputUse::Loss(h) => self.loss_w(*h, p, theta) / base,
+                InputUse::Channel(c) => channel(c) / base,
+                InputUse::Expression(e) => {
+                    let args: Vec<f64> = e.channels().iter().map(|c| channel(c.name())).collect();
+                    e.eval(&args).unwrap_or(f64::NAN) / base
+                }
+            };
+            if !u[i].is_finite() {
+                return Err(UseError::Request(format!(
+                    "input `{}` is not a number at this operating point (a channel it reads is \
+                     missing, or its expression is undefined there)",
+                    input.name
+                )));
+            }
+        }
+        Ok(u)
+    }
+
+    fn loss_w(&self, h: HeatSource, p: &OperatingPoint, theta: &[f64]) -> f64 {
+        let np = self.nameplate();
+        let stator = self.stator.map_or(f64::NAN, |j| theta[j]);
+        match h {
+            HeatSource::ArmatureCopperLoss => {
+                losses::armature_copper_loss_w(np, p.armature_current_a, stator)
+            }
+            HeatSource::FieldCopperLoss => losses::field_copper_loss_w(
+                np,
+                p.field_current_a,
+                self.field_temperature_c(theta, p).unwrap_or(f64::NAN),
+            ),
+            HeatSource::IronLoss => losses::iron_loss_w(np, p.line_voltage_v),
+        }
+    }
+
+    /// One step: x(k+1) = Φ x(k) + Γ u(k).
+    pub fn step(&self, x: &DVector<f64>, u: &DVector<f64>) -> DVector<f64> {
+        &self.model.phi * x + &self.model.gamma * u
+    }
+
+    /// The steady state of `p`: x = (I − Φ)⁻¹ Γ u(x), iterated because the copper
+    /// losses grow with the temperatures they cause (a contraction: R changes by
+    /// 1/(235 + θ) per kelvin).
+    pub fn steady_state(&self, p: &OperatingPoint) -> Result<DVector<f64>, UseError> {
+        let n = self.model.state_count();
+        let mut x = DVector::zeros(n);
+        for _ in 0..200 {
+            let u = self.inputs(p, &self.temperatures(&x, p))?;
+            let next = &self.steady_gain * u;
+            let change = (&next - &x).amax();
+            x = next;
+            if change < 1e-13 {
+                break;
+            }
+        }
+        Ok(x)
+    }
+}
