@@ -84,12 +84,13 @@ fn rrd_holds_the_expected_entities_and_rows() {
         "a blueprint is sent with the recording"
     );
     // Every time-series view shows the whole recording: three parts, residuals, inputs,
-    // three sensitivities, three correlations, the decimated quantities.
+    // three sensitivities, three correlations, the decimated quantities, and the
+    // calorimetric balance (the synthetic run records the cooling-water flow).
     let whole_range = blueprint
         .iter()
         .filter(|p| p.ends_with("/TimeAxis"))
         .count();
-    assert_eq!(whole_range, 12, "{blueprint:?}");
+    assert_eq!(whole_range, 13, "{blueprint:?}");
     let n = duration as usize; // one instant per second
     for state in [
         "stator_winding_temp",
@@ -110,6 +111,9 @@ fn rrd_holds_the_expected_entities_and_rows() {
     for input in ["armature_copper_loss", "field_copper_loss", "iron_loss"] {
         assert_eq!(rows[&format!("/loss/{input}")], n);
     }
+    // The calorimetric balance over time: the water's heat and the losses' sum.
+    assert_eq!(rows["/calorimetry/heat_carried_away"], n);
+    assert_eq!(rows["/calorimetry/losses"], n);
     for q in [
         "armature_current",
         "field_current",

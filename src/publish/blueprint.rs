@@ -157,8 +157,9 @@ mod tests {
             .iter()
             .filter(|v| v.kind == ViewKind::TimeSeries)
             .collect();
-        // 3 parts, residual, inputs, 3 sensitivities, 3 correlations, decimated, full rate.
-        assert_eq!(series.len(), 13);
+        // 3 parts, residual, inputs, 3 sensitivities, 3 correlations, decimated, full
+        // rate, and the calorimetric balance (the fixture records the flow).
+        assert_eq!(series.len(), 14);
         assert!(series.iter().all(|v| v.shows_whole_range()));
         assert_eq!(views[0].origin, "temperature/stator_winding_temp");
         assert!(views[0].name.ends_with("°C"), "{}", views[0].name);
