@@ -20,6 +20,9 @@ pub const PROFILE: &str = "heatrun-scada/1";
 pub struct AssignmentEntry {
     /// T_i in s.
     pub time_constant_s: f64,
+    /// The oscillation period 2π/|Im λ_c| of a complex mode, s (absent for a real one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub oscillation_period_s: Option<f64>,
     /// The state (profile name) it predominantly belongs to.
     pub state: String,
     /// ‖T_i ∂y/∂T_i‖ (RMS, pu) of that state.
@@ -339,8 +342,19 @@ pub struct Report {
     pub eigenvalues_discrete: Vec<f64>,
     /// Eigenvalues of A_c, 1/s.
     pub eigenvalues_continuous: Vec<f64>,
-    /// Time constants, ascending, s.
+    /// Time constants, ascending, s (−1/Re λ_c; a complex pair's twice).
     pub time_constants_s: Vec<f64>,
+    /// Where A_c has complex-conjugate pairs (oscillating modes): the imaginary parts
+    /// of `eigenvalues_discrete`, absent where every eigenvalue is real.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eigenvalues_discrete_imag: Option<Vec<f64>>,
+    /// Imaginary parts of `eigenvalues_continuous`, 1/s, absent where all are real.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eigenvalues_continuous_imag: Option<Vec<f64>>,
+    /// Each mode's oscillation period 2π/|Im λ_c|, s (null for a real mode), absent
+    /// where all are real.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub oscillation_periods_s: Option<Vec<Option<f64>>>,
     /// Time constant → state.
     pub assignment: Vec<AssignmentEntry>,
     /// `sensitivity_norms[k][i]` = ‖T_i ∂y_k/∂T_i‖ (RMS, pu): rows states, columns time constants.
@@ -520,6 +534,7 @@ impl Report {
         let a = &r.analysis;
         let base = r.signals.temperature_base_k;
         let states = &r.signals.states;
+        let oscillating = a.spectrum.has_oscillating_modes();
         Report {
             profile: PROFILE.into(),
             heatrun_version: env!("CARGO_PKG_VERSION").into(),
@@ -534,11 +549,17 @@ impl Report {
             eigenvalues_discrete: a.spectrum.eigenvalues_discrete.clone(),
             eigenvalues_continuous: a.spectrum.eigenvalues_continuous.clone(),
             time_constants_s: a.spectrum.time_constants_s.clone(),
+            eigenvalues_discrete_imag: oscillating
+                .then(|| a.spectrum.eigenvalues_discrete_imag.clone()),
+            eigenvalues_continuous_imag: oscillating
+                .then(|| a.spectrum.eigenvalues_continuous_imag.clone()),
+            oscillation_periods_s: oscillating.then(|| a.spectrum.oscillation_periods_s.clone()),
             assignment: a
                 .assignment
                 .iter()
                 .map(|x| AssignmentEntry {
                     time_constant_s: x.time_constant_s,
+                    oscillation_period_s: x.oscillation_period_s,
                     state: states[x.state].name.clone(),
                     sensitivity_norm: x.sensitivity_norm,
                     part: states[x.state].part.clone(),
@@ -686,14 +707,22 @@ impl Report {
         let _ = writeln!(
             s,
             "eigenvalues of Φ (eq. 21): [{}]",
-            join(&self.eigenvalues_discrete, |v| format!("{v:.5}"))
+            complex_list(
+                &self.eigenvalues_discrete,
+                self.eigenvalues_discrete_imag.as_deref(),
+                5
+            )
         );
         matrix(s, "A_c (eq. 22), 1/s", &self.a_c, 8);
         matrix(s, "B_c (eq. 23), 1/s", &self.b_c, 7);
         let _ = writeln!(
             s,
             "eigenvalues of A_c (eq. 24): [{}] 1/s",
-            join(&self.eigenvalues_continuous, |v| format!("{v:.6}"))
+            complex_list(
+                &self.eigenvalues_continuous,
+                self.eigenvalues_continuous_imag.as_deref(),
+                6
+            )
         );
     }
 
@@ -708,9 +737,13 @@ impl Report {
                 .as_ref()
                 .map(|u| format!("± {:<8.2}", u.time_constants_ci95_s[i]))
                 .unwrap_or_else(|| " ".repeat(10));
+            let period = a
+                .oscillation_period_s
+                .map(|p| format!(" (oscillating mode, period {p:.1} s)"))
+                .unwrap_or_default();
             let _ = writeln!(
                 s,
-                "  T{} = {:>9.2} s {ci} -> {:<24} ‖T ∂y/∂T‖ = {:.3e} {}",
+                "  T{} = {:>9.2} s {ci} -> {:<24} ‖T ∂y/∂T‖ = {:.3e} {}{period}",
                 i + 1,
                 a.time_constant_s,
                 a.part,
@@ -983,4 +1016,16 @@ fn matrix(s: &mut String, title: &str, m: &[Vec<f64>], digits: usize) {
 
 fn row(s: &mut String, label: &str, v: &[f64], digits: usize) {
     let _ = writeln!(s, "{label:<37}{}", join(v, |x| format!("{x:>16.digits$}")));
+}
+
+/// Eigenvalues as `re` or `re±imi` (a complex pair), `digits` decimals, space-separated.
+fn complex_list(re: &[f64], im: Option<&[f64]>, digits: usize) -> String {
+    re.iter()
+        .enumerate()
+        .map(|(i, r)| match im.map(|im| im[i]).filter(|v| *v != 0.0) {
+            Some(v) => format!("{r:.digits$}{v:+.digits$}i"),
+            None => format!("{r:.digits$}"),
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
 }

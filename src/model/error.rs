@@ -9,7 +9,7 @@ pub enum ModelError {
         /// The matrix (`Φ`, `A_c`, …).
         matrix: &'static str,
     },
-    /// A complex eigenvalue pair: the model oscillates.
+    /// A complex eigenvalue pair where only real ones are allowed.
     #[error(
         "{matrix} has the complex eigenvalue pair {re:.6} ± {im:.6}i: an oscillating model is \
          not a thermal system of decaying time constants"
@@ -57,6 +57,19 @@ pub enum ModelError {
     Unstable {
         /// The eigenvalue.
         eigenvalue: f64,
+    },
+    /// A complex-conjugate pair of Φ on or outside the unit circle: a growing oscillation.
+    #[error(
+        "the estimate is not a stable thermal system: Φ has the complex eigenvalue pair \
+         {re:.6} ± {im:.6}i of modulus {modulus:.6} ≥ 1 (a growing oscillation)"
+    )]
+    UnstablePair {
+        /// Real part.
+        re: f64,
+        /// Imaginary part (positive).
+        im: f64,
+        /// |λ|.
+        modulus: f64,
     },
     /// A_c's eigenvectors do not span the space (repeated time constants).
     #[error("A_c is not diagonalisable (repeated time constants)")]

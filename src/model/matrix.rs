@@ -1,8 +1,8 @@
 //! Matrix functions the analysis needs: the principal logarithm, zero-order-hold
-//! discretisation (nalgebra's matrix exponential) and real eigenvalues of a general
-//! (non-symmetric) matrix.
+//! discretisation (nalgebra's matrix exponential) and the eigenvalues (real or in
+//! complex-conjugate pairs) and eigenvectors of a general (non-symmetric) matrix.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{Complex, DMatrix, DVector};
 
 use super::ModelError;
 
@@ -16,18 +16,42 @@ pub fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// Eigenvalues of a general square matrix, real or in complex-conjugate pairs, ordered
+/// by ascending modulus (for Φ: ascending time constant), each pair with its positive
+/// imaginary part first. An imaginary part below `1e-9·|λ|` is rounding of a real
+/// eigenvalue and set to zero.
+///
+/// Computed from the real Schur form (nalgebra's `complex_eigenvalues`).
+pub fn eigenvalues(m: &DMatrix<f64>, matrix: &'static str) -> Result<Vec<Complex<f64>>> {
+    let mut out: Vec<Complex<f64>> = Vec::with_capacity(m.nrows());
+    for z in m.clone().complex_eigenvalues().iter() {
+        if !z.re.is_finite() || !z.im.is_finite() {
+            return Err(ModelError::NonFinite { matrix });
+        }
+        let im = if z.im.abs() > 1e-9 * z.norm().max(1e-300) {
+            z.im
+        } else {
+            0.0
+        };
+        out.push(Complex::new(z.re, im));
+    }
+    out.sort_by(|a, b| {
+        a.norm()
+            .total_cmp(&b.norm())
+            .then(a.re.total_cmp(&b.re))
+            .then(b.im.total_cmp(&a.im))
+    });
+    Ok(out)
+}
+
 /// Eigenvalues of a general square matrix, which must all be real.
 ///
 /// Computed from the real Schur form; a pair with imaginary part above
 /// `1e-9·|λ|` is reported as an error naming it, never rounded to its real part.
 pub fn real_eigenvalues(m: &DMatrix<f64>, matrix: &'static str) -> Result<Vec<f64>> {
-    let eig = m.clone().complex_eigenvalues();
-    let mut out = Vec::with_capacity(eig.len());
-    for z in eig.iter() {
-        if !z.re.is_finite() || !z.im.is_finite() {
-            return Err(ModelError::NonFinite { matrix });
-        }
-        if z.im.abs() > 1e-9 * z.norm().max(1e-300) {
+    let mut out = Vec::with_capacity(m.nrows());
+    for z in eigenvalues(m, matrix)? {
+        if z.im != 0.0 {
             return Err(ModelError::ComplexEigenvalues {
                 matrix,
                 re: z.re,
@@ -40,16 +64,18 @@ pub fn real_eigenvalues(m: &DMatrix<f64>, matrix: &'static str) -> Result<Vec<f6
     Ok(out)
 }
 
-/// Principal matrix logarithm ln Φ of a matrix whose eigenvalues are real and positive.
+/// Principal matrix logarithm ln Φ of a real matrix with no eigenvalue on the closed
+/// negative real axis (real positive eigenvalues, or complex-conjugate pairs, whose
+/// logarithms ln|λ| ± i·arg λ keep ln Φ real).
 ///
 /// Inverse scaling and squaring: take square roots (Denman–Beavers iteration)
 /// until ‖X − I‖ < 0.1, sum the series ln(I + E) = Σ (−1)^{j+1} E^j / j to
 /// machine precision, and multiply by 2^s. Errors where Φ has no real logarithm:
-/// an eigenvalue ≤ 0 or a non-real pair.
+/// a real eigenvalue ≤ 0.
 pub fn logm(phi: &DMatrix<f64>) -> Result<DMatrix<f64>> {
-    let eig = real_eigenvalues(phi, "Φ")?;
-    if let Some(&eigenvalue) = eig.iter().find(|&&l| l <= 0.0) {
-        return Err(ModelError::NoRealLogarithm { eigenvalue });
+    let eig = eigenvalues(phi, "Φ")?;
+    if let Some(z) = eig.iter().find(|z| z.im == 0.0 && z.re <= 0.0) {
+        return Err(ModelError::NoRealLogarithm { eigenvalue: z.re });
     }
     let n = phi.nrows();
     let id = DMatrix::<f64>::identity(n, n);
@@ -123,6 +149,19 @@ pub fn eigenvector(a: &DMatrix<f64>, lambda: f64) -> DVector<f64> {
     let (imin, _) = svd.singular_values.argmin();
     let v_t = svd.v_t.expect("v_t was requested");
     v_t.row(imin).transpose()
+}
+
+/// A unit eigenvector of the real matrix `a` for the eigenvalue `lambda`, real or
+/// complex: the right singular vector of A − λI (complex) with the smallest singular
+/// value, v = (row of Vᴴ)ᴴ.
+pub fn complex_eigenvector(a: &DMatrix<f64>, lambda: Complex<f64>) -> DVector<Complex<f64>> {
+    let n = a.nrows();
+    let shifted =
+        a.map(|v| Complex::new(v, 0.0)) - DMatrix::<Complex<f64>>::identity(n, n) * lambda;
+    let svd = shifted.svd(false, true);
+    let (imin, _) = svd.singular_values.argmin();
+    let v_t = svd.v_t.expect("v_t was requested");
+    v_t.row(imin).adjoint()
 }
 
 #[cfg(test)]
@@ -227,20 +266,47 @@ mod tests {
     }
 
     #[test]
-    fn logm_refuses_nonpositive_and_complex_eigenvalues() {
+    fn logm_refuses_nonpositive_eigenvalues() {
         let neg = DMatrix::from_row_slice(2, 2, &[0.9, 0.0, 0.0, -0.2]);
         assert_eq!(
             logm(&neg).unwrap_err(),
             ModelError::NoRealLogarithm { eigenvalue: -0.2 }
         );
         let rot = DMatrix::from_row_slice(2, 2, &[0.9, -0.3, 0.3, 0.9]);
-        match logm(&rot).unwrap_err() {
+        match real_eigenvalues(&rot, "Φ").unwrap_err() {
             ModelError::ComplexEigenvalues { matrix, re, im } => {
                 assert_eq!(matrix, "Φ");
                 assert!((re - 0.9).abs() < 1e-12 && (im - 0.3).abs() < 1e-12);
             }
             other => panic!("{other}"),
         }
+    }
+
+    #[test]
+    fn logm_of_a_rotation_matches_the_closed_form() {
+        // r·[[cos θ, −sin θ], [sin θ, cos θ]] = exp([[ln r, −θ], [θ, ln r]]) for |θ| < π.
+        let (r, theta) = (0.97_f64, 0.3_f64);
+        let (c, s) = (r * theta.cos(), r * theta.sin());
+        let m = DMatrix::from_row_slice(2, 2, &[c, -s, s, c]);
+        let expect = DMatrix::from_row_slice(2, 2, &[r.ln(), -theta, theta, r.ln()]);
+        assert!((logm(&m).unwrap() - expect).norm() < 1e-13);
+        let eig = eigenvalues(&m, "Φ").unwrap();
+        assert!((eig[0].re - c).abs() < 1e-14 && (eig[0].im - s).abs() < 1e-14);
+        assert!((eig[1].im + s).abs() < 1e-14);
+    }
+
+    #[test]
+    fn a_complex_eigenvector_satisfies_its_equation() {
+        // A mode pair −0.01 ± 0.05i coupled to a real mode −0.2, mixed by a similarity.
+        let block =
+            DMatrix::from_row_slice(3, 3, &[-0.01, -0.05, 0.0, 0.05, -0.01, 0.0, 0.0, 0.0, -0.2]);
+        let p = DMatrix::from_row_slice(3, 3, &[1.0, 0.5, 0.2, 0.0, 1.0, -0.3, 0.4, 0.0, 1.0]);
+        let a = &p * block * p.clone().try_inverse().unwrap();
+        let lambda = Complex::new(-0.01, 0.05);
+        let v = complex_eigenvector(&a, lambda);
+        let av = a.map(|x| Complex::new(x, 0.0)) * &v;
+        assert!((av - v.clone() * lambda).norm() < 1e-12);
+        assert!((v.norm() - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -7,14 +7,19 @@
 //! recursion s_i(k) = Φ s_i(k−1) + ∂Φ/∂T_i ŷ(k−1) + ∂Γ/∂T_i u(k−1), s_i(start) = 0,
 //! with ∂μ_i/∂T_i = (Ts/T_i²) μ_i and ∂g_i/∂T_i = 1 − μ_i − (Ts/T_i) μ_i.
 //! Each is reported relative, T_i ∂ŷ/∂T_i (pu of output per pu of T_i).
+//!
+//! A complex-conjugate pair λ = −1/T ± iω (an oscillating mode) is one mode: its decay
+//! constant T is perturbed with the frequency held, both entries together, and the
+//! pair is assigned to its two most sensitive states ([`SensitivityModel`] has the
+//! complex μ and g).
 
 use std::ops::Range;
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{Complex, DMatrix, DVector};
 use serde::Serialize;
 
 use super::continuous::ContinuousModel;
-use super::matrix::eigenvector;
+use super::matrix::{complex_eigenvector, eigenvalues, eigenvector};
 use super::ModelError;
 use crate::estimate::{DiscreteModel, IdentificationData};
 
@@ -26,11 +31,17 @@ type Result<T, E = ModelError> = std::result::Result<T, E>;
 /// 604,800 instants); [`SensitivityModel::for_each_response`] regenerates them.
 #[derive(Debug, Clone, Serialize)]
 pub struct Sensitivities {
-    /// Time constants T_i, ascending, in s.
+    /// Time constants T_i, ascending, in s (a complex pair's decay constant twice).
     pub time_constants_s: Vec<f64>,
     /// `norms[k][i]`: RMS over the simulated instants of T_i ∂y_k/∂T_i, in pu (the L2
-    /// norm of eq. 11 divided by √N, so that it does not grow with the length).
+    /// norm of eq. 11 divided by √N, so that it does not grow with the length). The two
+    /// entries of a complex pair share one response (the pair's decay perturbed together).
     pub norms: Vec<Vec<f64>>,
+    /// The oscillation period of each complex mode, s; `None` for a real one.
+    pub oscillation_periods_s: Vec<Option<f64>>,
+    /// For each entry of a complex pair, the index of its conjugate partner.
+    #[serde(skip)]
+    pub partners: Vec<Option<usize>>,
 }
 
 /// One time constant's assignment to a state.
@@ -38,6 +49,8 @@ pub struct Sensitivities {
 pub struct Assignment {
     /// The time constant, s.
     pub time_constant_s: f64,
+    /// The oscillation period of a complex mode, s (`None` for a real one).
+    pub oscillation_period_s: Option<f64>,
     /// Index of the state it predominantly belongs to.
     pub state: usize,
     /// The sensitivity norm of that state to it.
@@ -48,53 +61,105 @@ pub struct Assignment {
 
 /// The model in modal form, Φ(T) = V diag(μ_i) V⁻¹ and Γ(T) = V diag(g_i) V⁻¹ B_c, with
 /// the derivatives ∂Φ/∂T_i and ∂Γ/∂T_i the sensitivity recursion needs.
+///
+/// A mode is λ_i = −1/T_i + iω_i (ω_i = 0 for a real one): μ_i = e^{λ_i Ts},
+/// g_i = (μ_i − 1)/λ_i (= T_i (1 − μ_i) when real), and with ∂λ_i/∂T_i = 1/T_i² (the
+/// frequency held), ∂μ_i/∂T_i = (Ts/T_i²) μ_i and
+/// ∂g_i/∂T_i = (Ts μ_i λ_i − (μ_i − 1))/(λ_i² T_i²). A complex pair's decay is one
+/// parameter: its derivative moves both conjugate entries, so the matrices stay real.
 #[derive(Debug, Clone)]
 pub struct SensitivityModel {
     time_constants_s: Vec<f64>,
+    /// The oscillation period of each mode (`None` where real).
+    periods_s: Vec<Option<f64>>,
+    /// The conjugate partner of each entry of a complex pair.
+    partners: Vec<Option<usize>>,
     /// Φ(T) and Γ(T) at the time constants.
     discrete: DiscreteModel,
     d_phi: Vec<DMatrix<f64>>,
     d_gamma: Vec<DMatrix<f64>>,
 }
 
+/// The modes of A_c in the order of its time constants `time_constants_s` (ascending):
+/// λ_i = −1/T_i + iω_i, with ω_i read from A_c's eigenvalues (ascending real part,
+/// a pair's positive imaginary part first), and each pair entry's partner.
+fn modes(a_c: &DMatrix<f64>, time_constants_s: &[f64]) -> Result<Modes> {
+    let mut eig = eigenvalues(a_c, "A_c")?;
+    // Ascending real part (ascending T); a pair's conjugates adjacent, +i first.
+    eig.sort_by(|a, b| {
+        a.re.total_cmp(&b.re)
+            .then(b.im.abs().total_cmp(&a.im.abs()))
+            .then(b.im.total_cmp(&a.im))
+    });
+    let mut lambda = Vec::with_capacity(eig.len());
+    let mut partners = vec![None; eig.len()];
+    for (i, (z, t)) in eig.iter().zip(time_constants_s).enumerate() {
+        lambda.push(Complex::new(-1.0 / t, z.im));
+        if z.im > 0.0 && i + 1 < eig.len() {
+            partners[i] = Some(i + 1);
+            partners[i + 1] = Some(i);
+        }
+    }
+    Ok((lambda, partners))
+}
+
+/// The modes' eigenvalues and the conjugate partner of each pair entry.
+type Modes = (Vec<Complex<f64>>, Vec<Option<usize>>);
+
 impl SensitivityModel {
     /// The modal form of (A_c, B_c) with A_c's time constants `time_constants_s`
-    /// (ascending, s), discretised with sample time `ts_s`.
+    /// (ascending, s; a complex pair's decay constant twice), discretised with sample
+    /// time `ts_s`.
     pub fn new(
         model: &ContinuousModel,
         time_constants_s: &[f64],
         ts_s: f64,
     ) -> Result<SensitivityModel> {
         let n = model.a_c.nrows();
-        // Eigenvectors of A_c for λ_i = −1/T_i, in ascending T order.
-        let mut v = DMatrix::zeros(n, n);
-        for (i, t) in time_constants_s.iter().enumerate() {
-            v.set_column(i, &eigenvector(&model.a_c, -1.0 / t));
+        let (lambda, partners) = modes(&model.a_c, time_constants_s)?;
+        // Eigenvectors of A_c, one per mode; a pair's second is the conjugate of its
+        // first, so V diag(d) V⁻¹ is real for conjugate-symmetric d.
+        let mut v = DMatrix::<Complex<f64>>::zeros(n, n);
+        for i in 0..n {
+            let column = match partners[i] {
+                Some(p) if p < i => v.column(p).map(|z| z.conj()),
+                Some(_) => complex_eigenvector(&model.a_c, lambda[i]),
+                None => eigenvector(&model.a_c, lambda[i].re).map(|x| Complex::new(x, 0.0)),
+            };
+            v.set_column(i, &column);
         }
         let v_inv = v
             .clone()
             .try_inverse()
             .ok_or(ModelError::NotDiagonalisable)?;
-        let mu: Vec<f64> = time_constants_s.iter().map(|t| (-ts_s / t).exp()).collect();
-        let g: Vec<f64> = time_constants_s
-            .iter()
-            .zip(&mu)
-            .map(|(t, m)| t * (1.0 - m))
-            .collect();
-        let modal =
-            |d: &[f64]| &v * DMatrix::from_diagonal(&DVector::from_column_slice(d)) * &v_inv;
+        let ts = Complex::new(ts_s, 0.0);
+        let mu: Vec<Complex<f64>> = lambda.iter().map(|l| (l * ts).exp()).collect();
+        let g: Vec<Complex<f64>> = lambda.iter().zip(&mu).map(|(l, m)| (m - 1.0) / l).collect();
+        let modal = |d: &[Complex<f64>]| -> DMatrix<f64> {
+            let diag = DMatrix::from_diagonal(&DVector::from_column_slice(d));
+            (&v * diag * &v_inv).map(|z| z.re)
+        };
+        let zero = Complex::new(0.0, 0.0);
         let mut d_phi = Vec::with_capacity(n);
         let mut d_gamma = Vec::with_capacity(n);
         for (i, t) in time_constants_s.iter().enumerate() {
-            let mut d_mu = vec![0.0; n];
-            let mut d_g = vec![0.0; n];
-            d_mu[i] = ts_s / (t * t) * mu[i];
-            d_g[i] = 1.0 - mu[i] - ts_s / t * mu[i];
+            let mut d_mu = vec![zero; n];
+            let mut d_g = vec![zero; n];
+            for j in std::iter::once(i).chain(partners[i]) {
+                let (l, m) = (lambda[j], mu[j]);
+                d_mu[j] = m * ts_s / (t * t);
+                d_g[j] = (m * l * ts - (m - 1.0)) / (l * l * t * t);
+            }
             d_phi.push(modal(&d_mu));
             d_gamma.push(modal(&d_g) * &model.b_c);
         }
         Ok(SensitivityModel {
             time_constants_s: time_constants_s.to_vec(),
+            periods_s: lambda
+                .iter()
+                .map(|l| (l.im != 0.0).then(|| 2.0 * std::f64::consts::PI / l.im.abs()))
+                .collect(),
+            partners,
             discrete: DiscreteModel {
                 phi: modal(&mu),
                 gamma: modal(&g) * &model.b_c,
@@ -162,6 +227,13 @@ pub fn sensitivities(
     let simulated: usize = segments.iter().map(|s| s.len()).sum();
     let mut norms = vec![vec![0.0; n]; n];
     for i in 0..n {
+        // A pair's second entry has its first's response (one decay parameter).
+        if let Some(p) = recursion.partners[i].filter(|&p| p < i) {
+            for row in norms.iter_mut() {
+                row[i] = row[p];
+            }
+            continue;
+        }
         let mut sum_sq = vec![0.0; n];
         recursion.for_each_response(i, data, segments, |_, rel| {
             for (kk, acc) in sum_sq.iter_mut().enumerate() {
@@ -175,20 +247,29 @@ pub fn sensitivities(
     Ok(Sensitivities {
         time_constants_s: time_constants_s.to_vec(),
         norms,
+        oscillation_periods_s: recursion.periods_s,
+        partners: recursion.partners,
     })
 }
 
 /// Assigns each time constant T_i to the state whose response it changes most,
-/// max_k ‖T_i ∂y_k/∂T_i‖ (eq. 11). When two time constants would claim one state,
-/// the one-to-one assignment is chosen that maximises Σ_i log(share of T_i's
-/// influence on its state); it equals the plain rule whenever that is one-to-one.
+/// max_k ‖T_i ∂y_k/∂T_i‖ (eq. 11); a complex pair, one mode of two dimensions, claims its
+/// two most sensitive states (its first entry the most). When two time constants would
+/// claim one state, the one-to-one assignment is chosen that maximises
+/// Σ_i log(share of T_i's influence on its state); it equals the plain rule whenever
+/// that is one-to-one.
 pub fn assign(s: &Sensitivities) -> Vec<Assignment> {
     let n = s.time_constants_s.len();
+    let ranked = |i: usize| {
+        let mut states: Vec<usize> = (0..n).collect();
+        states.sort_by(|&a, &b| s.norms[b][i].total_cmp(&s.norms[a][i]));
+        states
+    };
+    let partner = |i: usize| s.partners.get(i).copied().flatten();
     let plain: Vec<usize> = (0..n)
-        .map(|i| {
-            (0..n)
-                .max_by(|&a, &b| s.norms[a][i].total_cmp(&s.norms[b][i]))
-                .unwrap_or(0)
+        .map(|i| match partner(i) {
+            Some(p) if p < i => ranked(i).get(1).copied().unwrap_or(0),
+            _ => ranked(i).first().copied().unwrap_or(0),
         })
         .collect();
     let share = |k: usize, i: usize| {
@@ -209,10 +290,19 @@ pub fn assign(s: &Sensitivities) -> Vec<Assignment> {
                 best = p.to_vec();
             }
         });
+        // A pair's entries are interchangeable: keep its more sensitive state first.
+        for i in 0..n {
+            if let Some(p) = partner(i).filter(|&p| p > i) {
+                if s.norms[best[p]][i] > s.norms[best[i]][i] {
+                    best.swap(i, p);
+                }
+            }
+        }
     }
     (0..n)
         .map(|i| Assignment {
             time_constant_s: s.time_constants_s[i],
+            oscillation_period_s: s.oscillation_periods_s.get(i).copied().flatten(),
             state: best[i],
             sensitivity_norm: s.norms[best[i]][i],
             resolved_conflict: best[i] != plain[i],
@@ -281,10 +371,101 @@ mod tests {
         let s = Sensitivities {
             time_constants_s: vec![1.0, 2.0],
             norms: vec![vec![0.9, 0.6], vec![0.1, 0.4]],
+            oscillation_periods_s: vec![None, None],
+            partners: vec![None, None],
         };
         let a = assign(&s);
         assert_eq!(a[0].state, 0);
         assert_eq!(a[1].state, 1);
         assert!(a[1].resolved_conflict && !a[0].resolved_conflict);
+    }
+
+    /// A model with the mode pair −1/T ± iω and a real mode, as A_c = P·blocks·P⁻¹.
+    fn oscillating_model(t_pair: f64, omega: f64, t_real: f64) -> ContinuousModel {
+        let blocks = DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                -1.0 / t_pair,
+                -omega,
+                0.0,
+                omega,
+                -1.0 / t_pair,
+                0.0,
+                0.0,
+                0.0,
+                -1.0 / t_real,
+            ],
+        );
+        let p = DMatrix::from_row_slice(3, 3, &[1.0, 0.3, 0.1, -0.2, 1.0, 0.4, 0.5, 0.0, 1.0]);
+        ContinuousModel {
+            a_c: &p * blocks * p.clone().try_inverse().unwrap(),
+            b_c: DMatrix::from_row_slice(3, 2, &[0.02, 0.0, 0.01, 0.015, 0.0, 0.03]),
+        }
+    }
+
+    #[test]
+    fn a_complex_pair_sensitivity_matches_finite_differences() {
+        // Reference: rebuild A_c with the pair's decay constant T ± h (frequency held),
+        // discretise, simulate, and difference; the recursion must agree.
+        let (t_pair, omega, t_real, ts, n) = (80.0_f64, 0.03, 20.0, 1.0, 300);
+        let model = oscillating_model(t_pair, omega, t_real);
+        let mut inputs = DMatrix::zeros(n, 2);
+        for k in 0..n {
+            inputs[(k, 0)] = if (k / 40) % 2 == 0 { 1.0 } else { 0.0 };
+            inputs[(k, 1)] = if (k / 70) % 2 == 0 { 0.0 } else { 1.0 };
+        }
+        let data = IdentificationData::complete(ts, DMatrix::zeros(n, 3), inputs.clone());
+        let simulate = |t: f64| {
+            let m = oscillating_model(t, omega, t_real);
+            let (phi, gamma) = crate::model::matrix::discretize(&m.a_c, &m.b_c, ts);
+            let mut y = DVector::zeros(3);
+            let mut out = vec![y.clone()];
+            for k in 1..n {
+                y = &phi * &y + &gamma * inputs.row(k - 1).transpose();
+                out.push(y.clone());
+            }
+            out
+        };
+        let h = 1e-4 * t_pair;
+        let (plus, minus) = (simulate(t_pair + h), simulate(t_pair - h));
+        let spectrum_t = [t_real, t_pair, t_pair];
+        let recursion = SensitivityModel::new(&model, &spectrum_t, ts).unwrap();
+        assert_eq!(recursion.partners, vec![None, Some(2), Some(1)]);
+        let period = recursion.periods_s[1].unwrap();
+        assert!((period - 2.0 * std::f64::consts::PI / omega).abs() < 1e-9 * period);
+        let whole = vec![0..n];
+        let mut largest: f64 = 0.0;
+        for i in [1, 2] {
+            recursion.for_each_response(i, &data, &whole, |k, rel| {
+                let fd = (&plus[k] - &minus[k]) * (t_pair / (2.0 * h));
+                largest = largest.max(fd.amax());
+                assert!((rel - &fd).amax() < 1e-6, "k={k}: {rel} vs {fd}");
+            });
+        }
+        assert!(largest > 1e-2, "the pair moves the outputs: {largest}");
+        // The modal Φ is the model's own.
+        let (phi, _) = crate::model::matrix::discretize(&model.a_c, &model.b_c, ts);
+        assert!((&recursion.discrete.phi - phi).norm() < 1e-12);
+    }
+
+    #[test]
+    fn a_pair_is_assigned_to_its_two_most_sensitive_states() {
+        // Columns 1 and 2 are one pair (identical); state 0 is most sensitive to the real
+        // mode and to the pair, so the pair takes states 0 and 1 only if the real mode can
+        // go elsewhere: the one-to-one rule gives the real mode state 2.
+        let pair = [0.5, 0.4, 0.1];
+        let real = [0.6, 0.1, 0.3];
+        let norms = (0..3).map(|k| vec![real[k], pair[k], pair[k]]).collect();
+        let s = Sensitivities {
+            time_constants_s: vec![10.0, 50.0, 50.0],
+            norms,
+            oscillation_periods_s: vec![None, Some(200.0), Some(200.0)],
+            partners: vec![None, Some(2), Some(1)],
+        };
+        let a = assign(&s);
+        assert_eq!(a.iter().map(|x| x.state).collect::<Vec<_>>(), vec![2, 0, 1]);
+        assert_eq!(a[1].oscillation_period_s, Some(200.0));
+        assert!(a[0].resolved_conflict && !a[1].resolved_conflict && !a[2].resolved_conflict);
     }
 }
