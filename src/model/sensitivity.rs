@@ -434,7 +434,7 @@ mod tests {
         assert_eq!(recursion.partners, vec![None, Some(2), Some(1)]);
         let period = recursion.periods_s[1].unwrap();
         assert!((period - 2.0 * std::f64::consts::PI / omega).abs() < 1e-9 * period);
-        let whole = vec![0..n];
+        let whole: Vec<std::ops::Range<usize>> = std::iter::once(0..n).collect();
         let mut largest: f64 = 0.0;
         for i in [1, 2] {
             recursion.for_each_response(i, &data, &whole, |k, rel| {
