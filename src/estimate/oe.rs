@@ -514,17 +514,23 @@ impl<'a> Problem<'a> {
 
     /// The evaluation at the current parameters, computed once per parameter vector.
     fn evaluated(&self) -> std::cell::Ref<'_, Evaluation> {
-        let stale = self
-            .cache
-            .borrow()
-            .as_ref()
-            .is_none_or(|(at, _)| at != &self.params);
-        if stale {
-            let e = self.evaluate_full();
-            *self.cache.borrow_mut() = Some((self.params.clone(), e));
-        }
-        std::cell::Ref::map(self.cache.borrow(), |c| &c.as_ref().expect("just filled").1)
+        cached(&self.cache, &self.params, || self.evaluate_full())
     }
+}
+
+/// The value `compute` gives at `params`, kept in `cache` so that the residuals, the
+/// Jacobian and the gradient of one Levenberg-Marquardt step share one simulation.
+pub(crate) fn cached<'c, T>(
+    cache: &'c RefCell<Option<(DVector<f64>, T)>>,
+    params: &DVector<f64>,
+    compute: impl FnOnce() -> T,
+) -> std::cell::Ref<'c, T> {
+    let stale = cache.borrow().as_ref().is_none_or(|(at, _)| at != params);
+    if stale {
+        let value = compute();
+        *cache.borrow_mut() = Some((params.clone(), value));
+    }
+    std::cell::Ref::map(cache.borrow(), |c| &c.as_ref().expect("just filled").1)
 }
 
 /// The simulation ŷ and its sensitivities, stepped through one segment in flat,

@@ -624,16 +624,7 @@ impl<'a> RcProblem<'a> {
     }
 
     fn evaluated(&self) -> std::cell::Ref<'_, Evaluation> {
-        let stale = self
-            .cache
-            .borrow()
-            .as_ref()
-            .is_none_or(|(at, _)| at != &self.params);
-        if stale {
-            let e = self.evaluate();
-            *self.cache.borrow_mut() = Some((self.params.clone(), e));
-        }
-        std::cell::Ref::map(self.cache.borrow(), |c| &c.as_ref().expect("just filled").1)
+        oe::cached(&self.cache, &self.params, || self.evaluate())
     }
 
     /// The estimate at the minimum, with the network and its intervals.

@@ -31,7 +31,7 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Layout {
     if replay.network.calorimetry.is_some() {
         tabs.push(
             View::time_series(
-                "calorimetric balance (eqs. 17-18): heat carried away by the water and the losses, kW",
+                "calorimetric balance (eqs. 17-18), kW",
                 super::traces::CALORIMETRY,
             )
             .into(),
