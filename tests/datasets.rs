@@ -393,3 +393,104 @@ stator_tooth,stator_winding\n"
     // under the true model).
     assert_fit_near_truth(&report, &fits, 2.0);
 }
+
+/// A system with an oscillating mode, as a user's CSV: two sensors that exchange heat
+/// through a loop (a complex pair of Φ, r = 0.97, 0.1 rad a sample: τ = −1/ln r = 32.8 s,
+/// period 2π/0.1 = 62.8 s) and a third with a real mode (λ = 0.9, τ = 9.49 s). The report
+/// gives the pair's time constant twice with its period, null for the real mode, and
+/// follows the schema's entries for them.
+#[test]
+fn oscillating_modes_are_in_the_report_and_its_schema() {
+    let (r, w, real, rows) = (0.97_f64, 0.1_f64, 0.9, 2000);
+    let phi = [
+        [r * w.cos(), -r * w.sin(), 0.0],
+        [r * w.sin(), r * w.cos(), 0.0],
+        [0.0, 0.0, real],
+    ];
+    let gamma = [0.1, 0.05, 0.2];
+    let mut rng = StdRng::seed_from_u64(3);
+    let u = steps(&mut rng, rows, 5..30, |r| r.random_range(0.0..10.0));
+    let noise = Normal::new(0.0, 0.005).unwrap();
+    let mut x = [0.0; 3];
+    let mut text = "t,u,a,b,c\n".to_owned();
+    for k in 0..rows {
+        if k > 0 {
+            let p = x;
+            for i in 0..3 {
+                x[i] = (0..3).map(|j| phi[i][j] * p[j]).sum::<f64>() + gamma[i] * u[k - 1];
+            }
+        }
+        let y: Vec<f64> = x.iter().map(|v| v + noise.sample(&mut rng)).collect();
+        writeln!(text, "{k},{},{},{},{}", u[k], y[0], y[1], y[2]).unwrap();
+    }
+    let dir = common::tempdir();
+    std::fs::write(dir.path().join("loop.csv"), text).unwrap();
+    let mut map = "[input]\ndelimiter = \",\"\nheader = true\n[time]\ncolumn = \"t\"\n\
+                   format = \"seconds\"\n"
+        .to_owned();
+    let mut spec = "name = \"loop\"\nsample_time_s = 1.0\n".to_owned();
+    for c in ["u", "a", "b", "c"] {
+        write!(
+            map,
+            "[[column]]\ncolumn = \"{c}\"\nchannel = \"{c}\"\nunit = \"degC\"\n"
+        )
+        .unwrap();
+    }
+    for c in ["a", "b", "c"] {
+        write!(spec, "[[state]]\nname = \"{c}\"\nreference = \"none\"\n").unwrap();
+    }
+    spec.push_str("[[input]]\nname = \"drive\"\nchannel = \"u\"\nkind = \"exogenous\"\n");
+    std::fs::write(dir.path().join("map.toml"), map).unwrap();
+    std::fs::write(dir.path().join("spec.toml"), spec).unwrap();
+    let run = |args: &[&str]| {
+        let out = heatrun(args, dir.path());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+    };
+    run(&[
+        "import",
+        "loop.csv",
+        "--map",
+        "map.toml",
+        "--out",
+        "loop.mcap",
+    ]);
+    run(&[
+        "replay",
+        "loop.mcap",
+        "--spec",
+        "spec.toml",
+        "--report",
+        "report.json",
+        "-q",
+    ]);
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+            .unwrap();
+    crate::outputs::ReportSchema::load()
+        .check(&report)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let tau_pair = -1.0 / r.ln();
+    assert_time_constants(&report, &[-1.0 / real.ln(), tau_pair, tau_pair], 0.03);
+    let periods: Vec<Option<f64>> = report["oscillation_periods_s"]
+        .as_array()
+        .expect("periods reported for an oscillating model")
+        .iter()
+        .map(Value::as_f64)
+        .collect();
+    assert_eq!(
+        periods.iter().filter(|p| p.is_none()).count(),
+        1,
+        "{periods:?}"
+    );
+    for p in periods.into_iter().flatten() {
+        let truth = 2.0 * std::f64::consts::PI / w;
+        assert!((p - truth).abs() < 0.03 * truth, "period {p} s");
+    }
+    let imag = numbers(&report["eigenvalues_continuous_imag"]);
+    assert_eq!(imag.len(), 3);
+    assert!(
+        imag.iter().any(|v| (v.abs() - w).abs() < 0.03 * w),
+        "{imag:?}"
+    );
+}
