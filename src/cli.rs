@@ -46,6 +46,46 @@ pub enum Command {
     Predict(PredictArgs),
     /// The machine's thermal rating: largest continuous power, limiting part, overloads.
     Rating(RatingArgs),
+    /// Run a model beside a later recording of the machine; alarm where a part leaves the
+    /// model's band.
+    #[command(
+        after_help = "Exit status: 0 healthy (no alarm), 4 alarms raised, 2 bad input (a report of \
+another profile or without the needed blocks, a recording lacking a state's channel), 3 data \
+lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300"
+    )]
+    Monitor(MonitorArgs),
+}
+
+/// Arguments of `heatrun monitor`.
+#[derive(Debug, Args)]
+pub struct MonitorArgs {
+    /// The model: a report written by `heatrun replay --report`.
+    #[arg(long, value_name = "REPORT.json")]
+    pub model: PathBuf,
+    /// The recording to monitor (MCAP, the heatrun SCADA profile), of the same machine.
+    #[arg(value_name = "RECORDING.mcap")]
+    pub recording: PathBuf,
+    /// Seconds a residual must stay outside its band before it is an alarm.
+    #[arg(long, value_name = "SECONDS", default_value_t = heatrun::monitor::DEFAULT_HOLD_S)]
+    pub hold: f64,
+    /// The band per part is this multiple of the model's RMSE (validation, else fit).
+    #[arg(long, value_name = "FACTOR", default_value_t = heatrun::monitor::BandRule::default().factor)]
+    pub band_factor: f64,
+    /// The narrowest band, K.
+    #[arg(long, value_name = "K", default_value_t = heatrun::monitor::BandRule::default().floor_k)]
+    pub band_floor: f64,
+    /// Write the alarms and each part's residual statistics as JSON to this file.
+    #[arg(long, value_name = "OUT.json")]
+    pub json: Option<PathBuf>,
+    /// Save measured against predicted temperature, residuals, bands and alarms to an .rrd.
+    #[arg(long, value_name = "OUT.rrd", conflicts_with = "connect")]
+    pub rrd: Option<PathBuf>,
+    /// Stream them to a running rerun viewer (optionally at this gRPC URL).
+    #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
+    pub connect: Option<String>,
+    /// Print only the alarm lines.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Where a prediction starts.

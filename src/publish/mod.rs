@@ -18,6 +18,7 @@ use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeC
 mod analysis;
 pub mod blueprint;
 pub mod layout;
+pub mod monitor;
 pub mod network;
 mod style;
 mod text;
