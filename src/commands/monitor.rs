@@ -44,6 +44,9 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<Outcome> {
     } else {
         print!("{}", result.summary());
     }
+    for w in &result.warnings {
+        eprintln!("warning: {w}");
+    }
     for line in &result.data_loss {
         eprintln!("warning: data lost: {line}");
     }

@@ -134,6 +134,9 @@ pub struct MonitorResult {
     pub restarts: usize,
     /// Damage to the recording (the reader's data-loss lines).
     pub data_loss: Vec<String>,
+    /// What the user should know about the comparison (a varying inlet the model does
+    /// not carry).
+    pub warnings: Vec<String>,
     /// The traces.
     pub traces: MonitorTraces,
 }
@@ -169,6 +172,7 @@ pub fn monitor(
     let signals =
         signals::compute(&description, &decimated, model.nameplate.as_ref()).map_err(in_file)?;
     let references = references(model, &signals, &decimated);
+    let warnings = inlet_warning(model, &decimated).into_iter().collect();
     let band = Band::from_model_error(&model.error, options.band);
     let run = run_beside(model, &signals, &references, &band, options.hold_s);
     let states: Vec<String> = model.states.iter().map(|s| s.name.clone()).collect();
@@ -190,6 +194,7 @@ pub fn monitor(
         stats,
         restarts: run.restarts,
         data_loss: summary.data_loss,
+        warnings,
         traces: run.traces,
     })
 }
@@ -279,6 +284,28 @@ fn read(
         .finish(&summary.channels)
         .map_err(|e| e.in_recording(path))?;
     Ok((summary, decimated))
+}
+
+/// A warning where the recording's coolant inlet varies and the model's rises are
+/// measured from their initial values: such a model has no input for the inlet, so its
+/// prediction follows the inlet only as the lagged shift, which the slow parts do not
+/// follow; the model identified with the coolant inlet as its reference does.
+fn inlet_warning(model: &ThermalModel, decimated: &DecimatedRecording) -> Option<String> {
+    let inlet = crate::spec::coolant::inlet_behaviour(decimated)?;
+    let initial_states = model
+        .states
+        .iter()
+        .any(|s| matches!(s.reference, StateReference::Initial(_)));
+    (inlet.varies() && initial_states && !model.uses_coolant_inlet()).then(|| {
+        format!(
+            "the coolant inlet varies by {:.2} K in this recording, and the model measures its \
+             rises from their initial values (it has no input for the inlet): its prediction \
+             follows the inlet as a shift lagged by its fastest time constant, which the slow \
+             parts do not follow; a model identified with the coolant inlet as its reference \
+             carries the inlet's drift as an input",
+            inlet.variation_k
+        )
+    })
 }
 
 /// θ_ref,j(k) per state (see the module on references).

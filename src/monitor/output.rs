@@ -68,6 +68,8 @@ pub struct MonitorDocument {
     pub restarts: usize,
     /// Damage to the recording.
     pub data_loss: Vec<String>,
+    /// Warnings about the comparison.
+    pub warnings: Vec<String>,
 }
 
 impl MonitorResult {
@@ -104,6 +106,7 @@ impl MonitorResult {
             parts: self.stats.clone(),
             restarts: self.restarts,
             data_loss: self.data_loss.clone(),
+            warnings: self.warnings.clone(),
         }
     }
 
