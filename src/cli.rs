@@ -116,6 +116,16 @@ pub struct PredictArgs {
     /// Start from these temperatures, °C, one per state in the model's order.
     #[arg(long, value_delimiter = ',', value_name = "T1,T2,...")]
     pub initial_temps: Option<Vec<f64>>,
+    /// Also save the schedule, the losses and the predicted temperatures (with the
+    /// limits of --class and --limit) to this rerun .rrd file.
+    #[arg(long, value_name = "OUT.rrd")]
+    pub rrd: Option<PathBuf>,
+    /// Insulation class whose limits (IEC 60034-1, Table 7) the .rrd draws.
+    #[arg(long, value_enum, requires = "rrd")]
+    pub class: Option<ClassArg>,
+    /// A part's limit the .rrd draws, °C (repeatable; overrides the class's): STATE=°C.
+    #[arg(long, value_name = "STATE=°C", value_parser = parse_limit, requires = "rrd")]
+    pub limit: Vec<(String, f64)>,
     /// Do not print the summary.
     #[arg(long, short)]
     pub quiet: bool,

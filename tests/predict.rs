@@ -265,3 +265,80 @@ fn rating_holds_against_predict(dir: &Path) {
         .collect();
     assert!(times.windows(2).all(|w| w[1] <= w[0]), "{times:?}");
 }
+
+/// Bad load files and model reports: exit 2, one line naming the file and the row and
+/// column (or the key), and no prediction written.
+#[test]
+fn bad_load_files_and_reports_are_one_line_naming_row_and_column() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let out = common::heatrun(
+        &[
+            "replay",
+            fixture.to_str().unwrap(),
+            "--report",
+            "model.json",
+            "--rrd",
+            "model.rrd",
+            "-q",
+        ],
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("model.json")).unwrap()).unwrap();
+    report["profile"] = "heatrun-scada/9".into();
+    std::fs::write(d.join("other.json"), report.to_string()).unwrap();
+    let header = "time_s,armature_current_a,field_current_a,line_voltage_kv";
+    let files = [
+        (
+            "unknown.csv",
+            format!("{header},fan_speed\n0,3000,1000,15.6,1\n"),
+            "model.json",
+            &["unknown.csv", "row 1", "column `fan_speed`"][..],
+        ),
+        (
+            "cell.csv",
+            format!("{header}\n0,3000,1000,15.6\n600,3000,lots,15.6\n"),
+            "model.json",
+            &["cell.csv", "row 3", "column `field_current_a`", "`lots`"][..],
+        ),
+        (
+            "backwards.csv",
+            format!("{header}\n0,3000,1000,15.6\n600,3000,1000,15.6\n300,3000,1000,15.6\n"),
+            "model.json",
+            &["backwards.csv", "row 4", "column `time_s`", "300"][..],
+        ),
+        (
+            "good.csv",
+            format!("{header}\n0,3000,1000,15.6\n600,3000,1000,15.6\n"),
+            "other.json",
+            &["other.json", "profile `heatrun-scada/9`"][..],
+        ),
+    ];
+    for (name, text, model, expected) in files {
+        std::fs::write(d.join(name), &text).unwrap();
+        let out = common::heatrun(
+            &[
+                "predict", "--model", model, "--load", name, "--out", "pred.csv",
+            ],
+            d,
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{name}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{name}: {stderr}");
+        for e in expected {
+            assert!(stderr.contains(e), "{name}: `{e}` not in {stderr}");
+        }
+        assert!(
+            !d.join("pred.csv").exists(),
+            "{name}: an output was written"
+        );
+        assert_eq!(std::fs::read_to_string(d.join(name)).unwrap(), text);
+    }
+}

@@ -20,6 +20,7 @@ pub mod blueprint;
 pub mod layout;
 pub mod monitor;
 pub mod network;
+pub mod prediction;
 mod style;
 mod text;
 mod traces;
