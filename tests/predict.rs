@@ -342,3 +342,136 @@ fn bad_load_files_and_reports_are_one_line_naming_row_and_column() {
         assert_eq!(std::fs::read_to_string(d.join(name)).unwrap(), text);
     }
 }
+
+/// Rows of a load schedule from a recording (its electrical channels and, with
+/// `inlet`, its coolant inlet every `every_s`), and its temperatures at those rows.
+fn schedule_of(recording: &Path, every_s: usize, inlet: bool) -> (String, Vec<(f64, Vec<f64>)>) {
+    use heatrun::recording::Quantity;
+    let prepared = heatrun::pipeline::prepare(recording, &Default::default()).unwrap();
+    let d = &prepared.decimated;
+    let at = |q: Quantity, k: usize| d.get(q).unwrap().values.get(k).unwrap();
+    let mut text = String::from("time_s,armature_current_a,field_current_a,line_voltage_kv");
+    if inlet {
+        text.push_str(",coolant_inlet_temp_c");
+    }
+    text.push('\n');
+    let states = [
+        Quantity::StatorWindingTemp,
+        Quantity::CoreTemp,
+        Quantity::CoolingWaterOutletTemp,
+    ];
+    let mut truth = Vec::new();
+    for k in (0..d.len).step_by(every_s) {
+        let t = k as f64 * d.ts_s();
+        text.push_str(&format!(
+            "{t},{},{},{}",
+            at(Quantity::ArmatureCurrent, k),
+            at(Quantity::FieldCurrent, k),
+            at(Quantity::LineVoltage, k) / 1e3
+        ));
+        if inlet {
+            text.push_str(&format!(",{}", at(Quantity::CoolingWaterInletTemp, k)));
+        }
+        text.push('\n');
+        truth.push((t, states.iter().map(|&q| at(q, k)).collect()));
+    }
+    (text, truth)
+}
+
+/// A model identified with the coolant inlet as its reference (a noisy heat run of the RC
+/// machine whose inlet drifts 3 K over a day: `initial_of` states and a
+/// `cooling_water_inlet_rise` input) predicts another, noise-free run of the machine with
+/// the same drift from its load and inlet columns; without the inlet column it cannot.
+#[test]
+fn a_coolant_referenced_model_predicts_a_drifting_inlet_from_the_schedule() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let synth = |name: &str, extra: &[&str]| {
+        let mut args = vec!["synth", name, "--machine", "rc-unit", "--inlet-drift", "3"];
+        args.extend_from_slice(extra);
+        let out = common::heatrun(&args, d);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    // PT100-like noise, as `with_noise_level(1.0)`.
+    let noisy = [
+        "--temperature-noise",
+        "0.05",
+        "--resolution",
+        "0.01",
+        "--electrical-noise",
+        "0.0005",
+        "--seed",
+        "6",
+    ];
+    synth("model.mcap", &noisy);
+    synth("truth.mcap", &["--profile", "single-step"]);
+    let out = common::heatrun(
+        &[
+            "replay",
+            "model.mcap",
+            "--report",
+            "model.json",
+            "--rrd",
+            "m.rrd",
+            "-q",
+        ],
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = std::fs::read_to_string(d.join("model.json")).unwrap();
+    assert!(
+        report.contains("\"boundary_rise\""),
+        "not a coolant-referenced model"
+    );
+    let mut worst = Vec::new();
+    for inlet in [true, false] {
+        let (text, truth) = schedule_of(&d.join("truth.mcap"), 10, inlet);
+        std::fs::write(d.join("load.csv"), text).unwrap();
+        let start: Vec<String> = truth[0].1.iter().map(|v| v.to_string()).collect();
+        let out = common::heatrun(
+            &[
+                "predict",
+                "--model",
+                "model.json",
+                "--load",
+                "load.csv",
+                "--out",
+                "pred.csv",
+                "--initial-temps",
+                &start.join(","),
+                "-q",
+            ],
+            d,
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let (_, rows) = read_csv(&d.join("pred.csv"));
+        let error = truth
+            .iter()
+            .map(|(t, theta)| {
+                let row = rows.iter().find(|r| (r[0] - t).abs() < 1e-6).unwrap();
+                (0..3)
+                    .map(|j| (row[j + 1] - theta[j]).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max);
+        println!("inlet column {inlet}: largest error {error:.3} K");
+        worst.push(error);
+    }
+    assert!(worst[0] < 1.0, "with the inlet column: {} K", worst[0]);
+    assert!(
+        worst[1] > 2.0 * worst[0],
+        "the inlet column made no difference: {worst:?}"
+    );
+}
