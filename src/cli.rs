@@ -504,6 +504,55 @@ mod tests {
     }
 
     #[test]
+    fn monitor_parses_its_options_with_the_documented_defaults() {
+        let Command::Monitor(m) = parse(&["monitor", "--model", "r.json", "s.mcap"])
+            .unwrap()
+            .command
+        else {
+            panic!("not monitor");
+        };
+        assert_eq!((m.hold, m.band_factor, m.band_floor), (600.0, 4.0, 0.5));
+        assert_eq!((m.json, m.rrd, m.connect), (None, None, None));
+        let Command::Monitor(m) = parse(&[
+            "monitor",
+            "--model",
+            "r.json",
+            "s.mcap",
+            "--hold",
+            "300",
+            "--connect",
+        ])
+        .unwrap()
+        .command
+        else {
+            panic!("not monitor");
+        };
+        assert_eq!((m.hold, m.connect.as_deref()), (300.0, Some("")));
+        assert_eq!(
+            error(&["monitor", "--model", "r.json"]),
+            ErrorKind::MissingRequiredArgument
+        );
+        assert_eq!(
+            error(&[
+                "monitor",
+                "--model",
+                "r.json",
+                "s.mcap",
+                "--rrd",
+                "o.rrd",
+                "--connect"
+            ]),
+            ErrorKind::ArgumentConflict
+        );
+        assert_eq!(
+            error(&[
+                "predict", "--model", "r.json", "--load", "l.csv", "--out", "p.csv", "--class", "F"
+            ]),
+            ErrorKind::MissingRequiredArgument
+        );
+    }
+
+    #[test]
     fn predict_and_rating_parse_their_options() {
         let Command::Predict(p) = parse(&[
             "predict", "--model", "r.json", "--load", "l.csv", "--out", "p.csv",

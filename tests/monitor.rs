@@ -153,6 +153,15 @@ fn a_fouled_cooler_raises_an_alarm_and_healthy_recordings_none() {
     synth(d, "fault.mcap", &faulty);
     let (status, doc, stdout) = monitor(d, "model.json", "fault.mcap");
     assert_fault_flagged(status, &doc, &stdout);
+    // A drifting inlet this model (rises above the initial values) does not carry: the
+    // JSON and stderr say so, whatever the alarms.
+    synth(d, "drift.mcap", &["--seed", "5", "--inlet-drift", "3"]);
+    let out = common::heatrun(&["monitor", "--model", "model.json", "drift.mcap"], d);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("warning: the coolant inlet varies by"),
+        "{stderr}"
+    );
 }
 
 #[test]
