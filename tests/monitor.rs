@@ -253,7 +253,37 @@ fn the_rrd_is_written_and_quiet_prints_only_the_alarms() {
         !stdout.is_empty() && stdout.lines().all(|l| l.starts_with("ALARM ")),
         "{stdout}"
     );
-    assert!(std::fs::metadata(d.join("fault.rrd")).unwrap().len() > 0);
+    // Read back with rerun's decoder: per part the measured and predicted temperature and
+    // the residual at every instant, the band's two ends, and the alarm's stretch.
+    let (rows, blueprint) = crate::outputs::rows_per_entity(&d.join("fault.rrd"));
+    assert!(blueprint);
+    let instants = 7200;
+    for state in [
+        "stator_winding_temp",
+        "core_temp",
+        "cooling_water_outlet_temp",
+    ] {
+        for e in [
+            "temperature/{s}/measured",
+            "temperature/{s}/predicted",
+            "residual/{s}/residual",
+        ] {
+            let entity = format!("/monitor/{}", e.replace("{s}", state));
+            assert_eq!(rows.get(&entity), Some(&instants), "{entity}: {rows:?}");
+        }
+        for side in ["band_upper", "band_lower"] {
+            assert_eq!(
+                rows.get(&format!("/monitor/residual/{state}/{side}")),
+                Some(&2)
+            );
+        }
+    }
+    let alarm = rows["/monitor/residual/cooling_water_outlet_temp/alarm"];
+    // From the first instant outside the band (after the fault at 1800 s) to the end.
+    assert!(
+        alarm > 600 && alarm <= 7200 - 1800,
+        "{alarm} instants in alarm"
+    );
 }
 
 /// Runs a monitor that must fail on bad input: exit 2, one line naming `names`, no output.

@@ -343,6 +343,77 @@ fn bad_load_files_and_reports_are_one_line_naming_row_and_column() {
     }
 }
 
+/// `predict --rrd`: the schedule, the losses and the temperatures with the class's limits.
+#[test]
+fn predict_publishes_the_schedule_losses_and_temperatures_with_limits() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let fixture = fixture.to_str().unwrap();
+    let args = [
+        "replay",
+        fixture,
+        "--report",
+        "model.json",
+        "--rrd",
+        "m.rrd",
+        "-q",
+    ];
+    let out = common::heatrun(&args, d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let day = "time_s,apparent_power_mva,power_factor\n0,60,0.9\n3600,115,0.9\n7200,80,0.9\n";
+    std::fs::write(d.join("day.csv"), day).unwrap();
+    let out = common::heatrun(
+        &[
+            "predict",
+            "--model",
+            "model.json",
+            "--load",
+            "day.csv",
+            "--out",
+            "pred.csv",
+            "--rrd",
+            "pred.rrd",
+            "--class",
+            "F",
+            "-q",
+        ],
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (rows, blueprint) = crate::outputs::rows_per_entity(&d.join("pred.rrd"));
+    assert!(blueprint);
+    let instants = 7201;
+    for e in [
+        "temperature/stator_winding_temp",
+        "temperature/core_temp",
+        "temperature/cooling_water_outlet_temp",
+        "temperature/field_winding_temp",
+        "losses/armature_copper_loss",
+        "losses/field_copper_loss",
+        "losses/iron_loss",
+        "schedule/currents/armature_current",
+        "schedule/voltage/line_voltage",
+    ] {
+        let entity = format!("/prediction/{e}");
+        assert_eq!(rows.get(&entity), Some(&instants), "{entity}: {rows:?}");
+    }
+    // Class F: the stator winding, the core and the derived field winding have limits.
+    for part in ["stator_winding_temp", "core_temp", "field_winding_temp"] {
+        let entity = format!("/prediction/temperature/{part}_limit");
+        assert_eq!(rows.get(&entity), Some(&2), "{entity}: {rows:?}");
+    }
+    assert!(!rows.contains_key("/prediction/temperature/cooling_water_outlet_temp_limit"));
+}
+
 /// Rows of a load schedule from a recording (its electrical channels and, with
 /// `inlet`, its coolant inlet every `every_s`), and its temperatures at those rows.
 fn schedule_of(recording: &Path, every_s: usize, inlet: bool) -> (String, Vec<(f64, Vec<f64>)>) {
