@@ -487,3 +487,105 @@ fn run_beside(
         restarts: starts.saturating_sub(1),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::signals::{InputSignal, ReferenceValues, StateSignal};
+    use crate::spec::InputKind;
+
+    /// One state, one input, as recorded: x(k+1) = 0.9 x(k) + 0.05 u(k), rises above
+    /// the test's initial 20 °C; the model's validation RMSE 0.1 K.
+    fn model() -> ThermalModel {
+        let report = serde_json::json!({
+            "profile": crate::report::PROFILE,
+            "sample_time_s": 1.0,
+            "states": ["part"],
+            "inputs": ["heater"],
+            "phi": [[0.9]],
+            "gamma": [[0.05]],
+            "time_constants_s": [9.49],
+            "fit": {"rmse_k": [0.1], "max_abs_error_k": [0.3]},
+            "model": {
+                "name": "one node",
+                "states": [{"name": "part", "channel": "part_temp", "reference": "initial",
+                            "part": "the part"}],
+                "inputs": [{"name": "heater", "source": {"channel": "heater_w"},
+                            "unit": "W", "kind": "heat"}],
+                "scaling": "as_recorded"
+            },
+            "estimation": {"initial_temperature_c": [20.0], "temperature_base_k": 1.0}
+        });
+        ThermalModel::from_json(&report.to_string(), Path::new("model.json")).unwrap()
+    }
+
+    /// The model by hand from rise x0 under u = 2 W: x(k) = 0.9^k x0 + (1 − 0.9^k).
+    fn by_hand(x0: f64, k: i32) -> f64 {
+        0.9f64.powi(k) * x0 + (1.0 - 0.9f64.powi(k))
+    }
+
+    #[test]
+    fn the_model_runs_beside_the_recording_restarts_after_a_gap_and_alarms() {
+        let model = model();
+        let len: usize = 20;
+        // Measured: the model's own path from 25 °C, 2 K above it from instant 5; after
+        // the input's gap at instant 10, the model's path from 30 °C.
+        let measured: Series = (0..len)
+            .map(|k| {
+                Some(match k {
+                    0..5 => 20.0 + by_hand(5.0, k as i32),
+                    5..=10 => 22.0 + by_hand(5.0, k as i32),
+                    _ => 20.0 + by_hand(10.0, k as i32 - 11),
+                })
+            })
+            .collect();
+        let heater: Series = (0..len).map(|k| (k != 10).then_some(2.0)).collect();
+        let signals = ModelSignals {
+            ts_s: 1.0,
+            time_ns: (0..len as i64).map(|k| k * 1_000_000_000).collect(),
+            states: vec![StateSignal {
+                name: "part".into(),
+                part: "the part".into(),
+                measured,
+                reference: ReferenceValues::Constant(0.0),
+                observed: None,
+                exception: None,
+            }],
+            inputs: vec![InputSignal {
+                name: "heater".into(),
+                unit: "W".into(),
+                kind: InputKind::Heat,
+                values: heater,
+            }],
+            initial_index: 0,
+            temperature_base_k: 1.0,
+            power_base: 1.0,
+            field_temperature: None,
+        };
+        let refs = References {
+            per_state: vec![StateRef::ModelInitial(20.0)],
+            shift: vec![0.0; len],
+        };
+        let band = Band::from_model_error(&model.error, BandRule::default());
+        assert_eq!(band.half_width_k, vec![0.5]);
+        let run = run_beside(&model, &signals, &refs, &band, 3.0);
+        let predicted = |k: usize| run.traces.predicted[0].get(k).unwrap();
+        for k in 0..=10 {
+            let expected = 20.0 + by_hand(5.0, k as i32);
+            assert!((predicted(k) - expected).abs() < 1e-12, "instant {k}");
+        }
+        // No input at 10: restarted at 11 from the measured 30 °C (a rise of 10 K).
+        assert_eq!(run.restarts, 1);
+        assert!((predicted(11) - 30.0).abs() < 1e-12);
+        assert!((predicted(12) - (20.0 + by_hand(10.0, 1))).abs() < 1e-12);
+        // 2 K above from 5 s to 10 s, back inside at 11 s: 6 s outside > 3 s hold.
+        let alarms = &run.alarms;
+        assert_eq!(alarms.len(), 1, "{alarms:?}");
+        let s = 1_000_000_000;
+        assert_eq!(
+            (alarms[0].start_ns, alarms[0].end_ns),
+            (5 * s, Some(11 * s))
+        );
+        assert!((alarms[0].peak_deviation_k - 2.0).abs() < 1e-12);
+    }
+}
