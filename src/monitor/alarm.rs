@@ -2,11 +2,14 @@
 //! longer than the hold time opens an alarm on part j.
 //!
 //! One excursion per part at a time: it starts at the first instant outside the band
-//! and ends at the first instant back inside it; instants with no residual (a gap in the
-//! recording) neither end nor extend it. An excursion that lasted longer than the hold
-//! time is an alarm, raised (as a live monitor would raise it) the hold time after its
-//! start; shorter ones are noise or a transient the model missed, and are forgotten. The
-//! detector holds one excursion per part, so it runs over a recording of any length.
+//! and ends once the residual has stayed back inside it for a tenth of the hold time (the
+//! clearing time: a noisy residual that dips inside for an instant while a fault builds
+//! does not split one alarm into two), at the first instant of that return; instants
+//! with no residual (a gap in the recording) neither end nor extend it. An excursion that
+//! lasted longer than the hold time is an alarm, raised (as a live monitor would raise
+//! it) the hold time after its start; shorter ones are noise or a transient the model
+//! missed, and are forgotten. The detector holds one excursion per part, so it runs over
+//! a recording of any length.
 
 /// One alarm: part `state` was outside its band from `start_ns` to `end_ns`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -19,7 +22,8 @@ pub struct Alarm {
     pub start_ns: i64,
     /// When the alarm is raised: `start_ns` plus the hold time.
     pub raised_ns: i64,
-    /// The first instant back inside the band; `None` if the recording ended outside it.
+    /// The first instant of the return inside the band that ended it (see the module on
+    /// the clearing time); `None` if the recording ended outside it.
     pub end_ns: Option<i64>,
     /// The residual of largest magnitude θ − θ̂ during the excursion, K (signed: above
     /// the model is positive).
@@ -36,7 +40,12 @@ struct Excursion {
     start_ns: i64,
     peak_k: f64,
     peak_ns: i64,
+    /// The first instant of the current return inside the band, if back inside.
+    inside_since_ns: Option<i64>,
 }
+
+/// The clearing time as a share of the hold time.
+pub const CLEAR_SHARE_OF_HOLD: f64 = 0.1;
 
 /// Watches each part's residual against its band.
 #[derive(Debug, Clone)]
@@ -44,6 +53,7 @@ pub struct Detector {
     names: Vec<String>,
     band_k: Vec<f64>,
     hold_ns: i64,
+    clear_ns: i64,
     open: Vec<Option<Excursion>>,
     alarms: Vec<Alarm>,
 }
@@ -56,6 +66,7 @@ impl Detector {
             names,
             band_k,
             hold_ns: (hold_s * 1e9).round() as i64,
+            clear_ns: (CLEAR_SHARE_OF_HOLD * hold_s * 1e9).round() as i64,
             open: vec![None; n],
             alarms: Vec::new(),
         }
@@ -68,6 +79,7 @@ impl Detector {
             let outside = r.abs() > self.band_k[j];
             match (&mut self.open[j], outside) {
                 (Some(e), true) => {
+                    e.inside_since_ns = None;
                     if r.abs() > e.peak_k.abs() {
                         e.peak_k = r;
                         e.peak_ns = time_ns;
@@ -78,11 +90,15 @@ impl Detector {
                         start_ns: time_ns,
                         peak_k: r,
                         peak_ns: time_ns,
+                        inside_since_ns: None,
                     })
                 }
-                (slot @ Some(_), false) => {
-                    let e = slot.take().expect("matched Some");
-                    self.close(j, e, Some(time_ns), time_ns);
+                (Some(e), false) => {
+                    let since = *e.inside_since_ns.get_or_insert(time_ns);
+                    if time_ns - since >= self.clear_ns {
+                        let e = self.open[j].take().expect("matched Some");
+                        self.close(j, e, Some(since), time_ns);
+                    }
                 }
                 (None, false) => {}
             }
@@ -112,7 +128,8 @@ impl Detector {
     pub fn finish(mut self, last_ns: i64) -> Vec<Alarm> {
         for j in 0..self.open.len() {
             if let Some(e) = self.open[j].take() {
-                self.close(j, e, None, last_ns);
+                let end = e.inside_since_ns;
+                self.close(j, e, end, last_ns);
             }
         }
         self.alarms.sort_by_key(|a| (a.raised_ns, a.state));
@@ -151,6 +168,17 @@ mod tests {
             (2 * S, 5 * S, Some(6 * S))
         );
         assert_eq!((a.peak_deviation_k, a.peak_ns), (-2.5, 4 * S));
+    }
+
+    #[test]
+    fn a_dip_inside_shorter_than_the_clearing_time_does_not_split_an_alarm() {
+        // Hold 6 s, clearing 0.6 s: outside 0-4 s, inside at 5 s only, outside 6-9 s, back
+        // at 10 s for good. Split at the dip, neither half (5 s, 4 s) would be an alarm.
+        let r = [2.0, 2.0, 2.0, 2.0, 2.0, 0.0, 2.0, 2.0, 2.0, 3.0, 0.0, 0.0];
+        let alarms = run(&r, 6.0);
+        assert_eq!(alarms.len(), 1, "{alarms:?}");
+        assert_eq!((alarms[0].start_ns, alarms[0].end_ns), (0, Some(10 * S)));
+        assert_eq!(alarms[0].peak_deviation_k, 3.0);
     }
 
     #[test]
