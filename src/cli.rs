@@ -65,7 +65,8 @@ pub struct MonitorArgs {
     /// The recording to monitor (MCAP, the heatrun SCADA profile), of the same machine.
     #[arg(value_name = "RECORDING.mcap")]
     pub recording: PathBuf,
-    /// Seconds a residual must stay outside its band before it is an alarm.
+    /// Seconds a residual must stay outside its band before it is an alarm (returns inside
+    /// shorter than a tenth of this do not end the excursion).
     #[arg(long, value_name = "SECONDS", default_value_t = heatrun::monitor::DEFAULT_HOLD_S)]
     pub hold: f64,
     /// The band per part is this multiple of the model's RMSE (validation, else fit).
