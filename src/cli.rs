@@ -46,6 +46,47 @@ pub enum Command {
     Predict(PredictArgs),
     /// The machine's thermal rating: largest continuous power, limiting part, overloads.
     Rating(RatingArgs),
+    /// Run a model beside a later recording of the machine; alarm where a part leaves the
+    /// model's band.
+    #[command(
+        after_help = "Exit status: 0 healthy (no alarm), 4 alarms raised, 2 bad input (a report of \
+another profile or without the needed blocks, a recording lacking a state's channel), 3 data \
+lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300"
+    )]
+    Monitor(MonitorArgs),
+}
+
+/// Arguments of `heatrun monitor`.
+#[derive(Debug, Args)]
+pub struct MonitorArgs {
+    /// The model: a report written by `heatrun replay --report`.
+    #[arg(long, value_name = "REPORT.json")]
+    pub model: PathBuf,
+    /// The recording to monitor (MCAP, the heatrun SCADA profile), of the same machine.
+    #[arg(value_name = "RECORDING.mcap")]
+    pub recording: PathBuf,
+    /// Seconds a residual must stay outside its band before it is an alarm (returns inside
+    /// shorter than a tenth of this do not end the excursion).
+    #[arg(long, value_name = "SECONDS", default_value_t = heatrun::monitor::DEFAULT_HOLD_S)]
+    pub hold: f64,
+    /// The band per part is this multiple of the model's RMSE (validation, else fit).
+    #[arg(long, value_name = "FACTOR", default_value_t = heatrun::monitor::BandRule::default().factor)]
+    pub band_factor: f64,
+    /// The narrowest band, K.
+    #[arg(long, value_name = "K", default_value_t = heatrun::monitor::BandRule::default().floor_k)]
+    pub band_floor: f64,
+    /// Write the alarms and each part's residual statistics as JSON to this file.
+    #[arg(long, value_name = "OUT.json")]
+    pub json: Option<PathBuf>,
+    /// Save measured against predicted temperature, residuals, bands and alarms to an .rrd.
+    #[arg(long, value_name = "OUT.rrd", conflicts_with = "connect")]
+    pub rrd: Option<PathBuf>,
+    /// Stream them to a running rerun viewer (optionally at this gRPC URL).
+    #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
+    pub connect: Option<String>,
+    /// Print only the alarm lines.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Where a prediction starts.
@@ -76,6 +117,16 @@ pub struct PredictArgs {
     /// Start from these temperatures, °C, one per state in the model's order.
     #[arg(long, value_delimiter = ',', value_name = "T1,T2,...")]
     pub initial_temps: Option<Vec<f64>>,
+    /// Also save the schedule, the losses and the predicted temperatures (with the
+    /// limits of --class and --limit) to this rerun .rrd file.
+    #[arg(long, value_name = "OUT.rrd")]
+    pub rrd: Option<PathBuf>,
+    /// Insulation class whose limits (IEC 60034-1, Table 7) the .rrd draws.
+    #[arg(long, value_enum, requires = "rrd")]
+    pub class: Option<ClassArg>,
+    /// A part's limit the .rrd draws, °C (repeatable; overrides the class's): STATE=°C.
+    #[arg(long, value_name = "STATE=°C", value_parser = parse_limit, requires = "rrd")]
+    pub limit: Vec<(String, f64)>,
     /// Do not print the summary.
     #[arg(long, short)]
     pub quiet: bool,
@@ -451,6 +502,55 @@ mod tests {
     #[test]
     fn the_definitions_are_consistent() {
         Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn monitor_parses_its_options_with_the_documented_defaults() {
+        let Command::Monitor(m) = parse(&["monitor", "--model", "r.json", "s.mcap"])
+            .unwrap()
+            .command
+        else {
+            panic!("not monitor");
+        };
+        assert_eq!((m.hold, m.band_factor, m.band_floor), (600.0, 4.0, 0.5));
+        assert_eq!((m.json, m.rrd, m.connect), (None, None, None));
+        let Command::Monitor(m) = parse(&[
+            "monitor",
+            "--model",
+            "r.json",
+            "s.mcap",
+            "--hold",
+            "300",
+            "--connect",
+        ])
+        .unwrap()
+        .command
+        else {
+            panic!("not monitor");
+        };
+        assert_eq!((m.hold, m.connect.as_deref()), (300.0, Some("")));
+        assert_eq!(
+            error(&["monitor", "--model", "r.json"]),
+            ErrorKind::MissingRequiredArgument
+        );
+        assert_eq!(
+            error(&[
+                "monitor",
+                "--model",
+                "r.json",
+                "s.mcap",
+                "--rrd",
+                "o.rrd",
+                "--connect"
+            ]),
+            ErrorKind::ArgumentConflict
+        );
+        assert_eq!(
+            error(&[
+                "predict", "--model", "r.json", "--load", "l.csv", "--out", "p.csv", "--class", "F"
+            ]),
+            ErrorKind::MissingRequiredArgument
+        );
     }
 
     #[test]

@@ -54,6 +54,7 @@ pub mod html;
 pub mod import;
 pub mod losses;
 pub mod model;
+pub mod monitor;
 pub mod network;
 pub mod pipeline;
 pub mod predict;

@@ -1,6 +1,7 @@
 //! The `heatrun` command: a thin layer over the library. This is the one place
 //! that turns an outcome into an exit status: 0 ok, 1 failure, 2 usage or bad
-//! input, 3 completed with data loss.
+//! input, 3 completed with data loss, 4 completed and the monitored machine raised
+//! alarms (`heatrun monitor`).
 
 mod cli;
 mod commands;
@@ -17,6 +18,7 @@ fn main() -> ExitCode {
     match commands::dispatch(cli.command) {
         Ok(Outcome::Complete) => ExitCode::SUCCESS,
         Ok(Outcome::DataLoss) => ExitCode::from(3),
+        Ok(Outcome::Alarms) => ExitCode::from(4),
         Err(err) => {
             let bad_input = err
                 .downcast_ref::<heatrun::Error>()

@@ -220,9 +220,9 @@ pub fn prepare(path: &Path, options: &ReplayOptions) -> Result<Prepared> {
 }
 
 /// Gives every sample to the decimator and to a second sink (the full-rate publisher).
-struct Tee<'a> {
-    decimator: &'a mut Decimator,
-    also: &'a mut dyn SampleSink,
+pub(crate) struct Tee<'a> {
+    pub(crate) decimator: &'a mut Decimator,
+    pub(crate) also: &'a mut dyn SampleSink,
 }
 
 impl SampleSink for Tee<'_> {

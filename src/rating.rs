@@ -302,7 +302,7 @@ fn loading<'a>(model: &'a ThermalModel, o: &RatingOptions) -> Result<Loading<'a>
 
 /// The parts with a limit: states by their channel (the class's table) or by name
 /// (`--limit`), and the field winding derived from the stator winding.
-fn parts(model: &ThermalModel, o: &RatingOptions) -> Result<Vec<LimitedPart>, UseError> {
+pub fn parts(model: &ThermalModel, o: &RatingOptions) -> Result<Vec<LimitedPart>, UseError> {
     let field = Quantity::FieldWindingTemp.name();
     let derived_field = matches!(
         model.field_temperature,

@@ -15,6 +15,7 @@
 //! | [`network_rc`] | a known RC machine's C, G and K from the identified model and from `--method rc` |
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
 //! | [`html`] | `replay --html`: the page parsed, its sections, figures and tables; nothing outside it |
+//! | [`monitor`] | `heatrun monitor`: healthy recordings raise nothing, a fouled cooler an alarm in time; bad input |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
 //!
 //! A new test file `tests/NAME.rs` becomes `mod NAME;` here; shared helpers are in
@@ -33,6 +34,7 @@ mod field_state;
 mod html;
 mod import;
 mod layouts;
+mod monitor;
 mod network_rc;
 mod outputs;
 mod paper;

@@ -23,7 +23,7 @@ thread_local! {
 }
 
 /// Rows per entity of the recording store (not the blueprint) in an .rrd file.
-fn rows_per_entity(path: &std::path::Path) -> (BTreeMap<String, usize>, bool) {
+pub(crate) fn rows_per_entity(path: &std::path::Path) -> (BTreeMap<String, usize>, bool) {
     let (rows, blueprint) = rows_and_blueprint(path);
     (rows, !blueprint.is_empty())
 }

@@ -265,3 +265,284 @@ fn rating_holds_against_predict(dir: &Path) {
         .collect();
     assert!(times.windows(2).all(|w| w[1] <= w[0]), "{times:?}");
 }
+
+/// Bad load files and model reports: exit 2, one line naming the file and the row and
+/// column (or the key), and no prediction written.
+#[test]
+fn bad_load_files_and_reports_are_one_line_naming_row_and_column() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let out = common::heatrun(
+        &[
+            "replay",
+            fixture.to_str().unwrap(),
+            "--report",
+            "model.json",
+            "--rrd",
+            "model.rrd",
+            "-q",
+        ],
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("model.json")).unwrap()).unwrap();
+    report["profile"] = "heatrun-scada/9".into();
+    std::fs::write(d.join("other.json"), report.to_string()).unwrap();
+    let header = "time_s,armature_current_a,field_current_a,line_voltage_kv";
+    let files = [
+        (
+            "unknown.csv",
+            format!("{header},fan_speed\n0,3000,1000,15.6,1\n"),
+            "model.json",
+            &["unknown.csv", "row 1", "column `fan_speed`"][..],
+        ),
+        (
+            "cell.csv",
+            format!("{header}\n0,3000,1000,15.6\n600,3000,lots,15.6\n"),
+            "model.json",
+            &["cell.csv", "row 3", "column `field_current_a`", "`lots`"][..],
+        ),
+        (
+            "backwards.csv",
+            format!("{header}\n0,3000,1000,15.6\n600,3000,1000,15.6\n300,3000,1000,15.6\n"),
+            "model.json",
+            &["backwards.csv", "row 4", "column `time_s`", "300"][..],
+        ),
+        (
+            "good.csv",
+            format!("{header}\n0,3000,1000,15.6\n600,3000,1000,15.6\n"),
+            "other.json",
+            &["other.json", "profile `heatrun-scada/9`"][..],
+        ),
+    ];
+    for (name, text, model, expected) in files {
+        std::fs::write(d.join(name), &text).unwrap();
+        let out = common::heatrun(
+            &[
+                "predict", "--model", model, "--load", name, "--out", "pred.csv",
+            ],
+            d,
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{name}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{name}: {stderr}");
+        for e in expected {
+            assert!(stderr.contains(e), "{name}: `{e}` not in {stderr}");
+        }
+        assert!(
+            !d.join("pred.csv").exists(),
+            "{name}: an output was written"
+        );
+        assert_eq!(std::fs::read_to_string(d.join(name)).unwrap(), text);
+    }
+}
+
+/// `predict --rrd`: the schedule, the losses and the temperatures with the class's limits.
+#[test]
+fn predict_publishes_the_schedule_losses_and_temperatures_with_limits() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let fixture = fixture.to_str().unwrap();
+    let args = [
+        "replay",
+        fixture,
+        "--report",
+        "model.json",
+        "--rrd",
+        "m.rrd",
+        "-q",
+    ];
+    let out = common::heatrun(&args, d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let day = "time_s,apparent_power_mva,power_factor\n0,60,0.9\n3600,115,0.9\n7200,80,0.9\n";
+    std::fs::write(d.join("day.csv"), day).unwrap();
+    let out = common::heatrun(
+        &[
+            "predict",
+            "--model",
+            "model.json",
+            "--load",
+            "day.csv",
+            "--out",
+            "pred.csv",
+            "--rrd",
+            "pred.rrd",
+            "--class",
+            "F",
+            "-q",
+        ],
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (rows, blueprint) = crate::outputs::rows_per_entity(&d.join("pred.rrd"));
+    assert!(blueprint);
+    let instants = 7201;
+    for e in [
+        "temperature/stator_winding_temp",
+        "temperature/core_temp",
+        "temperature/cooling_water_outlet_temp",
+        "temperature/field_winding_temp",
+        "losses/armature_copper_loss",
+        "losses/field_copper_loss",
+        "losses/iron_loss",
+        "schedule/currents/armature_current",
+        "schedule/voltage/line_voltage",
+    ] {
+        let entity = format!("/prediction/{e}");
+        assert_eq!(rows.get(&entity), Some(&instants), "{entity}: {rows:?}");
+    }
+    // Class F: the stator winding, the core and the derived field winding have limits.
+    for part in ["stator_winding_temp", "core_temp", "field_winding_temp"] {
+        let entity = format!("/prediction/temperature/{part}_limit");
+        assert_eq!(rows.get(&entity), Some(&2), "{entity}: {rows:?}");
+    }
+    assert!(!rows.contains_key("/prediction/temperature/cooling_water_outlet_temp_limit"));
+}
+
+/// Rows of a load schedule from a recording (its electrical channels and, with
+/// `inlet`, its coolant inlet every `every_s`), and its temperatures at those rows.
+fn schedule_of(recording: &Path, every_s: usize, inlet: bool) -> (String, Vec<(f64, Vec<f64>)>) {
+    use heatrun::recording::Quantity;
+    let prepared = heatrun::pipeline::prepare(recording, &Default::default()).unwrap();
+    let d = &prepared.decimated;
+    let at = |q: Quantity, k: usize| d.get(q).unwrap().values.get(k).unwrap();
+    let mut text = String::from("time_s,armature_current_a,field_current_a,line_voltage_kv");
+    if inlet {
+        text.push_str(",coolant_inlet_temp_c");
+    }
+    text.push('\n');
+    let states = [
+        Quantity::StatorWindingTemp,
+        Quantity::CoreTemp,
+        Quantity::CoolingWaterOutletTemp,
+    ];
+    let mut truth = Vec::new();
+    for k in (0..d.len).step_by(every_s) {
+        let t = k as f64 * d.ts_s();
+        text.push_str(&format!(
+            "{t},{},{},{}",
+            at(Quantity::ArmatureCurrent, k),
+            at(Quantity::FieldCurrent, k),
+            at(Quantity::LineVoltage, k) / 1e3
+        ));
+        if inlet {
+            text.push_str(&format!(",{}", at(Quantity::CoolingWaterInletTemp, k)));
+        }
+        text.push('\n');
+        truth.push((t, states.iter().map(|&q| at(q, k)).collect()));
+    }
+    (text, truth)
+}
+
+/// A model identified with the coolant inlet as its reference (a noisy heat run of the RC
+/// machine whose inlet drifts 3 K over a day: `initial_of` states and a
+/// `cooling_water_inlet_rise` input) predicts another, noise-free run of the machine with
+/// the same drift from its load and inlet columns; without the inlet column it cannot.
+#[test]
+fn a_coolant_referenced_model_predicts_a_drifting_inlet_from_the_schedule() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let synth = |name: &str, extra: &[&str]| {
+        let mut args = vec!["synth", name, "--machine", "rc-unit", "--inlet-drift", "3"];
+        args.extend_from_slice(extra);
+        let out = common::heatrun(&args, d);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    // PT100-like noise, as `with_noise_level(1.0)`.
+    let noisy = [
+        "--temperature-noise",
+        "0.05",
+        "--resolution",
+        "0.01",
+        "--electrical-noise",
+        "0.0005",
+        "--seed",
+        "6",
+    ];
+    synth("model.mcap", &noisy);
+    synth("truth.mcap", &["--profile", "single-step"]);
+    let out = common::heatrun(
+        &[
+            "replay",
+            "model.mcap",
+            "--report",
+            "model.json",
+            "--rrd",
+            "m.rrd",
+            "-q",
+        ],
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = std::fs::read_to_string(d.join("model.json")).unwrap();
+    assert!(
+        report.contains("\"boundary_rise\""),
+        "not a coolant-referenced model"
+    );
+    let mut worst = Vec::new();
+    for inlet in [true, false] {
+        let (text, truth) = schedule_of(&d.join("truth.mcap"), 10, inlet);
+        std::fs::write(d.join("load.csv"), text).unwrap();
+        let start: Vec<String> = truth[0].1.iter().map(|v| v.to_string()).collect();
+        let out = common::heatrun(
+            &[
+                "predict",
+                "--model",
+                "model.json",
+                "--load",
+                "load.csv",
+                "--out",
+                "pred.csv",
+                "--initial-temps",
+                &start.join(","),
+                "-q",
+            ],
+            d,
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let (_, rows) = read_csv(&d.join("pred.csv"));
+        let error = truth
+            .iter()
+            .map(|(t, theta)| {
+                let row = rows.iter().find(|r| (r[0] - t).abs() < 1e-6).unwrap();
+                (0..3)
+                    .map(|j| (row[j + 1] - theta[j]).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max);
+        println!("inlet column {inlet}: largest error {error:.3} K");
+        worst.push(error);
+    }
+    assert!(worst[0] < 1.0, "with the inlet column: {} K", worst[0]);
+    assert!(
+        worst[1] > 2.0 * worst[0],
+        "the inlet column made no difference: {worst:?}"
+    );
+}

@@ -5,6 +5,7 @@ pub mod hint;
 mod import;
 mod info;
 mod man;
+mod monitor;
 mod predict;
 mod rating;
 mod replay;
@@ -19,6 +20,8 @@ pub enum Outcome {
     Complete,
     /// Done, but part of the input was damaged and skipped (exit status 3).
     DataLoss,
+    /// Done, and the monitored machine raised alarms (exit status 4).
+    Alarms,
 }
 
 /// Runs a command.
@@ -32,5 +35,6 @@ pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
         Command::Man(args) => man::run(args),
         Command::Predict(args) => predict::run(args),
         Command::Rating(args) => rating::run(args),
+        Command::Monitor(args) => monitor::run(args),
     }
 }

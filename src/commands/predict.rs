@@ -3,7 +3,7 @@
 use heatrun::predict::{self, InitialState, ThermalModel};
 
 use super::Outcome;
-use crate::cli::{InitialArg, PredictArgs};
+use crate::cli::{ClassArg, InitialArg, PredictArgs};
 
 pub fn run(args: PredictArgs) -> anyhow::Result<Outcome> {
     let model = ThermalModel::read(&args.model).map_err(heatrun::Error::from)?;
@@ -15,6 +15,16 @@ pub fn run(args: PredictArgs) -> anyhow::Result<Outcome> {
     };
     let prediction = predict::predict(&model, &schedule, &initial).map_err(heatrun::Error::from)?;
     prediction.write_csv(&args.out)?;
+    if let Some(rrd) = &args.rrd {
+        let limits = limits(&model, &args)?;
+        heatrun::publish::prediction::publish(
+            &prediction,
+            &schedule,
+            &model,
+            &limits,
+            &heatrun::publish::RerunSink::Rrd(rrd.clone()),
+        )?;
+    }
     for w in &prediction.warnings {
         eprintln!("warning: {w}");
     }
@@ -42,4 +52,25 @@ pub fn run(args: PredictArgs) -> anyhow::Result<Outcome> {
         }
     }
     Ok(Outcome::Complete)
+}
+
+/// The limits of `--class` and `--limit`, per part, as `rating` takes them.
+fn limits(model: &ThermalModel, args: &PredictArgs) -> anyhow::Result<Vec<(String, f64)>> {
+    if args.class.is_none() && args.limit.is_empty() {
+        return Ok(Vec::new());
+    }
+    let options = heatrun::rating::RatingOptions {
+        class: args.class.map(|c| match c {
+            ClassArg::B => heatrun::rating::InsulationClass::B,
+            ClassArg::F => heatrun::rating::InsulationClass::F,
+            ClassArg::H => heatrun::rating::InsulationClass::H,
+        }),
+        limits_c: args.limit.clone(),
+        power_factor: None,
+        voltage_v: None,
+        coolant_c: None,
+        overloads: Vec::new(),
+    };
+    let parts = heatrun::rating::parts(model, &options).map_err(heatrun::Error::from)?;
+    Ok(parts.into_iter().map(|p| (p.name, p.limit_c)).collect())
 }

@@ -87,13 +87,13 @@ fn channel_columns(model: &ThermalModel) -> Vec<String> {
     };
     for i in &model.inputs {
         match &i.source {
-            InputUse::Channel(c) => add(c),
+            InputUse::Channel(c) | InputUse::BoundaryRise(c) => add(c),
             InputUse::Expression(e) => e.channels().iter().for_each(|c| add(c.name())),
             InputUse::Loss(_) => {}
         }
     }
     for s in &model.states {
-        if let StateReference::Channel(c, _) = &s.reference {
+        if let StateReference::Channel(c, _) | StateReference::InitialOf(c, _) = &s.reference {
             add(c);
         }
     }

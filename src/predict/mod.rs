@@ -84,7 +84,9 @@ pub fn predict(
         InitialState::Measured => DVector::from_fn(n, |j, _| {
             let theta0 = model.initial_temperature_c[j];
             let r0 = match &model.states[j].reference {
-                model::StateReference::Initial(r) | model::StateReference::Channel(_, r) => *r,
+                model::StateReference::Initial(r)
+                | model::StateReference::Channel(_, r)
+                | model::StateReference::InitialOf(_, r) => *r,
                 model::StateReference::Absolute => 0.0,
             };
             (theta0 - r0) / model.temperature_base_k

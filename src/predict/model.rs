@@ -12,7 +12,7 @@ use serde_json::Value;
 use super::error::UseError;
 use crate::losses::HeatSource;
 use crate::recording::{Nameplate, Quantity};
-use crate::spec::InputExpression;
+use crate::spec::{InputExpression, InputKind};
 
 /// What a state's rise is measured from.
 #[derive(Debug, Clone, PartialEq)]
@@ -24,6 +24,10 @@ pub enum StateReference {
     /// Another channel at the same instant (a coolant inlet), by name; the value of the
     /// model's recording at its initial instant, °C, for when the schedule lacks it.
     Channel(String, f64),
+    /// A channel's initial level in the model's recording, a constant (the coolant inlet
+    /// at the start: the thermal network's reference node), by name, °C. Its drift from
+    /// there is an input of the model ([`InputUse::BoundaryRise`]).
+    InitialOf(String, f64),
 }
 
 /// One state of the model.
@@ -49,6 +53,10 @@ pub enum InputUse {
     Channel(String),
     /// An expression of channels, each from the schedule's column of its name.
     Expression(Box<InputExpression>),
+    /// A boundary channel's rise above its initial level in the model's recording (the
+    /// coolant inlet's drift θ_in − θ_in,0), in the states' scaling; the level is the
+    /// [`StateReference::InitialOf`] of the states.
+    BoundaryRise(String),
 }
 
 /// One input of the model.
@@ -58,6 +66,8 @@ pub struct ModelInput {
     pub name: String,
     /// How it is computed.
     pub source: InputUse,
+    /// Heat, the reference node's temperature, or another exogenous input.
+    pub kind: InputKind,
 }
 
 /// How the field winding temperature (for R_f in the field copper loss) is predicted.
@@ -110,6 +120,9 @@ pub struct ThermalModel {
     pub temperature_base_k: f64,
     /// Watts (or the input's unit) per unit of a heat input.
     pub power_base_w: f64,
+    /// Whether states and inputs are per unit of the nameplate's bases (the profile's
+    /// scaling), not as recorded.
+    pub per_unit: bool,
     /// The nameplate of the loss model, where the report has one.
     pub nameplate: Option<Nameplate>,
     /// Measured temperatures at the start of the model's recording, °C.
@@ -154,6 +167,7 @@ struct ValidationFile {
 #[derive(Deserialize)]
 struct DescriptionFile {
     name: String,
+    scaling: Option<String>,
     states: Vec<StateFile>,
     inputs: Vec<InputFile>,
 }
@@ -172,6 +186,8 @@ struct InputFile {
     source: Value,
     #[serde(default)]
     from_initial: bool,
+    #[serde(default)]
+    kind: InputKind,
 }
 
 #[derive(Deserialize)]
@@ -252,11 +268,21 @@ impl ThermalModel {
         self.inputs.iter().any(|i| match &i.source {
             InputUse::Channel(c) => c == inlet,
             InputUse::Expression(e) => e.channels().iter().any(|c| c.name() == inlet),
+            InputUse::BoundaryRise(c) => c == inlet,
             InputUse::Loss(_) => false,
-        }) || self
-            .states
-            .iter()
-            .any(|s| matches!(&s.reference, StateReference::Channel(c, _) if c == inlet))
+        }) || self.states.iter().any(|s| match &s.reference {
+            StateReference::Channel(c, _) | StateReference::InitialOf(c, _) => c == inlet,
+            _ => false,
+        })
+    }
+
+    /// The initial level of a boundary channel the states are measured from (their
+    /// [`StateReference::InitialOf`]), °C.
+    pub fn initial_level_of(&self, channel: &str) -> Option<f64> {
+        self.states.iter().find_map(|s| match &s.reference {
+            StateReference::InitialOf(c, level) if c == channel => Some(*level),
+            _ => None,
+        })
     }
 
     /// The report needs `key` for `needed_for`.
@@ -384,6 +410,12 @@ fn build(file: ReportFile, path: PathBuf) -> Result<ThermalModel, UseError> {
         inputs,
         temperature_base_k: estimation.temperature_base_k,
         power_base_w: estimation.power_base_mva.map_or(1.0, |p| p * 1e6),
+        per_unit: description
+            .scaling
+            .as_deref()
+            .map_or(estimation.power_base_mva.is_some(), |s| {
+                s == "nameplate_per_unit"
+            }),
         nameplate: file.nameplate,
         initial_temperature_c: estimation.initial_temperature_c.clone(),
         coolant_inlet_temp_c: estimation.coolant_inlet_temp_c,
@@ -404,6 +436,10 @@ fn state(s: StateFile, initial_reference: f64, path: &Path) -> Result<ModelState
         Value::Object(o) if o.len() == 1 && o.get("channel").is_some_and(Value::is_string) => {
             let channel = o["channel"].as_str().unwrap_or_default().to_owned();
             StateReference::Channel(channel, initial_reference)
+        }
+        Value::Object(o) if o.len() == 1 && o.get("initial_of").is_some_and(Value::is_string) => {
+            let channel = o["initial_of"].as_str().unwrap_or_default().to_owned();
+            StateReference::InitialOf(channel, initial_reference)
         }
         other => {
             return Err(UseError::Unsupported {
@@ -447,6 +483,7 @@ fn input(i: InputFile, path: &Path) -> Result<ModelInput, UseError> {
             .map(InputUse::Loss)
             .ok_or_else(|| unsupported(format!("the loss `{name}`")))?,
         ("channel", Some(name)) => InputUse::Channel(name.to_owned()),
+        ("boundary_rise", Some(name)) => InputUse::BoundaryRise(name.to_owned()),
         ("expression", Some(text)) => {
             InputUse::Expression(Box::new(InputExpression::parse(text).map_err(unsupported)?))
         }
@@ -455,6 +492,7 @@ fn input(i: InputFile, path: &Path) -> Result<ModelInput, UseError> {
     Ok(ModelInput {
         name: i.name,
         source,
+        kind: i.kind,
     })
 }
 

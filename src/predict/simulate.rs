@@ -92,6 +92,8 @@ impl<'a> Simulator<'a> {
                 .or(self.model.coolant_inlet_temp_c)
                 .unwrap_or(*r0),
             StateReference::Channel(c, r0) => p.channels.get(c).copied().unwrap_or(*r0),
+            // A constant: the inlet's drift from it is an input, not an offset.
+            StateReference::InitialOf(_, level) => *level,
         }
     }
 
@@ -145,6 +147,17 @@ impl<'a> Simulator<'a> {
                 InputUse::Expression(e) => {
                     let args: Vec<f64> = e.channels().iter().map(|c| channel(c.name())).collect();
                     e.eval(&args).unwrap_or(f64::NAN) / base
+                }
+                // (θ_in − θ_in,0) / θ_base: the schedule's inlet, else the model test's
+                // level (no drift).
+                InputUse::BoundaryRise(c) => {
+                    let level = self.model.initial_level_of(c).unwrap_or(f64::NAN);
+                    let now = if c == inlet {
+                        p.coolant_inlet_c.unwrap_or(level)
+                    } else {
+                        p.channels.get(c.as_str()).copied().unwrap_or(level)
+                    };
+                    (now - level) / self.model.temperature_base_k
                 }
             };
             if !u[i].is_finite() {

@@ -18,7 +18,9 @@ use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeC
 mod analysis;
 pub mod blueprint;
 pub mod layout;
+pub mod monitor;
 pub mod network;
+pub mod prediction;
 mod style;
 mod text;
 mod traces;

@@ -1,0 +1,88 @@
+//! The alarm band: how far a part's measured temperature may stray from the model's
+//! before it counts as outside, set from the model's own error.
+//!
+//! Rule: band_j = max(factor · RMSE_j, floor), RMSE_j the model's RMS simulation error
+//! for state j on its validation data where the report has them (`replay --holdout`,
+//! `--split-at`, `--validate`), else on its estimation data. The RMSE of a simulation
+//! from a model identified on a noisy recording is about the sensor noise σ plus the
+//! model's own error; a factor of 4 puts a single noisy instant well inside (4σ of
+//! Gaussian noise: 6 in 100,000), and the hold time of the detector takes care of the
+//! rest. The floor keeps the band from shrinking below what a sensor's calibration
+//! (a class-A PT100: ±0.15 K at 0 °C, ±0.35 K at 100 °C) can vouch for between two
+//! recordings made months apart.
+
+use crate::predict::model::ModelError;
+
+/// The rule that sets the band from the model's error.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BandRule {
+    /// Multiple of the model's RMSE per part.
+    pub factor: f64,
+    /// The narrowest band, K.
+    pub floor_k: f64,
+}
+
+impl Default for BandRule {
+    /// 4 × RMSE, at least 0.5 K.
+    fn default() -> Self {
+        BandRule {
+            factor: 4.0,
+            floor_k: 0.5,
+        }
+    }
+}
+
+/// The band per state: |θ − θ̂| ≤ half_width_k[j] is inside.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Band {
+    /// Half-width per state, K.
+    pub half_width_k: Vec<f64>,
+    /// The model's RMSE per state it was set from, K.
+    pub model_rmse_k: Vec<f64>,
+    /// What the RMSE is of (`validation on …` or `fit on the estimation data`).
+    pub source: String,
+    /// The factor applied.
+    pub factor: f64,
+    /// The floor, K.
+    pub floor_k: f64,
+}
+
+impl Band {
+    /// band_j = max(factor · RMSE_j, floor) (see the module's rule).
+    pub fn from_model_error(error: &ModelError, rule: BandRule) -> Band {
+        Band {
+            half_width_k: error
+                .rmse_k
+                .iter()
+                .map(|r| (rule.factor * r).max(rule.floor_k))
+                .collect(),
+            model_rmse_k: error.rmse_k.clone(),
+            source: error.source.clone(),
+            factor: rule.factor,
+            floor_k: rule.floor_k,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_band_is_a_multiple_of_the_error_above_the_floor() {
+        let error = ModelError {
+            source: "fit".into(),
+            rmse_k: vec![0.05, 0.2, 0.5],
+            max_abs_error_k: vec![0.2, 0.6, 1.5],
+        };
+        let band = Band::from_model_error(
+            &error,
+            BandRule {
+                factor: 4.0,
+                floor_k: 0.5,
+            },
+        );
+        // 4 × 0.05 = 0.2 < floor; 4 × 0.2 = 0.8; 4 × 0.5 = 2.0.
+        assert_eq!(band.half_width_k, vec![0.5, 0.8, 2.0]);
+    }
+}
