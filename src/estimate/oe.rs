@@ -348,7 +348,7 @@ fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usiz
         covariance: Some(covariance),
         noise_variance,
         iterations: evaluations,
-        output_offset: None,
+        output_offset: problem.output_offset(),
         trajectory: None,
         network: None,
     }
@@ -366,6 +366,9 @@ pub(crate) struct Problem<'a> {
     pub(crate) sqrt_w: Vec<f64>,
     /// A factor on each entry's weight (N × n), where entries count unequally.
     entry_weight: Option<DMatrix<f64>>,
+    /// Where in the parameters the constant output offset d (ŷ = x + d, one per output)
+    /// starts, when it is estimated ([`Problem::with_output_offset`]).
+    offset_at: Option<usize>,
     pub(crate) n: usize,
     m: usize,
     pub(crate) params: DVector<f64>,
@@ -406,11 +409,32 @@ impl<'a> Problem<'a> {
             counts,
             sqrt_w: weights.iter().map(|v| v.max(0.0).sqrt()).collect(),
             entry_weight: None,
+            offset_at: None,
             n,
             m,
             params: DVector::from_vec(params),
             cache: RefCell::new(None),
         }
+    }
+
+    /// The problem with a constant offset per output as n more parameters (last, from
+    /// zero): ŷ(k) = x(k) + d. A rise measured from one noisy first sample is offset by
+    /// that sample's noise for the whole run, which no initial state (it decays) and no
+    /// Γ (it follows the losses) can take up.
+    pub(crate) fn with_output_offset(mut self) -> Problem<'a> {
+        if self.offset_at.is_none() {
+            let at = self.params.len();
+            self.params = self.params.clone().insert_rows(at, self.n, 0.0);
+            self.offset_at = Some(at);
+            *self.cache.borrow_mut() = None;
+        }
+        self
+    }
+
+    /// The estimated output offset d, when it is estimated.
+    pub(crate) fn output_offset(&self) -> Option<Vec<f64>> {
+        self.offset_at
+            .map(|at| self.params.rows(at, self.n).iter().copied().collect())
     }
 
     pub(crate) fn p_theta(&self) -> usize {
@@ -492,10 +516,11 @@ impl<'a> Problem<'a> {
                         None => self.sqrt_w[c],
                         Some(e) => self.sqrt_w[c] * e[(k, c)].max(0.0).sqrt(),
                     };
-                    let r = sqrt_w * (self.data.outputs[(k, c)] - state.y[c]);
+                    let offset = self.offset_at.map_or(0.0, |at| self.params[at + c]);
+                    let r = sqrt_w * (self.data.outputs[(k, c)] - state.y[c] - offset);
                     sse[c] += r * r;
                     if let Some((gram, grad)) = normal.as_mut() {
-                        state.jacobian_row(c, sqrt_w, x0_at);
+                        state.jacobian_row(c, sqrt_w, x0_at, self.offset_at);
                         state.accumulate(r, gram, grad);
                     }
                 }
@@ -637,9 +662,15 @@ impl Propagation {
         std::mem::swap(&mut self.y, &mut self.y_next);
     }
 
-    /// The row of J for output c: −√w_c ∂ŷ_c/∂(θ, this segment's x0 at `x0_at`), zero
-    /// elsewhere.
-    fn jacobian_row(&mut self, c: usize, sqrt_w: f64, x0_at: Option<usize>) {
+    /// The row of J for output c: −√w_c ∂ŷ_c/∂(θ, this segment's x0 at `x0_at`, the
+    /// output offsets at `offset_at`), zero elsewhere.
+    fn jacobian_row(
+        &mut self,
+        c: usize,
+        sqrt_w: f64,
+        x0_at: Option<usize>,
+        offset_at: Option<usize>,
+    ) {
         let n = self.n;
         let pt = n * (n + self.m);
         self.nonzero.clear();
@@ -652,6 +683,10 @@ impl Propagation {
                 self.row_j[at + q] = -sqrt_w * self.sens_x0[q * n + c];
                 self.nonzero.push(at + q);
             }
+        }
+        if let Some(at) = offset_at {
+            self.row_j[at + c] = -sqrt_w;
+            self.nonzero.push(at + c);
         }
     }
 

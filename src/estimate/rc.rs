@@ -133,7 +133,10 @@ impl ResistanceCapacitance {
                     .collect::<Vec<_>>(),
             ),
         };
-        let inner = Problem::new(data, segments, &start_model, &weights);
+        // The rises are measured from one noisy first sample each: a constant offset per
+        // output, estimated beside the network (without it the slow columns of K and the
+        // conductances to the coolant absorb it; README, "The thermal network").
+        let inner = Problem::new(data, segments, &start_model, &weights).with_output_offset();
         let mut problem = RcProblem::new(inner, map, start);
         let mut evaluations = 0;
         // Fewer evaluations than OE's 200·(p+1): a conductance or share that is zero in
@@ -573,9 +576,7 @@ impl<'a> RcProblem<'a> {
     fn new(inner: Problem<'a>, map: Parametrisation, start: &[f64]) -> RcProblem<'a> {
         let p_theta = inner.p_theta();
         let mut params: Vec<f64> = start.to_vec();
-        if inner.estimate_x0 {
-            params.extend(inner.params.iter().skip(p_theta).copied());
-        }
+        params.extend(inner.params.iter().skip(p_theta).copied());
         let mut problem = RcProblem {
             d: DMatrix::zeros(0, 0),
             inner,
@@ -671,7 +672,7 @@ impl<'a> RcProblem<'a> {
             covariance: Some(theta_cov),
             noise_variance,
             iterations: evaluations,
-            output_offset: None,
+            output_offset: self.inner.output_offset(),
             trajectory: None,
             network: Some(Box::new(NetworkEstimate {
                 parts: self.map.parts(p),
