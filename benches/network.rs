@@ -14,7 +14,7 @@ use std::time::Instant;
 use heatrun::estimate::DiscreteModel;
 use heatrun::model::matrix::discretize;
 use heatrun::network::example::{generator_like, rich_heat_run};
-use heatrun::network::{Labels, Network, Parts, ScaleSource, Scaling};
+use heatrun::network::{Interval, Labels, Network, NetworkIntervals, Parts, ScaleSource, Scaling};
 use heatrun::pipeline::{replay, Method, ReplayOptions};
 use heatrun::recording::Nameplate;
 use heatrun::synth::{self, SynthOptions};
@@ -179,8 +179,10 @@ fn run_scenario(
         })
         .collect();
     for method in [Method::Oe, Method::Rc] {
-        let mut table = rows(parts, labels);
-        let mut met = 0;
+        let mut found: Vec<Vec<f64>> = Vec::new();
+        let mut other: Vec<Vec<f64>> = Vec::new();
+        let mut other_from = None;
+        let mut outside = Vec::new();
         let mut times = Vec::new();
         for path in &paths {
             let start = Instant::now();
@@ -198,55 +200,125 @@ fn run_scenario(
                 continue;
             };
             let v = values(network);
-            let ok = table
-                .iter()
-                .zip(&v)
-                .all(|(row, x)| error(row, *x) <= if row.relative { 0.10 } else { 0.05 });
-            met += usize::from(ok);
-            for (row, x) in table.iter_mut().zip(v) {
-                row.found.push(x);
+            // The other scale multiplies every C, G and k_ij by one factor.
+            if let Some(alt) = &network.alternative_scale {
+                other.push(v.iter().map(|x| x * alt.ratio_to_chosen).collect());
+                other_from = Some(alt.scale_from);
             }
+            if let Some(iv) = &network.intervals_95 {
+                let truth = rows(parts, labels);
+                let held = intervals(iv)
+                    .iter()
+                    .zip(&truth)
+                    .filter(|(i, row)| i.is_none_or(|i| row.truth < i.low || row.truth > i.high))
+                    .count();
+                outside.push(held);
+            }
+            found.push(v);
         }
-        println!(
-            "\n## {} ({} seeds, PT100-like noise): the network of {}",
-            method.name(),
-            seeds.len(),
-            if method == Method::Rc {
-                "the grey-box fit in C, G, K"
-            } else {
-                "the identified model (reciprocity; the calorimetric scale, the runs record the flow)"
-            }
-        );
-        println!(
-            "| parameter | unit | truth | median | median error | worst error |\n|---|---|---|---|---|---|"
-        );
-        for row in &table {
-            let mut errs: Vec<f64> = row.found.iter().map(|x| error(row, *x)).collect();
-            let worst = errs.iter().copied().fold(0.0, f64::max);
-            let med_err = median(&mut errs);
-            let mut found = row.found.clone();
-            let med = median(&mut found);
-            let e = |x: f64| {
-                if row.relative {
-                    format!("{:.1} %", 100.0 * x)
-                } else {
-                    format!("{x:.3}")
+        let title = if method == Method::Rc {
+            "the grey-box fit in C, G, K".to_owned()
+        } else {
+            "the identified model (reciprocity; the calorimetric scale, the runs record the flow)"
+                .to_owned()
+        };
+        table(parts, labels, method.name(), &title, &found, &mut times);
+        if let Some(from) = other_from {
+            let title = match from {
+                ScaleSource::EnergyConservation => {
+                    "the identified model, scaled by energy conservation instead (each column of K sums to 1)"
+                }
+                ScaleSource::Calorimetric => {
+                    "the grey-box fit, scaled by the calorimetric balance instead (G_out,0 = c·ρ·Q)"
                 }
             };
+            table(parts, labels, method.name(), title, &other, &mut times);
+        }
+        if !outside.is_empty() {
+            let entries = rows(parts, labels).len();
             println!(
-                "| {} | {} | {:.3} | {:.3} | {} | {} |",
-                row.name,
-                row.unit,
-                row.truth * row.factor,
-                med * row.factor,
-                e(med_err),
-                e(worst)
+                "truth outside its 95 % interval: {} of {} entries over the seeds (per seed: {:?})",
+                outside.iter().sum::<usize>(),
+                entries * outside.len(),
+                outside
             );
         }
+    }
+}
+
+/// The intervals in the order of [`rows`].
+fn intervals(iv: &NetworkIntervals) -> Vec<Option<Interval>> {
+    let n = iv.capacitance_j_per_k.len();
+    let mut v = iv.capacitance_j_per_k.clone();
+    for i in 0..n {
+        for j in i..n {
+            v.push(iv.conductance_w_per_k[i][j]);
+        }
+    }
+    let m = iv.loss_distribution.first().map_or(0, Vec::len);
+    for j in 0..m {
+        for row in &iv.loss_distribution {
+            v.push(row[j]);
+        }
+    }
+    v
+}
+
+/// Prints the table of one method over the seeds: truth, median, median and worst error,
+/// and the seeds meeting the bar.
+fn table(
+    parts: &Parts,
+    labels: &Labels,
+    method: &str,
+    title: &str,
+    found: &[Vec<f64>],
+    times: &mut [f64],
+) {
+    let mut table = rows(parts, labels);
+    let mut met = 0;
+    for v in found {
+        let ok = table
+            .iter()
+            .zip(v)
+            .all(|(row, x)| error(row, *x) <= if row.relative { 0.10 } else { 0.05 });
+        met += usize::from(ok);
+        for (row, x) in table.iter_mut().zip(v) {
+            row.found.push(*x);
+        }
+    }
+    println!(
+        "\n## {method} ({} seeds, PT100-like noise): the network of {title}",
+        found.len()
+    );
+    println!(
+        "| parameter | unit | truth | median | median error | worst error |\n|---|---|---|---|---|---|"
+    );
+    for row in &table {
+        let mut errs: Vec<f64> = row.found.iter().map(|x| error(row, *x)).collect();
+        let worst = errs.iter().copied().fold(0.0, f64::max);
+        let med_err = median(&mut errs);
+        let mut found = row.found.clone();
+        let med = median(&mut found);
+        let e = |x: f64| {
+            if row.relative {
+                format!("{:.1} %", 100.0 * x)
+            } else {
+                format!("{x:.3}")
+            }
+        };
         println!(
-            "seeds meeting the bar (C, G within 10 %, k_ij within 0.05): {met} of {}; median replay {:.2} s",
-            seeds.len(),
-            median(&mut times)
+            "| {} | {} | {:.3} | {:.3} | {} | {} |",
+            row.name,
+            row.unit,
+            row.truth * row.factor,
+            med * row.factor,
+            e(med_err),
+            e(worst)
         );
     }
+    println!(
+        "seeds meeting the bar (C, G within 10 %, k_ij within 0.05): {met} of {}; median replay {:.2} s",
+        found.len(),
+        median(times)
+    );
 }

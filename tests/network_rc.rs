@@ -160,10 +160,12 @@ fn median(runs: &[Vec<(String, f64)>]) -> Vec<f64> {
 #[test]
 fn the_machines_network_from_rc_and_from_the_identified_model() {
     // Three seeds; each replay with rc also holds the oe estimate it started from, whose
-    // network is the identified model's. The acceptance bar is held by the median over
-    // the seeds (benches/network.rs gives every seed's figures for ten).
+    // network is the identified model's. rc meets the acceptance bar on every seed
+    // (benches/network.rs: 10 of 10 on this heat run and on the default one); the
+    // identified model's network is held on the median over the seeds.
     let truth = of_parts(&machine());
     let (mut rc, mut oe) = (Vec::new(), Vec::new());
+    let mut outside = 0;
     for seed in 1..=3 {
         let r = run(seed, Method::Rc);
         assert_eq!(r.estimate.method, "rc");
@@ -174,17 +176,34 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
             network.passivity.verdict
         );
         assert_eq!(network.scale_from, ScaleSource::EnergyConservation);
-        // Every entry has a bounded 95 % interval around its estimate. (Whether they hold
-        // the truth is checked where the model class is exact, in the unit tests: here the
-        // rises start from one noisy sample, an offset neither oe nor rc models, and the
-        // iron loss's column misses its intervals; see the README.)
+        let found: Vec<f64> = of_network(network).iter().map(|(_, x)| *x).collect();
+        let off = off_the_bar(&found, &truth);
+        assert!(off.is_empty(), "rc, seed {seed}: {off:?}");
+        // The rises start from one noisy sample each: rc estimates that offset, one per
+        // part, of the size of the sensor noise (σ = 0.05 K; within 5σ).
+        let offset = r
+            .estimate
+            .output_offset
+            .as_ref()
+            .expect("rc's output offset");
+        assert_eq!(offset.len(), 3);
+        let theta_base = scaling().theta_base_k;
+        assert!(
+            offset.iter().all(|d| (d * theta_base).abs() < 0.25),
+            "offset {offset:?} pu"
+        );
+        // Every entry has a bounded 95 % interval around its estimate, and the intervals
+        // hold the truth about as often as they should: of 54 entries, 2.7 expected
+        // outside; 8 or more has a probability below 1 % if they were independent
+        // (measured: 3; benches/network.rs, 10 seeds: 17 of 180).
         let intervals = interval_list(network.intervals_95.as_ref().unwrap());
-        for (i, (name, x)) in intervals.iter().zip(of_network(network)) {
+        for ((i, (name, x)), (_, t)) in intervals.iter().zip(of_network(network)).zip(&truth) {
             let i = i.unwrap_or_else(|| panic!("{name} unbounded"));
             assert!(
                 i.low <= x && x <= i.high && i.standard_error > 0.0,
                 "{name}"
             );
+            outside += usize::from(*t < i.low || *t > i.high);
         }
         rc.push(of_network(network));
         let start = &r.estimate.network.as_ref().unwrap().output_error;
@@ -216,6 +235,10 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
             assert!(json["network"]["intervals_95"]["loss_distribution"][2][1]["low"].is_number());
         }
     }
+    assert!(
+        outside <= 7,
+        "{outside} of 54 entries outside their 95 % interval"
+    );
     let off = off_the_bar(&median(&rc), &truth);
     assert!(off.is_empty(), "rc, median of 3 seeds: {off:?}");
     // The identified model's network misses the bar on a conductance to the coolant

@@ -313,10 +313,8 @@ pub(crate) fn information_covariance(
 ) -> (DMatrix<f64>, f64) {
     let weights = normalised_inverse(noise_variance);
     let mut problem = Problem::new(data, data.segments(), model, &weights);
-    if problem.estimate_x0 {
-        let p_theta = problem.p_theta();
-        for (s, x0) in initial_states.iter().enumerate() {
-            let at = p_theta + s * problem.n;
+    for (s, x0) in initial_states.iter().enumerate() {
+        if let Some(at) = problem.x0_at[s] {
             problem.params.rows_mut(at, problem.n).copy_from(x0);
         }
     }
@@ -348,7 +346,7 @@ fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usiz
         covariance: Some(covariance),
         noise_variance,
         iterations: evaluations,
-        output_offset: None,
+        output_offset: problem.output_offset(),
         trajectory: None,
         network: None,
     }
@@ -358,14 +356,18 @@ fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usiz
 pub(crate) struct Problem<'a> {
     data: &'a IdentificationData,
     segments: Vec<Range<usize>>,
-    pub(crate) estimate_x0: bool,
-    /// Each segment's start state when it is not estimated.
+    /// Where each segment's start state is in the parameters, where it is estimated.
+    x0_at: Vec<Option<usize>>,
+    /// Each segment's start state from the start model (used where it is not estimated).
     fixed_x0: Vec<DVector<f64>>,
     /// Observed entries per output over the segments.
     pub(crate) counts: Vec<usize>,
     pub(crate) sqrt_w: Vec<f64>,
     /// A factor on each entry's weight (N × n), where entries count unequally.
     entry_weight: Option<DMatrix<f64>>,
+    /// Where in the parameters the constant output offset d (ŷ = x + d, one per output)
+    /// starts, when it is estimated ([`Problem::with_output_offset`]).
+    offset_at: Option<usize>,
     pub(crate) n: usize,
     m: usize,
     pub(crate) params: DVector<f64>,
@@ -386,9 +388,13 @@ impl<'a> Problem<'a> {
             .map(|s| start.initial_state(data, s.clone()))
             .collect();
         let mut params: Vec<f64> = start.theta();
+        let p_theta = params.len();
         if estimate_x0 {
             params.extend(x0.iter().flat_map(|x| x.iter().copied()));
         }
+        let x0_at = (0..segments.len())
+            .map(|s| estimate_x0.then_some(p_theta + s * n))
+            .collect();
         let counts = (0..n)
             .map(|c| {
                 segments
@@ -401,16 +407,62 @@ impl<'a> Problem<'a> {
         Problem {
             data,
             segments,
-            estimate_x0,
-            fixed_x0: if estimate_x0 { Vec::new() } else { x0 },
+            x0_at,
+            fixed_x0: x0,
             counts,
             sqrt_w: weights.iter().map(|v| v.max(0.0).sqrt()).collect(),
             entry_weight: None,
+            offset_at: None,
             n,
             m,
             params: DVector::from_vec(params),
             cache: RefCell::new(None),
         }
+    }
+
+    /// The problem with a constant offset per output as n more parameters (last, from
+    /// zero): ŷ(k) = x(k) + d. A rise measured from one noisy first sample is offset by
+    /// that sample's noise for the whole run, which no initial state (it decays) and no
+    /// Γ (it follows the losses) can take up.
+    ///
+    /// A segment whose outputs are all exactly zero at its start begins at the instant the
+    /// rises are measured from: that sample's noise is −d, so its state there is the zero
+    /// itself, not a parameter (estimated too, the start state and d trade against each
+    /// other wherever the model misses the data).
+    pub(crate) fn with_output_offset(mut self) -> Problem<'a> {
+        if self.offset_at.is_some() {
+            return self;
+        }
+        let (n, p_theta) = (self.n, self.p_theta());
+        let mut params: Vec<f64> = self.params.as_slice()[..p_theta].to_vec();
+        for s in 0..self.segments.len() {
+            let start = self.segments[s].start;
+            let reference = (0..n)
+                .all(|c| self.data.observed(start, c) && self.data.outputs[(start, c)] == 0.0);
+            self.x0_at[s] = match self.x0_at[s] {
+                Some(at) if !reference => {
+                    params.extend_from_slice(&self.params.as_slice()[at..at + n]);
+                    Some(params.len() - n)
+                }
+                _ => {
+                    if reference {
+                        self.fixed_x0[s] = DVector::zeros(n);
+                    }
+                    None
+                }
+            };
+        }
+        self.offset_at = Some(params.len());
+        params.extend(std::iter::repeat_n(0.0, n));
+        self.params = DVector::from_vec(params);
+        *self.cache.borrow_mut() = None;
+        self
+    }
+
+    /// The estimated output offset d, when it is estimated.
+    pub(crate) fn output_offset(&self) -> Option<Vec<f64>> {
+        self.offset_at
+            .map(|at| self.params.rows(at, self.n).iter().copied().collect())
     }
 
     pub(crate) fn p_theta(&self) -> usize {
@@ -427,11 +479,9 @@ impl<'a> Problem<'a> {
     }
 
     fn x0(&self, s: usize) -> &[f64] {
-        if self.estimate_x0 {
-            let at = self.p_theta() + s * self.n;
-            &self.params.as_slice()[at..at + self.n]
-        } else {
-            self.fixed_x0[s].as_slice()
+        match self.x0_at[s] {
+            Some(at) => &self.params.as_slice()[at..at + self.n],
+            None => self.fixed_x0[s].as_slice(),
         }
     }
 
@@ -478,7 +528,7 @@ impl<'a> Problem<'a> {
         let mut sse = vec![0.0; n];
         for (s, seg) in self.segments.iter().enumerate() {
             state.reset(self.x0(s));
-            let x0_at = self.estimate_x0.then(|| self.p_theta() + s * n);
+            let x0_at = self.x0_at[s];
             for k in seg.clone() {
                 if k > seg.start {
                     state.load_input(self.data, k - 1);
@@ -492,10 +542,11 @@ impl<'a> Problem<'a> {
                         None => self.sqrt_w[c],
                         Some(e) => self.sqrt_w[c] * e[(k, c)].max(0.0).sqrt(),
                     };
-                    let r = sqrt_w * (self.data.outputs[(k, c)] - state.y[c]);
+                    let offset = self.offset_at.map_or(0.0, |at| self.params[at + c]);
+                    let r = sqrt_w * (self.data.outputs[(k, c)] - state.y[c] - offset);
                     sse[c] += r * r;
                     if let Some((gram, grad)) = normal.as_mut() {
-                        state.jacobian_row(c, sqrt_w, x0_at);
+                        state.jacobian_row(c, sqrt_w, x0_at, self.offset_at);
                         state.accumulate(r, gram, grad);
                     }
                 }
@@ -637,9 +688,15 @@ impl Propagation {
         std::mem::swap(&mut self.y, &mut self.y_next);
     }
 
-    /// The row of J for output c: −√w_c ∂ŷ_c/∂(θ, this segment's x0 at `x0_at`), zero
-    /// elsewhere.
-    fn jacobian_row(&mut self, c: usize, sqrt_w: f64, x0_at: Option<usize>) {
+    /// The row of J for output c: −√w_c ∂ŷ_c/∂(θ, this segment's x0 at `x0_at`, the
+    /// output offsets at `offset_at`), zero elsewhere.
+    fn jacobian_row(
+        &mut self,
+        c: usize,
+        sqrt_w: f64,
+        x0_at: Option<usize>,
+        offset_at: Option<usize>,
+    ) {
         let n = self.n;
         let pt = n * (n + self.m);
         self.nonzero.clear();
@@ -652,6 +709,10 @@ impl Propagation {
                 self.row_j[at + q] = -sqrt_w * self.sens_x0[q * n + c];
                 self.nonzero.push(at + q);
             }
+        }
+        if let Some(at) = offset_at {
+            self.row_j[at + c] = -sqrt_w;
+            self.nonzero.push(at + c);
         }
     }
 

@@ -73,7 +73,14 @@ pub fn analyse(
     let model = &estimate.model;
     let spectrum = Spectrum::of(model)?;
     let continuous = ContinuousModel::from_discrete(model)?;
-    let simulated = fit::simulate(model, data, &data.segments());
+    let mut simulated = fit::simulate(model, data, &data.segments());
+    // ŷ = x + d where the method estimated an output offset d (rc: the error of the
+    // first samples the rises are measured from); NaN rows stay NaN.
+    if let Some(offset) = &estimate.output_offset {
+        for (mut column, d) in simulated.column_iter_mut().zip(offset) {
+            column.apply(|v| *v += d);
+        }
+    }
     let whole = estimation_range == (0..data.len());
     // Simulation is causal: the rows of the estimation range are the simulation of that
     // range alone. A week's data are not copied unless a part is held out.

@@ -39,9 +39,31 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Layout {
     }
     tabs.push(raw_channels(full_rate));
     tabs.push(View::new(ViewKind::TextDocument, "summary", "summary").into());
-    Layout {
-        root: Node::tabs("heatrun", tabs),
+    let open = std::env::var(OPEN_TAB).ok();
+    let mut root = Node::tabs("heatrun", tabs);
+    if let Some(i) = open.as_deref().and_then(|want| tab_titled(&root, want)) {
+        root = root.with_active(i);
     }
+    Layout { root }
+}
+
+/// The environment variable naming the tab the viewer opens on (the start of its title,
+/// any case: `HEATRUN_OPEN_TAB="thermal network"`); unset or matching no tab, the first.
+/// For recordings made to show one thing, and for screenshots, which cannot click.
+pub const OPEN_TAB: &str = "HEATRUN_OPEN_TAB";
+
+/// The index of the first child of `tabs` whose title starts with `want` (any case).
+fn tab_titled(tabs: &Node, want: &str) -> Option<usize> {
+    let Node::Container { children, .. } = tabs else {
+        return None;
+    };
+    let want = want.trim().to_lowercase();
+    if want.is_empty() {
+        return None;
+    }
+    children
+        .iter()
+        .position(|c| c.title().to_lowercase().starts_with(&want))
 }
 
 /// The first screen: a plot per part, then residuals, inputs and the model's figures.
@@ -163,5 +185,25 @@ mod tests {
         assert!(series.iter().all(|v| v.shows_whole_range()));
         assert_eq!(views[0].origin, "temperature/stator_winding_temp");
         assert!(views[0].name.ends_with("°C"), "{}", views[0].name);
+    }
+
+    #[test]
+    fn the_tab_to_open_is_found_by_the_start_of_its_title() {
+        let tabs = Node::tabs(
+            "heatrun",
+            vec![
+                View::time_series("overview", "a").into(),
+                View::new(ViewKind::Graph, "thermal network at the end", "b").into(),
+                View::new(ViewKind::TextDocument, "summary", "c").into(),
+            ],
+        );
+        assert_eq!(tab_titled(&tabs, "Thermal Network"), Some(1));
+        assert_eq!(tab_titled(&tabs, " summary"), Some(2));
+        assert_eq!(tab_titled(&tabs, "residuals"), None);
+        assert_eq!(tab_titled(&tabs, ""), None);
+        let Node::Container { active, .. } = tabs.with_active(1) else {
+            panic!("a container")
+        };
+        assert_eq!(active, Some(1));
     }
 }

@@ -13,7 +13,7 @@ use rerun::external::re_sdk_types::blueprint::archetypes::{
     ViewContents, ViewportBlueprint,
 };
 use rerun::external::re_sdk_types::blueprint::components::{
-    ColumnShare, ContainerKind, IncludedContent, LinkAxis, PanelState, QueryExpression,
+    ActiveTab, ColumnShare, ContainerKind, IncludedContent, LinkAxis, PanelState, QueryExpression,
     RootContainer, RowShare, ViewClass,
 };
 use rerun::external::re_sdk_types::components::{Name, Visible};
@@ -106,6 +106,8 @@ pub enum Node {
         children: Vec<Node>,
         /// Relative sizes of the children (columns or rows), if not equal.
         shares: Option<Vec<f32>>,
+        /// The child shown first, where the container holds tabs (else the first).
+        active: Option<usize>,
     },
     /// A view.
     View(View),
@@ -133,6 +135,23 @@ impl Node {
             name: name.into(),
             children,
             shares: None,
+            active: None,
+        }
+    }
+
+    /// Shows the child at `index` first (a tab container's open tab).
+    pub fn with_active(mut self, index: usize) -> Node {
+        if let Node::Container { active, .. } = &mut self {
+            *active = Some(index);
+        }
+        self
+    }
+
+    /// The title: a view's name, or a container's (a tab's label).
+    pub fn title(&self) -> &str {
+        match self {
+            Node::View(v) => &v.name,
+            Node::Container { name, .. } => name,
         }
     }
 
@@ -258,6 +277,7 @@ fn log_node(
             name,
             children,
             shares,
+            active,
         } => {
             let mut contents = Vec::with_capacity(children.len());
             for child in children {
@@ -270,10 +290,17 @@ fn log_node(
                     format!("{prefix}/{}", hyphenated(&child_id)).as_str(),
                 ));
             }
+            let open = active
+                .filter(|_| *kind == ContainerKind::Tabs)
+                .and_then(|i| contents.get(i))
+                .map(|tab| ActiveTab::from(tab.0.clone()));
             let mut arch = ContainerBlueprint::new(*kind)
                 .with_display_name(Name::from(name.as_str()))
                 .with_contents(contents)
                 .with_visible(Visible::from(true));
+            if let Some(tab) = open {
+                arch = arch.with_active_tab(tab);
+            }
             if let Some(shares) = shares {
                 arch = match kind {
                     ContainerKind::Vertical => {

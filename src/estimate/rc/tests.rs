@@ -233,3 +233,27 @@ fn a_model_without_a_network_still_gives_a_passive_start() {
         assert!((col.sum() - 1.0).abs() < 1e-12);
     }
 }
+
+#[test]
+fn a_constant_offset_on_every_output_is_estimated_beside_the_network() {
+    // Rises measured from a first sample that was off: y = x + d for the whole run, with
+    // d of the size of a PT100's noise on a rise of a few K. Noise-free otherwise, so
+    // the fit must give the network and d exactly.
+    let (truth, scaling) = known();
+    let clean = data_of(&truth, scaling, 8000, 0.0);
+    let d = [0.05, -0.04, 0.03];
+    let offset = DMatrix::from_fn(clean.len(), 3, |_, c| d[c]);
+    let data = IdentificationData::complete(1.0, &clean.outputs + offset, clean.inputs.clone());
+    let e = ResistanceCapacitance {
+        weights: None,
+        scaling,
+    }
+    .estimate(&data)
+    .unwrap();
+    let (cg, k) = errors(&e.network.as_ref().unwrap().parts, &truth);
+    assert!(cg < 1e-5 && k < 1e-6, "C, G off by {cg}, K by {k}");
+    let found = e.output_offset.expect("rc estimates the offset");
+    for (f, t) in found.iter().zip(d) {
+        assert!((f - t).abs() < 1e-7, "offset {found:?}, truth {d:?}");
+    }
+}
