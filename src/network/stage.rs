@@ -72,7 +72,7 @@ pub fn analyse(
     NetworkAnalysis {
         network,
         calorimetry,
-        equilibrium: equilibrium_checks(signals, time_constants_s),
+        equilibrium: equilibrium_checks(model, signals, time_constants_s),
     }
 }
 
@@ -243,16 +243,13 @@ fn losses_at_end(signals: &ModelSignals) -> Option<f64> {
 }
 
 /// IEC 60034-1's rate of rise over the last hour and the paper's held-load criterion.
-fn equilibrium_checks(signals: &ModelSignals, time_constants_s: &[f64]) -> Equilibrium {
+fn equilibrium_checks(
+    model: &ModelDescription,
+    signals: &ModelSignals,
+    time_constants_s: &[f64],
+) -> Equilibrium {
     let names: Vec<String> = signals.states.iter().map(|s| s.part.clone()).collect();
-    let rates = signals
-        .states
-        .iter()
-        .map(|s| {
-            let rise = (0..signals.len()).map(|k| s.rise(k));
-            equilibrium::rate_over_last_hour(rise, signals.ts_s)
-        })
-        .collect();
+    let rates = equilibrium::rates_of_rise(model, signals);
     let slowest = time_constants_s.iter().copied().fold(f64::NAN, f64::max);
     Equilibrium::assess(&names, rates, held_s(signals), slowest)
 }
