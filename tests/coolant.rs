@@ -341,6 +341,33 @@ fn a_pump_switch_is_carried_into_the_model_as_the_heat_the_flow_change_carries()
         let rise_k = y * r.signals.temperature_base_k;
         assert!((rise_k - want).abs() < 0.2, "{rise_k} K against {want} K");
     }
+    // The report names the flow input by its source and keeps to its schema.
+    let out = heatrun(
+        &[
+            "replay",
+            "pump.mcap",
+            "--report",
+            "report.json",
+            "--rrd",
+            "pump.rrd",
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();
+    ReportSchema::load()
+        .check(&report)
+        .unwrap_or_else(|e| panic!("the report breaks the schema:\n{e}"));
+    assert_eq!(
+        report["model"]["inputs"][3]["source"]["coolant_flow"]["flow"],
+        "cooling_water_flow"
+    );
     // The paper's formulation, with a constant flow assumed, is refused or far off.
     let options = ReplayOptions {
         reference: ReferencePolicy::Initial,
