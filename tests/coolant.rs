@@ -330,8 +330,10 @@ fn a_pump_switch_is_carried_into_the_model_as_the_heat_the_flow_change_carries()
         "{at_final:?} s against {:?} s",
         after.time_constants_s
     );
-    // The steady state for the last input (its flow heat at the final flow) is the
-    // machine's after the switch, above the constant inlet.
+    // The steady state for the last input, the flow's heat consistent with it at the
+    // final flow, is the machine's after the switch, above the constant inlet. (From the
+    // last measured outlet rise instead, 2.6 slowest constants after the last load step,
+    // it would be about 0.1 K short.)
     for (y, want) in r
         .analysis
         .steady_state
@@ -339,7 +341,7 @@ fn a_pump_switch_is_carried_into_the_model_as_the_heat_the_flow_change_carries()
         .zip(&after.steady_state_rise_k)
     {
         let rise_k = y * r.signals.temperature_base_k;
-        assert!((rise_k - want).abs() < 0.2, "{rise_k} K against {want} K");
+        assert!((rise_k - want).abs() < 0.05, "{rise_k} K against {want} K");
     }
     // The report names the flow input by its source and keeps to its schema.
     let out = heatrun(

@@ -376,6 +376,7 @@ mod tests {
                             0.01
                         }
                     }),
+                    outlet_feedback: None,
                 })
                 .collect(),
             initial_index: 0,
