@@ -96,6 +96,9 @@ pub struct OutletFeedback {
     pub inlet_input: Option<usize>,
     /// κ(k), input per unit of the outlet's rise above the inlet, model scaling.
     pub per_rise: Series,
+    /// The flow Q₀ the model's A_c describes (the flow's initial level), l/s: the
+    /// network's calorimetric scale c·ρ·Q₀.
+    pub reference_flow_l_per_s: f64,
 }
 
 /// Where the generator's field winding temperature came from, and its values.
@@ -357,6 +360,7 @@ pub fn compute(
                                 .collect()
                         })
                         .unwrap_or_else(|_| Series::unknown(n)),
+                    reference_flow_l_per_s: q0,
                 });
         }
     }
@@ -615,6 +619,7 @@ mod tests {
                         outlet_state: 0,
                         inlet_input: None,
                         per_rise: known(kappa),
+                        reference_flow_l_per_s: 48.0,
                     }),
                 ),
             ],

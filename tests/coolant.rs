@@ -343,6 +343,15 @@ fn a_pump_switch_is_carried_into_the_model_as_the_heat_the_flow_change_carries()
         let rise_k = y * r.signals.temperature_base_k;
         assert!((rise_k - want).abs() < 0.05, "{rise_k} K against {want} K");
     }
+    // The network's calorimetric scale is the outlet's conductance at the flow A_c
+    // describes, the initial one (at the run's mean flow it would be 20 % low).
+    let network = r.network.network.as_ref().unwrap();
+    let g_out = network.conductance_w_per_k[2][2];
+    let want = truth.network.as_ref().unwrap().conductance_w_per_k[2][2];
+    assert!(
+        (g_out / want - 1.0).abs() < 0.02,
+        "{g_out} W/K against {want} W/K"
+    );
     // The report names the flow input by its source and keeps to its schema.
     let out = heatrun(
         &[
