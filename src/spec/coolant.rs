@@ -176,7 +176,9 @@ pub fn resolve(
     inlet: Option<&InletBehaviour>,
 ) -> Result<ModelDescription, &'static str> {
     let channel = Signal::Profile(Quantity::CoolingWaterInletTemp);
-    let flow_varies = inlet.and_then(|b| b.flow).is_some_and(|f| f.varies());
+    // The flow enters only where the outlet is a state (its heat needs θ_out − θ_in).
+    let flow_varies =
+        inlet.and_then(|b| b.flow).is_some_and(|f| f.varies()) && flow_input(description).is_some();
     let use_inlet = match (policy, inlet) {
         (ReferencePolicy::Initial, _) => false,
         (ReferencePolicy::Inlet, None) => return Err(Quantity::CoolingWaterInletTemp.name()),
@@ -380,7 +382,9 @@ mod tests {
             ReferencePolicy::Auto,
             Some(&pump(Some((7200, 30.0)))),
         );
-        assert_eq!(d.unwrap().inputs.len(), 3);
+        let d = d.unwrap();
+        assert_eq!(d.inputs.len(), 3);
+        assert!(d.states.iter().all(|s| s.reference == Reference::Initial));
     }
 
     #[test]
