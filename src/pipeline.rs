@@ -363,7 +363,14 @@ pub fn replay_with(
         };
         estimate_in(&estimation_data, options, scaling).map_err(in_file)?
     };
-    let (_, steady_input) = prepared.signals.last_inputs().ok_or_else(|| {
+    // The steady state's input: the last one, with an input fed by the outlet's rise
+    // (a changed flow's heat) made consistent with the steady state it leads to.
+    let continuous = crate::model::ContinuousModel::from_discrete(&estimate.model).ok();
+    let steady_input = match &continuous {
+        Some(c) => prepared.signals.steady_state_input(&c.a_c, &c.b_c),
+        None => prepared.signals.last_inputs().map(|(_, u)| u),
+    };
+    let steady_input = steady_input.ok_or_else(|| {
         in_file(Error::NoCommonInstant {
             what: "the inputs".into(),
         })

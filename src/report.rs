@@ -142,7 +142,7 @@ impl InletSteadyState {
     /// The block where the states are measured from the inlet's initial level
     /// ([`crate::spec::Reference::InitialOf`]), else `None`.
     fn new(r: &Replay) -> Option<InletSteadyState> {
-        use crate::spec::{InputKind, Reference};
+        use crate::spec::{InputSource, Reference};
         if !r
             .model
             .states
@@ -158,7 +158,7 @@ impl InletSteadyState {
             .model
             .inputs
             .iter()
-            .position(|i| i.kind == InputKind::Boundary);
+            .position(|i| matches!(i.source, InputSource::BoundaryRise(_)));
         let final_rise = inlet.map_or(0.0, |j| a.steady_state_input[j]);
         let final_inlet_c = initial_inlet_c + final_rise * base;
         let rise_above_inlet_k = a

@@ -15,6 +15,7 @@ use crate::decimate::{DecimatedRecording, DecimatedSeries};
 use crate::error::{Error, Result};
 use crate::estimate::{ExceptionStorage, IdentificationData};
 use crate::losses::{self, FieldTemperatureSource, GeneratorLosses};
+use crate::network::calorimetry::Water;
 use crate::recording::{Nameplate, Quantity, Signal, Storage};
 use crate::series::Series;
 use crate::spec::{
@@ -77,6 +78,27 @@ pub struct InputSignal {
     /// u_i(k) in the model's scaling (pu of the power base, or as recorded), held over
     /// [t_k, t_k + Ts).
     pub values: Series,
+    /// For an input that is a multiple of the coolant outlet's rise above the inlet (the
+    /// heat a flow change carries): that multiple, for the steady state.
+    pub outlet_feedback: Option<OutletFeedback>,
+}
+
+/// An input proportional to the outlet state's rise above the inlet,
+/// u_i(k) = κ(k)·(x_out(k) − u_inlet(k)) (the heat a flow change carries:
+/// κ = −c·ρ·(Q − Q₀)·θ_base/P_base), so that its steady-state value follows the
+/// steady state itself ([`ModelSignals::steady_state_input`]).
+#[derive(Debug, Clone)]
+pub struct OutletFeedback {
+    /// The outlet's state.
+    pub outlet_state: usize,
+    /// The inlet's rise input, where the inlet drifts (the states are then measured
+    /// from its initial level, and the rise above the inlet is x_out − u_inlet).
+    pub inlet_input: Option<usize>,
+    /// κ(k), input per unit of the outlet's rise above the inlet, model scaling.
+    pub per_rise: Series,
+    /// The flow Q₀ the model's A_c describes (the flow's initial level), l/s: the
+    /// network's calorimetric scale c·ρ·Q₀.
+    pub reference_flow_l_per_s: f64,
 }
 
 /// Where the generator's field winding temperature came from, and its values.
@@ -139,6 +161,39 @@ impl ModelSignals {
             let u: Option<Vec<f64>> = self.inputs.iter().map(|i| i.values.get(k)).collect();
             Some((k, u?))
         })
+    }
+
+    /// The input whose steady state is reported (eq. 30): the last known inputs, except
+    /// that an input fed by the outlet's rise ([`OutletFeedback`]: the heat a changed
+    /// flow carries) takes the value consistent with the steady state it leads to. With
+    /// G = −A_c⁻¹B_c, x_out = Σ_l G_out,l·u_l and u_Q = κ·(x_out − u_inlet) at the last
+    /// instant's κ: u_Q = κ·(s − u_inlet)/(1 − κ·G_out,Q), s the sum over the other
+    /// inputs. The last measured rise would leave the steady state short wherever the
+    /// run ends before equilibrium. `None` where no instant has every input known.
+    pub fn steady_state_input(&self, a_c: &DMatrix<f64>, b_c: &DMatrix<f64>) -> Option<Vec<f64>> {
+        let (k, mut u) = self.last_inputs()?;
+        let Some(gain) = a_c.clone().try_inverse().map(|inv| -(inv * b_c)) else {
+            return Some(u);
+        };
+        for (q, input) in self.inputs.iter().enumerate() {
+            let Some(f) = &input.outlet_feedback else {
+                continue;
+            };
+            let Some(kappa) = f.per_rise.get(k) else {
+                continue;
+            };
+            let o = f.outlet_state;
+            let others: f64 = (0..u.len())
+                .filter(|&l| l != q)
+                .map(|l| gain[(o, l)] * u[l])
+                .sum();
+            let inlet = f.inlet_input.map_or(0.0, |l| u[l]);
+            let denominator = 1.0 - kappa * gain[(o, q)];
+            if denominator.abs() > 1e-9 {
+                u[q] = kappa * (others - inlet) / denominator;
+            }
+        }
+        Some(u)
     }
 
     /// The last instant at which every state is measured, with the measured values.
@@ -277,6 +332,38 @@ pub fn compute(
             input_signal(i, decimated, generator.as_ref(), scale, &series, &level)
         })
         .collect::<Result<Vec<_>>>()?;
+    let mut inputs = inputs;
+    for (q, i) in description.inputs.iter().enumerate() {
+        if let InputSource::CoolantFlow {
+            flow,
+            outlet,
+            inlet,
+        } = &i.source
+        {
+            let c_rho = Water::at(level(inlet)?)?.heat_per_litre_j_per_k();
+            let q0 = level(flow)?;
+            let per_k = -c_rho * temperature_base_k / power_base;
+            inputs[q].outlet_feedback = description
+                .states
+                .iter()
+                .position(|s| &s.channel == outlet)
+                .map(|outlet_state| OutletFeedback {
+                    outlet_state,
+                    inlet_input: description.inputs.iter().position(
+                        |d| matches!(&d.source, InputSource::BoundaryRise(c) if c == inlet),
+                    ),
+                    per_rise: series(flow)
+                        .map(|f| {
+                            f.values
+                                .iter()
+                                .map(|v| v.map(|v| per_k * (v - q0)))
+                                .collect()
+                        })
+                        .unwrap_or_else(|_| Series::unknown(n)),
+                    reference_flow_l_per_s: q0,
+                });
+        }
+    }
     Ok(ModelSignals {
         ts_s: decimated.ts_s(),
         time_ns: (0..n).map(|i| decimated.time_ns(i)).collect(),
@@ -405,6 +492,17 @@ fn input_signal<'a>(
                 .map(|v| v.map(|v| (v - at) / scale.temperature_base_k))
                 .collect()
         }
+        InputSource::CoolantFlow {
+            flow,
+            outlet,
+            inlet,
+        } => coolant_flow_heat(
+            [series(flow)?, series(outlet)?, series(inlet)?],
+            level(flow)?,
+            level(inlet)?,
+            power_base,
+            decimated.ts_s(),
+        )?,
     };
     let values = if i.from_initial {
         let first = values.iter().flatten().next().unwrap_or(0.0);
@@ -417,5 +515,131 @@ fn input_signal<'a>(
         unit: i.unit.clone(),
         kind: i.kind,
         values,
+        outlet_feedback: None,
     })
+}
+
+/// The half-width of the local quadratic through which the outlet's rise above the inlet
+/// enters the flow's heat, s: it takes the PT100 noise of the rise down about fivefold
+/// (the centre weight of a 61-point quadratic fit is 0.037), while a quadratic follows the
+/// cooler's 70 s transient without the lag or bias of a moving average.
+pub const FLOW_RISE_SMOOTHING_S: f64 = 30.0;
+
+/// The heat a flow away from its initial level Q₀ carries out of the outlet node, in the
+/// inputs' scaling: −c·ρ·(Q(k) − Q₀)·Δθ(k) / P_base, c·ρ of water at the inlet's initial
+/// level `inlet_c` (IF97; the flow is metered there), Δθ the outlet's rise above the
+/// inlet, θ_out − θ_in, fitted by a local quadratic over ±[`FLOW_RISE_SMOOTHING_S`].
+/// The measured rise carries the sensors' noise into the input, and with it into the
+/// equation error of the next instant's output: smoothed, the input is known to within
+/// its own small error (`spec::coolant::flow_input` says why the measured rise is used).
+/// `[flow, outlet, inlet]` are the three channels on the grid.
+fn coolant_flow_heat(
+    [flow, outlet, inlet]: [&DecimatedSeries; 3],
+    flow_0: f64,
+    inlet_c: f64,
+    power_base: f64,
+    ts_s: f64,
+) -> Result<Series> {
+    let c_rho = Water::at(inlet_c)?.heat_per_litre_j_per_k();
+    let rise: Vec<Option<f64>> = (0..flow.values.len())
+        .map(|k| Some(outlet.values.get(k)? - inlet.values.get(k)?))
+        .collect();
+    let half = (FLOW_RISE_SMOOTHING_S / ts_s).round() as usize;
+    let smooth = local_quadratic(&rise, half);
+    Ok((0..flow.values.len())
+        .map(|k| Some(-c_rho * (flow.values.get(k)? - flow_0) * smooth[k]? / power_base))
+        .collect())
+}
+
+/// The value at each instant of the least-squares quadratic in time through the known
+/// values within `half` instants either side (a Savitzky–Golay filter that tolerates
+/// gaps); the value itself where fewer than four are known.
+pub(crate) fn local_quadratic(values: &[Option<f64>], half: usize) -> Vec<Option<f64>> {
+    (0..values.len())
+        .map(|k| {
+            values[k]?;
+            let lo = k.saturating_sub(half);
+            let hi = (k + half).min(values.len() - 1);
+            // Normal equations of y = a + b·t + c·t² with t = j − k.
+            let mut m = nalgebra::Matrix3::<f64>::zeros();
+            let mut r = nalgebra::Vector3::<f64>::zeros();
+            let mut count = 0;
+            for (j, v) in values.iter().enumerate().take(hi + 1).skip(lo) {
+                let Some(v) = v else { continue };
+                let t = j as f64 - k as f64;
+                let phi = nalgebra::Vector3::new(1.0, t, t * t);
+                m += phi * phi.transpose();
+                r += phi * *v;
+                count += 1;
+            }
+            if count < 4 {
+                return values[k];
+            }
+            m.lu().solve(&r).map(|c| c[0]).or(values[k])
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One node at rise x above the coolant: dx/dt = −a·x + b_h·u_h + b_q·u_Q, with the
+    /// flow's heat u_Q = κ·x. At rest x = b_h·u_h/(a − b_q·κ), u_Q = κ·x (by hand).
+    #[test]
+    fn the_flow_input_of_the_steady_state_is_consistent_with_it() {
+        let (a, b_h, b_q, u_h, kappa) = (0.01, 0.02, 0.015, 0.3, 0.2);
+        let len = 5;
+        let known = |v: f64| -> Series { (0..len).map(|_| Some(v)).collect() };
+        let input = |name: &str, values: Series, feedback| InputSignal {
+            name: name.into(),
+            unit: "pu".into(),
+            kind: InputKind::Heat,
+            values,
+            outlet_feedback: feedback,
+        };
+        let signals = ModelSignals {
+            ts_s: 1.0,
+            time_ns: (0..len as i64).collect(),
+            states: vec![StateSignal {
+                name: "cooling_water_outlet_temp".into(),
+                part: "cooling water".into(),
+                measured: known(20.0),
+                reference: ReferenceValues::Constant(10.0),
+                observed: None,
+                exception: None,
+            }],
+            inputs: vec![
+                input("heat", known(u_h), None),
+                // Its last value from a rise short of the steady one.
+                input(
+                    "cooling_water_flow_heat",
+                    known(kappa * 0.1),
+                    Some(OutletFeedback {
+                        outlet_state: 0,
+                        inlet_input: None,
+                        per_rise: known(kappa),
+                        reference_flow_l_per_s: 48.0,
+                    }),
+                ),
+            ],
+            initial_index: 0,
+            temperature_base_k: 100.0,
+            power_base: 1.0,
+            field_temperature: None,
+        };
+        let a_c = DMatrix::from_element(1, 1, -a);
+        let b_c = DMatrix::from_row_slice(1, 2, &[b_h, b_q]);
+        let u = signals.steady_state_input(&a_c, &b_c).unwrap();
+        let x = b_h * u_h / (a - b_q * kappa);
+        assert_eq!(u[0], u_h);
+        assert!((u[1] - kappa * x).abs() < 1e-15, "{u:?} vs {}", kappa * x);
+        // Without the feedback the last input stands.
+        let mut plain = signals.clone();
+        plain.inputs[1].outlet_feedback = None;
+        assert_eq!(
+            plain.steady_state_input(&a_c, &b_c).unwrap()[1],
+            kappa * 0.1
+        );
+    }
 }

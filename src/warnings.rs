@@ -7,11 +7,7 @@ use crate::model::ModelAnalysis;
 use crate::network::NetworkAnalysis;
 use crate::pipeline::Prepared;
 use crate::recording::format_time;
-
-/// The flow is constant when its 10-minute means stay within this share of their median.
-const FLOW_TOLERANCE: f64 = 0.05;
-/// The span of the flow's means, s.
-const FLOW_WINDOW_S: f64 = 600.0;
+use crate::spec::{coolant, InputSource};
 
 /// A channel that stops this long before the recording ends gets a warning, s.
 const EARLY_STOP_S: f64 = 600.0;
@@ -119,35 +115,36 @@ fn early_stops(p: &Prepared, out: &mut Vec<String>) {
 }
 
 /// A cooling-water flow that changed during the run (a pump switched): the coolant
-/// conductance c·ρ·Q changed with it, and the model assumes it constant. Its 10-minute
-/// means are compared with the first; a change beyond [`FLOW_TOLERANCE`] of their median
-/// is named with its time.
+/// conductance c·ρ·Q changed with it. Its 10-minute means are compared with the first
+/// ([`coolant::flow_behaviour`]); a change beyond [`coolant::FLOW_VARIES`] of their
+/// median is named with its time, and the note says whether the model carries the flow
+/// (an [`InputSource::CoolantFlow`] input) or assumes it constant.
 pub fn flow_change(p: &Prepared) -> Option<String> {
-    let flow = &p
-        .decimated
-        .get(crate::recording::Quantity::CoolingWaterFlow)?
-        .values;
-    let window = (FLOW_WINDOW_S / p.decimated.ts_s()).round().max(1.0) as usize;
-    let means: Vec<(usize, f64)> = (0..flow.len())
-        .step_by(window)
-        .filter_map(|k| {
-            let block: Vec<f64> = flow.iter().skip(k).take(window).flatten().collect();
-            (block.len() * 2 >= window).then(|| (k, block.iter().sum::<f64>() / block.len() as f64))
-        })
-        .collect();
-    let mut sorted: Vec<f64> = means.iter().map(|m| m.1).collect();
-    sorted.sort_by(f64::total_cmp);
-    let median = *sorted.get(sorted.len() / 2)?;
-    let first = means.first()?.1;
-    let (k, changed) = means
+    let flow = coolant::flow_behaviour(&p.decimated)?;
+    let (k, changed) = flow.first_change?;
+    let carried = p
+        .model
+        .inputs
         .iter()
-        .find(|m| (m.1 - first).abs() > FLOW_TOLERANCE * median.abs())?;
+        .find(|i| matches!(i.source, InputSource::CoolantFlow { .. }));
+    let consequence = match carried {
+        Some(input) => format!(
+            "the model carries it as the input `{}` (the heat the change of flow carries \
+             away), so its A_c, time constants and network are the machine's at the initial \
+             flow",
+            input.name
+        ),
+        None => "the model assumes a constant flow (the coolant conductance c·ρ·Q), so its \
+                 estimate mixes the machine before and after the change (the flow enters the \
+                 model only with the coolant inlet as reference and the outlet as a state)"
+            .to_owned(),
+    };
     Some(format!(
-        "cooling_water_flow changes during the run (from {first:.1} to {changed:.1} l/s by {}; \
-         10-minute means from {:.1} to {:.1}): the model assumes a constant flow (the coolant \
-         conductance c·ρ·Q), so its estimate mixes the machine before and after the change",
-        format_time(p.decimated.time_ns(*k).max(0) as u64),
-        sorted[0],
-        sorted[sorted.len() - 1]
+        "cooling_water_flow changes during the run (from {:.1} to {changed:.1} l/s by {}; \
+         10-minute means from {:.1} to {:.1}): {consequence}",
+        flow.initial_l_per_s,
+        format_time(p.decimated.time_ns(k).max(0) as u64),
+        flow.range_l_per_s.0,
+        flow.range_l_per_s.1,
     ))
 }

@@ -8,9 +8,11 @@ use serde_json::Value;
 
 use crate::common::{self, heatrun};
 use crate::outputs::ReportSchema;
+use heatrun::model::matrix::eigenvalues;
 use heatrun::pipeline::{replay, Replay, ReplayOptions};
+use heatrun::spec::coolant::a_c_at_flow;
 use heatrun::spec::coolant::ReferencePolicy;
-use heatrun::spec::{InputKind, Reference};
+use heatrun::spec::{InputKind, InputSource, Reference};
 use heatrun::synth::{self, Disturbances, Machine, NetworkMachine, SynthOptions, Truth};
 
 /// The rc unit (true constants 70.8 s, 710 s, 4504 s) at PT100-like noise. Every test
@@ -185,7 +187,7 @@ fn a_start_25_k_above_the_coolant_is_the_free_response_of_an_estimated_state() {
 }
 
 #[test]
-fn a_pump_switch_is_detected_and_the_inlet_reference_needs_the_inlet() {
+fn a_pump_switch_is_named_and_the_inlet_reference_needs_the_inlet() {
     let dir = common::tempdir();
     let mcap = dir.path().join("pump.mcap");
     synth::write(
@@ -204,9 +206,21 @@ fn a_pump_switch_is_detected_and_the_inlet_reference_needs_the_inlet() {
         },
     )
     .unwrap();
+    // By default the flow is carried into the model, and the note says so; the paper's
+    // formulation assumes it constant, and the warning says that.
     let prepared = heatrun::pipeline::prepare(&mcap, &ReplayOptions::default()).unwrap();
     let warning = heatrun::warnings::flow_change(&prepared).expect("a flow change");
-    assert!(warning.contains("cooling_water_flow") && warning.contains("constant flow"));
+    assert!(
+        warning.contains("cooling_water_flow") && warning.contains("`cooling_water_flow_heat`"),
+        "{warning}"
+    );
+    let paper = ReplayOptions {
+        reference: ReferencePolicy::Initial,
+        ..ReplayOptions::default()
+    };
+    let prepared = heatrun::pipeline::prepare(&mcap, &paper).unwrap();
+    let warning = heatrun::warnings::flow_change(&prepared).expect("a flow change");
+    assert!(warning.contains("constant flow"), "{warning}");
     // Named in the 10-minute block the switch falls in (10,000 s: 08:46:40).
     assert!(warning.contains("T08:40:00"), "{warning}");
     // The constant-flow runs above get no such warning.
@@ -245,4 +259,133 @@ fn a_pump_switch_is_detected_and_the_inlet_reference_needs_the_inlet() {
     assert!(stderr.contains("cooling_water_inlet_temp"), "{stderr}");
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert!(!dir.path().join("b.rrd").exists());
+}
+
+/// The model's time constants at the flow `flow_l_per_s`: A_c with the flow input's
+/// column fed back from the outlet state (`spec::coolant::a_c_at_flow`).
+fn time_constants_at_flow(r: &Replay, truth: &Truth, flow_l_per_s: f64) -> Vec<f64> {
+    let j = r
+        .model
+        .inputs
+        .iter()
+        .position(|i| matches!(i.source, InputSource::CoolantFlow { .. }))
+        .expect("the flow input");
+    let network = truth.network.as_ref().unwrap();
+    let s = &r.signals;
+    let kappa = -network.heat_per_litre_j_per_k
+        * (flow_l_per_s - truth.coolant.flow_l_per_s)
+        * s.temperature_base_k
+        / s.power_base;
+    let b: Vec<f64> = r
+        .analysis
+        .continuous
+        .b_c
+        .column(j)
+        .iter()
+        .copied()
+        .collect();
+    let a = a_c_at_flow(&r.analysis.continuous.a_c, &b, network.outlet_state, kappa);
+    eigenvalues(&a, "A_c")
+        .unwrap()
+        .iter()
+        .map(|l| -1.0 / l.re)
+        .collect()
+}
+
+#[test]
+fn a_pump_switch_is_carried_into_the_model_as_the_heat_the_flow_change_carries() {
+    // The rc unit with its flow cut to 0.6 at 10,000 s: its cooler constant goes from
+    // 70.8 s to 105 s and its steady state up by 2.8 K. With the flow in the model, A_c
+    // is the machine at the initial flow and, fed the final flow, the machine after.
+    let dir = common::tempdir();
+    let mcap = dir.path().join("pump.mcap");
+    let truth = rc_run(
+        &mcap,
+        Disturbances {
+            pump_switch: Some(synth::PumpSwitch {
+                time_s: 10_000.0,
+                factor: 0.6,
+            }),
+            ..Disturbances::default()
+        },
+        1,
+    );
+    let after = truth.changes.last().unwrap();
+    let r = replay_with(&mcap, ReferencePolicy::Auto);
+    assert_eq!(r.model.inputs.len(), 4);
+    let initial = &r.analysis.spectrum.time_constants_s;
+    assert!(
+        worst_error(initial, &truth) < 0.03,
+        "{initial:?} s against {:?} s",
+        truth.time_constants_s
+    );
+    let at_final = time_constants_at_flow(&r, &truth, after.flow_l_per_s);
+    let off = sorted(&at_final)
+        .iter()
+        .zip(sorted(&after.time_constants_s))
+        .map(|(t, want)| (t / want - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        off < 0.03,
+        "{at_final:?} s against {:?} s",
+        after.time_constants_s
+    );
+    // The steady state for the last input, the flow's heat consistent with it at the
+    // final flow, is the machine's after the switch, above the constant inlet. (From the
+    // last measured outlet rise instead, 2.6 slowest constants after the last load step,
+    // it would be about 0.1 K short.)
+    for (y, want) in r
+        .analysis
+        .steady_state
+        .iter()
+        .zip(&after.steady_state_rise_k)
+    {
+        let rise_k = y * r.signals.temperature_base_k;
+        assert!((rise_k - want).abs() < 0.05, "{rise_k} K against {want} K");
+    }
+    // The network's calorimetric scale is the outlet's conductance at the flow A_c
+    // describes, the initial one (at the run's mean flow it would be 20 % low).
+    let network = r.network.network.as_ref().unwrap();
+    let g_out = network.conductance_w_per_k[2][2];
+    let want = truth.network.as_ref().unwrap().conductance_w_per_k[2][2];
+    assert!(
+        (g_out / want - 1.0).abs() < 0.02,
+        "{g_out} W/K against {want} W/K"
+    );
+    // The report names the flow input by its source and keeps to its schema.
+    let out = heatrun(
+        &[
+            "replay",
+            "pump.mcap",
+            "--report",
+            "report.json",
+            "--rrd",
+            "pump.rrd",
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();
+    ReportSchema::load()
+        .check(&report)
+        .unwrap_or_else(|e| panic!("the report breaks the schema:\n{e}"));
+    assert_eq!(
+        report["model"]["inputs"][3]["source"]["coolant_flow"]["flow"],
+        "cooling_water_flow"
+    );
+    // The paper's formulation, with a constant flow assumed, is refused or far off.
+    let options = ReplayOptions {
+        reference: ReferencePolicy::Initial,
+        ..ReplayOptions::default()
+    };
+    if let Ok(paper) = replay(&mcap, &options) {
+        let tc = &paper.analysis.spectrum.time_constants_s;
+        assert!(worst_error(tc, &truth) > 0.1, "{tc:?}");
+    }
 }

@@ -206,3 +206,137 @@ fn a_spec_naming_an_absent_channel_or_a_bad_key_stops_with_one_line() {
         assert!(!dir.path().join("x.rrd").exists());
     }
 }
+
+/// The ambient of [`drifting_recording`]: a ramp of 2 K over the run and a swing.
+fn drifting_ambient_c(t: f64) -> f64 {
+    AMBIENT_C + 2.0 * t / DURATION_S as f64 + 0.5 * (2.0 * std::f64::consts::PI * t / 1500.0).sin()
+}
+
+/// The two-node network with its reference node, the ambient, drifting: C·dθ/dt =
+/// −L·θ + g₀·θ_amb + K·P. Returns Φ and Γ of the rises above any constant, for the
+/// inputs [heater 1, heater 2, the ambient's change]: the ambient's column of B_c is
+/// C⁻¹g₀ = −A_c·1.
+fn drifting_recording(path: &Path) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (a, b) = two_node();
+    let g = -&a * nalgebra::DVector::from_element(2, 1.0);
+    let mut b3 = DMatrix::zeros(2, 3);
+    b3.columns_mut(0, 2).copy_from(&b);
+    b3.column_mut(2).copy_from(&g);
+    let (phi, gamma) = discretize(&a, &b3, 1.0);
+    let q1: Vec<f64> = (0..DURATION_S).map(|k| heater_command(3, k)).collect();
+    let p2: Vec<f64> = (0..DURATION_S)
+        .map(|k| 0.02 * heater_command(4, k))
+        .collect();
+    // Absolute temperatures, starting where the ambient starts.
+    let mut theta = vec![[AMBIENT_C, AMBIENT_C]; DURATION_S];
+    for k in 1..DURATION_S {
+        let u = [
+            0.01 * q1[k - 1] * 3.0,
+            p2[k - 1],
+            drifting_ambient_c((k - 1) as f64),
+        ];
+        for i in 0..2 {
+            // Φ and Γ act on rises above a constant (here 0 °C): the ambient's column
+            // carries the reference node's temperature itself.
+            theta[k][i] = (0..2).map(|j| phi[(i, j)] * theta[k - 1][j]).sum::<f64>()
+                + (0..3).map(|j| gamma[(i, j)] * u[j]).sum::<f64>();
+        }
+    }
+    let at = |v: Vec<f64>| move |t: f64| v[t.round() as usize];
+    let t1: Vec<f64> = theta.iter().map(|x| x[0]).collect();
+    let t2: Vec<f64> = theta.iter().map(|x| x[1]).collect();
+    let mut r = RecordingBuilder::new()
+        .channel("Q1", "%", 1.0, DURATION_S as f64, at(q1))
+        .channel("P2", "W", 1.0, DURATION_S as f64, at(p2))
+        .channel("T1", "degC", 1.0, DURATION_S as f64, at(t1))
+        .channel("T2", "degC", 1.0, DURATION_S as f64, at(t2))
+        .channel(
+            "ambient",
+            "degC",
+            1.0,
+            DURATION_S as f64,
+            drifting_ambient_c,
+        );
+    r.nameplate = None;
+    r.write(path);
+    (phi, gamma)
+}
+
+#[test]
+fn a_spec_measures_states_from_a_reference_channels_initial_level() {
+    // The states from the ambient's initial level (`{ initial_of = "ambient" }`, the form
+    // the report writes), the ambient's change a boundary input: the drifting reference
+    // node is identified exactly, its column of Γ included.
+    let dir = tempdir();
+    let rec = dir.path().join("drift.mcap");
+    let (phi, gamma) = drifting_recording(&rec);
+    let spec = SPEC
+        .replace("reference = \"ambient\"", "reference = { initial_of = \"ambient\" }")
+        + "\n[[input]]\nname = \"ambient_rise\"\nchannel = \"ambient\"\nkind = \"boundary\"\nunit = \"K\"\n";
+    std::fs::write(dir.path().join("drift.toml"), &spec).unwrap();
+    let out = heatrun(
+        &[
+            "replay",
+            "drift.mcap",
+            "--spec",
+            "drift.toml",
+            "--report",
+            "r.json",
+            "--rrd",
+            "r.rrd",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
+    assert_eq!(
+        report["model"]["states"][0]["reference"],
+        serde_json::json!({ "initial_of": "ambient" })
+    );
+    assert_eq!(
+        report["model"]["inputs"][2]["source"],
+        serde_json::json!({ "boundary_rise": "ambient" })
+    );
+    let (got_phi, got_gamma) = (matrix(&report["phi"]), matrix(&report["gamma"]));
+    for i in 0..2 {
+        for j in 0..2 {
+            assert!(
+                (got_phi[i][j] - phi[(i, j)]).abs() < 1e-6,
+                "Φ {got_phi:?} vs {phi}"
+            );
+        }
+        for j in 0..3 {
+            let rel = (got_gamma[i][j] - gamma[(i, j)]).abs() / gamma.column(j).amax();
+            assert!(rel < 1e-4, "Γ {got_gamma:?} vs {gamma}");
+        }
+    }
+    // Rises above the ambient at each instant (`reference = "ambient"`) take its drift for
+    // the rig's dynamics: the same data give another Φ.
+    std::fs::write(dir.path().join("per_instant.toml"), SPEC).unwrap();
+    let out = heatrun(
+        &[
+            "replay",
+            "drift.mcap",
+            "--spec",
+            "per_instant.toml",
+            "--report",
+            "p.json",
+            "--rrd",
+            "p.rrd",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success());
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("p.json")).unwrap()).unwrap();
+    let per_instant = matrix(&report["phi"]);
+    let off = (0..4)
+        .map(|q| (per_instant[q / 2][q % 2] - phi[(q / 2, q % 2)]).abs())
+        .fold(0.0, f64::max);
+    assert!(off > 1e-4, "Φ {per_instant:?} vs {phi}");
+}

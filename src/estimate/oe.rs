@@ -79,7 +79,14 @@ impl OutputError {
         };
         let own = iv.estimate(data).map(|e| e.model);
         if !data.has_partial_outputs() {
-            return own;
+            return match own {
+                Ok(m) if m.is_stable() => Ok(m),
+                // An IV start that does not settle on a stable model (e.g. where an input
+                // is itself a function of the outputs) gives way to least squares.
+                _ => WeightedLeastSquares::default()
+                    .estimate(data)
+                    .map(|e| e.model),
+            };
         }
         let filled = data.interpolated();
         let from_filled = iv

@@ -11,6 +11,9 @@
 
 use serde::Serialize;
 
+use crate::signals::ModelSignals;
+use crate::spec::{InputSource, ModelDescription, Reference};
+
 /// IEC 60034-1's limit on a part's rate of rise at thermal equilibrium (K/h).
 pub const IEC_LIMIT_K_PER_H: f64 = 2.0;
 /// The window of the rate of rise (s).
@@ -81,6 +84,36 @@ where
         instants: n,
         span_s,
     })
+}
+
+/// Each state's [`rate_over_last_hour`] of its rise above its reference, in K/h. A state
+/// measured from a reference channel's initial level ([`Reference::InitialOf`]: the
+/// coolant inlet) whose drift is an input ([`InputSource::BoundaryRise`]) is taken as its
+/// rise above that channel at each instant, θ_j(k) − θ_ref(k): an inlet that warms over
+/// the day moves every temperature with it, and that is not the machine heating. A state
+/// whose reference does not move (a constant inlet, the paper's initial values) has the
+/// rate of its rise as it is.
+pub fn rates_of_rise(model: &ModelDescription, signals: &ModelSignals) -> Vec<Option<RateOfRise>> {
+    let base = signals.temperature_base_k;
+    (0..signals.states.len())
+        .map(|j| {
+            let state = &signals.states[j];
+            let drift = match model.states.get(j).map(|d| &d.reference) {
+                Some(Reference::InitialOf(r)) => {
+                    model.inputs.iter().zip(&signals.inputs).find_map(|(d, i)| {
+                        matches!(&d.source, InputSource::BoundaryRise(c) if c == r)
+                            .then_some(&i.values)
+                    })
+                }
+                _ => None,
+            };
+            let rise = (0..signals.len()).map(|k| match drift {
+                Some(d) => Some(state.rise(k)? - d.get(k)? * base),
+                None => state.rise(k),
+            });
+            rate_over_last_hour(rise, signals.ts_s)
+        })
+        .collect()
 }
 
 /// Both equilibrium checks for a recording.
@@ -290,6 +323,74 @@ mod tests {
             "{w}"
         );
         assert!(w.contains("86.5 % of its final rise"), "{w}");
+    }
+
+    #[test]
+    fn with_the_inlet_as_reference_the_rate_is_of_the_rise_above_the_inlet() {
+        use crate::recording::{Quantity, Signal};
+        use crate::series::Series;
+        use crate::signals::{InputSignal, ReferenceValues, StateSignal};
+        use crate::spec::InputKind;
+        // A machine held 20 K above an inlet that warms by 3 K/h (pu of 100 K): the
+        // winding rises 3 K/h above the inlet's initial level, which is the river, not
+        // the machine; above the inlet it is at equilibrium.
+        let (len, base) = (7200, 100.0);
+        let inlet_c = |k: usize| 10.0 + 3.0 * k as f64 / 3600.0;
+        let series =
+            |f: &dyn Fn(usize) -> f64| -> Series { (0..len).map(|k| Some(f(k))).collect() };
+        let inlet = Signal::Profile(Quantity::CoolingWaterInletTemp);
+        let mut model = ModelDescription::generator();
+        model.states.truncate(1);
+        model.states[0].reference = Reference::InitialOf(inlet.clone());
+        model.inputs.push(crate::spec::InputDescription {
+            name: "cooling_water_inlet_rise".into(),
+            source: InputSource::BoundaryRise(inlet),
+            unit: "pu".into(),
+            kind: InputKind::Boundary,
+            from_initial: false,
+        });
+        let signals = ModelSignals {
+            ts_s: 1.0,
+            time_ns: (0..len as i64).map(|k| k * 1_000_000_000).collect(),
+            states: vec![StateSignal {
+                name: "stator_winding_temp".into(),
+                part: "stator winding".into(),
+                measured: series(&|k| inlet_c(k) + 20.0),
+                reference: ReferenceValues::Constant(10.0),
+                observed: None,
+                exception: None,
+            }],
+            inputs: (0..4)
+                .map(|i| InputSignal {
+                    name: format!("u{i}"),
+                    unit: "pu".into(),
+                    kind: if i == 3 {
+                        InputKind::Boundary
+                    } else {
+                        InputKind::Heat
+                    },
+                    values: series(&|k| {
+                        if i == 3 {
+                            (inlet_c(k) - 10.0) / base
+                        } else {
+                            0.01
+                        }
+                    }),
+                    outlet_feedback: None,
+                })
+                .collect(),
+            initial_index: 0,
+            temperature_base_k: base,
+            power_base: 1.0,
+            field_temperature: None,
+        };
+        let r = rates_of_rise(&model, &signals)[0].unwrap();
+        assert!(r.k_per_h.abs() < 1e-9, "{}", r.k_per_h);
+        // Without the inlet's input (a description read as the paper's) the rate is the
+        // rise's own: the 3 K/h of the inlet, beyond IEC's 2 K/h.
+        model.inputs.truncate(3);
+        let r = rates_of_rise(&model, &signals)[0].unwrap();
+        assert!((r.k_per_h - 3.0).abs() < 1e-9, "{}", r.k_per_h);
     }
 
     #[test]

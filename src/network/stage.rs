@@ -72,7 +72,7 @@ pub fn analyse(
     NetworkAnalysis {
         network,
         calorimetry,
-        equilibrium: equilibrium_checks(signals, time_constants_s),
+        equilibrium: equilibrium_checks(model, signals, time_constants_s),
     }
 }
 
@@ -102,7 +102,13 @@ fn network(
             i.name
         ));
     }
-    let coolant = coolant_link(model, calorimetry);
+    // A changing flow carried as an input: A_c is the machine at its initial flow.
+    let carried_flow = signals
+        .inputs
+        .iter()
+        .find_map(|i| i.outlet_feedback.as_ref())
+        .map(|f| f.reference_flow_l_per_s);
+    let coolant = coolant_link(model, calorimetry, carried_flow);
     let scaling = Scaling {
         theta_base_k: signals.temperature_base_k,
         p_base_w: signals.power_base,
@@ -120,17 +126,19 @@ fn network(
 }
 
 /// The outlet's conductance to the coolant, c·ρ·Q, where the outlet water is a state and
-/// the flow is recorded.
+/// the flow is recorded: at the mean flow, or at `flow` (l/s) where the model carries a
+/// changing flow as an input (its A_c is the machine at the initial flow).
 fn coolant_link(
     model: &ModelDescription,
     calorimetry: Option<&Calorimetry>,
+    flow: Option<f64>,
 ) -> Option<CoolantLink> {
     let outlet = Signal::Profile(Quantity::CoolingWaterOutletTemp);
     calorimetry.and_then(|c| {
         let state = model.states.iter().position(|s| s.channel == outlet)?;
         Some(CoolantLink {
             state,
-            conductance_w_per_k: c.heat_per_litre_j_per_k * c.mean_flow_l_per_s,
+            conductance_w_per_k: c.heat_per_litre_j_per_k * flow.unwrap_or(c.mean_flow_l_per_s),
         })
     })
 }
@@ -152,7 +160,7 @@ fn estimated_network(
     .map_err(|e| e.to_string())?;
     network.scale_note =
         Some("estimated in C, G and K (--method rc) with each column of K summing to 1".into());
-    if let Some(link) = coolant_link(model, calorimetry) {
+    if let Some(link) = coolant_link(model, calorimetry, None) {
         let ratio = link.conductance_w_per_k / network.conductance_w_per_k[link.state][link.state];
         network.alternative_scale = Some(AlternativeScale {
             scale_from: ScaleSource::Calorimetric,
@@ -243,16 +251,13 @@ fn losses_at_end(signals: &ModelSignals) -> Option<f64> {
 }
 
 /// IEC 60034-1's rate of rise over the last hour and the paper's held-load criterion.
-fn equilibrium_checks(signals: &ModelSignals, time_constants_s: &[f64]) -> Equilibrium {
+fn equilibrium_checks(
+    model: &ModelDescription,
+    signals: &ModelSignals,
+    time_constants_s: &[f64],
+) -> Equilibrium {
     let names: Vec<String> = signals.states.iter().map(|s| s.part.clone()).collect();
-    let rates = signals
-        .states
-        .iter()
-        .map(|s| {
-            let rise = (0..signals.len()).map(|k| s.rise(k));
-            equilibrium::rate_over_last_hour(rise, signals.ts_s)
-        })
-        .collect();
+    let rates = equilibrium::rates_of_rise(model, signals);
     let slowest = time_constants_s.iter().copied().fold(f64::NAN, f64::max);
     Equilibrium::assess(&names, rates, held_s(signals), slowest)
 }

@@ -86,6 +86,19 @@ pub enum InputSource {
     /// θ_in(k) − θ_in,0. For a network C·dθ/dt = −L·θ + g₀·θ_in + K·P its column of B_c
     /// is C⁻¹g₀ = −A_c·1.
     BoundaryRise(Signal),
+    /// The heat a cooling-water flow away from its initial level Q₀ carries out of the
+    /// outlet node: −c·ρ·(Q(k) − Q₀)·(θ_out(k) − θ_in(k)), c·ρ of water at the inlet's
+    /// initial level (IF97). With it the outlet's conductance to the coolant c·ρ·Q(t) is
+    /// that of Q₀ in A_c plus this known input, and A_c stays the machine's at Q₀
+    /// ([`coolant`] says why the measured temperatures are used).
+    CoolantFlow {
+        /// The flow channel, l/s.
+        flow: Signal,
+        /// The coolant outlet temperature channel.
+        outlet: Signal,
+        /// The coolant inlet temperature channel.
+        inlet: Signal,
+    },
 }
 
 /// One input of the model.
@@ -272,6 +285,17 @@ impl ModelDescription {
                 InputSource::Channel(c) | InputSource::BoundaryRise(c) => {
                     map.entry(c.clone()).or_insert(Alignment::Interval);
                 }
+                InputSource::CoolantFlow {
+                    flow,
+                    outlet,
+                    inlet,
+                } => {
+                    map.entry(flow.clone()).or_insert(Alignment::Interval);
+                    // Temperatures are point values, as the states are.
+                    for t in [outlet, inlet] {
+                        map.insert(t.clone(), Alignment::Instant);
+                    }
+                }
                 InputSource::Expression(e) => {
                     for c in e.channels() {
                         map.entry(c.clone()).or_insert(Alignment::Interval);
@@ -324,9 +348,27 @@ struct SpecFile {
 struct StateFile {
     name: String,
     channel: Option<String>,
-    reference: Option<String>,
+    reference: Option<ReferenceFile>,
     part: Option<String>,
     unit: Option<String>,
+}
+
+/// A state's `reference` in TOML: a word or a channel's name, or a table naming the
+/// channel whose initial level it is measured from (as the report writes it).
+#[derive(Debug, Deserialize)]
+#[serde(
+    untagged,
+    expecting = "a reference is \"initial\", \"none\", a channel's name, or { initial_of = \"channel\" }"
+)]
+enum ReferenceFile {
+    Name(String),
+    InitialOf(InitialOfFile),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InitialOfFile {
+    initial_of: String,
 }
 
 #[derive(Debug, Deserialize)]
@@ -396,17 +438,23 @@ fn unique(names: &mut BTreeSet<String>, what: &'static str, name: &str) -> Resul
 impl StateFile {
     fn into_description(self) -> Result<StateDescription, SpecError> {
         let channel = self.channel.unwrap_or_else(|| self.name.clone());
-        let reference = match self.reference.as_deref() {
-            None | Some("initial") => Reference::Initial,
-            Some("none") => Reference::Absolute,
-            Some(other) if other == channel => {
-                return Err(SpecError::Entry {
-                    what: "state",
-                    name: self.name,
-                    problem: "its reference is its own channel".into(),
-                })
-            }
-            Some(other) => Reference::Channel(Signal::from_name(other)),
+        let (word, initial_of) = match &self.reference {
+            None => (None, None),
+            Some(ReferenceFile::Name(w)) => (Some(w.as_str()), None),
+            Some(ReferenceFile::InitialOf(r)) => (None, Some(r.initial_of.as_str())),
+        };
+        if word.or(initial_of) == Some(channel.as_str()) {
+            return Err(SpecError::Entry {
+                what: "state",
+                name: self.name,
+                problem: "its reference is its own channel".into(),
+            });
+        }
+        let reference = match (word, initial_of) {
+            (_, Some(r)) => Reference::InitialOf(Signal::from_name(r)),
+            (None | Some("initial"), None) => Reference::Initial,
+            (Some("none"), None) => Reference::Absolute,
+            (Some(other), None) => Reference::Channel(Signal::from_name(other)),
         };
         Ok(StateDescription {
             part: self.part.unwrap_or_else(|| self.name.clone()),
@@ -436,6 +484,20 @@ impl InputFile {
                     problem: "give exactly one of `channel` or `expression`".into(),
                 })
             }
+        };
+        // A boundary input is the reference node's temperature: its rise above its
+        // initial level, the constant states with `{ initial_of = … }` are measured from.
+        let source = match (self.kind, source) {
+            (InputKind::Boundary, InputSource::Channel(c)) => InputSource::BoundaryRise(c),
+            (InputKind::Boundary, InputSource::Expression(_)) => {
+                return Err(SpecError::Entry {
+                    what: "input",
+                    name: self.name,
+                    problem: "a boundary input is a temperature `channel`, not an expression"
+                        .into(),
+                })
+            }
+            (_, source) => source,
         };
         let from_initial = match self.reference.as_deref() {
             None | Some("none") => false,
@@ -539,5 +601,27 @@ mod tests {
         assert!(bad(unknown).contains("colour"), "{}", bad(unknown));
         let expr = "[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nexpression=\"3 * (x\"";
         assert!(bad(expr).contains("input `p`"), "{}", bad(expr));
+        let own = "[[state]]\nname=\"a\"\nreference={initial_of=\"a\"}\n[[input]]\nname=\"p\"\nchannel=\"x\"";
+        assert!(bad(own).contains("its own channel"), "{}", bad(own));
+        let table = "[[state]]\nname=\"a\"\nreference={initial=\"b\"}\n[[input]]\nname=\"p\"\nchannel=\"x\"";
+        assert!(bad(table).contains("initial_of"), "{}", bad(table));
+        let boundary =
+            "[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nexpression=\"x + 1\"\nkind=\"boundary\"";
+        assert!(bad(boundary).contains("input `p`"), "{}", bad(boundary));
+    }
+
+    #[test]
+    fn a_state_may_be_measured_from_a_channels_initial_level() {
+        let text = "[[state]]\nname=\"a\"\nreference={initial_of=\"inlet\"}\n\
+                    [[input]]\nname=\"p\"\nchannel=\"x\"\n\
+                    [[input]]\nname=\"inlet_rise\"\nchannel=\"inlet\"\nkind=\"boundary\"";
+        let d = ModelDescription::from_toml(text).unwrap();
+        let inlet = Signal::Free("inlet".into());
+        assert_eq!(d.states[0].reference, Reference::InitialOf(inlet.clone()));
+        assert!(matches!(&d.inputs[1].source, InputSource::BoundaryRise(c) if *c == inlet));
+        assert!(matches!(d.inputs[0].source, InputSource::Channel(_)));
+        // The reference channel is a point value, as the state is.
+        assert_eq!(d.alignments()[&inlet], Alignment::Instant);
+        assert!(d.inputs_are_heat());
     }
 }
