@@ -57,6 +57,7 @@ pub mod model;
 pub mod network;
 pub mod pipeline;
 pub mod predict;
+pub mod progress;
 #[cfg(feature = "rerun")]
 pub mod publish;
 pub mod rating;
