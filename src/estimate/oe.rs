@@ -21,13 +21,13 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 use super::censored;
-use crate::progress::Observer;
 use super::iv::InstrumentalVariables;
 use super::wls::WeightedLeastSquares;
 use super::{
     check_enough_rows, DiscreteModel, Estimate, EstimationError, Estimator, IdentificationData,
     Result,
 };
+use crate::progress::Observer;
 
 /// Segments beyond this many keep their start state instead of estimating it.
 pub const MAX_ESTIMATED_INITIAL_STATES: usize = 50;
@@ -898,7 +898,12 @@ mod tests {
         let fitted = oe.refine(&data, &perturbed(&truth)).unwrap();
         let calls = log.0.lock().unwrap().clone();
         assert!(calls.len() >= 3, "{} evaluations", calls.len());
-        assert!(calls.len() <= fitted.iterations + 1, "{} > {}", calls.len(), fitted.iterations);
+        assert!(
+            calls.len() <= fitted.iterations + 1,
+            "{} > {}",
+            calls.len(),
+            fitted.iterations
+        );
         for (i, (method, n, _)) in calls.iter().enumerate() {
             assert_eq!((method.as_str(), *n), ("oe", i + 1));
         }

@@ -1152,8 +1152,12 @@ mod tests {
         assert!(calls.len() >= 2, "{calls:?}");
         let total = bytes.len() as u64;
         assert_eq!(*calls.last().unwrap(), (total, total, 1000));
-        assert!(calls.iter().all(|&(done, t, _)| t == total && done <= total));
-        assert!(calls.windows(2).all(|w| w[0].0 <= w[1].0 && w[0].2 <= w[1].2));
+        assert!(calls
+            .iter()
+            .all(|&(done, t, _)| t == total && done <= total));
+        assert!(calls
+            .windows(2)
+            .all(|w| w[0].0 <= w[1].0 && w[0].2 <= w[1].2));
     }
 
     #[test]
