@@ -79,6 +79,16 @@ pub struct PredictArgs {
     /// Do not print the summary.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Also write the prediction as one self-contained HTML page (schedule, losses,
+    /// temperatures against the limits, peaks).
+    #[arg(long, value_name = "PAGE.html")]
+    pub html: Option<PathBuf>,
+    /// Insulation class whose limits the HTML page draws (as `rating --class`).
+    #[arg(long, value_enum, requires = "html")]
+    pub class: Option<ClassArg>,
+    /// A part's limit for the HTML page, °C (repeatable; overrides the class's): STATE=°C.
+    #[arg(long, value_name = "STATE=°C", value_parser = parse_limit, requires = "html")]
+    pub limit: Vec<(String, f64)>,
 }
 
 /// Insulation thermal class.
@@ -123,6 +133,10 @@ pub struct RatingArgs {
     /// Write the rating as JSON to this file.
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<PathBuf>,
+    /// Also write the rating as one self-contained HTML page (limits, continuous rating,
+    /// margins, overloads).
+    #[arg(long, value_name = "PAGE.html")]
+    pub html: Option<PathBuf>,
 }
 
 /// `STATE=°C`.
