@@ -481,7 +481,7 @@ fn fleet_row(args: &ReplayArgs, file: &Path) -> FleetRow {
         file: file.to_owned(),
         outcome: replay_one(args, file, &rrd, outputs, Observer::silent())
             .map(|replayed| FleetFigures::of(&replayed))
-            .map_err(|e| format!("{e:#}")),
+            .map_err(|e| super::hint::one_line(&e)),
     }
 }
 
