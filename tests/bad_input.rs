@@ -375,4 +375,36 @@ fn errors_say_what_to_do_next() {
         unknown_part.contains("`rotor`") && unknown_part.contains("--limit takes one of the parts"),
         "{unknown_part}"
     );
+
+    // import: a misspelt column in the map, a marker of missing values in the table.
+    std::fs::write(
+        dir.path().join("t.csv"),
+        "Time (sec),T1 (degC)\n0,20\n1,---\n",
+    )
+    .unwrap();
+    let map = |time_column: &str| {
+        format!(
+            "[time]\ncolumn = \"{time_column}\"\n[[column]]\ncolumn = \"T1 (degC)\"\n\
+             channel = \"T1\"\nunit = \"degC\"\n"
+        )
+    };
+    std::fs::write(dir.path().join("typo.toml"), map("Tme (sec)")).unwrap();
+    let typo = one_line_exit_2(
+        &["import", "t.csv", "--map", "typo.toml", "--out", "o.mcap"],
+        dir.path(),
+    );
+    assert!(
+        typo.contains("no column `Tme (sec)`") && typo.contains("did you mean `Time (sec)`?"),
+        "{typo}"
+    );
+    std::fs::write(dir.path().join("map.toml"), map("Time (sec)")).unwrap();
+    let marker = one_line_exit_2(
+        &["import", "t.csv", "--map", "map.toml", "--out", "o.mcap"],
+        dir.path(),
+    );
+    assert!(
+        marker.contains("line 3") && marker.contains("add `missing = [\"---\"]`"),
+        "{marker}"
+    );
+    assert!(!dir.path().join("o.mcap").exists());
 }

@@ -4,6 +4,7 @@
 
 use heatrun::decimate::DecimateError;
 use heatrun::estimate::EstimationError;
+use heatrun::import::ImportError;
 use heatrun::model::ModelError;
 use heatrun::predict::UseError;
 use heatrun::Error;
@@ -38,6 +39,7 @@ pub fn for_error(err: &anyhow::Error) -> Option<String> {
         Error::Model(e) => for_model(e),
         Error::ModelUse(e) => for_model_use(e),
         Error::Decimate(e) => for_decimation(e),
+        Error::Import(e) => for_import(e),
         other => for_replay(other),
     }
 }
@@ -149,6 +151,41 @@ fn for_decimation(e: &DecimateError) -> Option<String> {
     })
 }
 
+/// Hints for `heatrun import`: the map and the table.
+fn for_import(e: &ImportError) -> Option<String> {
+    Some(match e {
+        ImportError::AbsentColumn {
+            column, available, ..
+        } => {
+            let names = available.replace('`', "");
+            match closest(column.trim_matches('`'), &names) {
+                Some(name) => format!("did you mean `{name}`? Mend the map's `column`"),
+                None => "name one of the columns in the map, or give its position (1-based)".into(),
+            }
+        }
+        ImportError::BadNumber { text, .. } => format!(
+            "if `{text}` marks a missing value, add `missing = [\"{text}\"]` to the map's \
+             [input]; `decimal_comma = true` reads 1,5"
+        ),
+        ImportError::RaggedRow { .. } => {
+            "set the map's [input] `delimiter` (\",\", \";\", \"\\t\" or \"whitespace\"); \
+             `heatrun import --guess FILE` shows what it finds"
+                .into()
+        }
+        ImportError::BadTime { .. } => {
+            "give the map's [time] `format` (\"seconds\" or \"timestamp\"), or a `pattern` \
+             such as \"%d.%m.%Y %H:%M:%S\""
+                .into()
+        }
+        ImportError::MapSyntax { .. } | ImportError::MapValue { .. } => {
+            "`heatrun import --guess FILE` prints a map to start from; the README's \
+             \"Importing CSV\" shows its keys"
+                .into()
+        }
+        _ => return None,
+    })
+}
+
 /// Hints for `predict` and `rating`: the model report and the load schedule.
 fn for_model_use(e: &UseError) -> Option<String> {
     Some(match e {
@@ -184,7 +221,7 @@ fn for_model_use(e: &UseError) -> Option<String> {
             "give --class B, F or H, or --limit STATE=°C per part".into()
         }
         UseError::Request(message) if message.starts_with("the power factor") => {
-            "give --power-factor a value in (0, 1] (negative: leading), such as 0.9".into()
+            "give --power-factor a value such as 0.9 (or -0.95 leading)".into()
         }
         _ => return None,
     })
