@@ -373,6 +373,7 @@ pub fn replay_with(
             what: "the inputs".into(),
         })
     })?;
+    options.progress.stage("analysing the model");
     let analysis = model::analyse(
         &estimate,
         &prepared.data,

@@ -27,6 +27,12 @@ pub trait Progress: Send + Sync {
         let _ = (method, evaluation, cost);
     }
 
+    /// A step without a count of its own began (`analysing the model`): shown until the
+    /// next report.
+    fn stage(&self, what: &str) {
+        let _ = what;
+    }
+
     /// `done` of `total` recordings of a fleet are finished.
     fn recording_done(&self, done: usize, total: usize) {
         let _ = (done, total);

@@ -87,6 +87,7 @@ fn shows_progress(stderr: &[u8]) -> bool {
         || text.contains("reading")
         || text.contains("estimating")
         || text.contains("replaying")
+        || text.contains("analysing")
 }
 
 #[test]

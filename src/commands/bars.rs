@@ -26,6 +26,7 @@ enum Stage {
     Idle,
     Reading,
     Estimating(String),
+    Step,
     Fleet,
 }
 
@@ -63,6 +64,7 @@ impl Bars {
             return false;
         }
         *now = stage;
+        self.bar.disable_steady_tick();
         self.bar.set_message("");
         let style = ProgressStyle::with_template(template)
             .expect("the templates are fixed and valid")
@@ -102,6 +104,19 @@ impl Progress for Bars {
         self.bar.set_position(evaluation as u64);
     }
 
+    fn stage(&self, what: &str) {
+        if self.enter(Stage::Step, "{spinner} {msg} ({elapsed})") {
+            self.bar.unset_length();
+            // A step reports once: the spinner turns by itself (a hidden bar needs no
+            // ticking thread).
+            if !self.bar.is_hidden() {
+                self.bar
+                    .enable_steady_tick(std::time::Duration::from_millis(100));
+            }
+        }
+        self.bar.set_message(what.to_owned());
+    }
+
     fn recording_done(&self, done: usize, total: usize) {
         self.enter(
             Stage::Fleet,
@@ -133,6 +148,9 @@ mod tests {
         bars.iteration("oe", 7, 0.25);
         assert_eq!(bars.bar.position(), 7);
         assert_eq!(*bars.stage.lock().unwrap(), Stage::Estimating("oe".into()));
+        bars.stage("analysing the model");
+        assert_eq!(bars.bar.message(), "analysing the model");
+        assert_eq!(*bars.stage.lock().unwrap(), Stage::Step);
         bars.recording_done(2, 3);
         assert_eq!((bars.bar.position(), bars.bar.length()), (2, Some(3)));
         bars.clear();

@@ -185,6 +185,7 @@ fn replay_one(
     } else {
         pipeline::replay(file, &options)?
     };
+    options.progress.stage("writing the outputs");
     let report = Report::new(&replay);
     let summary = report.summary();
     publisher.finish(&replay, &summary)?;
