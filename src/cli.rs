@@ -463,6 +463,49 @@ mod tests {
     }
 
     #[test]
+    fn the_predictions_limits_go_with_its_page() {
+        let base = [
+            "predict", "--model", "r.json", "--load", "l.csv", "--out", "p.csv",
+        ];
+        let Command::Predict(p) = parse(
+            &[
+                &base[..],
+                &[
+                    "--html",
+                    "p.html",
+                    "--class",
+                    "H",
+                    "--limit",
+                    "core_temp=99",
+                ],
+            ]
+            .concat(),
+        )
+        .unwrap()
+        .command
+        else {
+            panic!("not predict");
+        };
+        assert_eq!(p.html.as_deref(), Some(std::path::Path::new("p.html")));
+        assert_eq!(p.class, Some(ClassArg::H));
+        assert_eq!(p.limit, [("core_temp".to_owned(), 99.0)]);
+        // Limits only draw on the page: without it they are refused, not ignored.
+        assert_eq!(
+            error(&[&base[..], &["--class", "F"]].concat()),
+            ErrorKind::MissingRequiredArgument
+        );
+        let Command::Rating(r) = parse(&[
+            "rating", "--model", "r.json", "--class", "F", "--html", "r.html",
+        ])
+        .unwrap()
+        .command
+        else {
+            panic!("not rating");
+        };
+        assert_eq!(r.html.as_deref(), Some(std::path::Path::new("r.html")));
+    }
+
+    #[test]
     fn the_definitions_are_consistent() {
         Cli::command().debug_assert();
     }

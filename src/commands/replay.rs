@@ -482,7 +482,10 @@ fn fleet_row(args: &ReplayArgs, file: &Path) -> FleetRow {
         file: file.to_owned(),
         outcome: replay_one(args, file, &rrd, outputs, Observer::silent())
             .map(|replayed| FleetFigures::of(&replayed))
-            .map_err(|e| super::hint::one_line(&e)),
+            .map_err(|e| match super::hint::for_error(&e) {
+                Some(hint) => format!("{}; {hint}", super::hint::one_line(&e)),
+                None => super::hint::one_line(&e),
+            }),
     }
 }
 
