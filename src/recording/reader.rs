@@ -297,6 +297,8 @@ struct Reader<'s, S: SampleSink> {
     throttle: Throttle,
     /// The file offset read up to, by the last batch merged.
     bytes_done: u64,
+    /// The offset at the last look at the progress clock.
+    bytes_at_clock: u64,
 }
 
 /// Reads the heat-run recording at `path`, giving its samples to `sink`; channels
@@ -394,6 +396,7 @@ pub fn read_stream_with<S: SampleSink>(
         messages: 0,
         throttle: Throttle::default(),
         bytes_done: 0,
+        bytes_at_clock: 0,
     };
     // Three stages, so that both cores work: this thread's scan reads the file and
     // cuts it into records and whole chunks; workers decompress chunks and parse their
@@ -422,6 +425,9 @@ pub fn read_stream_with<S: SampleSink>(
     })?;
     Ok(merger.summary)
 }
+
+/// How far the file must advance between two looks at the progress clock, bytes.
+const PROGRESS_GRAIN_BYTES: u64 = 1 << 16;
 
 /// A chunk to decode: its number in file order, the file offset where it ends, its
 /// header and its compressed records.
@@ -726,9 +732,15 @@ impl<S: SampleSink> Reader<'_, S> {
                                 format_time(chunk_start)
                             )),
                         }
+                        // The clock is read once per 64 KiB at most: a file of records
+                        // outside chunks is a batch per message.
                         self.bytes_done = bytes_end;
-                        if self.throttle.due() {
-                            self.report_progress(bytes_end);
+                        let at = &mut self.bytes_at_clock;
+                        if bytes_end >= *at + PROGRESS_GRAIN_BYTES || *at == 0 {
+                            *at = bytes_end;
+                            if self.throttle.due() {
+                                self.report_progress(bytes_end);
+                            }
                         }
                     }
                     DecodedBatch::End { end, .. } => {
