@@ -396,6 +396,8 @@ fn a_spec_model_of_two_states_gets_its_own_page() {
             spec.to_str().unwrap(),
             "--rrd",
             "tclab.rrd",
+            "--report",
+            "tclab.json",
             "--html",
             "--quiet",
         ],
@@ -414,6 +416,42 @@ fn a_spec_model_of_two_states_gets_its_own_page() {
     // diagram: TCLab's identified model is no passive network (the page says why).
     assert_figures_drawn(&page, 6);
     assert_self_contained(&page);
+
+    // Its prediction's page: the schedule by the channels the spec reads, its inputs (not
+    // the generator's losses), the two states, no limits.
+    std::fs::write(
+        dir.path().join("heaters.csv"),
+        "time_s,Q1,Q2\n0,50,0\n600,50,80\n1200,0,0\n1800,0,0\n",
+    )
+    .unwrap();
+    run(
+        &[
+            "predict",
+            "--model",
+            "tclab.json",
+            "--load",
+            "heaters.csv",
+            "--out",
+            "p.csv",
+            "--html",
+            "p.html",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    let page = Page::read(&dir.path().join("p.html"));
+    assert!(page
+        .html
+        .contains("<title>TCLab MIMO heaters: predicted temperatures"));
+    assert_figures_drawn(&page, 2);
+    assert_self_contained(&page);
+    let schedule = page.table("channels, as given");
+    assert_eq!(schedule.rows[0], ["from s", "Q1", "Q2"]);
+    assert_eq!(schedule.rows[2], ["600", "50.00", "80.00"]);
+    assert!(page.html.contains("<h2>2. Inputs</h2>"));
+    let peaks = page.table("peak temperature");
+    assert_eq!(peaks.rows.len(), 1 + 2);
+    assert_eq!(peaks.rows[1][4], "–", "no limit given");
 }
 
 /// In fleet mode a bare --html writes one page beside each report; a named page is refused.

@@ -156,6 +156,25 @@ impl Section for ScheduleSection<'_> {
             s.time_s.len(),
             s.path.display()
         ));
+        let generator = s
+            .points
+            .iter()
+            .any(|p| p.armature_current_a.is_normal() || p.line_voltage_v.is_normal());
+        out.table(&if generator {
+            generator_rows(s)
+        } else {
+            channel_rows(s)
+        });
+        for w in &self.view.prediction.warnings {
+            out.note("warning", w);
+        }
+        Ok(())
+    }
+}
+
+/// The schedule of a generator: apparent power, power factor, currents and voltage.
+fn generator_rows(s: &LoadSchedule) -> Table {
+    {
         let mut table = Table::new(
             "The schedule's operating points (apparent power from the row, or from the \
              currents and voltage given).",
@@ -189,12 +208,25 @@ impl Section for ScheduleSection<'_> {
                 ],
             );
         }
-        out.table(&table);
-        for w in &self.view.prediction.warnings {
-            out.note("warning", w);
-        }
-        Ok(())
+        table
     }
+}
+
+/// The schedule of a spec's model: the channels its inputs read, as given.
+fn channel_rows(s: &LoadSchedule) -> Table {
+    let names: std::collections::BTreeSet<&String> =
+        s.points.iter().flat_map(|p| p.channels.keys()).collect();
+    let mut columns = vec!["from s".to_owned()];
+    columns.extend(names.iter().map(|n| n.to_string()));
+    let mut table = Table::new("The schedule's channels, as given.", columns);
+    for (t, point) in s.time_s.iter().zip(&s.points) {
+        let cells = names
+            .iter()
+            .map(|n| point.channels.get(*n).map_or("–".into(), |v| sig(*v, 4)))
+            .collect();
+        table.row(fixed(*t, 0), cells);
+    }
+    table
 }
 
 /// The model's inputs (the losses) over the prediction.
@@ -208,7 +240,15 @@ impl Section for LossesSection<'_> {
     }
 
     fn title(&self) -> String {
-        "Losses".into()
+        let m = self.view.model;
+        if m.inputs
+            .iter()
+            .all(|i| matches!(i.source, InputUse::Loss(_)))
+        {
+            "Losses".into()
+        } else {
+            "Inputs".into()
+        }
     }
 
     fn render(&self, out: &mut Markup) -> Result<(), HtmlError> {
@@ -220,7 +260,7 @@ impl Section for LossesSection<'_> {
         let (unit, scale) = if all_losses {
             ("kW", m.power_base_w / 1e3)
         } else {
-            ("the model's units × P_base", m.power_base_w)
+            ("as the spec computes them", m.power_base_w)
         };
         let clock = Clock::of(&p.time_s);
         let lines = p
@@ -233,10 +273,12 @@ impl Section for LossesSection<'_> {
                 Line::new(spoken(name), palette(i), values)
             })
             .collect();
-        let chart = Chart::new(
-            clock.label,
-            vec![Panel::new(format!("input, {unit}"), lines)],
-        );
+        let label = if all_losses {
+            format!("input, {unit}")
+        } else {
+            "input".to_owned()
+        };
+        let chart = Chart::new(clock.label, vec![Panel::new(label, lines)]);
         out.paragraph(&format!(
             "Figure {} shows the model's inputs over the schedule{}.",
             out.next_figure(),
