@@ -130,6 +130,16 @@ pub struct PredictArgs {
     /// Do not print the summary.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Also write the prediction as one self-contained HTML page (schedule, losses,
+    /// temperatures against the limits, peaks).
+    #[arg(long, value_name = "PAGE.html")]
+    pub html: Option<PathBuf>,
+    /// Insulation class whose limits the HTML page draws (as `rating --class`).
+    #[arg(long, value_enum, requires = "html")]
+    pub class: Option<ClassArg>,
+    /// A part's limit for the HTML page, °C (repeatable; overrides the class's): STATE=°C.
+    #[arg(long, value_name = "STATE=°C", value_parser = parse_limit, requires = "html")]
+    pub limit: Vec<(String, f64)>,
 }
 
 /// Insulation thermal class.
@@ -174,6 +184,10 @@ pub struct RatingArgs {
     /// Write the rating as JSON to this file.
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<PathBuf>,
+    /// Also write the rating as one self-contained HTML page (limits, continuous rating,
+    /// margins, overloads).
+    #[arg(long, value_name = "PAGE.html")]
+    pub html: Option<PathBuf>,
 }
 
 /// `STATE=°C`.
@@ -497,6 +511,49 @@ mod tests {
 
     fn error(args: &[&str]) -> ErrorKind {
         parse(args).expect_err("must not parse").kind()
+    }
+
+    #[test]
+    fn the_predictions_limits_go_with_its_page() {
+        let base = [
+            "predict", "--model", "r.json", "--load", "l.csv", "--out", "p.csv",
+        ];
+        let Command::Predict(p) = parse(
+            &[
+                &base[..],
+                &[
+                    "--html",
+                    "p.html",
+                    "--class",
+                    "H",
+                    "--limit",
+                    "core_temp=99",
+                ],
+            ]
+            .concat(),
+        )
+        .unwrap()
+        .command
+        else {
+            panic!("not predict");
+        };
+        assert_eq!(p.html.as_deref(), Some(std::path::Path::new("p.html")));
+        assert_eq!(p.class, Some(ClassArg::H));
+        assert_eq!(p.limit, [("core_temp".to_owned(), 99.0)]);
+        // Limits only draw on the page: without it they are refused, not ignored.
+        assert_eq!(
+            error(&[&base[..], &["--class", "F"]].concat()),
+            ErrorKind::MissingRequiredArgument
+        );
+        let Command::Rating(r) = parse(&[
+            "rating", "--model", "r.json", "--class", "F", "--html", "r.html",
+        ])
+        .unwrap()
+        .command
+        else {
+            panic!("not rating");
+        };
+        assert_eq!(r.html.as_deref(), Some(std::path::Path::new("r.html")));
     }
 
     #[test]

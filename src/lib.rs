@@ -58,6 +58,7 @@ pub mod monitor;
 pub mod network;
 pub mod pipeline;
 pub mod predict;
+pub mod progress;
 #[cfg(feature = "rerun")]
 pub mod publish;
 pub mod rating;

@@ -24,9 +24,10 @@ fn main() -> ExitCode {
                 .downcast_ref::<heatrun::Error>()
                 .is_some_and(|e| e.is_bad_input());
             // One line: what is wrong, then (where the command line can mend it) what to do.
+            let message = commands::hint::one_line(&err);
             match commands::hint::for_error(&err) {
-                Some(hint) => eprintln!("heatrun: {err:#}; {hint}"),
-                None => eprintln!("heatrun: {err:#}"),
+                Some(hint) => eprintln!("heatrun: {message}; {hint}"),
+                None => eprintln!("heatrun: {message}"),
             }
             ExitCode::from(if bad_input { 2 } else { 1 })
         }

@@ -18,6 +18,7 @@ use crate::estimate::{
 };
 use crate::model::{self, ModelAnalysis};
 use crate::network::{self, NetworkAnalysis};
+use crate::progress::Observer;
 use crate::recording::{
     self, Nameplate, NameplateEntries, ReadOptions, RecordingSummary, SampleSink,
 };
@@ -83,6 +84,8 @@ pub struct ReplayOptions {
     /// What the states are measured from: the description's references, or the coolant
     /// inlet where the recording calls for it ([`coolant::resolve`]).
     pub reference: ReferencePolicy,
+    /// Told how reading and estimation go ([`crate::progress`]); silent by default.
+    pub progress: Observer,
 }
 
 /// Data the model is validated on, not estimated from.
@@ -118,6 +121,7 @@ impl Default for ReplayOptions {
             validation: None,
             model: ModelDescription::generator(),
             reference: ReferencePolicy::Auto,
+            progress: Observer::silent(),
         }
     }
 }
@@ -252,6 +256,7 @@ pub fn prepare_with(
     let mut decimator = Decimator::new(options.ts_s, model.alignments())?;
     let read = ReadOptions {
         free_channels: model.free_channels(),
+        progress: options.progress.clone(),
     };
     let summary = match also {
         Some(also) => recording::read_recording_with(
@@ -375,6 +380,7 @@ pub fn replay_with(
             what: "the inputs".into(),
         })
     })?;
+    options.progress.stage("analysing the model");
     let analysis = model::analyse(
         &estimate,
         &prepared.data,
@@ -531,6 +537,7 @@ pub fn estimate_in(
         Method::Iv => Box::new(InstrumentalVariables::default()),
         Method::Oe => Box::new(OutputError {
             weights: options.weights.clone(),
+            progress: options.progress.clone(),
         }),
         Method::Rc => {
             if let Some(input) = options
@@ -547,6 +554,7 @@ pub fn estimate_in(
             Box::new(ResistanceCapacitance {
                 weights: options.weights.clone(),
                 scaling,
+                progress: options.progress.clone(),
             })
         }
     };

@@ -300,6 +300,15 @@ fn loading<'a>(model: &'a ThermalModel, o: &RatingOptions) -> Result<Loading<'a>
     })
 }
 
+/// The parts of `model` with a limit under `o`'s class and per-part limits, as [`rate`]
+/// judges them (for a prediction drawn against the limits).
+pub fn limited_parts(
+    model: &ThermalModel,
+    o: &RatingOptions,
+) -> Result<Vec<LimitedPart>, UseError> {
+    parts(model, o)
+}
+
 /// The parts with a limit: states by their channel (the class's table) or by name
 /// (`--limit`), and the field winding derived from the stator winding.
 pub fn parts(model: &ThermalModel, o: &RatingOptions) -> Result<Vec<LimitedPart>, UseError> {

@@ -58,7 +58,12 @@ fn a_missing_file() {
     let dir = common::tempdir();
     let out = heatrun(&["replay", "nowhere.mcap"], dir.path());
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("nowhere.mcap"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("nowhere.mcap"));
+    // The cause is said once, not again after the message that already holds it.
+    let cause = std::io::Error::from(std::io::ErrorKind::NotFound).to_string();
+    assert_eq!(stderr.matches("cannot read").count(), 1, "{stderr}");
+    assert!(stderr.matches(&cause).count() <= 1, "{stderr}");
 }
 
 #[test]
@@ -273,4 +278,133 @@ fn synth_refuses_disturbances_the_paper_model_cannot_take() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--field voltage"));
     assert!(common::files_in(dir.path()).is_empty(), "no output");
+}
+
+/// Runs a command that must fail with status 2 in one line; returns the line.
+fn one_line_exit_2(args: &[&str], dir: &Path) -> String {
+    let out = heatrun(args, dir);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "heatrun {args:?}: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+    stderr
+}
+
+/// The errors a user mends from the command line say how: the flag, file or command,
+/// after what is wrong and where.
+#[test]
+fn errors_say_what_to_do_next() {
+    let dir = common::tempdir();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let fixture = fixture.to_str().unwrap();
+    let rls = one_line_exit_2(
+        &[
+            "replay",
+            fixture,
+            "--method",
+            "rls",
+            "--forgetting",
+            "2",
+            "--rrd",
+            "x.rrd",
+        ],
+        dir.path(),
+    );
+    assert!(
+        rls.contains("forgetting factor 2") && rls.contains("; give --forgetting"),
+        "{rls}"
+    );
+    assert!(!dir.path().join("x.rrd").exists());
+
+    // predict and rating: the model report and the load schedule.
+    std::fs::write(dir.path().join("notes.json"), "{}").unwrap();
+    let not_a_report = one_line_exit_2(
+        &["rating", "--model", "notes.json", "--class", "F"],
+        dir.path(),
+    );
+    assert!(
+        not_a_report.contains("notes.json: not a heatrun model report")
+            && not_a_report.contains("heatrun replay FILE --report REPORT.json"),
+        "{not_a_report}"
+    );
+    let replayed = heatrun(
+        &[
+            "replay",
+            fixture,
+            "--rrd",
+            "x.rrd",
+            "--report",
+            "model.json",
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(replayed.status.success());
+    std::fs::write(
+        dir.path().join("load.csv"),
+        "time_s,apparent_power_mva,pwer_factor\n0,60,0.9\n",
+    )
+    .unwrap();
+    let column = one_line_exit_2(
+        &[
+            "predict",
+            "--model",
+            "model.json",
+            "--load",
+            "load.csv",
+            "--out",
+            "p.csv",
+        ],
+        dir.path(),
+    );
+    assert!(
+        column.contains("load.csv: row 1, column `pwer_factor`: not a load column")
+            && column.contains("did you mean `power_factor`?"),
+        "{column}"
+    );
+    assert!(!dir.path().join("p.csv").exists());
+    let no_limit = one_line_exit_2(&["rating", "--model", "model.json"], dir.path());
+    assert!(
+        no_limit.contains("; give --class B, F or H, or --limit"),
+        "{no_limit}"
+    );
+    let unknown_part = one_line_exit_2(
+        &["rating", "--model", "model.json", "--limit", "rotor=120"],
+        dir.path(),
+    );
+    assert!(
+        unknown_part.contains("`rotor`") && unknown_part.contains("--limit takes one of the parts"),
+        "{unknown_part}"
+    );
+
+    // import: a misspelt column in the map, a marker of missing values in the table.
+    std::fs::write(
+        dir.path().join("t.csv"),
+        "Time (sec),T1 (degC)\n0,20\n1,---\n",
+    )
+    .unwrap();
+    let map = |time_column: &str| {
+        format!(
+            "[time]\ncolumn = \"{time_column}\"\n[[column]]\ncolumn = \"T1 (degC)\"\n\
+             channel = \"T1\"\nunit = \"degC\"\n"
+        )
+    };
+    std::fs::write(dir.path().join("typo.toml"), map("Tme (sec)")).unwrap();
+    let typo = one_line_exit_2(
+        &["import", "t.csv", "--map", "typo.toml", "--out", "o.mcap"],
+        dir.path(),
+    );
+    assert!(
+        typo.contains("no column `Tme (sec)`") && typo.contains("did you mean `Time (sec)`?"),
+        "{typo}"
+    );
+    std::fs::write(dir.path().join("map.toml"), map("Time (sec)")).unwrap();
+    let marker = one_line_exit_2(
+        &["import", "t.csv", "--map", "map.toml", "--out", "o.mcap"],
+        dir.path(),
+    );
+    assert!(
+        marker.contains("line 3") && marker.contains("add `missing = [\"---\"]`"),
+        "{marker}"
+    );
+    assert!(!dir.path().join("o.mcap").exists());
 }

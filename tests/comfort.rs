@@ -62,3 +62,143 @@ fn completions_and_the_man_page_name_every_command() {
     let bad = common::heatrun(&["completions", "tcsh"], dir.path());
     assert_eq!(bad.status.code(), Some(2));
 }
+
+/// A short synthetic heat run in `dir`, written once per test.
+fn short_run(dir: &std::path::Path, name: &str) -> std::path::PathBuf {
+    let mcap = dir.join(name);
+    synth::write(
+        &mcap,
+        &SynthOptions {
+            duration_s: 6000.0,
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
+    mcap
+}
+
+/// Whether text shows a progress bar: the bars' words, a lone carriage return or an
+/// escape sequence.
+fn shows_progress(stderr: &[u8]) -> bool {
+    // A terminal turns each newline into CR LF: only a lone CR redraws a line.
+    let text = String::from_utf8_lossy(stderr).replace("\r\n", "\n");
+    text.contains('\x1b')
+        || text.contains('\r')
+        || text.contains("reading")
+        || text.contains("estimating")
+        || text.contains("replaying")
+        || text.contains("analysing")
+}
+
+#[test]
+fn progress_never_goes_into_a_pipe() {
+    let dir = common::tempdir();
+    short_run(dir.path(), "a.mcap");
+    // One recording (the reader's and the estimator's bars, rc for both fits), then a
+    // fleet (recordings done): stderr is a pipe here, as in CI logs.
+    let one = common::heatrun(
+        &["replay", "a.mcap", "--method", "rc", "--rrd", "a.rrd"],
+        dir.path(),
+    );
+    assert!(
+        one.status.success(),
+        "{}",
+        String::from_utf8_lossy(&one.stderr)
+    );
+    assert!(
+        !shows_progress(&one.stderr),
+        "{:?}",
+        String::from_utf8_lossy(&one.stderr)
+    );
+    let fleet_dir = dir.path().join("fleet");
+    std::fs::create_dir(&fleet_dir).unwrap();
+    short_run(&fleet_dir, "b.mcap");
+    short_run(&fleet_dir, "c.mcap");
+    let fleet = common::heatrun(&["replay", "fleet", "--out-dir", "out"], dir.path());
+    assert!(
+        fleet.status.success(),
+        "{}",
+        String::from_utf8_lossy(&fleet.stderr)
+    );
+    assert!(
+        !shows_progress(&fleet.stderr),
+        "{:?}",
+        String::from_utf8_lossy(&fleet.stderr)
+    );
+}
+
+/// Runs heatrun with stderr on a pseudo-terminal; returns its exit status and what it
+/// wrote there.
+#[cfg(unix)]
+fn heatrun_on_a_terminal(args: &[&str], cwd: &std::path::Path) -> (bool, Vec<u8>) {
+    use std::io::Read;
+    use std::os::fd::FromRawFd;
+    let (mut master, mut slave) = (0, 0);
+    // SAFETY: openpty writes two file descriptors, which are owned by the Files below.
+    let rc = unsafe {
+        libc::openpty(
+            &mut master,
+            &mut slave,
+            std::ptr::null_mut(),
+            std::ptr::null(),
+            std::ptr::null(),
+        )
+    };
+    assert_eq!(rc, 0, "openpty");
+    // SAFETY: both descriptors were just opened and are owned by nothing else.
+    let (mut master, slave) = unsafe {
+        (
+            std::fs::File::from_raw_fd(master),
+            std::fs::File::from_raw_fd(slave),
+        )
+    };
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_heatrun"))
+        .args(args)
+        .current_dir(cwd)
+        .stdout(std::process::Stdio::null())
+        .stderr(slave)
+        .spawn()
+        .expect("heatrun runs");
+    // The terminal's buffer is small: read while the child writes. The read ends (EIO)
+    // when the child, the last holder of the terminal's other end, exits.
+    let reader = std::thread::spawn(move || {
+        let mut out = Vec::new();
+        let mut buf = [0u8; 4096];
+        while let Ok(n) = master.read(&mut buf) {
+            if n == 0 {
+                break;
+            }
+            out.extend_from_slice(&buf[..n]);
+        }
+        out
+    });
+    let status = child.wait().unwrap();
+    (status.success(), reader.join().unwrap())
+}
+
+#[cfg(unix)]
+#[test]
+fn progress_is_drawn_on_a_terminal_and_not_with_quiet() {
+    let dir = common::tempdir();
+    short_run(dir.path(), "a.mcap");
+    let (ok, shown) = heatrun_on_a_terminal(
+        &["replay", "a.mcap", "--method", "rc", "--rrd", "a.rrd"],
+        dir.path(),
+    );
+    assert!(ok, "{}", String::from_utf8_lossy(&shown));
+    let text = String::from_utf8_lossy(&shown);
+    assert!(
+        text.contains("reading") && text.contains("estimating"),
+        "{text:?}"
+    );
+    let (ok, quiet) = heatrun_on_a_terminal(
+        &["replay", "a.mcap", "--rrd", "a.rrd", "--quiet"],
+        dir.path(),
+    );
+    assert!(ok);
+    assert!(
+        !shows_progress(&quiet),
+        "{:?}",
+        String::from_utf8_lossy(&quiet)
+    );
+}

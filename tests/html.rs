@@ -2,7 +2,8 @@
 //! checked for its sections, its figures (each an inline `<svg>` with drawn content), the
 //! shape of its tables and their numbers against the JSON report, and that it refers to
 //! nothing outside itself — for the fixture, a recursive estimate with a hold-out, a
-//! spec model of two states and two inputs (TCLab), and a fleet.
+//! spec model of two states and two inputs (TCLab), and a fleet; and the pages of
+//! `predict --html` and `rating --html`.
 
 use std::path::Path;
 
@@ -395,6 +396,8 @@ fn a_spec_model_of_two_states_gets_its_own_page() {
             spec.to_str().unwrap(),
             "--rrd",
             "tclab.rrd",
+            "--report",
+            "tclab.json",
             "--html",
             "--quiet",
         ],
@@ -413,6 +416,42 @@ fn a_spec_model_of_two_states_gets_its_own_page() {
     // diagram: TCLab's identified model is no passive network (the page says why).
     assert_figures_drawn(&page, 6);
     assert_self_contained(&page);
+
+    // Its prediction's page: the schedule by the channels the spec reads, its inputs (not
+    // the generator's losses), the two states, no limits.
+    std::fs::write(
+        dir.path().join("heaters.csv"),
+        "time_s,Q1,Q2\n0,50,0\n600,50,80\n1200,0,0\n1800,0,0\n",
+    )
+    .unwrap();
+    run(
+        &[
+            "predict",
+            "--model",
+            "tclab.json",
+            "--load",
+            "heaters.csv",
+            "--out",
+            "p.csv",
+            "--html",
+            "p.html",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    let page = Page::read(&dir.path().join("p.html"));
+    assert!(page
+        .html
+        .contains("<title>TCLab MIMO heaters: predicted temperatures"));
+    assert_figures_drawn(&page, 2);
+    assert_self_contained(&page);
+    let schedule = page.table("channels, as given");
+    assert_eq!(schedule.rows[0], ["from s", "Q1", "Q2"]);
+    assert_eq!(schedule.rows[2], ["600", "50.00", "80.00"]);
+    assert!(page.html.contains("<h2>2. Inputs</h2>"));
+    let peaks = page.table("peak temperature");
+    assert_eq!(peaks.rows.len(), 1 + 2);
+    assert_eq!(peaks.rows[1][4], "–", "no limit given");
 }
 
 /// In fleet mode a bare --html writes one page beside each report; a named page is refused.
@@ -452,4 +491,154 @@ fn a_fleet_writes_one_page_per_recording() {
     let mistaken = heatrun(&["replay", "--html", "runs/unit1.mcap"], dir.path());
     assert_eq!(mistaken.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&mistaken.stderr).contains("--html=PAGE.html"));
+}
+
+/// The fixture's model as a report, and the README's day (60 % load, rated, a 115 %
+/// hour), in a fresh folder.
+fn fixture_model_and_day() -> tempfile::TempDir {
+    let dir = common::tempdir();
+    let fixture = package_root().join("fixtures/paper_heat_run.mcap");
+    run(
+        &[
+            "replay",
+            fixture.to_str().unwrap(),
+            "--rrd",
+            "run.rrd",
+            "--report",
+            "model.json",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    std::fs::write(
+        dir.path().join("day.csv"),
+        "time_s,apparent_power_mva,power_factor\n0,60,0.9\n21600,100,0.9\n43200,115,0.9\n\
+         46800,80,0.9\n86400,80,0.9\n",
+    )
+    .unwrap();
+    dir
+}
+
+/// A cell of a parsed table as a number.
+fn cell(t: &ParsedTable, row: usize, column: usize) -> f64 {
+    t.rows[row][column]
+        .parse()
+        .unwrap_or_else(|_| panic!("{:?} is not a number", t.rows[row][column]))
+}
+
+/// `predict --html`: schedule, losses, temperatures against the class's limits, peaks
+/// (the CSV's own maxima), the model; one figure of losses and one of temperatures.
+#[test]
+fn the_prediction_page_shows_the_schedule_temperatures_limits_and_peaks() {
+    let dir = fixture_model_and_day();
+    run(
+        &[
+            "predict",
+            "--model",
+            "model.json",
+            "--load",
+            "day.csv",
+            "--out",
+            "pred.csv",
+            "--html",
+            "pred.html",
+            "--class",
+            "F",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    let page = Page::read(&dir.path().join("pred.html"));
+    assert_eq!(
+        page.section_ids(),
+        ["schedule", "losses", "temperatures", "peaks", "model"]
+    );
+    assert_figures_drawn(&page, 2);
+    assert_self_contained(&page);
+    assert_eq!(page.table("operating points").rows.len(), 1 + 5);
+    // The peaks are the CSV's maxima; the limits class F's (IEC 60034-1: 40 °C + 110 K
+    // for the stator winding and core, + 105 K for the field winding by resistance).
+    let csv = std::fs::read_to_string(dir.path().join("pred.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let peaks = page.table("peak temperature");
+    assert_eq!(
+        peaks.rows.len(),
+        1 + 4,
+        "three states and the derived field winding"
+    );
+    for (row, column) in [(1, "stator_winding_temp_c"), (4, "field_winding_temp_c")] {
+        let j = header.iter().position(|h| *h == column).unwrap();
+        let max = rows.iter().map(|r| r[j]).fold(f64::NEG_INFINITY, f64::max);
+        assert!(
+            (cell(&peaks, row, 2) - max).abs() <= 0.005 + 1e-6,
+            "{column}"
+        );
+    }
+    assert_eq!(cell(&peaks, 1, 4), 150.0);
+    assert_eq!(cell(&peaks, 4, 4), 145.0);
+    assert_eq!(peaks.rows[3][4], "–", "the cooling water has no limit");
+    assert!((cell(&peaks, 1, 5) - (150.0 - cell(&peaks, 1, 2))).abs() < 0.011);
+    // The limit is drawn: a dashed line named after its class in the temperatures' figure.
+    assert!(page.html.contains("limit (class F)"));
+}
+
+/// `rating --html`: limits with their source, the continuous rating as the JSON has it,
+/// margins, the overload table and its curve.
+#[test]
+fn the_rating_page_shows_limits_continuous_rating_and_overloads() {
+    let dir = fixture_model_and_day();
+    run(
+        &[
+            "rating",
+            "--model",
+            "model.json",
+            "--class",
+            "F",
+            "--json",
+            "rating.json",
+            "--html",
+            "rating.html",
+        ],
+        dir.path(),
+    );
+    let page = Page::read(&dir.path().join("rating.html"));
+    let rating: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("rating.json")).unwrap())
+            .unwrap();
+    assert_eq!(page.section_ids(), ["limits", "continuous", "overloads"]);
+    assert_figures_drawn(&page, 1);
+    assert_self_contained(&page);
+    assert!(page.html.contains("IEC 60034-1:2017, Table 7"));
+    let limits = page.table("temperature limit of each part");
+    assert_eq!(
+        limits.rows.len(),
+        1 + rating["limits"].as_array().unwrap().len()
+    );
+    let continuous = page.table("Steady temperatures");
+    for (i, t) in numbers(&rating["temperatures_at_max_c"]).iter().enumerate() {
+        assert_eq!(continuous.rows[1 + i][2], format!("{t:.2}"));
+    }
+    for (i, m) in numbers(&rating["margins_at_rated_k"]).iter().enumerate() {
+        assert_eq!(continuous.rows[1 + i][4], format!("{m:.2}"));
+    }
+    let mva = rating["max_continuous_apparent_power_mva"]
+        .as_f64()
+        .unwrap();
+    assert!(page.html.contains(&format!("{mva:.2} MVA")));
+    let overloads = page.table("Time from the rated steady state");
+    assert_eq!(overloads.rows.len(), 1 + 5);
+    for (row, o) in overloads.rows[1..]
+        .iter()
+        .zip(rating["overloads"].as_array().unwrap())
+    {
+        let shown = match o["time_to_limit_s"].as_f64() {
+            Some(t) => format!("{t:.0}"),
+            None => "none".into(),
+        };
+        assert_eq!(row[1], shown);
+    }
 }

@@ -1,7 +1,31 @@
 //! What to do next, for the errors the user can fix from the command line: the library's
-//! errors name what is wrong; the CLI edge names the flag or file that mends it.
+//! errors name what is wrong (file, channel, row, key, time); the CLI edge names the flag,
+//! file or command that mends it, in the style of ripgrep's messages.
 
+use heatrun::decimate::DecimateError;
+use heatrun::estimate::EstimationError;
+use heatrun::import::ImportError;
+use heatrun::model::ModelError;
+use heatrun::predict::UseError;
 use heatrun::Error;
+
+/// The error as one line: its message, then each cause whose text the message does not
+/// already hold (the library's messages carry their causes, so `{:#}` would say them
+/// twice: "cannot read: No such file…: No such file…").
+pub fn one_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
 
 /// A one-line hint for an error, where the command line can mend it.
 pub fn for_error(err: &anyhow::Error) -> Option<String> {
@@ -10,6 +34,18 @@ pub fn for_error(err: &anyhow::Error) -> Option<String> {
         Error::InRecording { error, .. } => error.as_ref(),
         other => other,
     };
+    match e {
+        Error::Estimation(e) => for_estimation(e),
+        Error::Model(e) => for_model(e),
+        Error::ModelUse(e) => for_model_use(e),
+        Error::Decimate(e) => for_decimation(e),
+        Error::Import(e) => for_import(e),
+        other => for_replay(other),
+    }
+}
+
+/// Hints for the replay's own errors: the recording, the nameplate, the options.
+fn for_replay(e: &Error) -> Option<String> {
     Some(match e {
         Error::NoFieldTemperature | Error::FieldScalingRise { .. } => {
             "give `field_winding_final_temp_c` in a machine file with --machine FILE.toml".into()
@@ -21,15 +57,24 @@ pub fn for_error(err: &anyhow::Error) -> Option<String> {
         Error::MissingNameplateKey { .. } | Error::BadNameplateValue { .. } => {
             "give the key in a machine file with --machine FILE.toml".into()
         }
-        Error::Decimate(heatrun::decimate::DecimateError::SampleTime { .. }) => {
-            "give --ts a sample time between 0.001 s and 3600 s".into()
-        }
-        Error::Decimate(heatrun::decimate::DecimateError::SparseSpan { .. }) => {
-            "`heatrun info FILE` shows each channel's span; a longer --ts shrinks the grid".into()
+        Error::NameplateNeeded => {
+            "give the nameplate in a machine file with --machine FILE.toml (the README's \
+             \"The recording format\" lists its keys)"
+                .into()
         }
         Error::MissingChannel { .. } => {
             "`heatrun info FILE` lists the channels; a recording of another system needs \
              --spec SPEC.toml naming its channels"
+                .into()
+        }
+        Error::NoCommonInstant { .. } | Error::InsufficientData(_) => {
+            "`heatrun info FILE` shows each channel's span and gaps; a longer --ts bridges \
+             short gaps"
+                .into()
+        }
+        Error::Channel { .. } => {
+            "mend the channel's metadata where the recording is written, or convert the table \
+             again with `heatrun import` and the column's `unit` in the map"
                 .into()
         }
         Error::HoldOutFraction { .. } => "give --holdout a fraction such as 0.3".into(),
@@ -37,10 +82,212 @@ pub fn for_error(err: &anyhow::Error) -> Option<String> {
             "give --split-at a time inside the recording, in seconds from its start".into()
         }
         Error::Weights { .. } => "give --weights one positive number per state".into(),
-        Error::Estimation(heatrun::estimate::EstimationError::InputNotHeat { .. }) => {
-            "identify it with --method oe (a black-box model takes any input)".into()
-        }
         Error::BadSpec { .. } => "the README's \"Any thermal system\" shows the spec's keys".into(),
         _ => return None,
     })
+}
+
+/// Hints for the estimators' refusals.
+fn for_estimation(e: &EstimationError) -> Option<String> {
+    Some(match e {
+        EstimationError::InputNotHeat { .. } => {
+            "identify it with --method oe (a black-box model takes any input)".into()
+        }
+        EstimationError::TooFewRows { .. } => {
+            "a shorter --ts gives more instants; `heatrun info FILE` shows where the channels \
+             have gaps"
+                .into()
+        }
+        EstimationError::ZeroRegressor { .. } | EstimationError::NoExcitation { .. } => {
+            "the inputs must change, and change independently: replay a heat run with load \
+             steps, or identify fewer inputs with --spec SPEC.toml"
+                .into()
+        }
+        EstimationError::ForgettingFactor { .. } => {
+            "give --forgetting a factor in (0, 1], such as 0.999".into()
+        }
+        EstimationError::WeightShape { .. } | EstimationError::InvalidWeight { .. } => {
+            "give --weights one positive number per state".into()
+        }
+        EstimationError::UnstableStart { .. }
+        | EstimationError::NoStableStep { .. }
+        | EstimationError::MinimisationFailed { .. } => {
+            "try another estimator (--method iv or --method wls) to see the start it gets, or a \
+             shorter --ts"
+                .into()
+        }
+        _ => return None,
+    })
+}
+
+/// Hints for an estimate that is no thermal system.
+fn for_model(e: &ModelError) -> Option<String> {
+    Some(match e {
+        ModelError::NoRealLogarithm { .. }
+        | ModelError::Unstable { .. }
+        | ModelError::UnstablePair { .. }
+        | ModelError::ComplexEigenvalues { .. } => {
+            "a shorter --ts resolves fast dynamics; --method oe is the least biased by sensor \
+             noise"
+                .into()
+        }
+        _ => return None,
+    })
+}
+
+/// Hints for the decimator's refusals.
+fn for_decimation(e: &DecimateError) -> Option<String> {
+    Some(match e {
+        DecimateError::SampleTime { .. } => {
+            "give --ts a sample time between 0.001 s and 3600 s".into()
+        }
+        DecimateError::SparseSpan { .. } => {
+            "`heatrun info FILE` shows each channel's span; a longer --ts shrinks the grid".into()
+        }
+        DecimateError::NoSamples => {
+            "`heatrun info FILE` lists the channels and their samples".into()
+        }
+        _ => return None,
+    })
+}
+
+/// Hints for `heatrun import`: the map and the table.
+fn for_import(e: &ImportError) -> Option<String> {
+    Some(match e {
+        ImportError::AbsentColumn {
+            column, available, ..
+        } => {
+            let names = available.replace('`', "");
+            match closest(column.trim_matches('`'), &names) {
+                Some(name) => format!("did you mean `{name}`? Mend the map's `column`"),
+                None => "name one of the columns in the map, or give its position (1-based)".into(),
+            }
+        }
+        ImportError::BadNumber { text, .. } => format!(
+            "if `{text}` marks a missing value, add `missing = [\"{text}\"]` to the map's \
+             [input]; `decimal_comma = true` reads 1,5"
+        ),
+        ImportError::RaggedRow { .. } => {
+            "set the map's [input] `delimiter` (\",\", \";\", \"\\t\" or \"whitespace\"); \
+             `heatrun import --guess FILE` shows what it finds"
+                .into()
+        }
+        ImportError::BadTime { .. } => {
+            "give the map's [time] `format` (\"seconds\" or \"timestamp\"), or a `pattern` \
+             such as \"%d.%m.%Y %H:%M:%S\""
+                .into()
+        }
+        ImportError::MapSyntax { .. } | ImportError::MapValue { .. } => {
+            "`heatrun import --guess FILE` prints a map to start from; the README's \
+             \"Importing CSV\" shows its keys"
+                .into()
+        }
+        _ => return None,
+    })
+}
+
+/// Hints for `predict` and `rating`: the model report and the load schedule.
+fn for_model_use(e: &UseError) -> Option<String> {
+    Some(match e {
+        UseError::NotAReport { .. } | UseError::MissingBlock { .. } | UseError::Shape { .. } => {
+            "--model takes the JSON report of `heatrun replay FILE --report REPORT.json`".into()
+        }
+        UseError::ProfileVersion { .. } => {
+            "replay the recording again with this heatrun (`heatrun replay FILE --report \
+             REPORT.json`) for a report it reads"
+                .into()
+        }
+        UseError::UnknownColumn { column, known, .. } => match closest(column, known) {
+            Some(name) => format!("did you mean `{name}`? Rename the column in the file"),
+            None => "rename or remove the column; the README's \"Using the model\" shows a \
+                     schedule"
+                .into(),
+        },
+        UseError::MissingColumn { .. } => {
+            "the README's \"Using the model\" shows a schedule's columns".into()
+        }
+        UseError::BadCell { .. } | UseError::TimeBackwards { .. } => {
+            "mend that cell of the load file; rows are in increasing time_s".into()
+        }
+        // Requests the command line mends (`predict::predict`, `rating::rate`); matched by
+        // their wording, which the tests in `tests/bad_input.rs` hold.
+        UseError::Request(message) if message.contains("initial temperatures given") => {
+            "give --initial-temps one temperature per state, in the order listed".into()
+        }
+        UseError::Request(message) if message.contains("which is no part of the model") => {
+            "--limit takes one of the parts listed: STATE=°C".into()
+        }
+        UseError::Request(message) if message.starts_with("no part has a limit") => {
+            "give --class B, F or H, or --limit STATE=°C per part".into()
+        }
+        UseError::Request(message) if message.starts_with("the power factor") => {
+            "give --power-factor a value such as 0.9 (or -0.95 leading)".into()
+        }
+        _ => return None,
+    })
+}
+
+/// The known name (from a comma-separated list) nearest `given`, if one is near: at most
+/// a third of its letters differ (edit distance), ignoring case.
+fn closest(given: &str, known: &str) -> Option<String> {
+    let given = given.to_lowercase();
+    known
+        .split(',')
+        .map(str::trim)
+        .filter(|k| !k.is_empty())
+        .map(|k| (edit_distance(&given, &k.to_lowercase()), k))
+        .filter(|(d, k)| *d > 0 && *d * 3 <= k.len().max(given.len()))
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, k)| k.to_owned())
+}
+
+/// Levenshtein distance: insertions, deletions and substitutions of characters.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let above = row[j + 1];
+            row[j + 1] = (diagonal + usize::from(ca != *cb))
+                .min(row[j] + 1)
+                .min(above + 1);
+            diagonal = above;
+        }
+    }
+    row[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cause_already_in_the_message_is_not_repeated() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
+        let err = anyhow::Error::from(Error::ReadInput {
+            path: "a.mcap".into(),
+            source: io,
+        });
+        assert_eq!(one_line(&err), "a.mcap: cannot read: No such file");
+        let wrapped = anyhow::Error::from(std::io::Error::other("disk full")).context("b.rrd");
+        assert_eq!(one_line(&wrapped), "b.rrd: disk full");
+    }
+
+    #[test]
+    fn a_misspelt_column_gets_the_nearest_known_name() {
+        let known = "time_s, armature_current_a, apparent_power_mva, power_factor";
+        assert_eq!(
+            closest("pwer_factor", known).as_deref(),
+            Some("power_factor")
+        );
+        assert_eq!(
+            closest("Apparent_Power_MVA ", known.trim()).as_deref(),
+            Some("apparent_power_mva")
+        );
+        assert_eq!(closest("pf", known), None, "too far from any");
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+        assert_eq!(edit_distance("", "abc"), 3);
+    }
 }

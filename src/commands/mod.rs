@@ -1,5 +1,6 @@
 //! One handler per command, behind [`dispatch`].
 
+mod bars;
 mod completions;
 pub mod hint;
 mod import;

@@ -14,6 +14,9 @@ pub fn run(args: PredictArgs) -> anyhow::Result<Outcome> {
         (None, InitialArg::Steady) => InitialState::Steady,
     };
     let prediction = predict::predict(&model, &schedule, &initial).map_err(heatrun::Error::from)?;
+    if let Some(page) = &args.html {
+        super::rating::write_prediction_page(&args, &model, &schedule, &prediction, page)?;
+    }
     prediction.write_csv(&args.out)?;
     if let Some(rrd) = &args.rrd {
         let limits = limits(&model, &args)?;

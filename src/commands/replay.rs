@@ -1,18 +1,22 @@
 //! `heatrun replay`: one recording, or a fleet of them in parallel.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Context;
 use clap::ValueEnum;
 use heatrun::atomic::write_atomically;
 use heatrun::pipeline::{self, Method, Replay, ReplayOptions, ValidationSource};
+use heatrun::progress::{Observer, Progress};
 use heatrun::publish::{Publisher, RerunSink};
 use heatrun::report::Report;
 use heatrun::spec::coolant::ReferencePolicy;
 use heatrun::spec::ModelDescription;
 use rayon::prelude::*;
 
+use super::bars::{self, Bars};
 use super::Outcome;
 use crate::cli::{MethodArg, ReferenceArg, ReplayArgs, SummaryFormat};
 
@@ -72,6 +76,7 @@ fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
             ReferenceArg::Initial => ReferencePolicy::Initial,
             ReferenceArg::Inlet => ReferencePolicy::Inlet,
         },
+        progress: Observer::silent(),
     })
 }
 
@@ -154,14 +159,19 @@ struct Outputs<'a> {
     html: Option<&'a Path>,
 }
 
-/// Replays one recording into its sink and (if named) its report files.
+/// Replays one recording into its sink and (if named) its report files, telling
+/// `progress` how the reading and the estimation go.
 fn replay_one(
     args: &ReplayArgs,
     file: &Path,
     sink: &RerunSink,
     outputs: Outputs<'_>,
+    progress: Observer,
 ) -> anyhow::Result<Replayed> {
-    let options = options(args)?;
+    let options = ReplayOptions {
+        progress,
+        ..options(args)?
+    };
     let name = file
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -175,6 +185,7 @@ fn replay_one(
     } else {
         pipeline::replay(file, &options)?
     };
+    options.progress.stage("writing the outputs");
     let report = Report::new(&replay);
     let summary = report.summary();
     publisher.finish(&replay, &summary)?;
@@ -217,7 +228,10 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<Outcome> {
         report: args.report.as_deref(),
         html: html.as_deref(),
     };
-    let replayed = replay_one(&args, file, &sink, outputs)?;
+    let bars = Arc::new(Bars::new(bars::draw_here(args.quiet)));
+    let replayed = replay_one(&args, file, &sink, outputs, Observer::shared(bars.clone()));
+    bars.clear();
+    let replayed = replayed?;
     if args.quiet || args.summary == SummaryFormat::Json {
         for w in &replayed.replay.warnings {
             eprintln!("warning: {w}");
@@ -366,7 +380,10 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()))
         .max(1);
     let started = Instant::now();
-    let rows = replay_fleet(args, files, jobs)?;
+    let bars = Bars::new(bars::draw_here(args.quiet));
+    let rows = replay_fleet(args, files, jobs, &bars);
+    bars.clear();
+    let rows = rows?;
     let model = options(args)?.model;
     write_atomically(
         &args.out_dir.join("fleet-summary.csv"),
@@ -420,17 +437,32 @@ fn check_fleet_args(args: &ReplayArgs) -> anyhow::Result<()> {
 }
 
 /// Replays every file on a pool of `jobs` threads; the rows come back in the files' order.
+/// `progress` is told each recording done (the recordings' own reading and estimation,
+/// `jobs` at once, are not shown).
 fn replay_fleet(
     args: &ReplayArgs,
     files: &[PathBuf],
     jobs: usize,
+    progress: &dyn Progress,
 ) -> anyhow::Result<Vec<FleetRow>> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs.min(files.len()))
         .thread_name(|i| format!("heatrun-fleet-{i}"))
         .build()
         .context("cannot start the fleet's threads")?;
-    Ok(pool.install(|| files.par_iter().map(|f| fleet_row(args, f)).collect()))
+    let done = AtomicUsize::new(0);
+    progress.recording_done(0, files.len());
+    Ok(pool.install(|| {
+        files
+            .par_iter()
+            .map(|f| {
+                let row = fleet_row(args, f);
+                let done = done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress.recording_done(done, files.len());
+                row
+            })
+            .collect()
+    }))
 }
 
 /// Replays one recording of a fleet into `--out-dir`; a failure becomes its row's reason.
@@ -448,9 +480,12 @@ fn fleet_row(args: &ReplayArgs, file: &Path) -> FleetRow {
     };
     FleetRow {
         file: file.to_owned(),
-        outcome: replay_one(args, file, &rrd, outputs)
+        outcome: replay_one(args, file, &rrd, outputs, Observer::silent())
             .map(|replayed| FleetFigures::of(&replayed))
-            .map_err(|e| format!("{e:#}")),
+            .map_err(|e| match super::hint::for_error(&e) {
+                Some(hint) => format!("{}; {hint}", super::hint::one_line(&e)),
+                None => super::hint::one_line(&e),
+            }),
     }
 }
 

@@ -71,6 +71,7 @@ pub(crate) fn maximise_likelihood(
     for _ in 0..MAX_ITERATIONS {
         let step = OutputError {
             weights: Some(normalised(&completion.noise_variance, &oe.weights)),
+            progress: oe.progress.clone(),
         };
         let next = step.fit_weighted(
             &completion.data,

@@ -27,6 +27,7 @@ use super::{
     check_enough_rows, DiscreteModel, Estimate, EstimationError, Estimator, IdentificationData,
     Result,
 };
+use crate::progress::Observer;
 
 /// Segments beyond this many keep their start state instead of estimating it.
 pub const MAX_ESTIMATED_INITIAL_STATES: usize = 50;
@@ -37,6 +38,8 @@ pub struct OutputError {
     /// Per-output weights w_i > 0; `None` uses 1/σ_i² of the starting model's simulation
     /// error, re-estimated once from the first fit's residuals.
     pub weights: Option<Vec<f64>>,
+    /// Told each evaluation of the objective (its number and J) as the fit goes.
+    pub progress: Observer,
 }
 
 impl Estimator for OutputError {
@@ -139,6 +142,7 @@ impl OutputError {
         };
         let mut problem = Problem::new(data, segments, start, &weights);
         problem.entry_weight = entry_weight;
+        problem.progress = Some(Reporting::new(&self.progress, self.name()));
         let (problem, evaluations) = self.minimise(problem)?;
         Ok(Fitted {
             estimate: conclude(&problem, self.name(), rows_used, evaluations),
@@ -379,6 +383,33 @@ pub(crate) struct Problem<'a> {
     m: usize,
     pub(crate) params: DVector<f64>,
     cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
+    /// Where each full evaluation is reported, if anywhere.
+    pub(crate) progress: Option<Reporting>,
+}
+
+/// A fit's progress observer, the fit's name and its evaluations so far.
+pub(crate) struct Reporting {
+    observer: Observer,
+    method: &'static str,
+    evaluations: std::cell::Cell<usize>,
+}
+
+impl Reporting {
+    /// Reports for the fit `method` to `observer`, counting from 1.
+    pub(crate) fn new(observer: &Observer, method: &'static str) -> Reporting {
+        Reporting {
+            observer: observer.clone(),
+            method,
+            evaluations: std::cell::Cell::new(0),
+        }
+    }
+
+    /// One more evaluation, with J = Σ sse.
+    fn evaluated(&self, sse: &[f64]) {
+        let n = self.evaluations.get() + 1;
+        self.evaluations.set(n);
+        self.observer.iteration(self.method, n, sse.iter().sum());
+    }
 }
 
 impl<'a> Problem<'a> {
@@ -424,6 +455,7 @@ impl<'a> Problem<'a> {
             m,
             params: DVector::from_vec(params),
             cache: RefCell::new(None),
+            progress: None,
         }
     }
 
@@ -522,6 +554,9 @@ impl<'a> Problem<'a> {
         let mut gram = DMatrix::<f64>::zeros(cols, cols);
         let mut grad = DVector::<f64>::zeros(cols);
         let sse = self.pass(Some((&mut gram, &mut grad)));
+        if let Some(reporting) = &self.progress {
+            reporting.evaluated(&sse);
+        }
         Evaluation { sse, gram, grad }
     }
 
@@ -906,11 +941,51 @@ mod tests {
         }
     }
 
+    /// Every `iteration` call a fit makes.
+    #[derive(Default)]
+    struct IterationLog(std::sync::Mutex<Vec<(String, usize, f64)>>);
+
+    impl crate::progress::Progress for IterationLog {
+        fn iteration(&self, method: &str, evaluation: usize, cost: f64) {
+            self.0
+                .lock()
+                .unwrap()
+                .push((method.to_owned(), evaluation, cost));
+        }
+    }
+
+    #[test]
+    fn a_fit_reports_each_evaluation_and_its_falling_cost() {
+        let truth = two_state_model();
+        let data = exact_data(&truth, 1500, 11);
+        let log = std::sync::Arc::new(IterationLog::default());
+        let oe = OutputError {
+            weights: Some(vec![1.0, 1.0]),
+            progress: Observer::shared(log.clone()),
+        };
+        let fitted = oe.refine(&data, &perturbed(&truth)).unwrap();
+        let calls = log.0.lock().unwrap().clone();
+        assert!(calls.len() >= 3, "{} evaluations", calls.len());
+        assert!(
+            calls.len() <= fitted.iterations + 1,
+            "{} > {}",
+            calls.len(),
+            fitted.iterations
+        );
+        for (i, (method, n, _)) in calls.iter().enumerate() {
+            assert_eq!((method.as_str(), *n), ("oe", i + 1));
+        }
+        // From a 3 % error to noise-free truth: J falls by orders of magnitude.
+        let (first, last) = (calls[0].2, calls.last().unwrap().2);
+        assert!(last < 1e-6 * first, "J {first} -> {last}");
+    }
+
     #[test]
     fn weights_are_one_positive_number_per_output() {
         let data = exact_data(&two_state_model(), 500, 17);
         let wrong = OutputError {
             weights: Some(vec![1.0]),
+            ..OutputError::default()
         };
         assert!(matches!(
             wrong.estimate(&data),
@@ -922,6 +997,7 @@ mod tests {
         ));
         let negative = OutputError {
             weights: Some(vec![1.0, -2.0]),
+            ..OutputError::default()
         };
         assert_eq!(
             negative.estimate(&data).unwrap_err(),

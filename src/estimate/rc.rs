@@ -63,6 +63,9 @@ pub struct ResistanceCapacitance {
     pub weights: Option<Vec<f64>>,
     /// The model's scaling (θ_base, P_base), which turns B_c·C into K.
     pub scaling: Scaling,
+    /// Told each evaluation of the objective: OE's start fit's (`oe`), then the
+    /// network's (`rc`).
+    pub progress: crate::progress::Observer,
 }
 
 /// What the grey-box fit found besides Φ and Γ: the network itself.
@@ -89,6 +92,7 @@ impl Estimator for ResistanceCapacitance {
         self.scaling_is_valid()?;
         let oe = OutputError {
             weights: self.weights.clone(),
+            progress: self.progress.clone(),
         }
         .estimate(data)?;
         let map = Parametrisation::new(data, self.scaling, &start_parts(&oe.model, self.scaling));
@@ -142,7 +146,9 @@ impl ResistanceCapacitance {
         // The rises are measured from one noisy first sample each: a constant offset per
         // output, estimated beside the network (without it the slow columns of K and the
         // conductances to the coolant absorb it; README, "The thermal network").
-        let inner = Problem::new(data, segments, &start_model, &weights).with_output_offset();
+        let mut inner =
+            Problem::new(data, segments, &start_model, &weights).with_output_offset();
+        inner.progress = Some(oe::Reporting::new(&self.progress, self.name()));
         let mut problem = RcProblem::new(inner, map, start);
         let mut evaluations = 0;
         // Fewer evaluations than OE's 200·(p+1): a conductance or share that is zero in

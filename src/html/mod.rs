@@ -7,10 +7,13 @@
 //! [`replay_page`] ([`sections`] holds its sections, reading the [`Replay`] and its
 //! [`Report`]); another command builds its own page from its own sections and the same
 //! pieces: [`plot::Chart`] for figures, [`Table`] for tables, [`Page::write`] to save it.
+//! `heatrun predict` and `heatrun rating` do so: [`predict_page`], [`rating_page`].
 
 pub mod markup;
 pub mod network;
 pub mod plot;
+pub mod predict;
+pub mod rating;
 pub mod sections;
 mod style;
 
@@ -18,6 +21,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 pub use markup::{escape, Markup, Table};
+pub use predict::{predict_page, PredictionView};
+pub use rating::rating_page;
 
 use crate::pipeline::{Replay, ReplayOptions};
 use crate::report::Report;

@@ -556,6 +556,7 @@ mod tests {
                 unit: "W".into(),
                 kind: InputKind::Heat,
                 values: heater,
+                outlet_feedback: None,
             }],
             initial_index: 0,
             temperature_base_k: 1.0,

@@ -27,6 +27,7 @@ use super::chunk::ChunkError;
 use super::nameplate::{NameplateEntries, NAMEPLATE_RECORD};
 use super::quantity::ZERO_NOISE_FRACTION;
 use crate::error::{Error, Result};
+use crate::progress::{Observer, Throttle};
 
 /// How to read a recording.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -35,6 +36,9 @@ pub struct ReadOptions {
     /// profile to read as free signals ([`Signal::Free`](super::Signal::Free)), because a
     /// model spec names them. Others outside the profile are listed as ignored.
     pub free_channels: BTreeSet<String>,
+    /// Told the bytes and messages read as the file streams by (per chunk, at most about
+    /// ten times a second), and once more at the end.
+    pub progress: Observer,
 }
 
 /// One measured value, in the signal's canonical unit.
@@ -288,6 +292,13 @@ struct Reader<'s, S: SampleSink> {
     negatives: Vec<Option<NegativeReadings>>,
     /// Whether the Data End record (the end of the data section) was read.
     seen_data_end: bool,
+    /// Messages applied so far, and when the progress observer was last told.
+    messages: u64,
+    throttle: Throttle,
+    /// The file offset read up to, by the last batch merged.
+    bytes_done: u64,
+    /// The offset at the last look at the progress clock.
+    bytes_at_clock: u64,
 }
 
 /// Reads the heat-run recording at `path`, giving its samples to `sink`; channels
@@ -382,6 +393,10 @@ pub fn read_stream_with<S: SampleSink>(
         routes: HashMap::new(),
         negatives: Vec::new(),
         seen_data_end: false,
+        messages: 0,
+        throttle: Throttle::default(),
+        bytes_done: 0,
+        bytes_at_clock: 0,
     };
     // Three stages, so that both cores work: this thread's scan reads the file and
     // cuts it into records and whole chunks; workers decompress chunks and parse their
@@ -411,8 +426,12 @@ pub fn read_stream_with<S: SampleSink>(
     Ok(merger.summary)
 }
 
-/// A chunk to decode: its number in file order, its header and its compressed records.
-type ChunkWork = (u64, ChunkHeader, Vec<u8>);
+/// How far the file must advance between two looks at the progress clock, bytes.
+const PROGRESS_GRAIN_BYTES: u64 = 1 << 16;
+
+/// A chunk to decode: its number in file order, the file offset where it ends, its
+/// header and its compressed records.
+type ChunkWork = (u64, u64, ChunkHeader, Vec<u8>);
 
 /// A worker: decodes the chunks it is given until the scan ends or the merger stops.
 fn decode_chunks(
@@ -426,13 +445,14 @@ fn decode_chunks(
     ),
 ) {
     let mut decoder = super::chunk::ChunkDecoder::default();
-    for (seq, header, data) in work {
+    for (seq, bytes_end, header, data) in work {
         let mut items = spare_items.try_recv().unwrap_or_default();
         let decoded = decode_chunk(&mut decoder, &header, &data, &mut items);
         let _ = spare_data.try_send(data);
         let batch = DecodedBatch::Records {
             seq,
             chunk_start: header.message_start_time,
+            bytes_end,
             items: decoded.map(|()| items),
         };
         if done.send(batch).is_err() {
@@ -449,6 +469,8 @@ enum DecodedBatch {
         seq: u64,
         /// The chunk's declared start time (0 outside chunks), to name a damaged chunk.
         chunk_start: u64,
+        /// The file offset just after the record: how far the file has been read.
+        bytes_end: u64,
         items: std::result::Result<Vec<Item>, ChunkError>,
     },
     /// The end of the scan, and why it ended.
@@ -590,7 +612,8 @@ fn scan(
                     last_record_end += 9 + len;
                     continue;
                 }
-                let sent = match forward(opcode, data, seq, &work, &done, &spare_data) {
+                let at = (seq, last_record_end + 9 + len);
+                let sent = match forward(opcode, data, at, &work, &done, &spare_data) {
                     Ok(sent) => sent,
                     Err(what) => {
                         break ScanEnd::Damaged {
@@ -623,12 +646,12 @@ fn scan(
 }
 
 /// Hands a wanted record on: a chunk to the workers (copied into a recycled buffer), any
-/// other record, parsed, to the merger. `Ok(false)`: the merger stopped; `Err`: the record
-/// is damaged.
+/// other record, parsed, to the merger; `at` is its number in file order and the offset
+/// where it ends. `Ok(false)`: the merger stopped; `Err`: the record is damaged.
 fn forward(
     opcode: u8,
     data: &[u8],
-    seq: u64,
+    (seq, bytes_end): (u64, u64),
     work: &crossbeam_channel::Sender<ChunkWork>,
     done: &crossbeam_channel::Sender<DecodedBatch>,
     spare_data: &crossbeam_channel::Receiver<Vec<u8>>,
@@ -638,12 +661,13 @@ fn forward(
             let mut buf = spare_data.try_recv().unwrap_or_default();
             buf.clear();
             buf.extend_from_slice(&data);
-            Ok(work.send((seq, header, buf)).is_ok())
+            Ok(work.send((seq, bytes_end, header, buf)).is_ok())
         }
         Ok(record) => Ok(done
             .send(DecodedBatch::Records {
                 seq,
                 chunk_start: 0,
+                bytes_end,
                 items: Ok(item(record).into_iter().collect()),
             })
             .is_ok()),
@@ -691,20 +715,37 @@ impl<S: SampleSink> Reader<'_, S> {
                 next += 1;
                 match batch {
                     DecodedBatch::Records {
-                        chunk_start, items, ..
-                    } => match items {
-                        Ok(mut items) => {
-                            for item in items.drain(..) {
-                                self.apply(item)?;
+                        chunk_start,
+                        bytes_end,
+                        items,
+                        ..
+                    } => {
+                        match items {
+                            Ok(mut items) => {
+                                for item in items.drain(..) {
+                                    self.apply(item)?;
+                                }
+                                let _ = spare_items.try_send(items);
                             }
-                            let _ = spare_items.try_send(items);
+                            Err(why) => self.summary.data_loss.push(format!(
+                                "the chunk starting at {} is damaged ({why}); its messages were dropped",
+                                format_time(chunk_start)
+                            )),
                         }
-                        Err(why) => self.summary.data_loss.push(format!(
-                            "the chunk starting at {} is damaged ({why}); its messages were dropped",
-                            format_time(chunk_start)
-                        )),
-                    },
+                        // The clock is read once per 64 KiB at most: a file of records
+                        // outside chunks is a batch per message.
+                        self.bytes_done = bytes_end;
+                        let at = &mut self.bytes_at_clock;
+                        if bytes_end >= *at + PROGRESS_GRAIN_BYTES || *at == 0 {
+                            *at = bytes_end;
+                            if self.throttle.due() {
+                                self.report_progress(bytes_end);
+                            }
+                        }
+                    }
                     DecodedBatch::End { end, .. } => {
+                        // The whole stream was taken in, whether or not its end was usable.
+                        self.report_progress(self.summary.file_bytes.max(self.bytes_done));
                         self.finish(end)?;
                         self.judge_negative_readings();
                         return Ok(());
@@ -768,6 +809,13 @@ impl<S: SampleSink> Reader<'_, S> {
         Ok(())
     }
 
+    /// Tells the observer how far the file has been read.
+    fn report_progress(&self, bytes_done: u64) {
+        self.options
+            .progress
+            .reading(bytes_done, self.summary.file_bytes, self.messages);
+    }
+
     fn apply(&mut self, item: Item) -> Result<()> {
         match item {
             Item::Schema(schema) => {
@@ -781,6 +829,7 @@ impl<S: SampleSink> Reader<'_, S> {
                 sample,
                 stray,
             } => {
+                self.messages += 1;
                 if stray {
                     if let Some(ChannelRoute::Sensor(i)) = self.routes.get(&channel_id) {
                         let value = sample.as_ref().map_or(f64::NAN, |s| s.value);
@@ -1085,6 +1134,44 @@ mod tests {
         );
     }
 
+    /// Every `reading` call the reader makes.
+    #[derive(Default)]
+    struct ProgressLog(std::sync::Mutex<Vec<(u64, u64, u64)>>);
+
+    impl crate::progress::Progress for ProgressLog {
+        fn reading(&self, done: u64, total: u64, messages: u64) {
+            self.0.lock().unwrap().push((done, total, messages));
+        }
+    }
+
+    #[test]
+    fn progress_ends_at_the_whole_file_and_every_message() {
+        let payloads: Vec<&str> = vec![r#"{"value": 40.0}"#; 500];
+        let channels = [
+            ("/scada/core_temp", "degC", payloads.clone()),
+            ("/scada/stator_winding_temp", "degC", payloads),
+        ];
+        let bytes = recording(&channels, &in_order(&channels), &RATED);
+        let log = std::sync::Arc::new(ProgressLog::default());
+        let options = ReadOptions {
+            progress: Observer::shared(log.clone()),
+            ..ReadOptions::default()
+        };
+        read(&bytes, &options).unwrap();
+        let calls = log.0.lock().unwrap().clone();
+        // The first batch (a record before the chunks) is reported at once, the end
+        // always; in between at most ten a second.
+        assert!(calls.len() >= 2, "{calls:?}");
+        let total = bytes.len() as u64;
+        assert_eq!(*calls.last().unwrap(), (total, total, 1000));
+        assert!(calls
+            .iter()
+            .all(|&(done, t, _)| t == total && done <= total));
+        assert!(calls
+            .windows(2)
+            .all(|w| w[0].0 <= w[1].0 && w[0].2 <= w[1].2));
+    }
+
     #[test]
     fn dropouts_are_counted_and_left_out() {
         let payloads = vec![
@@ -1222,6 +1309,7 @@ mod tests {
         assert_eq!(summary.ignored_channels.len(), 2);
         let options = ReadOptions {
             free_channels: ["T1".to_owned(), "Q1".to_owned()].into(),
+            ..ReadOptions::default()
         };
         let (summary, sink2) = read(&bytes, &options).unwrap();
         let signals: Vec<&Signal> = summary.channels.iter().map(|c| &c.signal).collect();

@@ -148,6 +148,7 @@ fn from_a_distant_start_noise_free_data_give_the_true_network() {
     let estimator = ResistanceCapacitance {
         weights: None,
         scaling,
+        progress: Default::default(),
     };
     let e = estimator.fit_from(&data, map, &p0).unwrap();
     let network = e.network.as_ref().unwrap();
@@ -164,6 +165,7 @@ fn pt100_noise_gives_c_and_g_within_ten_percent_and_intervals_that_hold_them() {
     let e = ResistanceCapacitance {
         weights: None,
         scaling,
+        progress: Default::default(),
     }
     .estimate(&data)
     .unwrap();
