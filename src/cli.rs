@@ -100,6 +100,8 @@ pub enum InitialArg {
 
 /// Arguments of `heatrun predict`.
 #[derive(Debug, Args)]
+// The limits are drawn: they need an output that draws them (.rrd or HTML).
+#[command(group(clap::ArgGroup::new("drawn").args(["rrd", "html"]).multiple(true)))]
 pub struct PredictArgs {
     /// The model: a report written by `heatrun replay --report`.
     #[arg(long, value_name = "REPORT.json")]
@@ -121,11 +123,13 @@ pub struct PredictArgs {
     /// limits of --class and --limit) to this rerun .rrd file.
     #[arg(long, value_name = "OUT.rrd")]
     pub rrd: Option<PathBuf>,
-    /// Insulation class whose limits (IEC 60034-1, Table 7) the .rrd draws.
-    #[arg(long, value_enum, requires = "rrd")]
+    /// Insulation class whose limits (IEC 60034-1, Table 7) the .rrd and the HTML page
+    /// draw (as `rating --class`).
+    #[arg(long, value_enum, requires = "drawn")]
     pub class: Option<ClassArg>,
-    /// A part's limit the .rrd draws, °C (repeatable; overrides the class's): STATE=°C.
-    #[arg(long, value_name = "STATE=°C", value_parser = parse_limit, requires = "rrd")]
+    /// A part's limit the .rrd and the HTML page draw, °C (repeatable; overrides the
+    /// class's): STATE=°C.
+    #[arg(long, value_name = "STATE=°C", value_parser = parse_limit, requires = "drawn")]
     pub limit: Vec<(String, f64)>,
     /// Do not print the summary.
     #[arg(long, short)]
@@ -134,12 +138,6 @@ pub struct PredictArgs {
     /// temperatures against the limits, peaks).
     #[arg(long, value_name = "PAGE.html")]
     pub html: Option<PathBuf>,
-    /// Insulation class whose limits the HTML page draws (as `rating --class`).
-    #[arg(long, value_enum, requires = "html")]
-    pub class: Option<ClassArg>,
-    /// A part's limit for the HTML page, °C (repeatable; overrides the class's): STATE=°C.
-    #[arg(long, value_name = "STATE=°C", value_parser = parse_limit, requires = "html")]
-    pub limit: Vec<(String, f64)>,
 }
 
 /// Insulation thermal class.

@@ -268,6 +268,7 @@ fn read(
     let mut decimator = Decimator::new(model.ts_s, alignments)?;
     let options = ReadOptions {
         free_channels: description.free_channels(),
+        ..ReadOptions::default()
     };
     let summary = match also {
         Some(also) => recording::read_recording_with(

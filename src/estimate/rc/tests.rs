@@ -249,6 +249,7 @@ fn a_constant_offset_on_every_output_is_estimated_beside_the_network() {
     let e = ResistanceCapacitance {
         weights: None,
         scaling,
+        progress: Default::default(),
     }
     .estimate(&data)
     .unwrap();
