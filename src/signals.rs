@@ -18,7 +18,7 @@ use crate::losses::{self, FieldTemperatureSource, GeneratorLosses};
 use crate::recording::{Nameplate, Quantity, Signal, Storage};
 use crate::series::Series;
 use crate::spec::{
-    coolant, InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
+    coolant, delay, InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
     StateDescription,
 };
 
@@ -266,7 +266,7 @@ pub fn compute(
         (true, None) => return Err(Error::NameplateNeeded),
         (false, _) => None,
     };
-    let inputs = description
+    let mut inputs = description
         .inputs
         .iter()
         .map(|i| {
@@ -277,6 +277,8 @@ pub fn compute(
             input_signal(i, decimated, generator.as_ref(), scale, &series, &level)
         })
         .collect::<Result<Vec<_>>>()?;
+    // Dead times: each delayed input shifted on the grid, once, for every later stage.
+    delay::delay_inputs(&description.inputs, decimated.ts_s(), &mut inputs)?;
     Ok(ModelSignals {
         ts_s: decimated.ts_s(),
         time_ns: (0..n).map(|i| decimated.time_ns(i)).collect(),

@@ -153,6 +153,7 @@ pub fn resolve(
             .into(),
             kind: InputKind::Boundary,
             from_initial: false,
+            delay_s: 0.0,
         });
     }
     Ok(out)
