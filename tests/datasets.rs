@@ -649,4 +649,36 @@ fn a_known_dead_time_is_recovered() {
         fit_without[0] < fit_with[0] - 5.0 && fit_without[1] < fit_with[1],
         "with {fit_with:?}, without {fit_without:?}"
     );
+    // Predictions do not simulate a dead time: a delayed model is refused, naming the input.
+    std::fs::write(dir.path().join("load.csv"), "time_s,u1,u2\n0,1,1\n").unwrap();
+    let args = ["predict", "--model", "report-5.json", "--load", "load.csv"];
+    let out = heatrun(&[&args[..], &["--out", "p.csv"]].concat(), dir.path());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("input `u1` is delayed by 5 s"), "{stderr}");
+    assert!(!dir.path().join("p.csv").exists());
+    // A delay off the grid of the caller's Ts (the spec names none) is refused by the
+    // signal stage, naming the input.
+    let spec = dir.path().join("spec.toml");
+    let text = std::fs::read_to_string(&spec).unwrap();
+    let text =
+        text.replace("sample_time_s = 1.0\n", "")
+            .replacen("delay_s = 0.0", "delay_s = 2.5", 1);
+    std::fs::write(&spec, text).unwrap();
+    let args = [
+        "replay",
+        "delayed.mcap",
+        "--spec",
+        "spec.toml",
+        "--report",
+        "r.json",
+    ];
+    let out = heatrun(&args, dir.path());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("input `u1`: delay_s = 2.5 s is not a whole number of samples"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("r.json").exists());
 }
