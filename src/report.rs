@@ -711,7 +711,7 @@ impl Report {
             .filter(|i| i.delay_s != 0.0)
             .map(|i| {
                 let d = (i.delay_s / self.sample_time_s).round();
-                format!("{} {} s ({d} samples)", i.name, i.delay_s)
+                format!("{} {} s (d = {d})", i.name, i.delay_s)
             })
             .collect();
         if !delayed.is_empty() {
