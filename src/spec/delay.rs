@@ -45,7 +45,7 @@ pub fn is_valid_delay(delay_s: f64) -> bool {
 /// The delay in whole samples, d = τ_d / Ts, or `None` where τ_d is not within
 /// [`WHOLE_SAMPLE_TOLERANCE`] of a multiple of Ts (or is negative or not finite).
 pub fn samples(delay_s: f64, ts_s: f64) -> Option<usize> {
-    if !is_valid_delay(delay_s) || !(ts_s.is_finite() && ts_s > 0.0) {
+    if !(is_valid_delay(delay_s) && ts_s.is_finite() && ts_s > 0.0) {
         return None;
     }
     let d = delay_s / ts_s;
