@@ -141,11 +141,16 @@ def glassfurnace(root):
     # (its `wls`); with lags 0..4 the inputs also act within the sample and with delay.
     n = len(ys)
     x = [[ys[i][k] for i in range(n)] for k in range(len(rows))]
-    for lags, label in (([1], "lag 1 (heatrun's structure)"), (range(5), "lags 0..4")):
-        first = max(max(lags), 1)
+    # With lags ("d") heating 1 and cooling at lag 2, heating 2 at lag 1: heatrun's structure
+    # with the spec's delay_s (1, 1, 0 samples).
+    for lags, label in (([1], "lag 1 (heatrun's structure)"), (range(5), "lags 0..4"),
+                        ("d", "lags 2, 2, 1 (heatrun's structure with the spec's delays)")):
+        first = 2 if lags == "d" else max(max(lags), 1)
 
         def reg(state, k):
             row = list(state)
+            if lags == "d":
+                return row + [u[k - 2][0], u[k - 2][1], u[k - 1][2]]
             for lag in lags:
                 row.extend(u[k - lag])
             return row
@@ -199,6 +204,11 @@ def tclab(root):
     qv, v1, v2 = tclab_grid(val, 1.0)
     report("TCLab (Q1, Q2 % -> T1, T2 °C; estimate tclab_mimo_data.csv, validate "
            "tclab_mimo_step_data_3s.csv on a 1 s grid)", ["T1", "T2"], [e1, e2], qe, [v1, v2], qv)
+    # The same with heater 1 acting 10 s late (the spec's delay_s): Q1(k - 10), held at its
+    # first value before the start.
+    late = lambda q: [[q[max(k - 10, 0)][0], q[k][1]] for k in range(len(q))]
+    report("TCLab, Q1 delayed 10 s (as the spec)", ["T1", "T2"], [e1, e2], late(qe), [v1, v2],
+           late(qv))
 
 
 def main():

@@ -87,6 +87,9 @@ pub enum Error {
         /// The quantity or free channel name.
         channel: String,
     },
+    /// An input's dead time is not a whole number of samples of the grid.
+    #[error(transparent)]
+    InputDelay(#[from] crate::spec::delay::DelayError),
     /// The model's states are never all known at one instant.
     #[error("{what} are never all known at the same instant")]
     NoCommonInstant {
@@ -205,6 +208,7 @@ impl Error {
                 | Error::BadSpec { .. }
                 | Error::MissingChannel { .. }
                 | Error::NoCommonInstant { .. }
+                | Error::InputDelay(_)
                 | Error::NoFieldTemperature
                 | Error::NoFieldState
                 | Error::FieldScalingRise { .. }

@@ -704,6 +704,23 @@ impl Report {
     fn summary_model(&self, s: &mut String) {
         matrix(s, "Φ (eq. 19)", &self.phi, 8);
         matrix(s, "Γ (eq. 20)", &self.gamma, 7);
+        let delayed: Vec<String> = self
+            .model
+            .inputs
+            .iter()
+            .filter(|i| i.delay_s != 0.0)
+            .map(|i| {
+                let d = (i.delay_s / self.sample_time_s).round();
+                format!("{} {} s (d = {d})", i.name, i.delay_s)
+            })
+            .collect();
+        if !delayed.is_empty() {
+            let _ = writeln!(
+                s,
+                "input dead times, x(k+1) = Φx(k) + Γu(k − d): {}",
+                delayed.join(", ")
+            );
+        }
         let _ = writeln!(
             s,
             "eigenvalues of Φ (eq. 21): [{}]",

@@ -19,7 +19,7 @@ use crate::network::calorimetry::Water;
 use crate::recording::{Nameplate, Quantity, Signal, Storage};
 use crate::series::Series;
 use crate::spec::{
-    coolant, InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
+    coolant, delay, InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
     StateDescription,
 };
 
@@ -364,6 +364,8 @@ pub fn compute(
                 });
         }
     }
+    // Dead times: each delayed input shifted on the grid, once, for every later stage.
+    delay::delay_inputs(&description.inputs, decimated.ts_s(), &mut inputs)?;
     Ok(ModelSignals {
         ts_s: decimated.ts_s(),
         time_ns: (0..n).map(|i| decimated.time_ns(i)).collect(),

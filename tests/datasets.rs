@@ -92,18 +92,22 @@ fn tclab_validation_fit_holds() {
         .unwrap_or_else(|e| panic!("{e}"));
     let fit = numbers(&report["validation"]["fit"]["nrmse_fit_percent"]);
     let rmse = numbers(&report["validation"]["fit"]["rmse_k"]);
-    // Measured: 62.8 % and 86.6 %, RMSE 3.18 K and 0.90 K.
-    assert!(fit[0] > 60.0 && fit[1] > 84.0, "validation fit {fit:?}");
-    assert!(rmse[0] < 3.4 && rmse[1] < 1.0, "validation RMSE {rmse:?}");
+    // Measured with heater 1's dead time of 10 s: 81.3 % and 87.8 %, RMSE 1.49 K and
+    // 0.81 K (without it: 62.8 % and 86.6 %, 3.18 K and 0.90 K).
+    assert!(fit[0] > 79.0 && fit[1] > 86.0, "validation fit {fit:?}");
+    assert!(rmse[0] < 1.6 && rmse[1] < 0.9, "validation RMSE {rmse:?}");
+    assert_eq!(report["model"]["inputs"][0]["delay_s"], 10.0);
+    assert!(report["model"]["inputs"][1].get("delay_s").is_none());
     // Two real, stable time constants of the order the physics expects (1-4 min; measured
-    // 203.5 s and 306.7 s).
+    // 149.7 s and 289.0 s).
     let t = numbers(&report["time_constants_s"]);
     assert_eq!(t.len(), 2);
-    for (got, measured) in t.iter().zip([203.5, 306.7]) {
+    for (got, measured) in t.iter().zip([149.7, 289.0]) {
         assert!((got - measured).abs() < 0.05 * measured, "{t:?}");
     }
     // Heater 1's static gain on T1, −(A_c⁻¹ B_c)_11 by the 2 × 2 inverse: measured
-    // 83.8 K/W, 0.84 °C/% at the nominal 0.01 W/% (the course's FOPDT value: 0.9 °C/%).
+    // 62.8 K/W, 0.63 °C/% at the nominal 0.01 W/% (the course's FOPDT value: 0.9 °C/%;
+    // nominal physics 0.65 °C/%).
     assert_eq!(report["states"], serde_json::json!(["T1", "T2"]));
     let a: Vec<Vec<f64>> = report["a_c"]
         .as_array()
@@ -119,7 +123,7 @@ fn tclab_validation_fit_holds() {
         .collect();
     let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
     let gain_11 = -(a[1][1] * b[0][0] - a[0][1] * b[1][0]) / det;
-    assert!((gain_11 - 83.8).abs() < 5.0, "gain {gain_11} K/W");
+    assert!((gain_11 - 62.8).abs() < 4.0, "gain {gain_11} K/W");
 }
 
 /// Imports `data` with `examples/<example>/map.toml` and replays it with the example's
@@ -257,7 +261,8 @@ fn daisy_heating_system_standin_holds_its_fit() {
 
 /// The DaISy glass furnace's shape: 1247 rows "k u1 u2 u3 y1 … y6", tab-separated in
 /// `%.7e`, zero-mean binary inputs switching at random, Ts = 1; six sensors as a chain
-/// (each heated by its neighbour upstream), real eigenvalues 0.3 … 0.97, noise σ = 0.01.
+/// (each heated by its neighbour upstream), real eigenvalues 0.3 … 0.97, noise σ = 0.01;
+/// heating 1 and cooling act one sample late, as the example's spec says.
 #[test]
 fn daisy_glassfurnace_standin_holds_its_fit() {
     let lambda = [0.3, 0.5, 0.7, 0.85, 0.93, 0.97];
@@ -273,17 +278,20 @@ fn daisy_glassfurnace_standin_holds_its_fit() {
     let mut rng = StdRng::seed_from_u64(6);
     let noise = Normal::new(0.0, 0.01).unwrap();
     let mut x = [0.0; 6];
-    let mut u = [0.0; 3];
+    let (mut u, mut late) = ([0.0; 3], [0.0; 3]);
     let (mut text, mut measured, mut errors) = (String::new(), vec![vec![]; 6], vec![vec![]; 6]);
     for k in 0..rows {
         if k > 0 {
             let previous = x;
+            // x(k) = Φ x(k−1) + Γ (u1(k−2), u2(k−2), u3(k−1)).
+            let acting = [late[0], late[1], u[2]];
             for i in 0..6 {
                 let upstream = if i > 0 { 0.1 * previous[i - 1] } else { 0.0 };
-                let heat: f64 = (0..3).map(|j| gamma[i][j] * u[j]).sum();
+                let heat: f64 = (0..3).map(|j| gamma[i][j] * acting[j]).sum();
                 x[i] = lambda[i] * previous[i] + upstream + heat;
             }
         }
+        late = u;
         for uj in &mut u {
             if k == 0 || rng.random_bool(0.5) {
                 *uj = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
@@ -493,4 +501,184 @@ fn oscillating_modes_are_in_the_report_and_its_schema() {
         imag.iter().any(|v| (v.abs() - w).abs() < 0.03 * w),
         "{imag:?}"
     );
+}
+
+/// Replays `csv` (columns t, u1, u2, y1, y2) with a two-state spec whose first input has
+/// the dead time `delay_s`, estimating before 1400 s and validating after; the report.
+fn replay_with_delay(dir: &Path, csv: &Path, delay_s: f64) -> Value {
+    let map = dir.join("map.toml");
+    let mut text = String::from(
+        "[input]\ndelimiter = \",\"\nheader = true\n[time]\ncolumn = 1\nformat = \"seconds\"\n",
+    );
+    for (i, name) in ["u1", "u2", "y1", "y2"].iter().enumerate() {
+        write!(
+            text,
+            "[[column]]\ncolumn = {}\nchannel = \"{name}\"\nunit = \"1\"\n",
+            i + 2
+        )
+        .unwrap();
+    }
+    std::fs::write(&map, text).unwrap();
+    let mcap = dir.join("delayed.mcap");
+    let args = [
+        "import",
+        csv.to_str().unwrap(),
+        "--map",
+        map.to_str().unwrap(),
+    ];
+    let out = heatrun(
+        &[&args[..], &["--out", mcap.to_str().unwrap()]].concat(),
+        dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let spec = dir.join("spec.toml");
+    let mut text = String::from("name = \"delayed\"\nsample_time_s = 1.0\nmethod = \"oe\"\n");
+    for y in ["y1", "y2"] {
+        write!(
+            text,
+            "[[state]]\nname = \"{y}\"\nreference = \"none\"\nunit = \"1\"\n"
+        )
+        .unwrap();
+    }
+    for (u, d) in [("u1", delay_s), ("u2", 0.0)] {
+        write!(
+            text,
+            "[[input]]\nname = \"{u}\"\nchannel = \"{u}\"\nunit = \"1\"\n"
+        )
+        .unwrap();
+        write!(text, "kind = \"exogenous\"\ndelay_s = {d:.1}\n").unwrap();
+    }
+    std::fs::write(&spec, text).unwrap();
+    let report = dir.join(format!("report-{delay_s}.json"));
+    let args = ["replay", mcap.to_str().unwrap(), "--split-at", "1400"];
+    let rest = [
+        "--spec",
+        spec.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+        "-q",
+    ];
+    let out = heatrun(&[&args[..], &rest[..]].concat(), dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
+    crate::outputs::ReportSchema::load()
+        .check(&report)
+        .unwrap_or_else(|e| panic!("{e}"));
+    report
+}
+
+/// A known model with a dead time of 5 samples on its first input,
+/// x(k) = Φ x(k−1) + Γ₁ u1(k−1−5) + Γ₂ u2(k−1), Ts = 1 s, 2000 rows, noise σ = 0.01:
+/// identified with `delay_s = 5` in the spec, Φ and Γ come back within 0.01 (entries up
+/// to 0.95) and the validation fit is the true model's; without the delay the same data
+/// validate measurably worse, most on the output the delayed input drives most.
+#[test]
+fn a_known_dead_time_is_recovered() {
+    let phi = [[0.90, 0.05], [0.03, 0.95]];
+    let gamma = [[0.50, 0.10], [0.05, 0.20]];
+    let (rows, d) = (2000, 5);
+    let mut rng = StdRng::seed_from_u64(15);
+    let u1 = steps(&mut rng, rows, 20..80, |r| r.random_range(0.0..1.0));
+    let u2 = steps(&mut rng, rows, 20..80, |r| r.random_range(0.0..1.0));
+    let noise = Normal::new(0.0, 0.01).unwrap();
+    let mut x = [0.0_f64; 2];
+    let (mut text, mut measured, mut errors) = (
+        String::from("t,u1,u2,y1,y2\n"),
+        vec![vec![]; 2],
+        vec![vec![]; 2],
+    );
+    for k in 0..rows {
+        if k > 0 {
+            let late = if k > d { u1[k - 1 - d] } else { 0.0 };
+            let p = x;
+            for i in 0..2 {
+                x[i] = phi[i][0] * p[0]
+                    + phi[i][1] * p[1]
+                    + gamma[i][0] * late
+                    + gamma[i][1] * u2[k - 1];
+            }
+        }
+        let y: Vec<f64> = x.iter().map(|x| x + noise.sample(&mut rng)).collect();
+        writeln!(
+            text,
+            "{k},{:.6},{:.6},{:.6},{:.6}",
+            u1[k], u2[k], y[0], y[1]
+        )
+        .unwrap();
+        for i in 0..2 {
+            measured[i].push(y[i]);
+            errors[i].push(y[i] - x[i]);
+        }
+    }
+    let dir = common::tempdir();
+    let csv = dir.path().join("delayed.csv");
+    std::fs::write(&csv, text).unwrap();
+    let with = replay_with_delay(dir.path(), &csv, d as f64);
+    assert_eq!(with["model"]["inputs"][0]["delay_s"], 5.0);
+    for (name, truth) in [("phi", phi), ("gamma", gamma)] {
+        for i in 0..2 {
+            let row = numbers(&with[name][i]);
+            for j in 0..2 {
+                assert!(
+                    (row[j] - truth[i][j]).abs() < 0.01,
+                    "{name}: {row:?} against {truth:?}"
+                );
+            }
+        }
+    }
+    let truth: Vec<f64> = (0..2)
+        .map(|i| true_model_fit(&measured[i][1400..], &errors[i][1400..]))
+        .collect();
+    assert_fit_near_truth(&with, &truth, 1.0);
+    let without = replay_with_delay(dir.path(), &csv, 0.0);
+    let (fit_with, fit_without) = (
+        numbers(&with["validation"]["fit"]["nrmse_fit_percent"]),
+        numbers(&without["validation"]["fit"]["nrmse_fit_percent"]),
+    );
+    // y1, which the delayed input drives most (Γ₁₁ = 0.5), loses more than 5 points
+    // (measured: 99.5 % → 91.0 %); y2 (Γ₂₁ = 0.05) a little (99.5 % → 98.7 %).
+    assert!(
+        fit_without[0] < fit_with[0] - 5.0 && fit_without[1] < fit_with[1],
+        "with {fit_with:?}, without {fit_without:?}"
+    );
+    // Predictions do not simulate a dead time: a delayed model is refused, naming the input.
+    std::fs::write(dir.path().join("load.csv"), "time_s,u1,u2\n0,1,1\n").unwrap();
+    let args = ["predict", "--model", "report-5.json", "--load", "load.csv"];
+    let out = heatrun(&[&args[..], &["--out", "p.csv"]].concat(), dir.path());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("input `u1` is delayed by 5 s"), "{stderr}");
+    assert!(!dir.path().join("p.csv").exists());
+    // A delay off the grid of the caller's Ts (the spec names none) is refused by the
+    // signal stage, naming the input.
+    let spec = dir.path().join("spec.toml");
+    let text = std::fs::read_to_string(&spec).unwrap();
+    let text =
+        text.replace("sample_time_s = 1.0\n", "")
+            .replacen("delay_s = 0.0", "delay_s = 2.5", 1);
+    std::fs::write(&spec, text).unwrap();
+    let args = [
+        "replay",
+        "delayed.mcap",
+        "--spec",
+        "spec.toml",
+        "--report",
+        "r.json",
+    ];
+    let out = heatrun(&args, dir.path());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("input `u1`: delay_s = 2.5 s is not a whole number of samples"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("r.json").exists());
 }

@@ -146,8 +146,7 @@ impl ResistanceCapacitance {
         // The rises are measured from one noisy first sample each: a constant offset per
         // output, estimated beside the network (without it the slow columns of K and the
         // conductances to the coolant absorb it; README, "The thermal network").
-        let mut inner =
-            Problem::new(data, segments, &start_model, &weights).with_output_offset();
+        let mut inner = Problem::new(data, segments, &start_model, &weights).with_output_offset();
         inner.progress = Some(oe::Reporting::new(&self.progress, self.name()));
         let mut problem = RcProblem::new(inner, map, start);
         let mut evaluations = 0;

@@ -231,6 +231,7 @@ pub fn description_of(model: &ThermalModel) -> Result<ModelDescription, UseError
             unit: String::new(),
             kind: i.kind,
             from_initial: false,
+            delay_s: 0.0,
         })
         .collect();
     let description = ModelDescription {

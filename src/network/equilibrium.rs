@@ -348,6 +348,7 @@ mod tests {
             unit: "pu".into(),
             kind: InputKind::Boundary,
             from_initial: false,
+            delay_s: 0.0,
         });
         let signals = ModelSignals {
             ts_s: 1.0,

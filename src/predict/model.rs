@@ -188,6 +188,9 @@ struct InputFile {
     from_initial: bool,
     #[serde(default)]
     kind: InputKind,
+    /// The input's dead time, s (absent: none).
+    #[serde(default)]
+    delay_s: f64,
 }
 
 #[derive(Deserialize)]
@@ -470,6 +473,13 @@ fn input(i: InputFile, path: &Path) -> Result<ModelInput, UseError> {
         return Err(unsupported(
             "taken from its value at the start of the model's recording".into(),
         ));
+    }
+    if i.delay_s != 0.0 {
+        // The simulation here has no dead time: refused rather than run without it.
+        return Err(unsupported(format!(
+            "delayed by {} s (a dead time, which predictions do not simulate)",
+            i.delay_s
+        )));
     }
     let (kind, value) = match &i.source {
         Value::Object(o) if o.len() == 1 => o.iter().next().map(|(k, v)| (k.as_str(), v)),

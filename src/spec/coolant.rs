@@ -215,6 +215,7 @@ pub fn resolve(
             .into(),
             kind: InputKind::Boundary,
             from_initial: false,
+            delay_s: 0.0,
         });
     }
     if flow_varies {
@@ -259,6 +260,7 @@ pub fn flow_input(description: &ModelDescription) -> Option<InputDescription> {
         }
         .into(),
         kind: InputKind::Boundary,
+        delay_s: 0.0,
         from_initial: false,
     })
 }

@@ -10,6 +10,7 @@
 //! other thermal system of n states and m inputs.
 
 pub mod coolant;
+pub mod delay;
 pub mod expression;
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -115,6 +116,14 @@ pub struct InputDescription {
     /// Whether the input is taken as its change from its first known value (a boundary
     /// temperature or a drive whose starting value is the equilibrium), or as it is.
     pub from_initial: bool,
+    /// Its dead time τ_d in s, a whole number of samples: it acts on the states as
+    /// u(k − τ_d / Ts) ([`delay`]); 0 for none (and then left out of the report).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub delay_s: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// How the signals are scaled for estimation.
@@ -196,6 +205,7 @@ impl ModelDescription {
                     unit: "pu".into(),
                     kind: InputKind::Heat,
                     from_initial: false,
+                    delay_s: 0.0,
                 })
                 .collect(),
             scaling: Scaling::NameplatePerUnit,
@@ -381,6 +391,8 @@ struct InputFile {
     #[serde(default)]
     kind: InputKind,
     reference: Option<String>,
+    #[serde(default)]
+    delay_s: f64,
 }
 
 impl SpecFile {
@@ -413,6 +425,23 @@ impl SpecFile {
                 i.into_description()
             })
             .collect::<Result<Vec<_>, _>>()?;
+        if let Some(ts) = self.sample_time_s {
+            // With the spec's own Ts, a delay off the grid is refused here already; with
+            // the caller's, the signal stage refuses it.
+            if let Some(i) = inputs
+                .iter()
+                .find(|i| delay::samples(i.delay_s, ts).is_none())
+            {
+                return Err(SpecError::Entry {
+                    what: "input",
+                    name: i.name.clone(),
+                    problem: format!(
+                        "delay_s = {} s is not a whole number of samples of sample_time_s = {ts} s",
+                        i.delay_s
+                    ),
+                });
+            }
+        }
         Ok(ModelDescription {
             name: self.name.unwrap_or_else(|| "thermal system (spec)".into()),
             states,
@@ -512,12 +541,23 @@ impl InputFile {
                 })
             }
         };
+        if !delay::is_valid_delay(self.delay_s) {
+            return Err(SpecError::Entry {
+                what: "input",
+                name: self.name,
+                problem: format!(
+                    "delay_s = {}: a dead time is a number of seconds ≥ 0",
+                    self.delay_s
+                ),
+            });
+        }
         Ok(InputDescription {
             name: self.name,
             source,
             unit: self.unit.unwrap_or_else(|| "W".into()),
             kind: self.kind,
             from_initial,
+            delay_s: self.delay_s,
         })
     }
 }
@@ -599,6 +639,18 @@ mod tests {
         assert!(bad(dup).contains("state `a`"));
         let unknown = "colour = 1\n[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"";
         assert!(bad(unknown).contains("colour"), "{}", bad(unknown));
+        let late = "sample_time_s = 2.0\n[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"\ndelay_s = 3.0";
+        assert!(
+            bad(late).contains("input `p`: delay_s = 3"),
+            "{}",
+            bad(late)
+        );
+        let early = "[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nchannel=\"x\"\ndelay_s = -1.0";
+        assert!(
+            bad(early).contains("input `p`: delay_s = -1"),
+            "{}",
+            bad(early)
+        );
         let expr = "[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nexpression=\"3 * (x\"";
         assert!(bad(expr).contains("input `p`"), "{}", bad(expr));
         let own = "[[state]]\nname=\"a\"\nreference={initial_of=\"a\"}\n[[input]]\nname=\"p\"\nchannel=\"x\"";
