@@ -430,8 +430,12 @@ fn overload(l: &Loading, model: &ThermalModel, fraction: f64) -> Result<Overload
         result.limiting_part = Some(l.parts[part].name.clone());
         return Ok(result);
     }
+    // Before the step the machine held the rated steady state: a dead time delays the
+    // overload's inputs behind the rated ones.
+    let mut delays = crate::predict::DelayLine::new(model)?;
+    delays.apply(l.sim.inputs(&rated, &l.sim.temperatures(&x, &rated))?);
     for k in 0..steps {
-        let u = l.sim.inputs(&p, &l.sim.temperatures(&x, &p))?;
+        let u = delays.apply(l.sim.inputs(&p, &l.sim.temperatures(&x, &p))?);
         x = l.sim.step(&x, &u);
         theta = l.part_temperatures(&x, &p);
         let (next, next_part) = l.margin(&theta);

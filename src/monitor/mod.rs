@@ -231,7 +231,7 @@ pub fn description_of(model: &ThermalModel) -> Result<ModelDescription, UseError
             unit: String::new(),
             kind: i.kind,
             from_initial: false,
-            delay_s: 0.0,
+            delay_s: i.delay_s,
         })
         .collect();
     let description = ModelDescription {

@@ -23,7 +23,7 @@ use nalgebra::DVector;
 pub use error::UseError;
 pub use load::{LoadSchedule, OperatingPoint};
 pub use model::ThermalModel;
-pub use simulate::Simulator;
+pub use simulate::{DelayLine, Simulator};
 
 /// Where the prediction starts.
 #[derive(Debug, Clone, PartialEq)]
@@ -121,11 +121,12 @@ pub fn predict(
         ),
         warnings,
     };
+    let mut delays = DelayLine::new(model)?;
     for k in 0..=steps {
         let t = t0 + k as f64 * ts;
         let p = schedule.point_at(t);
         let theta = sim.temperatures(&x, p);
-        let u = sim.inputs(p, &theta)?;
+        let u = delays.apply(sim.inputs(p, &theta)?);
         out.field_temperature_c
             .push(sim.field_temperature_c(&theta, p));
         out.time_s.push(t);

@@ -68,6 +68,9 @@ pub struct ModelInput {
     pub source: InputUse,
     /// Heat, the reference node's temperature, or another exogenous input.
     pub kind: InputKind,
+    /// The input's dead time, s (0: none): the model is x(k+1) = Φ x(k) + Γ u(k − d),
+    /// d = delay_s / Ts whole samples ([`super::simulate::DelayLine`]).
+    pub delay_s: f64,
 }
 
 /// How the field winding temperature (for R_f in the field copper loss) is predicted.
@@ -474,12 +477,8 @@ fn input(i: InputFile, path: &Path) -> Result<ModelInput, UseError> {
             "taken from its value at the start of the model's recording".into(),
         ));
     }
-    if i.delay_s != 0.0 {
-        // The simulation here has no dead time: refused rather than run without it.
-        return Err(unsupported(format!(
-            "delayed by {} s (a dead time, which predictions do not simulate)",
-            i.delay_s
-        )));
+    if !crate::spec::delay::is_valid_delay(i.delay_s) {
+        return Err(unsupported(format!("a dead time of {} s", i.delay_s)));
     }
     let (kind, value) = match &i.source {
         Value::Object(o) if o.len() == 1 => o.iter().next().map(|(k, v)| (k.as_str(), v)),
@@ -503,6 +502,7 @@ fn input(i: InputFile, path: &Path) -> Result<ModelInput, UseError> {
         name: i.name,
         source,
         kind: i.kind,
+        delay_s: i.delay_s,
     })
 }
 

@@ -1,6 +1,8 @@
 //! The model run forward: temperatures from rises, the inputs of an operating point at
 //! the predicted temperatures, one step x(k+1) = Φ x(k) + Γ u(k), and the steady state.
 
+use std::collections::VecDeque;
+
 use nalgebra::{DMatrix, DVector};
 
 use super::error::UseError;
@@ -208,5 +210,91 @@ impl<'a> Simulator<'a> {
             }
         }
         Ok(x)
+    }
+}
+
+/// The inputs' dead times on the model's grid: the input applied at step k is the one
+/// computed at step k − d_i (d_i = delay_s / Ts whole samples, input by input), so a
+/// step is x(k+1) = Φ x(k) + Γ u(k − d). Before the first step each input is taken to
+/// have held its first value (the schedule's first row, or the state a step starts
+/// from) for its whole dead time.
+#[derive(Debug, Clone)]
+pub struct DelayLine {
+    /// d_i, samples, per input.
+    delays: Vec<usize>,
+    /// The inputs computed at the last max(d) + 1 steps, the newest last.
+    past: VecDeque<DVector<f64>>,
+}
+
+impl DelayLine {
+    /// The model's dead times in whole samples of its Ts; one that is not refused by
+    /// name (the report was written by a spec whose delays sat on its own grid).
+    pub fn new(model: &ThermalModel) -> Result<DelayLine, UseError> {
+        let delays = model
+            .inputs
+            .iter()
+            .map(|i| {
+                crate::spec::delay::samples(i.delay_s, model.ts_s).ok_or_else(|| {
+                    UseError::Request(format!(
+                        "input `{}`: a dead time of {} s is not a whole number of samples of Ts = {} s",
+                        i.name, i.delay_s, model.ts_s
+                    ))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(DelayLine {
+            delays,
+            past: VecDeque::new(),
+        })
+    }
+
+    /// Records the inputs computed now and returns those to apply now, u_i(k − d_i).
+    pub fn apply(&mut self, u: DVector<f64>) -> DVector<f64> {
+        let longest = self.delays.iter().copied().max().unwrap_or(0);
+        if longest == 0 {
+            return u;
+        }
+        if self.past.is_empty() {
+            self.past.extend(std::iter::repeat_n(u.clone(), longest));
+        }
+        self.past.push_back(u);
+        if self.past.len() > longest + 1 {
+            self.past.pop_front();
+        }
+        let newest = self.past.len() - 1;
+        DVector::from_fn(self.delays.len(), |i, _| self.past[newest - self.delays[i]][i])
+    }
+}
+
+#[cfg(test)]
+mod delay_tests {
+    use super::*;
+
+    #[test]
+    fn each_input_is_applied_its_own_dead_time_later_after_holding_its_first_value() {
+        // Two inputs, dead times 0 and 2 samples: computed (1, 10), (2, 20), (3, 30),
+        // (4, 40) → applied (1, 10), (2, 10), (3, 10), (4, 20), worked by hand.
+        let mut line = DelayLine {
+            delays: vec![0, 2],
+            past: VecDeque::new(),
+        };
+        let applied: Vec<(f64, f64)> = (1..=4)
+            .map(|k| {
+                let u = line.apply(DVector::from_vec(vec![k as f64, 10.0 * k as f64]));
+                (u[0], u[1])
+            })
+            .collect();
+        assert_eq!(applied, vec![(1.0, 10.0), (2.0, 10.0), (3.0, 10.0), (4.0, 20.0)]);
+    }
+
+    #[test]
+    fn without_dead_times_the_inputs_pass_through() {
+        let mut line = DelayLine {
+            delays: vec![0, 0],
+            past: VecDeque::new(),
+        };
+        let u = DVector::from_vec(vec![3.0, 4.0]);
+        assert_eq!(line.apply(u.clone()), u);
+        assert!(line.past.is_empty());
     }
 }
