@@ -863,6 +863,9 @@ impl Report {
                 if let Some(note) = &n.scale_note {
                     let _ = writeln!(s, "  ({note})");
                 }
+                if let (Some(from), Some(d)) = (&n.fitted_from, &n.minimum_distance) {
+                    let _ = writeln!(s, "  ({})", minimum_distance_line(from, d));
+                }
                 let labels = self.state_labels();
                 row(
                     s,
@@ -1028,4 +1031,25 @@ fn complex_list(re: &[f64], im: Option<&[f64]>, digits: usize) -> String {
         })
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// What the network was fitted from, with its distance and χ² test, in one line.
+fn minimum_distance_line(from: &str, d: &crate::network::MinimumDistance) -> String {
+    match d.p_value {
+        Some(p) => {
+            let meaning = if p < 0.01 {
+                "the identified model is no passive, energy-conserving network"
+            } else {
+                "consistent with a passive network"
+            };
+            format!(
+                "the passive network nearest the identified model: {from}, χ² = {:.3} on {} degrees of freedom, p = {p:.2e}: {meaning}",
+                d.distance, d.degrees_of_freedom
+            )
+        }
+        None => format!(
+            "the passive network nearest the identified model: {from}, distance {:.3e} ({})",
+            d.distance, d.weighting
+        ),
+    }
 }

@@ -54,7 +54,7 @@ const START_FLOOR: f64 = 1e-2;
 
 /// How far (in natural logarithms) a parameter may move from its start: a factor of
 /// e^25 ≈ 7·10¹⁰, far beyond any physical correction, short of overflowing the model.
-const LOG_RANGE: f64 = 25.0;
+pub(crate) const LOG_RANGE: f64 = 25.0;
 
 /// The grey-box network estimator.
 #[derive(Debug, Clone)]

@@ -26,7 +26,7 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use serde::Serialize;
 
 use super::{Parts, Scaling};
-use crate::estimate::rc::{projected, Parametrisation};
+use crate::estimate::rc::{projected, Parametrisation, LOG_RANGE};
 use crate::estimate::DiscreteModel;
 
 /// Eigenvalues of Σ̂'s correlation matrix below this share of the largest are raised to
@@ -189,7 +189,14 @@ fn levenberg_marquardt(
                 .map(|c| c.solve(&(-&gradient)))
                 .or_else(|| damped.svd(true, true).solve(&(-&gradient), 1e-14).ok());
             let Some(step) = step else { break };
-            let trial: Vec<f64> = p.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
+            // Logarithms within e^±LOG_RANGE of the start, as rc's: an entry the fit
+            // drives to zero stops there rather than underflowing.
+            let trial: Vec<f64> = p
+                .iter()
+                .zip(step.iter())
+                .zip(&map.start)
+                .map(|((a, b), s)| (a + b).clamp(s - LOG_RANGE, s + LOG_RANGE))
+                .collect();
             if let Some(r_trial) = residual(&trial) {
                 let trial_cost = r_trial.norm_squared();
                 if trial_cost < cost {
