@@ -1037,14 +1037,21 @@ fn complex_list(re: &[f64], im: Option<&[f64]>, digits: usize) -> String {
 fn minimum_distance_line(from: &str, d: &crate::network::MinimumDistance) -> String {
     match d.p_value {
         Some(p) => {
+            // A χ² test of Θ̂ against the network family: it also flags a Θ̂ biased by
+            // anything its covariance does not hold (e.g. the first sample's offset).
             let meaning = if p < 0.01 {
-                "the identified model is no passive, energy-conserving network"
+                "the identified model is farther from a passive, energy-conserving network than its covariance explains"
             } else {
-                "consistent with a passive network"
+                "within what the identified model's covariance explains"
+            };
+            let chi2 = if d.distance < 1e4 {
+                format!("{:.2}", d.distance)
+            } else {
+                format!("{:.2e}", d.distance)
             };
             format!(
-                "the passive network nearest the identified model: {from}, χ² = {:.3} on {} degrees of freedom, p = {p:.2e}: {meaning}",
-                d.distance, d.degrees_of_freedom
+                "the passive network nearest the identified model: {from}, χ² = {chi2} on {} degrees of freedom, p = {p:.2e}: {meaning}",
+                d.degrees_of_freedom
             )
         }
         None => format!(

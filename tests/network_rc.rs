@@ -320,7 +320,7 @@ fn the_paper_fixtures_network_is_fitted_and_said_to_be_no_network() {
         "{summary}"
     );
     assert!(
-        summary.contains("the identified model is no passive, energy-conserving network"),
+        summary.contains("farther from a passive, energy-conserving network than its covariance"),
         "{summary}"
     );
 }
