@@ -237,6 +237,25 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
             sums.iter().all(|s| (s * to_energy - 1.0).abs() < 1e-9),
             "{sums:?}"
         );
+        if seed == 1 {
+            let report = heatrun::report::Report::new(&o);
+            let json: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+            crate::outputs::ReportSchema::load()
+                .check(&json)
+                .unwrap_or_else(|e| panic!("the oe report breaks the schema:\n{e}"));
+            let block = &json["network"];
+            assert_eq!(
+                block["fitted_from"],
+                "minimum distance to the identified model"
+            );
+            assert_eq!(block["minimum_distance"]["degrees_of_freedom"], 3);
+            assert!(block["minimum_distance"]["p_value"].is_number());
+            let summary = report.summary();
+            assert!(
+                summary.contains("the passive network nearest the identified model"),
+                "{summary}"
+            );
+        }
         oe.push(of_network(nearest));
         // oe is set beside rc, on the same instants.
         let beside = r.output_error_beside.as_ref().unwrap();
