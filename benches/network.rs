@@ -183,6 +183,7 @@ fn run_scenario(
         let mut other: Vec<Vec<f64>> = Vec::new();
         let mut other_from = None;
         let mut outside = Vec::new();
+        let mut distances = Vec::new();
         let mut times = Vec::new();
         for path in &paths {
             let start = Instant::now();
@@ -200,6 +201,14 @@ fn run_scenario(
                 continue;
             };
             let v = values(network);
+            if let Some(d) = &network.minimum_distance {
+                distances.push((
+                    d.distance,
+                    d.degrees_of_freedom,
+                    d.p_value,
+                    d.weighting.clone(),
+                ));
+            }
             // The other scale multiplies every C, G and k_ij by one factor.
             if let Some(alt) = &network.alternative_scale {
                 other.push(v.iter().map(|x| x * alt.ratio_to_chosen).collect());
@@ -219,10 +228,31 @@ fn run_scenario(
         let title = if method == Method::Rc {
             "the grey-box fit in C, G, K".to_owned()
         } else {
-            "the identified model (reciprocity; the calorimetric scale, the runs record the flow)"
+            "the identified model (the passive network nearest it, minimum distance; the calorimetric scale, the runs record the flow)"
                 .to_owned()
         };
         table(parts, labels, method.name(), &title, &found, &mut times);
+        if !distances.is_empty() {
+            let rejected = distances
+                .iter()
+                .filter(|(_, _, p, _)| p.is_some_and(|p| p < 0.05))
+                .count();
+            let regularised = distances
+                .iter()
+                .filter(|(_, _, _, w)| w.contains("regularised"))
+                .count();
+            let per_seed: Vec<String> = distances
+                .iter()
+                .map(|(d, _, _, _)| format!("{d:.1}"))
+                .collect();
+            println!(
+                "minimum distance to the identified model (χ², {} degrees of freedom) per seed: [{}]; \
+                 p < 0.05 on {rejected} of {}; Σ̂ regularised on {regularised}",
+                distances[0].1,
+                per_seed.join(", "),
+                distances.len()
+            );
+        }
         if let Some(from) = other_from {
             let title = match from {
                 ScaleSource::EnergyConservation => {

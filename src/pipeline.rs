@@ -403,6 +403,7 @@ pub fn replay_with(
     let network = network::stage::analyse(
         &prepared.model,
         grey_box,
+        &estimate,
         &analysis.continuous,
         &analysis.spectrum.time_constants_s,
         &prepared.signals,

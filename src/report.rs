@@ -880,6 +880,9 @@ impl Report {
                 if let Some(note) = &n.scale_note {
                     let _ = writeln!(s, "  ({note})");
                 }
+                if let (Some(from), Some(d)) = (&n.fitted_from, &n.minimum_distance) {
+                    let _ = writeln!(s, "  ({})", minimum_distance_line(from, d));
+                }
                 let labels = self.state_labels();
                 row(
                     s,
@@ -1045,4 +1048,32 @@ fn complex_list(re: &[f64], im: Option<&[f64]>, digits: usize) -> String {
         })
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// What the network was fitted from, with its distance and χ² test, in one line.
+fn minimum_distance_line(from: &str, d: &crate::network::MinimumDistance) -> String {
+    match d.p_value {
+        Some(p) => {
+            // A χ² test of Θ̂ against the network family: it also flags a Θ̂ biased by
+            // anything its covariance does not hold (e.g. the first sample's offset).
+            let meaning = if p < 0.01 {
+                "the identified model is farther from a passive, energy-conserving network than its covariance explains"
+            } else {
+                "within what the identified model's covariance explains"
+            };
+            let chi2 = if d.distance < 1e4 {
+                format!("{:.2}", d.distance)
+            } else {
+                format!("{:.2e}", d.distance)
+            };
+            format!(
+                "the passive network nearest the identified model: {from}, χ² = {chi2} on {} degrees of freedom, p = {p:.2e}: {meaning}",
+                d.degrees_of_freedom
+            )
+        }
+        None => format!(
+            "the passive network nearest the identified model: {from}, distance {:.3e} ({})",
+            d.distance, d.weighting
+        ),
+    }
 }

@@ -54,7 +54,7 @@ const START_FLOOR: f64 = 1e-2;
 
 /// How far (in natural logarithms) a parameter may move from its start: a factor of
 /// e^25 ≈ 7·10¹⁰, far beyond any physical correction, short of overflowing the model.
-const LOG_RANGE: f64 = 25.0;
+pub(crate) const LOG_RANGE: f64 = 25.0;
 
 /// The grey-box network estimator.
 #[derive(Debug, Clone)]
@@ -277,7 +277,7 @@ fn rough_parts(
 }
 
 /// Floors non-positive conductances and shares and renormalises K's columns.
-fn projected(mut parts: Parts) -> Parts {
+pub(crate) fn projected(mut parts: Parts) -> Parts {
     let g_max = parts.conductance_w_per_k.amax().max(1e-300);
     parts
         .conductance_w_per_k
@@ -291,9 +291,10 @@ fn projected(mut parts: Parts) -> Parts {
     parts
 }
 
-/// The map p → (C, G, K) → (A_c, B_c) → Θ = [Φ Γ] and its Jacobian.
+/// The map p → (C, G, K) → (A_c, B_c) → Θ = [Φ Γ] and its Jacobian (also the model of
+/// the minimum-distance network of an identified model, [`crate::network::fit`]).
 #[derive(Debug, Clone)]
-struct Parametrisation {
+pub(crate) struct Parametrisation {
     n: usize,
     m: usize,
     ts_s: f64,
@@ -306,14 +307,22 @@ struct Parametrisation {
     /// The pairs (i, j), i < j, of the conductances between parts, in p's order.
     pairs: Vec<(usize, usize)>,
     /// The start, laid out as p.
-    start: Vec<f64>,
+    pub(crate) start: Vec<f64>,
 }
 
 impl Parametrisation {
     /// The map for data of this shape, with each loss's reference the part that takes
     /// most of it in `start`, and `start` laid out as p.
     fn new(data: &IdentificationData, scaling: Scaling, start: &Parts) -> Parametrisation {
-        let (n, m) = (data.states(), data.input_count());
+        Parametrisation::of_shape(data.ts_s, scaling, start)
+    }
+
+    /// The map for n parts and m losses (the shape of `start`) at sample time `ts_s`.
+    pub(crate) fn of_shape(ts_s: f64, scaling: Scaling, start: &Parts) -> Parametrisation {
+        let (n, m) = (
+            start.capacitance_j_per_k.len(),
+            start.loss_distribution.ncols(),
+        );
         let reference = (0..m)
             .map(|j| start.loss_distribution.column(j).imax())
             .collect();
@@ -323,7 +332,7 @@ impl Parametrisation {
         let mut map = Parametrisation {
             n,
             m,
-            ts_s: data.ts_s,
+            ts_s,
             scaling,
             w: scaling.p_base_w / scaling.theta_base_k,
             reference,
@@ -335,7 +344,7 @@ impl Parametrisation {
     }
 
     /// Number of parameters: n + n + n(n−1)/2 + m(n−1).
-    fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         2 * self.n + self.pairs.len() + self.m * (self.n - 1)
     }
 
@@ -364,7 +373,7 @@ impl Parametrisation {
     }
 
     /// C, G (G_i0 on the diagonal) and K of p.
-    fn parts(&self, p: &[f64]) -> Parts {
+    pub(crate) fn parts(&self, p: &[f64]) -> Parts {
         let n = self.n;
         let mut g = DMatrix::zeros(n, n);
         for i in 0..n {
@@ -452,7 +461,7 @@ impl Parametrisation {
     }
 
     /// The discrete model (zero-order hold) of p.
-    fn model(&self, p: &[f64]) -> DiscreteModel {
+    pub(crate) fn model(&self, p: &[f64]) -> DiscreteModel {
         let (a, b) = self.continuous(p);
         let (phi, gamma) = crate::model::matrix::discretize(&a, &b, self.ts_s);
         DiscreteModel {
@@ -465,7 +474,7 @@ impl Parametrisation {
     /// D = ∂Θ/∂p (Θ laid out as [`DiscreteModel::theta`]): for each direction E of
     /// M = [[A_c, B_c], [0, 0]]·Ts, the upper-right block of exp([[M, E], [0, M]]) is
     /// the Fréchet derivative of e^M along E, whose top rows are [dΦ dΓ].
-    fn theta_jacobian(&self, p: &[f64]) -> DMatrix<f64> {
+    pub(crate) fn theta_jacobian(&self, p: &[f64]) -> DMatrix<f64> {
         let (n, m) = (self.n, self.m);
         let s = n + m;
         let (a, b) = self.continuous(p);

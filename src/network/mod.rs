@@ -27,6 +27,7 @@
 pub mod calorimetry;
 pub mod equilibrium;
 pub mod example;
+pub mod fit;
 mod passivity;
 mod reciprocity;
 pub mod stage;
@@ -36,6 +37,7 @@ mod tests;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+pub use fit::MinimumDistance;
 pub use passivity::{
     ColumnSum, Entry, Passivity, ASYMMETRY_TOLERANCE, CONDUCTANCE_TOLERANCE, LOSS_SHARE_TOLERANCE,
 };
@@ -245,6 +247,14 @@ pub struct Network {
     /// themselves (`--method rc`); absent for a network derived from an identified model.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub intervals_95: Option<NetworkIntervals>,
+    /// What C, G and K were fitted from, where they are not the algebraic network of the
+    /// identified model (e.g. "minimum distance to the identified model"); the passivity
+    /// figures then still describe the identified model itself.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fitted_from: Option<String>,
+    /// The weighted distance of the fitted network to the identified model, and its χ² test.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub minimum_distance: Option<MinimumDistance>,
 }
 
 /// A 95 % interval of one network parameter, with its standard error (delta method).
@@ -532,6 +542,8 @@ impl Network {
             alternative_scale: None,
             passivity: Passivity::default(),
             intervals_95: None,
+            fitted_from: None,
+            minimum_distance: None,
         }
     }
 }

@@ -10,9 +10,9 @@ use serde::Serialize;
 
 use super::calorimetry::{self, CoolantHeat, EndOfRun, Water, WaterModel};
 use super::equilibrium::{self, Equilibrium};
-use super::{AlternativeScale, CoolantLink, Labels, Network, ScaleSource, Scaling};
+use super::{fit, AlternativeScale, CoolantLink, Labels, Network, Parts, ScaleSource, Scaling};
 use crate::decimate::DecimatedRecording;
-use crate::estimate::NetworkEstimate;
+use crate::estimate::{Estimate, NetworkEstimate};
 use crate::model::ContinuousModel;
 use crate::recording::{Quantity, Signal};
 use crate::signals::ModelSignals;
@@ -54,11 +54,13 @@ pub struct NetworkAnalysis {
     pub equilibrium: Equilibrium,
 }
 
-/// The network stage (see the module's documentation): the network of the identified
-/// model, or where `grey_box` is given (`rc`), the network it estimated.
+/// The network stage (see the module's documentation): the passive network nearest the
+/// `identified` model (minimum distance, [`fit`]), or where `grey_box` is given (`rc`),
+/// the network it estimated.
 pub fn analyse(
     model: &ModelDescription,
     grey_box: Option<&NetworkEstimate>,
+    identified: &Estimate,
     continuous: &ContinuousModel,
     time_constants_s: &[f64],
     signals: &ModelSignals,
@@ -67,7 +69,7 @@ pub fn analyse(
     let calorimetry = calorimetry(model, signals, decimated);
     let network = match grey_box {
         Some(estimate) => estimated_network(model, estimate, calorimetry.as_ref()),
-        None => network(model, continuous, signals, calorimetry.as_ref()),
+        None => network(model, identified, continuous, signals, calorimetry.as_ref()),
     };
     NetworkAnalysis {
         network,
@@ -88,9 +90,11 @@ fn labels(model: &ModelDescription) -> Labels {
 }
 
 /// The network, with the calorimetric scale where the outlet water is a state and the
-/// flow is recorded.
+/// flow is recorded: the passive network nearest the identified model, with the
+/// algebraic network's passivity figures (how far the model itself is from a network).
 fn network(
     model: &ModelDescription,
+    identified: &Estimate,
     continuous: &ContinuousModel,
     signals: &ModelSignals,
     calorimetry: Option<&Calorimetry>,
@@ -121,8 +125,90 @@ fn network(
     let b_heat = continuous.b_c.select_columns(&heat);
     let mut labels = labels(model);
     labels.inputs = heat.iter().map(|&j| labels.inputs[j].clone()).collect();
-    Network::from_continuous(&continuous.a_c, &b_heat, scaling, coolant, &labels)
-        .map_err(|e| e.to_string())
+    let algebraic = Network::from_continuous(&continuous.a_c, &b_heat, scaling, coolant, &labels)
+        .map_err(|e| e.to_string())?;
+    Ok(nearest_network(
+        algebraic, identified, &heat, scaling, coolant, &labels,
+    ))
+}
+
+/// The passive network nearest the identified model ([`fit::minimum_distance`], from the
+/// algebraic network in the energy-conservation scale), rescaled to c·ρ·Q where the
+/// coolant link is given (energy conservation beside it), carrying the algebraic
+/// network's passivity figures; the algebraic network itself where the fit fails.
+fn nearest_network(
+    algebraic: Network,
+    identified: &Estimate,
+    heat: &[usize],
+    scaling: Scaling,
+    coolant: Option<CoolantLink>,
+    labels: &Labels,
+) -> Network {
+    let to_energy = match (&algebraic.scale_from, &algebraic.alternative_scale) {
+        (ScaleSource::Calorimetric, Some(alt)) => alt.ratio_to_chosen,
+        _ => 1.0,
+    };
+    let n = algebraic.capacitance_j_per_k.len();
+    let m = algebraic.inputs.len();
+    let start = Parts {
+        capacitance_j_per_k: algebraic
+            .capacitance_j_per_k
+            .iter()
+            .map(|c| c * to_energy)
+            .collect(),
+        conductance_w_per_k: nalgebra::DMatrix::from_fn(n, n, |i, j| {
+            algebraic.conductance_w_per_k[i][j] * to_energy
+        }),
+        loss_distribution: nalgebra::DMatrix::from_fn(n, m, |i, j| {
+            algebraic.loss_distribution[i][j] * to_energy
+        }),
+    };
+    let Some(fitted) = fit::minimum_distance(
+        &identified.model,
+        identified.covariance.as_ref(),
+        heat,
+        scaling,
+        start,
+    ) else {
+        return algebraic;
+    };
+    // Calorimetric: every C, G and k_ij times c·ρ·Q / G_out,0 (A_c and B_c unchanged).
+    let ratio = coolant.map(|link| {
+        link.conductance_w_per_k / fitted.parts.conductance_w_per_k[(link.state, link.state)]
+    });
+    let (parts, scale_from) = match ratio {
+        Some(r) => (
+            Parts {
+                capacitance_j_per_k: fitted
+                    .parts
+                    .capacitance_j_per_k
+                    .iter()
+                    .map(|c| c * r)
+                    .collect(),
+                conductance_w_per_k: &fitted.parts.conductance_w_per_k * r,
+                loss_distribution: &fitted.parts.loss_distribution * r,
+            },
+            ScaleSource::Calorimetric,
+        ),
+        None => (fitted.parts.clone(), ScaleSource::EnergyConservation),
+    };
+    let Ok(mut network) = Network::from_parts(&parts, scaling, scale_from, labels) else {
+        return algebraic;
+    };
+    network.alternative_scale = ratio.map(|r| AlternativeScale {
+        scale_from: ScaleSource::EnergyConservation,
+        capacitance_j_per_k: fitted.parts.capacitance_j_per_k.clone(),
+        ratio_to_chosen: 1.0 / r,
+    });
+    network.scale_note = if ratio.is_some() {
+        None
+    } else {
+        algebraic.scale_note.clone()
+    };
+    network.passivity = algebraic.passivity;
+    network.fitted_from = Some("minimum distance to the identified model".into());
+    network.minimum_distance = Some(fitted.distance);
+    network
 }
 
 /// The outlet's conductance to the coolant, c·ρ·Q, where the outlet water is a state and
