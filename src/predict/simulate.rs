@@ -262,7 +262,9 @@ impl DelayLine {
             self.past.pop_front();
         }
         let newest = self.past.len() - 1;
-        DVector::from_fn(self.delays.len(), |i, _| self.past[newest - self.delays[i]][i])
+        DVector::from_fn(self.delays.len(), |i, _| {
+            self.past[newest - self.delays[i]][i]
+        })
     }
 }
 
@@ -284,7 +286,10 @@ mod delay_tests {
                 (u[0], u[1])
             })
             .collect();
-        assert_eq!(applied, vec![(1.0, 10.0), (2.0, 10.0), (3.0, 10.0), (4.0, 20.0)]);
+        assert_eq!(
+            applied,
+            vec![(1.0, 10.0), (2.0, 10.0), (3.0, 10.0), (4.0, 20.0)]
+        );
     }
 
     #[test]
