@@ -1009,10 +1009,27 @@ impl Section for NetworkSection<'_> {
                 "energy conservation (every loss enters the modelled parts: Σ_i k_ij = 1)"
             }
         };
+        // A network fitted to the identified model (rather than its exact algebra) says so,
+        // with how far it had to move: the passivity figures below describe the free model.
+        let fitted = match (&n.fitted_from, &n.minimum_distance) {
+            (Some(from), Some(d)) => format!(
+                " It is the {from}: the passive network whose discretisation lies nearest the \
+                 identified Φ and Γ in their covariance-weighted distance (d = {}, {} degrees of \
+                 freedom{}; {}).",
+                sig(d.distance, 3),
+                d.degrees_of_freedom,
+                d.p_value
+                    .map(|p| format!(", p = {}", sig(p, 2)))
+                    .unwrap_or_default(),
+                d.weighting
+            ),
+            (Some(from), None) => format!(" It is the {from}."),
+            _ => String::new(),
+        };
         out.paragraph(&format!(
             "The identified A_c and B_c as a lumped network of thermal capacitances and resistances \
-             (the paper's Fig. 9): C·dθ/dt = −L·θ + K·P, with the scale of C from {scale}. Figure {} \
-             draws it.",
+             (the paper's Fig. 9): C·dθ/dt = −L·θ + K·P, with the scale of C from {scale}.{fitted} \
+             Figure {} draws it.",
             out.next_figure()
         ));
         out.figure(
