@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use crate::common::{self, heatrun};
+use crate::common::{self, heatrun, heatrun_ok};
 use crate::outputs::ReportSchema;
 use heatrun::model::matrix::eigenvalues;
 use heatrun::pipeline::{replay, Replay, ReplayOptions};
@@ -69,7 +69,7 @@ fn a_drifting_inlet_is_an_input_and_the_machine_is_identified_within_3_percent()
         },
         1,
     );
-    let out = heatrun(
+    heatrun_ok(
         &[
             "replay",
             "drift.mcap",
@@ -80,11 +80,6 @@ fn a_drifting_inlet_is_an_input_and_the_machine_is_identified_within_3_percent()
             "-q",
         ],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let report: Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();
@@ -353,7 +348,7 @@ fn a_pump_switch_is_carried_into_the_model_as_the_heat_the_flow_change_carries()
         "{g_out} W/K against {want} W/K"
     );
     // The report names the flow input by its source and keeps to its schema.
-    let out = heatrun(
+    heatrun_ok(
         &[
             "replay",
             "pump.mcap",
@@ -364,11 +359,6 @@ fn a_pump_switch_is_carried_into_the_model_as_the_heat_the_flow_change_carries()
             "-q",
         ],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let report: Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();

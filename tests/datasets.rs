@@ -15,7 +15,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::common::{self, heatrun, package_root};
+use crate::common::{self, heatrun, heatrun_ok, package_root};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -62,7 +62,7 @@ fn tclab_validation_fit_holds() {
     let estimation = import(&root, dir.path(), "tclab_mimo_data.csv");
     let validation = import(&root, dir.path(), "tclab_mimo_step_data_3s.csv");
     let spec = root.join("examples/tclab_mimo_heaters/spec.toml");
-    let out = heatrun(
+    heatrun_ok(
         &[
             "replay",
             &estimation,
@@ -77,11 +77,6 @@ fn tclab_validation_fit_holds() {
             "-q",
         ],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let report: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
@@ -526,14 +521,9 @@ fn replay_with_delay(dir: &Path, csv: &Path, delay_s: f64) -> Value {
         "--map",
         map.to_str().unwrap(),
     ];
-    let out = heatrun(
+    heatrun_ok(
         &[&args[..], &["--out", mcap.to_str().unwrap()]].concat(),
         dir,
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let spec = dir.join("spec.toml");
     let mut text = String::from("name = \"delayed\"\nsample_time_s = 1.0\nmethod = \"oe\"\n");
@@ -562,12 +552,7 @@ fn replay_with_delay(dir: &Path, csv: &Path, delay_s: f64) -> Value {
         report.to_str().unwrap(),
         "-q",
     ];
-    let out = heatrun(&[&args[..], &rest[..]].concat(), dir);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    heatrun_ok(&[&args[..], &rest[..]].concat(), dir);
     let report: Value = serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
     crate::outputs::ReportSchema::load()
         .check(&report)

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use crate::common::{self, heatrun};
+use crate::common::{self, heatrun, heatrun_ok};
 use crate::outputs::ReportSchema;
 use heatrun::pipeline::{replay, ReplayOptions};
 use heatrun::spec::ModelDescription;
@@ -66,7 +66,7 @@ fn a_field_winding_seen_only_through_its_resistance_is_a_fourth_state_in_every_o
     let mcap = dir.path().join("field.mcap");
     let truth = field_run(&mcap, 1);
     assert_eq!(truth.time_constants_s.len(), 4);
-    let out = heatrun(
+    heatrun_ok(
         &[
             "replay",
             "field.mcap",
@@ -78,11 +78,6 @@ fn a_field_winding_seen_only_through_its_resistance_is_a_fourth_state_in_every_o
             "-q",
         ],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let report: Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();

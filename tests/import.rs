@@ -8,7 +8,7 @@ use crate::common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use common::heatrun;
+use common::{heatrun, heatrun_ok};
 use serde_json::Value;
 
 /// A channel of a written recording: metadata and (log time, message text) samples.
@@ -724,7 +724,7 @@ fn the_fixture_through_csv_replays_to_the_same_estimate() {
     }
 
     let report = |mcap: &Path, name: &str| -> Value {
-        let out = heatrun(
+        heatrun_ok(
             &[
                 "replay",
                 mcap.to_str().unwrap(),
@@ -735,11 +735,6 @@ fn the_fixture_through_csv_replays_to_the_same_estimate() {
                 "--quiet",
             ],
             dir.path(),
-        );
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
         );
         serde_json::from_str(
             &std::fs::read_to_string(dir.path().join(format!("{name}.json"))).unwrap(),

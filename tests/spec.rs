@@ -4,7 +4,7 @@ use crate::common;
 
 use std::path::Path;
 
-use common::{heatrun, tempdir, RecordingBuilder};
+use common::{heatrun, heatrun_ok, tempdir, RecordingBuilder};
 use heatrun::model::matrix::discretize;
 use nalgebra::DMatrix;
 use serde_json::Value;
@@ -274,7 +274,7 @@ fn a_spec_measures_states_from_a_reference_channels_initial_level() {
         .replace("reference = \"ambient\"", "reference = { initial_of = \"ambient\" }")
         + "\n[[input]]\nname = \"ambient_rise\"\nchannel = \"ambient\"\nkind = \"boundary\"\nunit = \"K\"\n";
     std::fs::write(dir.path().join("drift.toml"), &spec).unwrap();
-    let out = heatrun(
+    heatrun_ok(
         &[
             "replay",
             "drift.mcap",
@@ -286,11 +286,6 @@ fn a_spec_measures_states_from_a_reference_channels_initial_level() {
             "r.rrd",
         ],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let report: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();

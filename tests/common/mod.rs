@@ -25,6 +25,18 @@ pub fn heatrun(args: &[&str], cwd: &Path) -> Output {
         .expect("heatrun runs")
 }
 
+/// Runs the heatrun binary and fails the test, with the arguments and heatrun's stderr,
+/// unless it succeeded.
+pub fn heatrun_ok(args: &[&str], cwd: &Path) -> Output {
+    let out = heatrun(args, cwd);
+    assert!(
+        out.status.success(),
+        "heatrun {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// One channel of a hand-built recording: topic, metadata, and its samples as
 /// (log time in ns, message bytes as text).
 pub type Channel = (String, BTreeMap<String, String>, Vec<(u64, String)>);
