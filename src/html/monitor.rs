@@ -38,6 +38,16 @@ fn verdict(result: &MonitorResult) -> String {
     }
 }
 
+/// A library warning (a clause for `warning: …` on stderr) as a sentence of the page.
+fn sentence(clause: &str) -> String {
+    let mut chars = clause.chars();
+    let Some(first) = chars.next() else {
+        return String::new();
+    };
+    let end = if clause.ends_with('.') { "" } else { "." };
+    format!("{}{}{end}", first.to_uppercase(), chars.as_str())
+}
+
 /// The x axis: seconds, minutes or hours since the first grid instant.
 struct TimeAxis {
     t0_ns: i64,
@@ -452,7 +462,7 @@ impl Section for WarningsSection<'_> {
             out.paragraph("None: the recording was read whole and the comparison needs no caveat.");
         }
         for w in &r.warnings {
-            out.note("warning", w);
+            out.note("warning", &sentence(w));
         }
         for line in &r.data_loss {
             out.note("warning", &format!("Data lost: {line}"));
