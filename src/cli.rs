@@ -84,6 +84,10 @@ pub struct MonitorArgs {
     /// Stream them to a running rerun viewer (optionally at this gRPC URL).
     #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
     pub connect: Option<String>,
+    /// Write a self-contained HTML page (measured against model per part, residuals in
+    /// their band, alarms shaded, the alarm and residual tables) to this file.
+    #[arg(long, value_name = "PAGE.html")]
+    pub html: Option<PathBuf>,
     /// Print only the alarm lines.
     #[arg(long, short)]
     pub quiet: bool,

@@ -3,7 +3,7 @@
 //! shape of its tables and their numbers against the JSON report, and that it refers to
 //! nothing outside itself — for the fixture, a recursive estimate with a hold-out, a
 //! spec model of two states and two inputs (TCLab), and a fleet; and the pages of
-//! `predict --html` and `rating --html`.
+//! `predict --html`, `rating --html` and `monitor --html`.
 
 use std::path::Path;
 
@@ -642,4 +642,178 @@ fn the_rating_page_shows_limits_continuous_rating_and_overloads() {
         };
         assert_eq!(row[1], shown);
     }
+}
+
+/// Synthesises `name` of the RC machine (PT100-like noise) for `monitor`, 7200 s long.
+fn synth_rc(dir: &Path, name: &str, extra: &[&str]) {
+    let mut args = vec![
+        "synth",
+        name,
+        "--machine",
+        "rc-unit",
+        "--temperature-noise",
+        "0.05",
+        "--resolution",
+        "0.01",
+        "--electrical-noise",
+        "0.0005",
+        "--duration",
+        "7200",
+    ];
+    args.extend_from_slice(extra);
+    run(&args, dir);
+}
+
+/// The number of alarm stretches shaded per figure (rectangles in the alarm colour).
+fn alarm_shading_per_figure(page: &Page) -> Vec<usize> {
+    page.html
+        .split("<figure")
+        .skip(1)
+        .map(|f| {
+            let f = &f[..f.find("</figure>").unwrap_or(f.len())];
+            f.matches("fill=\"#D62728\" stroke=\"none\"").count()
+        })
+        .collect()
+}
+
+/// `monitor --html`: a fouled cooler's page (written although the alarms exit 4) has the
+/// verdict, one figure per part with the alarm stretches shaded on the alarmed parts,
+/// the alarm and residual tables as the JSON has them, the band rule; a healthy
+/// recording's page says so and shades nothing.
+#[test]
+fn the_monitoring_page_shows_parts_alarms_residuals_and_the_band() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    synth_rc(d, "model.mcap", &["--seed", "1"]);
+    run(
+        &[
+            "replay",
+            "model.mcap",
+            "--report",
+            "model.json",
+            "--holdout",
+            "0.3",
+            "-q",
+        ],
+        d,
+    );
+    synth_rc(
+        d,
+        "fault.mcap",
+        &[
+            "--seed",
+            "2",
+            "--fault-at",
+            "1800",
+            "--fault-conductance-drop",
+            "0.5",
+        ],
+    );
+    let out = heatrun(
+        &[
+            "monitor",
+            "--model",
+            "model.json",
+            "fault.mcap",
+            "--json",
+            "fault.json",
+            "--html",
+            "fault.html",
+            "-q",
+        ],
+        d,
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(4),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("fault.json")).unwrap()).unwrap();
+    let alarms = doc["alarms"].as_array().unwrap();
+    let parts = doc["parts"].as_array().unwrap();
+    assert!(!alarms.is_empty());
+    let page = Page::read(&d.join("fault.html"));
+    assert_eq!(
+        page.section_ids(),
+        [
+            "verdict",
+            "parts",
+            "alarms",
+            "residuals",
+            "band",
+            "warnings"
+        ]
+    );
+    assert_figures_drawn(&page, parts.len());
+    assert_self_contained(&page);
+    let verdict = match alarms.len() {
+        1 => "1 alarm".to_owned(),
+        n => format!("{n} alarms"),
+    };
+    assert!(page.html.contains(&format!("<dd>{verdict}</dd>")));
+    // Each alarmed part's figure shades its stretches in both panels; the others none.
+    let shading = alarm_shading_per_figure(&page);
+    for (j, p) in parts.iter().enumerate() {
+        let stretches = alarms.iter().filter(|a| a["state"] == p["state"]).count();
+        // Two panels, and the legend's swatch once per panel.
+        let expected = if stretches == 0 {
+            0
+        } else {
+            2 * (stretches + 1)
+        };
+        assert_eq!(shading[j], expected, "figure of {}", p["state"]);
+    }
+    let table = page.table("The alarms in the order raised");
+    assert_eq!(table.rows.len(), 1 + alarms.len());
+    for (row, a) in table.rows[1..].iter().zip(alarms) {
+        assert_eq!(row[0], a["part"].as_str().unwrap());
+        assert_eq!(row[1], format!("{:.0}", a["start_s"].as_f64().unwrap()));
+        let end = match a["end_s"].as_f64() {
+            Some(t) => format!("{t:.0}"),
+            None => "still outside at the end".into(),
+        };
+        assert_eq!(row[2], end);
+        assert_eq!(row[3], format!("{:.0}", a["raised_s"].as_f64().unwrap()));
+        assert_eq!(
+            row[4],
+            format!("{:+.2}", a["peak_deviation_k"].as_f64().unwrap())
+        );
+    }
+    let residuals = page.table("residual θ − θ̂ over the recording");
+    assert_eq!(residuals.rows.len(), 1 + parts.len());
+    for (row, p) in residuals.rows[1..].iter().zip(parts) {
+        assert_eq!(row[0], p["part"].as_str().unwrap());
+        assert_eq!(row[1], format!("{:.2}", p["band_k"].as_f64().unwrap()));
+        assert_eq!(row[4], format!("{:.3}", p["rms_k"].as_f64().unwrap()));
+        let outside = p["outside_fraction"].as_f64().unwrap() * 100.0;
+        assert_eq!(row[7], format!("{outside:.1}"));
+    }
+    let band = page.table("and the band set from it");
+    assert_eq!(band.rows.len(), 1 + parts.len());
+    assert!(page.html.contains("b = max(4 × RMSE, 0.5 K)"));
+    // A healthy recording: exit 0, the page says so, nothing shaded, no alarm table.
+    synth_rc(d, "healthy.mcap", &["--seed", "3"]);
+    run(
+        &[
+            "monitor",
+            "--model",
+            "model.json",
+            "healthy.mcap",
+            "--html",
+            "healthy.html",
+            "-q",
+        ],
+        d,
+    );
+    let page = Page::read(&d.join("healthy.html"));
+    assert!(page.html.contains("<dd>healthy, no alarm</dd>"));
+    assert!(page.html.contains("No alarm was raised."));
+    assert_figures_drawn(&page, parts.len());
+    assert!(alarm_shading_per_figure(&page).iter().all(|&n| n == 0));
+    assert!(page
+        .tables()
+        .iter()
+        .all(|t| !t.caption.contains("alarms in the order")));
 }

@@ -34,6 +34,10 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<Outcome> {
     if let Some(path) = &args.json {
         result.write_json(path)?;
     }
+    if let Some(path) = &args.html {
+        // Written whatever the verdict: a page with alarms is the one most worth reading.
+        heatrun::html::monitor_page(&result).write(path)?;
+    }
     if let Some(sink) = &sink {
         heatrun::publish::monitor::publish(&result, sink)?;
     }

@@ -7,9 +7,11 @@
 //! [`replay_page`] ([`sections`] holds its sections, reading the [`Replay`] and its
 //! [`Report`]); another command builds its own page from its own sections and the same
 //! pieces: [`plot::Chart`] for figures, [`Table`] for tables, [`Page::write`] to save it.
-//! `heatrun predict` and `heatrun rating` do so: [`predict_page`], [`rating_page`].
+//! `heatrun predict`, `heatrun rating` and `heatrun monitor` do so: [`predict_page`],
+//! [`rating_page`], [`monitor_page`].
 
 pub mod markup;
+pub mod monitor;
 pub mod network;
 pub mod plot;
 pub mod predict;
@@ -21,6 +23,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 pub use markup::{escape, Markup, Table};
+pub use monitor::monitor_page;
 pub use predict::{predict_page, PredictionView};
 pub use rating::rating_page;
 

@@ -32,6 +32,8 @@ pub const PALETTE: [Rgb; 6] = [
 ];
 /// A neutral grey for bands and reference lines.
 pub const GREY: Rgb = (128, 128, 128);
+/// The shading of alarm stretches (red, light).
+pub const ALARM: Rgb = (214, 39, 40);
 
 /// The i-th colour of [`PALETTE`], cycling.
 pub fn palette(i: usize) -> Rgb {
@@ -86,6 +88,8 @@ pub struct Panel {
     pub y_range: Option<Range<f64>>,
     /// The panel's share of the chart's height, relative to the other panels.
     pub weight: u32,
+    /// Shaded stretches of x [start, end] behind the lines (alarms), full height.
+    pub spans: Vec<(f64, f64)>,
 }
 
 impl Panel {
@@ -97,6 +101,7 @@ impl Panel {
             band: None,
             y_range: None,
             weight: 1,
+            spans: Vec::new(),
         }
     }
 
@@ -274,6 +279,7 @@ fn draw_panel(
         }
     }
     mesh.draw().map_err(plot_error)?;
+    draw_spans(&mut chart, &panel.spans, &y)?;
     if let Some((lo, hi)) = panel.band {
         chart
             .draw_series(std::iter::once(Rectangle::new(
@@ -299,6 +305,28 @@ fn draw_panel(
 }
 
 type Cartesian<'a> = ChartContext<'a, SVGBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Shades the x stretches `spans` over the panel's height, with one legend entry.
+fn draw_spans(
+    chart: &mut Cartesian<'_>,
+    spans: &[(f64, f64)],
+    y: &Range<f64>,
+) -> Result<(), HtmlError> {
+    if spans.is_empty() {
+        return Ok(());
+    }
+    let fill = colour(ALARM).mix(0.15).filled();
+    chart
+        .draw_series(
+            spans
+                .iter()
+                .map(|&(a, b)| Rectangle::new([(a, y.start), (b, y.end)], fill)),
+        )
+        .map_err(plot_error)?
+        .label("alarm")
+        .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 22, py + 5)], fill));
+    Ok(())
+}
 
 /// Draws a line's segments, clipped to the y range, with one legend entry.
 fn draw_line(chart: &mut Cartesian<'_>, line: &Line, y: &Range<f64>) -> Result<(), HtmlError> {
