@@ -209,6 +209,85 @@ fn a_coolant_referenced_model_follows_a_drifting_inlet_and_flags_the_fault() {
     assert_fault_flagged(status, &doc, &stdout);
 }
 
+/// A model that carries the cooling-water flow (identified on a run whose pump switched to
+/// 0.6 of the flow) follows a later run whose pump switches at another time and to another
+/// flow, and still flags a fouled cooler; `predict` runs it at the test's initial flow
+/// and says so.
+#[test]
+fn a_model_carrying_the_flow_follows_a_pump_switch_and_flags_the_fault() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    identify(
+        d,
+        "model.mcap",
+        &["--seed", "8", "--pump-switch", "10000:0.6"],
+        "model.json",
+    );
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("model.json")).unwrap()).unwrap();
+    assert!(
+        report["inputs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|i| i == "cooling_water_flow_heat"),
+        "{}",
+        report["inputs"]
+    );
+    synth(
+        d,
+        "pump.mcap",
+        &["--seed", "9", "--pump-switch", "6000:0.75"],
+    );
+    let (status, doc, stdout) = monitor(d, "model.json", "pump.mcap");
+    assert_eq!(status, Some(0), "{stdout}");
+    assert!(alarms(&doc).is_empty());
+    let fault = FAULT_AT_S.to_string();
+    let faulty = [
+        "--seed",
+        "10",
+        "--pump-switch",
+        "6000:0.75",
+        "--fault-at",
+        &fault,
+        "--fault-conductance-drop",
+        "0.3",
+    ];
+    synth(d, "fault.mcap", &faulty);
+    let (status, doc, stdout) = monitor(d, "model.json", "fault.mcap");
+    assert_fault_flagged(status, &doc, &stdout);
+
+    std::fs::write(
+        d.join("load.csv"),
+        "time_s,apparent_power_mva,power_factor\n0,80,0.9\n3600,80,0.9\n",
+    )
+    .unwrap();
+    let out = common::heatrun_ok(
+        &[
+            "predict",
+            "--model",
+            "model.json",
+            "--load",
+            "load.csv",
+            "--out",
+            "p.csv",
+        ],
+        d,
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("holds the flow at the start of the model's test"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(d.join("p.csv"))
+            .unwrap()
+            .lines()
+            .count(),
+        3602
+    );
+}
+
 #[test]
 fn the_rrd_is_written_and_quiet_prints_only_the_alarms() {
     let dir = common::tempdir();

@@ -227,6 +227,17 @@ pub fn description_of(model: &ThermalModel) -> Result<ModelDescription, UseError
                 InputUse::Channel(c) => InputSource::Channel(Signal::from_name(c)),
                 InputUse::Expression(e) => InputSource::Expression(e.clone()),
                 InputUse::BoundaryRise(c) => InputSource::BoundaryRise(Signal::from_name(c)),
+                // A flow change in service is carried as in the test, from this
+                // recording's own initial flow.
+                InputUse::CoolantFlow {
+                    flow,
+                    outlet,
+                    inlet,
+                } => InputSource::CoolantFlow {
+                    flow: Signal::from_name(flow),
+                    outlet: Signal::from_name(outlet),
+                    inlet: Signal::from_name(inlet),
+                },
             },
             unit: String::new(),
             kind: i.kind,

@@ -89,7 +89,7 @@ fn channel_columns(model: &ThermalModel) -> Vec<String> {
         match &i.source {
             InputUse::Channel(c) | InputUse::BoundaryRise(c) => add(c),
             InputUse::Expression(e) => e.channels().iter().for_each(|c| add(c.name())),
-            InputUse::Loss(_) => {}
+            InputUse::Loss(_) | InputUse::CoolantFlow { .. } => {}
         }
     }
     for s in &model.states {

@@ -75,6 +75,17 @@ pub fn predict(
             load::COOLANT_COLUMN
         ));
     }
+    if let Some(q) = model
+        .inputs
+        .iter()
+        .find(|i| matches!(i.source, model::InputUse::CoolantFlow { .. }))
+    {
+        warnings.push(format!(
+            "the model carries the cooling-water flow (input `{}`): the prediction holds the \
+             flow at the start of the model's test, the flow its A_c describes",
+            q.name
+        ));
+    }
     let (t0, t_end) = schedule.span_s();
     let ts = model.ts_s;
     let steps = ((t_end - t0) / ts + 1e-9).floor() as usize;

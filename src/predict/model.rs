@@ -57,6 +57,17 @@ pub enum InputUse {
     /// coolant inlet's drift θ_in − θ_in,0), in the states' scaling; the level is the
     /// [`StateReference::InitialOf`] of the states.
     BoundaryRise(String),
+    /// The heat a change of the cooling-water flow carries from the outlet node,
+    /// u_Q = −c·ρ·(Q − Q₀)·(θ_out − θ_in), Q₀ the flow at the start of the model's test
+    /// (`coolant_flow`): the model's A_c is the machine at Q₀.
+    CoolantFlow {
+        /// The flow channel, l/s.
+        flow: String,
+        /// The coolant outlet temperature channel.
+        outlet: String,
+        /// The coolant inlet temperature channel.
+        inlet: String,
+    },
 }
 
 /// One input of the model.
@@ -275,7 +286,9 @@ impl ThermalModel {
             InputUse::Channel(c) => c == inlet,
             InputUse::Expression(e) => e.channels().iter().any(|c| c.name() == inlet),
             InputUse::BoundaryRise(c) => c == inlet,
-            InputUse::Loss(_) => false,
+            // Zero at the test's flow, which a prediction holds (the heat it carries is
+            // then the model's own).
+            InputUse::Loss(_) | InputUse::CoolantFlow { .. } => false,
         }) || self.states.iter().any(|s| match &s.reference {
             StateReference::Channel(c, _) | StateReference::InitialOf(c, _) => c == inlet,
             _ => false,
@@ -495,6 +508,17 @@ fn input(i: InputFile, path: &Path) -> Result<ModelInput, UseError> {
         ("boundary_rise", Some(name)) => InputUse::BoundaryRise(name.to_owned()),
         ("expression", Some(text)) => {
             InputUse::Expression(Box::new(InputExpression::parse(text).map_err(unsupported)?))
+        }
+        ("coolant_flow", None) => {
+            let name = |key: &str| value.get(key).and_then(Value::as_str).map(str::to_owned);
+            match (name("flow"), name("outlet"), name("inlet")) {
+                (Some(flow), Some(outlet), Some(inlet)) => InputUse::CoolantFlow {
+                    flow,
+                    outlet,
+                    inlet,
+                },
+                _ => return Err(unsupported(format!("`{}`", i.source))),
+            }
         }
         _ => return Err(unsupported(format!("`{}`", i.source))),
     };

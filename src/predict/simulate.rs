@@ -161,6 +161,9 @@ impl<'a> Simulator<'a> {
                     };
                     (now - level) / self.model.temperature_base_k
                 }
+                // A schedule holds the cooling-water flow at the test's Q₀ (predict warns),
+                // where the flow change carries no heat of its own: u_Q = 0.
+                InputUse::CoolantFlow { .. } => 0.0,
             };
             if !u[i].is_finite() {
                 return Err(UseError::Request(format!(
