@@ -1013,9 +1013,9 @@ impl Section for NetworkSection<'_> {
         // with how far it had to move: the passivity figures below describe the free model.
         let fitted = match (&n.fitted_from, &n.minimum_distance) {
             (Some(from), Some(d)) => format!(
-                " It is the {from}: the passive network whose discretisation lies nearest the \
-                 identified Φ and Γ in their covariance-weighted distance (d = {}, {} degrees of \
-                 freedom{}; {}).",
+                " It was fitted by {from}: it is the passive network whose discretisation lies \
+                 nearest the identified Φ and Γ in their covariance-weighted distance (d = {}, {} \
+                 degrees of freedom{}; weighted by {}).",
                 sig(d.distance, 3),
                 d.degrees_of_freedom,
                 d.p_value
@@ -1023,7 +1023,7 @@ impl Section for NetworkSection<'_> {
                     .unwrap_or_default(),
                 d.weighting
             ),
-            (Some(from), None) => format!(" It is the {from}."),
+            (Some(from), None) => format!(" It was fitted by {from}."),
             _ => String::new(),
         };
         out.paragraph(&format!(

@@ -232,7 +232,7 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
     .map_err(publish_err)?;
     rec.log_static(
         "summary",
-        &rerun::TextDocument::new(summary_text.to_owned()),
+        &text::preformatted(summary_text),
     )
     .map_err(publish_err)?;
     Ok(())

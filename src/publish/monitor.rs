@@ -96,7 +96,7 @@ fn log_result(rec: &RecordingStream, result: &MonitorResult) -> Result<()> {
     }
     rec.log_static(
         "monitor/summary",
-        &rerun::TextDocument::new(result.summary()),
+        &super::text::preformatted(&result.summary()),
     )
     .map_err(publish_err)?;
     Ok(())

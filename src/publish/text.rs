@@ -1,5 +1,5 @@
 //! The model's figures as a text panel beside the plots: time constants with their
-//! 95 % intervals and parts, and the fit per part.
+//! 95 % intervals and parts, and the fit per part; plain-text tables in a fixed-width font.
 
 use std::fmt::Write as _;
 
@@ -40,4 +40,12 @@ pub fn model_figures(report: &Report) -> String {
         report.method, report.sample_time_s, fit.samples
     );
     s
+}
+
+/// A plain-text table (the terminal summary, the monitor's) as a document the viewer shows
+/// in a fixed-width font: Markdown, the text in one fenced block, so its columns line up
+/// as they do on a terminal (rerun draws plain text proportionally).
+pub fn preformatted(text: &str) -> rerun::TextDocument {
+    rerun::TextDocument::new(format!("```text\n{}\n```\n", text.trim_end()))
+        .with_media_type(rerun::MediaType::markdown())
 }
