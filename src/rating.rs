@@ -8,6 +8,7 @@
 //! rating is found by bisection on S; an overload is simulated step by step from the
 //! rated steady state until the first part reaches its limit.
 
+use nalgebra::DVector;
 use serde::Serialize;
 
 use crate::predict::model::{FieldTemperatureUse, ThermalModel};
@@ -221,10 +222,11 @@ pub fn rate(model: &ThermalModel, o: &RatingOptions) -> Result<Rating, UseError>
     let (s_max, limiting) = max_continuous(&loading)?;
     let at_max = loading.steady(s_max)?;
     let at_rated = loading.steady(rated)?;
+    let rated_state = loading.sim.steady_state(&loading.point(rated))?;
     let overloads = o
         .overloads
         .iter()
-        .map(|&f| overload(&loading, model, f))
+        .map(|&f| overload(&loading, model, &rated_state, f))
         .collect::<Result<Vec<_>, _>>()?;
     Ok(Rating {
         model: model.path.display().to_string(),
@@ -298,15 +300,6 @@ fn loading<'a>(model: &'a ThermalModel, o: &RatingOptions) -> Result<Loading<'a>
         power_factor,
         coolant_c: o.coolant_c,
     })
-}
-
-/// The parts of `model` with a limit under `o`'s class and per-part limits, as [`rate`]
-/// judges them (for a prediction drawn against the limits).
-pub fn limited_parts(
-    model: &ThermalModel,
-    o: &RatingOptions,
-) -> Result<Vec<LimitedPart>, UseError> {
-    parts(model, o)
 }
 
 /// The parts with a limit: states by their channel (the class's table) or by name
@@ -412,14 +405,20 @@ fn max_continuous(l: &Loading) -> Result<(f64, usize), UseError> {
 
 /// The time from the rated steady state, after a step to `fraction` × rated current,
 /// until the first part reaches its limit (linear between the steps that straddle it).
-fn overload(l: &Loading, model: &ThermalModel, fraction: f64) -> Result<Overload, UseError> {
+/// `rated_state` is the rated point's steady state, the same for every fraction.
+fn overload(
+    l: &Loading,
+    model: &ThermalModel,
+    rated_state: &DVector<f64>,
+    fraction: f64,
+) -> Result<Overload, UseError> {
     let rated = l.point(l.rated_mva);
-    let mut x = l.sim.steady_state(&rated)?;
+    let mut x = rated_state.clone();
     let p = l.point(fraction * l.rated_mva);
     let slowest = model.time_constants_s.iter().copied().fold(0.0, f64::max);
     let steps = (10.0 * slowest / model.ts_s).ceil() as usize;
     let mut theta = l.part_temperatures(&x, &p);
-    let (mut margin, mut part) = l.margin(&theta);
+    let (mut margin, part) = l.margin(&theta);
     let mut result = Overload {
         current_percent: 100.0 * fraction,
         time_to_limit_s: None,
@@ -445,9 +444,8 @@ fn overload(l: &Loading, model: &ThermalModel, fraction: f64) -> Result<Overload
             result.limiting_part = Some(l.parts[next_part].name.clone());
             return Ok(result);
         }
-        (margin, part) = (next, next_part);
+        margin = next;
     }
-    let _ = part;
     Ok(result)
 }
 

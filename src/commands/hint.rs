@@ -228,35 +228,19 @@ fn for_model_use(e: &UseError) -> Option<String> {
 }
 
 /// The known name (from a comma-separated list) nearest `given`, if one is near: at most
-/// a third of its letters differ (edit distance), ignoring case.
+/// a third of its letters differ (Levenshtein distance), ignoring case; `given` itself is
+/// not a suggestion, but a name that differs from it only in case is (names are matched
+/// case-sensitively).
 fn closest(given: &str, known: &str) -> Option<String> {
-    let given = given.to_lowercase();
+    let lower = given.to_lowercase();
     known
         .split(',')
         .map(str::trim)
-        .filter(|k| !k.is_empty())
-        .map(|k| (edit_distance(&given, &k.to_lowercase()), k))
-        .filter(|(d, k)| *d > 0 && *d * 3 <= k.len().max(given.len()))
+        .filter(|k| !k.is_empty() && *k != given)
+        .map(|k| (strsim::levenshtein(&lower, &k.to_lowercase()), k))
+        .filter(|(d, k)| *d * 3 <= k.len().max(lower.len()))
         .min_by_key(|(d, _)| *d)
         .map(|(_, k)| k.to_owned())
-}
-
-/// Levenshtein distance: insertions, deletions and substitutions of characters.
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut diagonal = row[0];
-        row[0] = i + 1;
-        for (j, cb) in b.iter().enumerate() {
-            let above = row[j + 1];
-            row[j + 1] = (diagonal + usize::from(ca != *cb))
-                .min(row[j] + 1)
-                .min(above + 1);
-            diagonal = above;
-        }
-    }
-    row[b.len()]
 }
 
 #[cfg(test)]
@@ -287,7 +271,10 @@ mod tests {
             Some("apparent_power_mva")
         );
         assert_eq!(closest("pf", known), None, "too far from any");
-        assert_eq!(edit_distance("kitten", "sitting"), 3);
-        assert_eq!(edit_distance("", "abc"), 3);
+        assert_eq!(
+            closest("Power_Factor", known).as_deref(),
+            Some("power_factor"),
+            "a name that differs only in case"
+        );
     }
 }

@@ -69,7 +69,7 @@ pub fn write_prediction_page(
             coolant_c: None,
             overloads: Vec::new(),
         };
-        rating::limited_parts(model, &options).map_err(heatrun::Error::from)?
+        rating::parts(model, &options).map_err(heatrun::Error::from)?
     };
     let view = heatrun::html::PredictionView {
         model,

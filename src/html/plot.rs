@@ -516,11 +516,12 @@ mod tests {
     #[test]
     fn thinning_breaks_the_line_at_a_gap_longer_than_a_bucket() {
         let mut t = Thinning::new(100, 10);
-        for k in (0..30).chain(60..100) {
-            t.push(k, k as f64, Some(1.0));
+        // Unknown from 30 to 59 (three buckets) and at 15 alone: one missing value inside
+        // a bucket is not a gap of the line.
+        for k in 0..100 {
+            let known = k != 15 && !(30..60).contains(&k);
+            t.push(k, k as f64, known.then_some(1.0));
         }
-        // One missing value inside a bucket is not a gap of the line.
-        t.push(100, 100.0, None);
         let segments = t.finish();
         assert_eq!(segments.len(), 2);
         assert_eq!(segments[0].last().unwrap().0, 29.0);

@@ -9,8 +9,8 @@
 
 use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, RecordingId};
 use rerun::external::re_sdk_types::blueprint::archetypes::{
-    ContainerBlueprint, PanelBlueprint, PlotLegend, TimeAxis, TimePanelBlueprint, ViewBlueprint,
-    ViewContents, ViewportBlueprint,
+    ContainerBlueprint, PanelBlueprint, TimeAxis, TimePanelBlueprint, ViewBlueprint, ViewContents,
+    ViewportBlueprint,
 };
 use rerun::external::re_sdk_types::blueprint::components::{
     ActiveTab, ColumnShare, ContainerKind, IncludedContent, LinkAxis, PanelState, QueryExpression,
@@ -81,11 +81,6 @@ impl View {
         self.properties
             .push((name, archetype.as_serialized_batches()));
         self
-    }
-
-    /// Hides the legend (a plot whose series are named by its title).
-    pub fn without_legend(self) -> View {
-        self.with_property("PlotLegend", &PlotLegend::new().with_visible(false))
     }
 
     /// Whether this view shows the whole time range (has a `TimeAxis` property).

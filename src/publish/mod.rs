@@ -230,10 +230,7 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
         &rerun::TextDocument::new(figures).with_media_type(rerun::MediaType::markdown()),
     )
     .map_err(publish_err)?;
-    rec.log_static(
-        "summary",
-        &text::preformatted(summary_text),
-    )
-    .map_err(publish_err)?;
+    rec.log_static("summary", &text::preformatted(summary_text))
+        .map_err(publish_err)?;
     Ok(())
 }
