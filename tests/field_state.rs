@@ -106,12 +106,20 @@ fn a_field_winding_seen_only_through_its_resistance_is_a_fourth_state_in_every_o
             .len(),
         4
     );
-    assert!(
-        std::fs::metadata(dir.path().join("field.rrd"))
-            .unwrap()
-            .len()
-            > 0
-    );
+    // The .rrd carries the fourth state like the others: measured, model, residual and its
+    // sensitivity to each of the four time constants.
+    let (rows, _) = crate::outputs::rows_per_entity(&dir.path().join("field.rrd"));
+    for entity in [
+        "/temperature/field_winding_temp/measured".to_owned(),
+        "/temperature/field_winding_temp/model".to_owned(),
+        "/residual/field_winding_temp".to_owned(),
+        "/sensitivity/T4/field_winding_temp".to_owned(),
+    ] {
+        assert!(
+            rows.get(&entity).is_some_and(|&n| n > 0),
+            "{entity}: {rows:?}"
+        );
+    }
 }
 
 #[test]

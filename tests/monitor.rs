@@ -156,11 +156,29 @@ fn a_fouled_cooler_raises_an_alarm_and_healthy_recordings_none() {
     // A drifting inlet this model (rises above the initial values) does not carry: the
     // JSON and stderr say so, whatever the alarms.
     synth(d, "drift.mcap", &["--seed", "5", "--inlet-drift", "3"]);
-    let out = common::heatrun(&["monitor", "--model", "model.json", "drift.mcap"], d);
+    let args = [
+        "monitor",
+        "--model",
+        "model.json",
+        "drift.mcap",
+        "--json",
+        "drift.json",
+    ];
+    let out = common::heatrun(&args, d);
+    assert!(matches!(out.status.code(), Some(0 | 4)), "{:?}", out.status);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("warning: the coolant inlet varies by"),
         "{stderr}"
+    );
+    let doc: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("drift.json")).unwrap()).unwrap();
+    assert!(
+        doc["warnings"][0]
+            .as_str()
+            .is_some_and(|w| w.contains("the coolant inlet varies by")),
+        "{}",
+        doc["warnings"]
     );
 }
 
@@ -191,6 +209,13 @@ fn a_coolant_referenced_model_follows_a_drifting_inlet_and_flags_the_fault() {
     let (status, doc, stdout) = monitor(d, "model.json", "drift.mcap");
     assert_eq!(status, Some(0), "{stdout}");
     assert!(alarms(&doc).is_empty());
+    // The model carries the drift: nothing to warn about.
+    assert_eq!(
+        doc["warnings"],
+        serde_json::json!([]),
+        "{}",
+        doc["warnings"]
+    );
     let fault = FAULT_AT_S.to_string();
     let faulty = [
         "--seed",

@@ -7,7 +7,7 @@
 //! of [`Markup`], [`Chart`]s drawn into inline SVG.
 
 use super::markup::{fixed, sig};
-use super::plot::{Chart, Line, Panel, Thinning, MEASURED, MODEL};
+use super::plot::{Chart, Line, Panel, TimeAxis, MEASURED, MODEL};
 use super::{HtmlError, Markup, Page, Section, Table};
 use crate::monitor::alarm::CLEAR_SHARE_OF_HOLD;
 use crate::monitor::{Alarm, MonitorResult};
@@ -46,49 +46,6 @@ fn sentence(clause: &str) -> String {
     };
     let end = if clause.ends_with('.') { "" } else { "." };
     format!("{}{}{end}", first.to_uppercase(), chars.as_str())
-}
-
-/// The x axis: seconds, minutes or hours since the first grid instant.
-struct TimeAxis {
-    t0_ns: i64,
-    unit_s: f64,
-    label: &'static str,
-}
-
-impl TimeAxis {
-    fn of(time_ns: &[i64]) -> TimeAxis {
-        let t0_ns = time_ns.first().copied().unwrap_or(0);
-        let span_s = time_ns.last().map_or(0.0, |t| (t - t0_ns) as f64 * 1e-9);
-        let (unit_s, label) = if span_s >= 3.0 * 3600.0 {
-            (3600.0, "time since the start, h")
-        } else if span_s >= 180.0 {
-            (60.0, "time since the start, min")
-        } else {
-            (1.0, "time since the start, s")
-        };
-        TimeAxis {
-            t0_ns,
-            unit_s,
-            label,
-        }
-    }
-
-    fn x(&self, t_ns: i64) -> f64 {
-        (t_ns - self.t0_ns) as f64 * 1e-9 / self.unit_s
-    }
-
-    /// A series over the grid's instants, thinned for drawing.
-    fn series(
-        &self,
-        time_ns: &[i64],
-        value: impl Fn(usize) -> Option<f64>,
-    ) -> Vec<Vec<(f64, f64)>> {
-        let mut thin = Thinning::new(time_ns.len(), BUCKETS);
-        for (k, &t) in time_ns.iter().enumerate() {
-            thin.push(k, self.x(t), value(k));
-        }
-        thin.finish()
-    }
 }
 
 /// The monitoring page of `result`.
@@ -206,7 +163,7 @@ impl PartsSection<'_> {
             .alarms
             .iter()
             .filter(|a| a.state == j)
-            .map(|a| (axis.x(a.start_ns), axis.x(a.end_ns.unwrap_or(last))))
+            .map(|a| (axis.x_ns(a.start_ns), axis.x_ns(a.end_ns.unwrap_or(last))))
             .collect();
         let mut top = Panel::new(
             format!("{}, °C", spoken(&r.parts[j])),
@@ -214,9 +171,14 @@ impl PartsSection<'_> {
                 Line::new(
                     "measured",
                     MEASURED,
-                    axis.series(t, |k| tr.measured[j].get(k)),
+                    axis.series_ns(t, BUCKETS, |k| tr.measured[j].get(k)),
                 ),
-                Line::new("model", MODEL, axis.series(t, |k| tr.predicted[j].get(k))).dashed(),
+                Line::new(
+                    "model",
+                    MODEL,
+                    axis.series_ns(t, BUCKETS, |k| tr.predicted[j].get(k)),
+                )
+                .dashed(),
             ],
         );
         top.weight = 2;
@@ -227,12 +189,12 @@ impl PartsSection<'_> {
             vec![Line::new(
                 "residual",
                 MEASURED,
-                axis.series(t, |k| tr.residual(j, k)),
+                axis.series_ns(t, BUCKETS, |k| tr.residual(j, k)),
             )],
         );
         bottom.band = Some((-band, band));
         bottom.spans = spans;
-        Chart::new(axis.label, vec![top, bottom])
+        Chart::new(&axis.label, vec![top, bottom])
     }
 }
 
@@ -247,7 +209,7 @@ impl Section for PartsSection<'_> {
 
     fn render(&self, out: &mut Markup) -> Result<(), HtmlError> {
         let r = self.result;
-        let axis = TimeAxis::of(&r.traces.time_ns);
+        let axis = TimeAxis::of_ns(&r.traces.time_ns);
         let n = r.states.len();
         let first = out.next_figure();
         out.paragraph(&format!(

@@ -390,6 +390,95 @@ pub fn tick(v: f64) -> String {
     }
 }
 
+/// The x axis of a time plot: seconds, minutes or hours (whichever suits the span) since
+/// the first instant, x = (t − t₀) / unit.
+#[derive(Debug, Clone)]
+pub struct TimeAxis {
+    /// t₀ of an axis over grid instants (ns), else 0.
+    t0_ns: i64,
+    /// t₀ of an axis over times in seconds, else 0.
+    t0_s: f64,
+    unit_s: f64,
+    /// The axis label: the clock's name and the unit, e.g. "time since the start, h".
+    pub label: String,
+}
+
+impl TimeAxis {
+    /// The unit for a span of `span_s` seconds, appended to `what` in the label.
+    fn with_unit(t0_ns: i64, t0_s: f64, span_s: f64, what: &str) -> TimeAxis {
+        let (unit_s, unit) = if span_s >= 3.0 * 3600.0 {
+            (3600.0, "h")
+        } else if span_s >= 180.0 {
+            (60.0, "min")
+        } else {
+            (1.0, "s")
+        };
+        TimeAxis {
+            t0_ns,
+            t0_s,
+            unit_s,
+            label: format!("{what}, {unit}"),
+        }
+    }
+
+    /// The axis of a recording's grid instants (ns): "time since the start".
+    pub fn of_ns(time_ns: &[i64]) -> TimeAxis {
+        let t0_ns = time_ns.first().copied().unwrap_or(0);
+        let span_s = time_ns.last().map_or(0.0, |t| (t - t0_ns) as f64 * 1e-9);
+        TimeAxis::with_unit(t0_ns, 0.0, span_s, "time since the start")
+    }
+
+    /// The axis of times in seconds, labelled `what` (e.g. "time of the schedule").
+    pub fn of_seconds(time_s: &[f64], what: &str) -> TimeAxis {
+        let t0_s = time_s.first().copied().unwrap_or(0.0);
+        let span_s = time_s.last().map_or(0.0, |t| t - t0_s);
+        TimeAxis::with_unit(0, t0_s, span_s, what)
+    }
+
+    /// x of a grid instant (ns).
+    pub fn x_ns(&self, t_ns: i64) -> f64 {
+        (t_ns - self.t0_ns) as f64 * 1e-9 / self.unit_s
+    }
+
+    /// x of a time in seconds.
+    pub fn x_s(&self, t_s: f64) -> f64 {
+        (t_s - self.t0_s) / self.unit_s
+    }
+
+    /// The unit's symbol ("h", "min" or "s").
+    pub fn unit(&self) -> &str {
+        self.label.rsplit(", ").next().unwrap_or("")
+    }
+
+    /// `value` over grid instants (ns), thinned to `buckets` for drawing.
+    pub fn series_ns(
+        &self,
+        time_ns: &[i64],
+        buckets: usize,
+        value: impl Fn(usize) -> Option<f64>,
+    ) -> Vec<Vec<(f64, f64)>> {
+        let mut thin = Thinning::new(time_ns.len(), buckets);
+        for (k, &t) in time_ns.iter().enumerate() {
+            thin.push(k, self.x_ns(t), value(k));
+        }
+        thin.finish()
+    }
+
+    /// `value` over times in seconds, thinned to `buckets` for drawing.
+    pub fn series_s(
+        &self,
+        time_s: &[f64],
+        buckets: usize,
+        value: impl Fn(usize) -> Option<f64>,
+    ) -> Vec<Vec<(f64, f64)>> {
+        let mut thin = Thinning::new(time_s.len(), buckets);
+        for (k, &t) in time_s.iter().enumerate() {
+            thin.push(k, self.x_s(t), value(k));
+        }
+        thin.finish()
+    }
+}
+
 /// Thins a series of instants 0..len to at most four points per bucket of instants (the
 /// first, the smallest, the largest and the last value), kept in time order, and breaks
 /// the line where instants are missing for longer than a bucket.

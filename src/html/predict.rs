@@ -5,7 +5,7 @@
 //! of [`Markup`], [`Chart`]s drawn into inline SVG.
 
 use super::markup::{fixed, sig};
-use super::plot::{palette, Chart, Line, Panel, Thinning};
+use super::plot::{palette, Chart, Line, Panel, TimeAxis};
 use super::{HtmlError, Markup, Page, Section, Table};
 use crate::predict::model::InputUse;
 use crate::predict::{LoadSchedule, Prediction, ThermalModel};
@@ -61,41 +61,6 @@ impl PredictionView<'_> {
             Some(j) => self.prediction.temperatures_c[k].get(j).copied(),
             None => self.prediction.field_temperature_c[k],
         }
-    }
-}
-
-/// The x axis of the prediction's plots: the schedule's clock in s, min or h.
-struct Clock {
-    t0: f64,
-    unit_s: f64,
-    label: &'static str,
-}
-
-impl Clock {
-    fn of(time_s: &[f64]) -> Clock {
-        let t0 = time_s.first().copied().unwrap_or(0.0);
-        let span = time_s.last().map_or(0.0, |t| t - t0);
-        let (unit_s, label) = if span >= 3.0 * 3600.0 {
-            (3600.0, "time of the schedule, h")
-        } else if span >= 180.0 {
-            (60.0, "time of the schedule, min")
-        } else {
-            (1.0, "time of the schedule, s")
-        };
-        Clock { t0, unit_s, label }
-    }
-
-    fn x(&self, t_s: f64) -> f64 {
-        (t_s - self.t0) / self.unit_s
-    }
-
-    /// A series over the prediction's instants, thinned for drawing.
-    fn series(&self, time_s: &[f64], value: impl Fn(usize) -> Option<f64>) -> Vec<Vec<(f64, f64)>> {
-        let mut thin = Thinning::new(time_s.len(), BUCKETS);
-        for (k, &t) in time_s.iter().enumerate() {
-            thin.push(k, self.x(t), value(k));
-        }
-        thin.finish()
     }
 }
 
@@ -262,14 +227,15 @@ impl Section for LossesSection<'_> {
         } else {
             ("as the spec computes them", m.power_base_w)
         };
-        let clock = Clock::of(&p.time_s);
+        let clock = TimeAxis::of_seconds(&p.time_s, "time of the schedule");
         let lines = p
             .inputs
             .iter()
             .enumerate()
             .map(|(i, name)| {
-                let values =
-                    clock.series(&p.time_s, |k| p.inputs_model[k].get(i).map(|v| v * scale));
+                let values = clock.series_s(&p.time_s, BUCKETS, |k| {
+                    p.inputs_model[k].get(i).map(|v| v * scale)
+                });
                 Line::new(spoken(name), palette(i), values)
             })
             .collect();
@@ -278,7 +244,7 @@ impl Section for LossesSection<'_> {
         } else {
             "input".to_owned()
         };
-        let chart = Chart::new(clock.label, vec![Panel::new(label, lines)]);
+        let chart = Chart::new(&clock.label, vec![Panel::new(label, lines)]);
         out.paragraph(&format!(
             "Figure {} shows the model's inputs over the schedule{}.",
             out.next_figure(),
@@ -314,10 +280,10 @@ impl Section for TemperaturesSection<'_> {
     fn render(&self, out: &mut Markup) -> Result<(), HtmlError> {
         let v = self.view;
         let p = v.prediction;
-        let clock = Clock::of(&p.time_s);
+        let clock = TimeAxis::of_seconds(&p.time_s, "time of the schedule");
         let (x0, x1) = (
-            clock.x(p.time_s.first().copied().unwrap_or(0.0)),
-            clock.x(p.time_s.last().copied().unwrap_or(0.0)),
+            clock.x_s(p.time_s.first().copied().unwrap_or(0.0)),
+            clock.x_s(p.time_s.last().copied().unwrap_or(0.0)),
         );
         let panels = v
             .parts()
@@ -327,7 +293,7 @@ impl Section for TemperaturesSection<'_> {
                 let mut lines = vec![Line::new(
                     "predicted",
                     palette(i),
-                    clock.series(&p.time_s, |k| v.temperature(part, k)),
+                    clock.series_s(&p.time_s, BUCKETS, |k| v.temperature(part, k)),
                 )];
                 if let Some(limit) = v.limit_of(&name) {
                     lines.push(
@@ -342,7 +308,7 @@ impl Section for TemperaturesSection<'_> {
                 Panel::new(format!("{}, °C", spoken(&name)), lines)
             })
             .collect();
-        let chart = Chart::new(clock.label, panels);
+        let chart = Chart::new(&clock.label, panels);
         out.paragraph(&format!(
             "Figure {} shows each part's predicted temperature{}.",
             out.next_figure(),

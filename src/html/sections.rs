@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use super::markup::{fixed, si, sig, Markup, Table};
 use super::network::{diagram, short_name};
-use super::plot::{palette, Chart, Line, Panel, Thinning, MEASURED, MODEL};
+use super::plot::{palette, Chart, Line, Panel, Thinning, TimeAxis, MEASURED, MODEL};
 use super::{HtmlError, Section};
 use crate::model::sensitivity::SensitivityModel;
 use crate::pipeline::{Replay, ReplayOptions, ValidationSource};
@@ -114,36 +114,6 @@ fn state_labels(report: &Report) -> Vec<String> {
         .collect()
 }
 
-/// The x axis of time plots: seconds, minutes or hours since the first instant.
-struct TimeAxis {
-    t0_ns: i64,
-    unit_s: f64,
-    label: &'static str,
-}
-
-impl TimeAxis {
-    fn of(time_ns: &[i64]) -> TimeAxis {
-        let t0_ns = time_ns.first().copied().unwrap_or(0);
-        let span_s = time_ns.last().map_or(0.0, |t| (t - t0_ns) as f64 * 1e-9);
-        let (unit_s, label) = if span_s >= 3.0 * 3600.0 {
-            (3600.0, "time since the start, h")
-        } else if span_s >= 180.0 {
-            (60.0, "time since the start, min")
-        } else {
-            (1.0, "time since the start, s")
-        };
-        TimeAxis {
-            t0_ns,
-            unit_s,
-            label,
-        }
-    }
-
-    fn x(&self, t_ns: i64) -> f64 {
-        (t_ns - self.t0_ns) as f64 * 1e-9 / self.unit_s
-    }
-}
-
 /// A series on the replay's grid, thinned for drawing.
 fn grid_series(
     replay: &Replay,
@@ -153,7 +123,7 @@ fn grid_series(
     let t = &replay.signals.time_ns;
     let mut thin = Thinning::new(t.len(), BUCKETS);
     for (k, v) in values.enumerate().take(t.len()) {
-        thin.push(k, axis.x(t[k]), v);
+        thin.push(k, axis.x_ns(t[k]), v);
     }
     thin.finish()
 }
@@ -330,7 +300,7 @@ impl Section for InputsSection<'_> {
 
     fn render(&self, out: &mut Markup) -> Result<(), HtmlError> {
         let r = self.replay;
-        let axis = TimeAxis::of(&r.signals.time_ns);
+        let axis = TimeAxis::of_ns(&r.signals.time_ns);
         let (unit, scale) = input_unit(r);
         let lines = r
             .signals
@@ -347,7 +317,7 @@ impl Section for InputsSection<'_> {
             })
             .collect();
         let chart = Chart::new(
-            axis.label,
+            &axis.label,
             vec![Panel::new(format!("input, {unit}"), lines)],
         );
         let what = match r.model.scaling {
@@ -408,7 +378,7 @@ impl TemperaturesSection<'_> {
             format!("residual, {rise_unit}"),
             vec![Line::new("", palette(j), residual)],
         );
-        Chart::new(axis.label, vec![top, bottom])
+        Chart::new(&axis.label, vec![top, bottom])
     }
 }
 
@@ -423,7 +393,7 @@ impl Section for TemperaturesSection<'_> {
 
     fn render(&self, out: &mut Markup) -> Result<(), HtmlError> {
         let r = self.replay;
-        let axis = TimeAxis::of(&r.signals.time_ns);
+        let axis = TimeAxis::of_ns(&r.signals.time_ns);
         let n = r.signals.states.len();
         let first = out.next_figure();
         out.paragraph(&format!(
@@ -438,8 +408,8 @@ impl Section for TemperaturesSection<'_> {
                 "note",
                 &format!(
                     "The model was estimated on the instants before {} {}; the rest is validation.",
-                    fixed(axis.x(t_ns), 2),
-                    axis.label.rsplit(", ").next().unwrap_or("")
+                    fixed(axis.x_ns(t_ns), 2),
+                    axis.unit()
                 ),
             );
         }
@@ -610,7 +580,7 @@ impl TimeConstantsSection<'_> {
             .filter(|s| s.len() >= 2)
             .collect();
         let t = &r.signals.time_ns;
-        let axis = TimeAxis::of(t);
+        let axis = TimeAxis::of_ns(t);
         let unit = match r.model.scaling {
             Scaling::NameplatePerUnit => "pu",
             Scaling::AsRecorded => "K",
@@ -625,7 +595,7 @@ impl TimeConstantsSection<'_> {
                 .collect();
             recursion.for_each_response(i, &r.data, &segments, |k, rel| {
                 for (state, th) in thin.iter_mut().enumerate() {
-                    th.push(k, axis.x(t[k]), Some(rel[state]));
+                    th.push(k, axis.x_ns(t[k]), Some(rel[state]));
                 }
             });
             let lines = thin
@@ -641,7 +611,7 @@ impl TimeConstantsSection<'_> {
                 i + 1,
                 sig(*tc, 4)
             );
-            charts.push(Chart::new(axis.label, vec![Panel::new(y, lines)]));
+            charts.push(Chart::new(&axis.label, vec![Panel::new(y, lines)]));
         }
         Ok(charts)
     }
@@ -930,11 +900,11 @@ impl Section for RecursiveSection<'_> {
             return Ok(());
         };
         let model = &r.estimate.model;
-        let axis = TimeAxis::of(&r.signals.time_ns);
+        let axis = TimeAxis::of_ns(&r.signals.time_ns);
         let finals = &r.analysis.spectrum.time_constants_s;
         let mut runs: Vec<Vec<Vec<(f64, f64)>>> = vec![vec![Vec::new()]; finals.len()];
         for pt in traj {
-            let x = axis.x(r.signals.time_ns[pt.instant]);
+            let x = axis.x_ns(r.signals.time_ns[pt.instant]);
             let spectrum = crate::model::Spectrum::of(&model.with_theta(&pt.theta)).ok();
             for (i, run) in runs.iter_mut().enumerate() {
                 match spectrum.as_ref().and_then(|s| s.time_constants_s.get(i)) {
@@ -968,7 +938,7 @@ impl Section for RecursiveSection<'_> {
             out.next_figure()
         ));
         out.figure(
-            &Chart::new(axis.label, panels).to_svg()?,
+            &Chart::new(&axis.label, panels).to_svg()?,
             "Convergence of the recursive least-squares estimate: its time constants over time.",
         );
         Ok(())
@@ -1136,7 +1106,7 @@ impl Section for CalorimetrySection<'_> {
             return Ok(());
         };
         let r = self.replay;
-        let axis = TimeAxis::of(&r.signals.time_ns);
+        let axis = TimeAxis::of_ns(&r.signals.time_ns);
         let water = grid_series(
             r,
             &axis,
@@ -1156,7 +1126,7 @@ impl Section for CalorimetrySection<'_> {
             }),
         );
         let chart = Chart::new(
-            axis.label,
+            &axis.label,
             vec![Panel::new(
                 "power, kW",
                 vec![
