@@ -186,6 +186,11 @@ impl std::fmt::Write for Markup {
     }
 }
 
+/// A state, part or input name for people: `stator_winding_temp` → "stator winding temp".
+pub fn spoken(name: &str) -> String {
+    name.replace('_', " ")
+}
+
 /// `v` with `digits` significant digits, in scientific notation outside 10⁻⁴ … 10⁶
 /// (so Φ's small couplings read as the paper prints them, 0.00078830).
 pub fn sig(v: f64, digits: usize) -> String {

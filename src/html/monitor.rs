@@ -6,7 +6,7 @@
 //! Built from the same pieces as the replay's page: [`Section`]s of a [`Page`], tables
 //! of [`Markup`], [`Chart`]s drawn into inline SVG.
 
-use super::markup::{fixed, sig};
+use super::markup::{fixed, sig, spoken};
 use super::plot::{Chart, Line, Panel, TimeAxis, MEASURED, MODEL};
 use super::{HtmlError, Markup, Page, Section, Table};
 use crate::monitor::alarm::CLEAR_SHARE_OF_HOLD;
@@ -15,11 +15,6 @@ use crate::recording::format_time;
 
 /// Points per drawn line: enough for a day at 1 s to keep every peak.
 const BUCKETS: usize = 1500;
-
-/// A state or part name for people: `stator_winding_temp` → "stator winding temp".
-fn spoken(name: &str) -> String {
-    name.replace('_', " ")
-}
 
 /// The file name of a path, for titles (the whole path where it has none).
 fn file_name(path: &std::path::Path) -> String {

@@ -4,7 +4,7 @@
 //! Built from the same pieces as the replay's page: [`Section`]s of a [`Page`], tables
 //! of [`Markup`], [`Chart`]s drawn into inline SVG.
 
-use super::markup::{fixed, sig};
+use super::markup::{fixed, sig, spoken};
 use super::plot::{palette, Chart, Line, Panel, TimeAxis};
 use super::{HtmlError, Markup, Page, Section, Table};
 use crate::predict::model::InputUse;
@@ -62,11 +62,6 @@ impl PredictionView<'_> {
             None => self.prediction.field_temperature_c[k],
         }
     }
-}
-
-/// A state or part name for people: `stator_winding_temp` → "stator winding temp".
-fn spoken(name: &str) -> String {
-    name.replace('_', " ")
 }
 
 /// The prediction's page.

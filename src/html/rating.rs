@@ -2,15 +2,10 @@
 //! largest continuous apparent power and the part that limits it, the temperatures and
 //! margins, and the short-time overloads with a plot of time to limit against current.
 
-use super::markup::{fixed, sig};
+use super::markup::{fixed, sig, spoken};
 use super::plot::{palette, Chart, Line, Panel};
 use super::{HtmlError, Markup, Page, Section, Table};
 use crate::rating::{Overload, Rating};
-
-/// A part name for people: `stator_winding_temp` → "stator winding temp".
-fn spoken(name: &str) -> String {
-    name.replace('_', " ")
-}
 
 /// The rating's page for the machine `machine` (the model's name). `curve`: overloads on
 /// a finer grid than the table's, for the plot of time to limit against current (the
