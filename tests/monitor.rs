@@ -31,19 +31,14 @@ fn synth(dir: &Path, name: &str, extra: &[&str]) {
         "0.0005",
     ];
     args.extend_from_slice(extra);
-    let out = common::heatrun(&args, dir);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::heatrun_ok(&args, dir);
 }
 
 /// A model identified from a healthy recording (`recording`, made with `extra`), its
 /// last 30 % held out for the validation error the band is set from.
 fn identify(dir: &Path, recording: &str, extra: &[&str], report: &str) {
     synth(dir, recording, extra);
-    let out = common::heatrun(
+    common::heatrun_ok(
         &[
             "replay",
             recording,
@@ -54,11 +49,6 @@ fn identify(dir: &Path, recording: &str, extra: &[&str], report: &str) {
             "-q",
         ],
         dir,
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
 }
 

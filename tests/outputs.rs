@@ -68,14 +68,9 @@ fn rrd_holds_the_expected_entities_and_rows() {
         },
     )
     .unwrap();
-    let out = common::heatrun(
+    common::heatrun_ok(
         &["replay", "run.mcap", "--rrd", "run.rrd", "--quiet"],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let (rows, blueprint) = rows_and_blueprint(&dir.path().join("run.rrd"));
     let statics = STATICS.with(|s| s.borrow().clone());
@@ -172,7 +167,7 @@ fn report_follows_the_profile_and_its_schema() {
         },
     )
     .unwrap();
-    let out = common::heatrun(
+    let out = common::heatrun_ok(
         &[
             "replay",
             "run.mcap",
@@ -182,11 +177,6 @@ fn report_follows_the_profile_and_its_schema() {
             "report.json",
         ],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -294,14 +284,9 @@ fn raw_publishes_every_sample_at_full_rate() {
         },
     )
     .unwrap();
-    let out = common::heatrun(
+    common::heatrun_ok(
         &["replay", "run.mcap", "--raw", "--rrd", "raw.rrd", "--quiet"],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let (rows, _) = rows_per_entity(&dir.path().join("raw.rrd"));
     assert_eq!(rows["/full_rate/scada/armature_current"], 10_000);

@@ -20,14 +20,9 @@ fn identified_model() -> (tempfile::TempDir, Truth, std::path::PathBuf) {
         ..SynthOptions::default().with_noise_level(1.0)
     };
     let truth = synth::write(&run, &options).unwrap();
-    let out = common::heatrun(
+    common::heatrun_ok(
         &["replay", "heat_run.mcap", "--report", "model.json", "-q"],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let report = dir.path().join("model.json");
     (dir, truth, report)
@@ -126,7 +121,7 @@ fn predict_follows_the_truth_within_1_k_on_a_day_the_model_never_saw_and_rating_
     let np = Nameplate::paper_table1();
     let cycle = daily_cycle();
     write_load(&dir.path().join("day.csv"), &np, &cycle);
-    let out = common::heatrun(
+    common::heatrun_ok(
         &[
             "predict",
             "--model",
@@ -137,11 +132,6 @@ fn predict_follows_the_truth_within_1_k_on_a_day_the_model_never_saw_and_rating_
             "pred.csv",
         ],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let (header, rows) = read_csv(&dir.path().join("pred.csv"));
     assert_eq!(
@@ -178,7 +168,7 @@ fn predict_follows_the_truth_within_1_k_on_a_day_the_model_never_saw_and_rating_
 /// Holding the rating's largest continuous power for ten slowest time constants brings
 /// the limiting part to its limit within 0.5 K and keeps the others below theirs.
 fn rating_holds_against_predict(dir: &Path) {
-    let out = common::heatrun(
+    common::heatrun_ok(
         &[
             "rating",
             "--model",
@@ -189,11 +179,6 @@ fn rating_holds_against_predict(dir: &Path) {
             "rating.json",
         ],
         dir,
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let rating: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("rating.json")).unwrap()).unwrap();
@@ -216,7 +201,7 @@ fn rating_holds_against_predict(dir: &Path) {
         format!("time_s,apparent_power_mva,power_factor\n0,{s_max},{pf}\n{hold},{s_max},{pf}\n"),
     )
     .unwrap();
-    let out = common::heatrun(
+    common::heatrun_ok(
         &[
             "predict",
             "--model",
@@ -228,11 +213,6 @@ fn rating_holds_against_predict(dir: &Path) {
             "-q",
         ],
         dir,
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let (header, rows) = read_csv(&dir.join("hold_pred.csv"));
     let last = rows.last().unwrap();
@@ -273,7 +253,7 @@ fn bad_load_files_and_reports_are_one_line_naming_row_and_column() {
     let dir = common::tempdir();
     let d = dir.path();
     let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
-    let out = common::heatrun(
+    common::heatrun_ok(
         &[
             "replay",
             fixture.to_str().unwrap(),
@@ -284,11 +264,6 @@ fn bad_load_files_and_reports_are_one_line_naming_row_and_column() {
             "-q",
         ],
         d,
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let mut report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("model.json")).unwrap()).unwrap();
@@ -359,15 +334,10 @@ fn predict_publishes_the_schedule_losses_and_temperatures_with_limits() {
         "m.rrd",
         "-q",
     ];
-    let out = common::heatrun(&args, d);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::heatrun_ok(&args, d);
     let day = "time_s,apparent_power_mva,power_factor\n0,60,0.9\n3600,115,0.9\n7200,80,0.9\n";
     std::fs::write(d.join("day.csv"), day).unwrap();
-    let out = common::heatrun(
+    common::heatrun_ok(
         &[
             "predict",
             "--model",
@@ -383,11 +353,6 @@ fn predict_publishes_the_schedule_losses_and_temperatures_with_limits() {
             "-q",
         ],
         d,
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
     );
     let (rows, blueprint) = crate::outputs::rows_per_entity(&d.join("pred.rrd"));
     assert!(blueprint);
@@ -460,12 +425,7 @@ fn a_coolant_referenced_model_predicts_a_drifting_inlet_from_the_schedule() {
     let synth = |name: &str, extra: &[&str]| {
         let mut args = vec!["synth", name, "--machine", "rc-unit", "--inlet-drift", "3"];
         args.extend_from_slice(extra);
-        let out = common::heatrun(&args, d);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        common::heatrun_ok(&args, d);
     };
     // PT100-like noise, as `with_noise_level(1.0)`.
     let noisy = [
@@ -480,7 +440,7 @@ fn a_coolant_referenced_model_predicts_a_drifting_inlet_from_the_schedule() {
     ];
     synth("model.mcap", &noisy);
     synth("truth.mcap", &["--profile", "single-step"]);
-    let out = common::heatrun(
+    common::heatrun_ok(
         &[
             "replay",
             "model.mcap",
@@ -492,11 +452,6 @@ fn a_coolant_referenced_model_predicts_a_drifting_inlet_from_the_schedule() {
         ],
         d,
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let report = std::fs::read_to_string(d.join("model.json")).unwrap();
     assert!(
         report.contains("\"boundary_rise\""),
@@ -507,7 +462,7 @@ fn a_coolant_referenced_model_predicts_a_drifting_inlet_from_the_schedule() {
         let (text, truth) = schedule_of(&d.join("truth.mcap"), 10, inlet);
         std::fs::write(d.join("load.csv"), text).unwrap();
         let start: Vec<String> = truth[0].1.iter().map(|v| v.to_string()).collect();
-        let out = common::heatrun(
+        common::heatrun_ok(
             &[
                 "predict",
                 "--model",
@@ -521,11 +476,6 @@ fn a_coolant_referenced_model_predicts_a_drifting_inlet_from_the_schedule() {
                 "-q",
             ],
             d,
-        );
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
         );
         let (_, rows) = read_csv(&d.join("pred.csv"));
         let error = truth
