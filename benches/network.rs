@@ -11,11 +11,12 @@
 
 use std::time::Instant;
 
-use heatrun::estimate::DiscreteModel;
+use heatrun::estimate::{DiscreteModel, Estimate, Estimator, OutputError};
 use heatrun::model::matrix::discretize;
+use heatrun::model::{uncertainty, Spectrum};
 use heatrun::network::example::{generator_like, rich_heat_run};
 use heatrun::network::{Interval, Labels, Network, NetworkIntervals, Parts, ScaleSource, Scaling};
-use heatrun::pipeline::{replay, Method, ReplayOptions};
+use heatrun::pipeline::{prepare, replay, Method, ReplayOptions};
 use heatrun::recording::Nameplate;
 use heatrun::synth::{self, SynthOptions};
 
@@ -116,6 +117,12 @@ fn error(row: &Row, x: f64) -> f64 {
 }
 
 fn main() {
+    // `cargo bench --bench network -- offset`: only the paper's time constants with and
+    // without the output offset.
+    if std::env::args().any(|a| a == "offset") {
+        offset_on_the_paper_model();
+        return;
+    }
     let (parts, labels) = generator_like();
     println!(
         "# the network of `generator_like` (benches/network.rs), 10 seeds each, PT100-like noise"
@@ -351,4 +358,98 @@ fn table(
         found.len(),
         median(times)
     );
+}
+
+/// The paper's model (`SynthOptions::default()`, the fixture's machine) at PT100-like
+/// noise, seeds 1–20: `oe`'s time constants with the output offset d
+/// (`OutputError::refit_with_output_offset` from oe's start, what the network is fitted
+/// to) and without it (`oe` as it reports its model), each constant's median and worst relative error, how many
+/// seeds are within the accuracy bar's 2 %, and how often the 95 % interval holds the
+/// truth.
+fn offset_on_the_paper_model() {
+    let seeds: Vec<u64> = (1..=20).collect();
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let oe = OutputError::default();
+    // Per variant (with d, without), per seed: relative errors and whether covered.
+    let mut errors: [Vec<Vec<f64>>; 2] = [Vec::new(), Vec::new()];
+    let mut covered: [Vec<Vec<bool>>; 2] = [Vec::new(), Vec::new()];
+    let mut truth_tc = Vec::new();
+    for &seed in &seeds {
+        let path = dir.path().join(format!("paper-{seed}.mcap"));
+        let truth = synth::write(
+            &path,
+            &SynthOptions {
+                seed,
+                ..SynthOptions::default()
+            }
+            .with_noise_level(1.0),
+        )
+        .expect("synthetic heat run");
+        truth_tc.clone_from(&truth.time_constants_s);
+        let prepared = prepare(&path, &ReplayOptions::default()).expect("prepare");
+        let data = &prepared.data;
+        let start = oe.start(data).expect("start");
+        let with = oe
+            .refit_with_output_offset(data, &start)
+            .expect("oe with the offset");
+        assert!(with.output_offset.is_some());
+        let without = oe.estimate(data).expect("oe");
+        let u = prepared.signals.last_inputs().expect("inputs").1;
+        for (v, e) in [&with, &without].into_iter().enumerate() {
+            let (err, cov) = time_constants(e, &truth.time_constants_s, &u);
+            errors[v].push(err);
+            covered[v].push(cov);
+        }
+    }
+    println!(
+        "# the paper's model, PT100-like noise, {} seeds: oe's time constants with and without the output offset",
+        seeds.len()
+    );
+    println!("| time constant | truth, s | variant | median error | worst error | seeds within 2 % | worst of seeds 1–5 | 95 % interval holds the truth |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (i, tau) in truth_tc.iter().enumerate() {
+        for (v, name) in ["with d", "without d"].iter().enumerate() {
+            let mut e: Vec<f64> = errors[v].iter().map(|s| s[i].abs()).collect();
+            let worst = e.iter().copied().fold(0.0, f64::max);
+            let first5 = e[..5].iter().copied().fold(0.0, f64::max);
+            let within = e.iter().filter(|x| **x < 0.02).count();
+            let held = covered[v].iter().filter(|c| c[i]).count();
+            println!(
+                "| τ{} | {tau:.1} | {name} | {:.2} % | {:.2} % | {within} of {} | {:.2} % | {held} of {} |",
+                i + 1,
+                100.0 * median(&mut e),
+                100.0 * worst,
+                seeds.len(),
+                100.0 * first5,
+                seeds.len()
+            );
+        }
+    }
+    for (v, name) in ["with d", "without d"].iter().enumerate() {
+        let per_seed: Vec<String> = errors[v]
+            .iter()
+            .map(|s| format!("{:+.2}", 100.0 * s[0]))
+            .collect();
+        println!(
+            "fastest constant's error per seed, {name}, %: [{}]",
+            per_seed.join(", ")
+        );
+    }
+}
+
+/// The relative error of each time constant (ascending) and whether its 95 % interval
+/// holds the truth.
+fn time_constants(e: &Estimate, truth: &[f64], u: &[f64]) -> (Vec<f64>, Vec<bool>) {
+    let found = Spectrum::of(&e.model)
+        .expect("real time constants")
+        .time_constants_s;
+    let ci = uncertainty::propagate(e, u).map(|u| u.time_constants_ci95_s);
+    let err = found.iter().zip(truth).map(|(f, t)| (f - t) / t).collect();
+    let cov = found
+        .iter()
+        .zip(truth)
+        .enumerate()
+        .map(|(i, (f, t))| ci.as_ref().is_some_and(|c| (f - t).abs() <= c[i]))
+        .collect();
+    (err, cov)
 }

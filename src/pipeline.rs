@@ -352,10 +352,10 @@ pub fn replay_with(
     options: &ReplayOptions,
     also: Option<&mut dyn SampleSink>,
 ) -> Result<Replay> {
-    let prepared = prepare_with(path, options, also)?;
+    let mut prepared = prepare_with(path, options, also)?;
     let estimation_range = estimation_range(prepared.data.len(), options)?;
     let in_file = |e: Error| e.in_recording(path);
-    let estimate = {
+    let (estimate, network_source) = {
         // Borrowed unless a part is held out: a week's data are not copied for nothing.
         let estimation_data = if estimation_range.len() == prepared.data.len() {
             Cow::Borrowed(&prepared.data)
@@ -366,7 +366,23 @@ pub fn replay_with(
             theta_base_k: prepared.signals.temperature_base_k,
             p_base_w: prepared.signals.power_base,
         };
-        estimate_in(&estimation_data, options, scaling).map_err(in_file)?
+        let estimate = estimate_in(&estimation_data, options, scaling).map_err(in_file)?;
+        let network_source = with_output_offset(&estimation_data, options, &estimate);
+        (estimate, network_source)
+    };
+    // Where the estimator found the rises offset by the error of the first sample they are
+    // measured from, the references become the initial temperatures it estimated: from
+    // here on ŷ = x (the analysis, validation, steady state, network and report).
+    let analysed = match &estimate.output_offset {
+        Some(offset) => {
+            prepared.signals.shift_references(offset);
+            prepared.data.shift_outputs(offset);
+            Cow::Owned(Estimate {
+                output_offset: None,
+                ..estimate.clone()
+            })
+        }
+        None => Cow::Borrowed(&estimate),
     };
     // The steady state's input: the last one, with an input fed by the outlet's rise
     // (a changed flow's heat) made consistent with the steady state it leads to.
@@ -382,14 +398,15 @@ pub fn replay_with(
     })?;
     options.progress.stage("analysing the model");
     let analysis = model::analyse(
-        &estimate,
+        &analysed,
         &prepared.data,
         estimation_range.clone(),
         prepared.signals.temperature_base_k,
         &steady_input,
     )
     .map_err(|e| in_file(e.into()))?;
-    let validation = validate(&prepared, &estimate, &estimation_range, options)?;
+    let validation = validate(&prepared, &analysed, &estimation_range, options)?;
+    drop(analysed);
     let grey_box = estimate.network.as_deref();
     let output_error_beside = grey_box.and_then(|n| {
         Beside::of(
@@ -403,7 +420,7 @@ pub fn replay_with(
     let network = network::stage::analyse(
         &prepared.model,
         grey_box,
-        &estimate,
+        network_source.as_ref().unwrap_or(&estimate),
         &analysis.continuous,
         &analysis.spectrum.time_constants_s,
         &prepared.signals,
@@ -426,6 +443,31 @@ pub fn replay_with(
         output_error_beside,
         warnings,
     })
+}
+
+/// What the network is fitted to after `oe`: its Θ re-estimated with the constant output
+/// offset of the first sample the rises are measured from
+/// ([`OutputError::refit_with_output_offset`]), where the data start at that sample and are
+/// not stored by exception. The free Φ, Γ take that offset up, which biases the passive
+/// network nearest them (its conductances to the coolant most); the reported model stays
+/// `oe`'s own. `None` where the refit does not apply or fails (the network is then
+/// fitted to `oe`'s Θ).
+fn with_output_offset(
+    data: &IdentificationData,
+    options: &ReplayOptions,
+    estimate: &Estimate,
+) -> Option<Estimate> {
+    let applies = options.method == Method::Oe
+        && crate::estimate::oe::starts_at_reference(data)
+        && !crate::estimate::censored::applies(data);
+    if !applies {
+        return None;
+    }
+    let oe = OutputError {
+        weights: options.weights.clone(),
+        progress: options.progress.clone(),
+    };
+    oe.refit_with_output_offset(data, &estimate.model).ok()
 }
 
 /// The instants the estimator sees: all, or those before the held-out fraction.

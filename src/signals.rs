@@ -155,6 +155,25 @@ impl ModelSignals {
             .collect()
     }
 
+    /// Moves each state's reference by `offset_pu[j]`·θ_base: θ_ref,j + d_j·θ_base, the
+    /// initial temperature an estimator found where the rises were measured from one
+    /// noisy first sample (y = x + d, d = −that sample's error). The rises then drop by
+    /// d_j, so every later stage sees ŷ = x.
+    pub fn shift_references(&mut self, offset_pu: &[f64]) {
+        for (state, d) in self.states.iter_mut().zip(offset_pu) {
+            let shift = d * self.temperature_base_k;
+            match &mut state.reference {
+                ReferenceValues::Constant(c) => *c += shift,
+                ReferenceValues::Channel(series) => {
+                    for k in 0..series.len() {
+                        let moved = series.get(k).map(|v| v + shift);
+                        series.set(k, moved);
+                    }
+                }
+            }
+        }
+    }
+
     /// The last instant at which every input is known, with those inputs.
     pub fn last_inputs(&self) -> Option<(usize, Vec<f64>)> {
         (0..self.len()).rev().find_map(|k| {

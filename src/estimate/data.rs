@@ -97,6 +97,18 @@ impl IdentificationData {
         self
     }
 
+    /// The outputs measured from references moved by `offset` (y − d per output, where
+    /// observed): the data an estimated output offset d (ŷ = x + d) leaves as ŷ = x.
+    pub fn shift_outputs(&mut self, offset: &[f64]) {
+        for (j, d) in offset.iter().enumerate().take(self.states()) {
+            for k in 0..self.len() {
+                if self.observed(k, j) {
+                    self.outputs[(k, j)] -= d;
+                }
+            }
+        }
+    }
+
     /// The instants in `range` as data of their own.
     pub fn slice(&self, range: Range<usize>) -> IdentificationData {
         IdentificationData {

@@ -113,6 +113,21 @@ impl OutputError {
         Ok(self.fit(data, start)?.estimate)
     }
 
+    /// Θ re-estimated from `start` with a constant output offset d per output (ŷ = x + d,
+    /// [`Problem::with_output_offset`]): rises measured from one noisy first sample carry
+    /// that sample's error for the whole run, which the free Φ, Γ otherwise take up. Where
+    /// the data start at that sample ([`starts_at_reference`]) the state there is zero and
+    /// d is the sample's error (negated); the estimate carries d in
+    /// [`Estimate::output_offset`]. The thermal network is fitted to this Θ
+    /// ([`crate::network::stage`]).
+    pub fn refit_with_output_offset(
+        &self,
+        data: &IdentificationData,
+        start: &DiscreteModel,
+    ) -> Result<Estimate> {
+        Ok(self.fit_with(data, start, None, true)?.estimate)
+    }
+
     /// [`OutputError::refine`], with the initial states it estimated.
     pub(crate) fn fit(&self, data: &IdentificationData, start: &DiscreteModel) -> Result<Fitted> {
         self.fit_weighted(data, start, None)
@@ -125,6 +140,18 @@ impl OutputError {
         data: &IdentificationData,
         start: &DiscreteModel,
         entry_weight: Option<DMatrix<f64>>,
+    ) -> Result<Fitted> {
+        self.fit_with(data, start, entry_weight, false)
+    }
+
+    /// [`OutputError::fit_weighted`], with a constant output offset per output estimated
+    /// as well where `output_offset` ([`Problem::with_output_offset`]).
+    fn fit_with(
+        &self,
+        data: &IdentificationData,
+        start: &DiscreteModel,
+        entry_weight: Option<DMatrix<f64>>,
+        output_offset: bool,
     ) -> Result<Fitted> {
         self.check_weights(data)?;
         let segments = data.segments();
@@ -141,6 +168,9 @@ impl OutputError {
             ),
         };
         let mut problem = Problem::new(data, segments, start, &weights);
+        if output_offset {
+            problem = problem.with_output_offset();
+        }
         problem.entry_weight = entry_weight;
         problem.progress = Some(Reporting::new(&self.progress, self.name()));
         let (problem, evaluations) = self.minimise(problem)?;
@@ -363,6 +393,19 @@ fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usiz
     }
 }
 
+/// Whether the data's first segment starts at the instant the rises are measured from:
+/// every output observed there and exactly zero (a rise above its own first sample).
+pub fn starts_at_reference(data: &IdentificationData) -> bool {
+    data.segments()
+        .first()
+        .is_some_and(|s| is_reference_instant(data, s.start))
+}
+
+/// Whether every output is observed at `k` and exactly zero there.
+fn is_reference_instant(data: &IdentificationData, k: usize) -> bool {
+    (0..data.states()).all(|c| data.observed(k, c) && data.outputs[(k, c)] == 0.0)
+}
+
 /// The least-squares problem LM sees: parameters [Θ; x0 of each segment].
 pub(crate) struct Problem<'a> {
     data: &'a IdentificationData,
@@ -476,8 +519,7 @@ impl<'a> Problem<'a> {
         let mut params: Vec<f64> = self.params.as_slice()[..p_theta].to_vec();
         for s in 0..self.segments.len() {
             let start = self.segments[s].start;
-            let reference = (0..n)
-                .all(|c| self.data.observed(start, c) && self.data.outputs[(start, c)] == 0.0);
+            let reference = is_reference_instant(self.data, start);
             self.x0_at[s] = match self.x0_at[s] {
                 Some(at) if !reference => {
                     params.extend_from_slice(&self.params.as_slice()[at..at + n]);

@@ -206,7 +206,12 @@ fn nearest_network(
         algebraic.scale_note.clone()
     };
     network.passivity = algebraic.passivity;
-    network.fitted_from = Some("minimum distance to the identified model".into());
+    network.fitted_from = Some(if identified.output_offset.is_some() {
+        "minimum distance to the identified model, re-estimated with the first sample's offset"
+            .into()
+    } else {
+        "minimum distance to the identified model".into()
+    });
     network.minimum_distance = Some(fitted.distance);
     network
 }
