@@ -662,5 +662,15 @@ mod tests {
             plain.steady_state_input(&a_c, &b_c).unwrap()[1],
             kappa * 0.1
         );
+        // An output offset d = 0.02 pu moves the reference by d·θ_base = 2 K: the rise
+        // (20 − 10 = 10 K) becomes 8 K, 0.08 pu, and the data follow.
+        let mut shifted = signals.clone();
+        shifted.shift_references(&[0.02]);
+        assert_eq!(shifted.initial_references(), vec![12.0]);
+        assert!((shifted.rise_pu(0, 3).unwrap() - 0.08).abs() < 1e-15);
+        let mut data = signals.identification_data();
+        data.shift_outputs(&[0.02]);
+        let moved = shifted.identification_data().outputs;
+        assert!((data.outputs - moved).amax() < 1e-15);
     }
 }

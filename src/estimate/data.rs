@@ -318,6 +318,15 @@ mod tests {
     }
 
     #[test]
+    fn shifting_the_outputs_moves_the_observed_entries_only() {
+        let mut data = masked(4, |k, j| !(k == 2 && j == 1));
+        data.shift_outputs(&[1.0, -0.5]);
+        // Output 0 is k − 1, output 1 is 2k + 0.5 where observed, 4 (unchanged) where not.
+        assert_eq!(data.outputs.column(0).as_slice(), &[-1.0, 0.0, 1.0, 2.0]);
+        assert_eq!(data.outputs.column(1).as_slice(), &[0.5, 2.5, 4.0, 6.5]);
+    }
+
+    #[test]
     fn an_output_gap_splits_without_a_mask_and_not_with_one() {
         let mut plain = IdentificationData::complete(
             1.0,

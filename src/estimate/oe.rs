@@ -913,6 +913,39 @@ mod tests {
     }
 
     #[test]
+    fn the_first_samples_error_is_estimated_as_an_output_offset() {
+        // Rises from rest (x0 = 0) measured from a first sample that is c off: the rise is
+        // 0 at the first instant and x(k) − c after it, for the whole run.
+        let truth = two_state_model();
+        let u = step_inputs(1500, 2, 13);
+        let c = [0.05, -0.03];
+        let mut y = simulate(&truth, &u, &[0.0, 0.0]);
+        for k in 1..y.nrows() {
+            for (j, cj) in c.iter().enumerate() {
+                y[(k, j)] -= cj;
+            }
+        }
+        let data = IdentificationData::complete(1.0, y, u);
+        assert!(starts_at_reference(&data));
+        let start = perturbed(&truth);
+        let oe = OutputError::default();
+        let e = oe.refit_with_output_offset(&data, &start).unwrap();
+        // The first sample itself is zero where the model says d: its residual is that
+        // sample's error, the one misfit left (1 entry of 1500 per output).
+        let with = theta_error(&e.model, &truth);
+        assert!(with < 5e-4, "{with}: {:?}", e.model);
+        let d = e.output_offset.expect("the offset is estimated");
+        for (dj, cj) in d.iter().zip(&c) {
+            assert!((dj + cj).abs() < 1e-3, "d {d:?} against −c {c:?}");
+        }
+        // Without it, Φ and Γ take the offset up.
+        let plain = oe.refine(&data, &start).unwrap();
+        assert!(plain.output_offset.is_none());
+        let without = theta_error(&plain.model, &truth);
+        assert!(without > 10.0 * with, "{without} against {with}");
+    }
+
+    #[test]
     fn an_unobserved_start_state_is_estimated() {
         // Output 1 is not kept over the first 50 instants: its part of x0 is a parameter.
         // From a perturbed Θ the start's fill of it is wrong; the minimum is the truth.
