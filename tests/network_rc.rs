@@ -248,6 +248,14 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
                 block["fitted_from"],
                 "minimum distance to the identified model, re-estimated with the first sample's offset"
             );
+            // The first sample's offset the network's Θ̂ was re-estimated with: minus one
+            // sample's error, within 5σ of the 0.05 K sensor.
+            let offset = block["first_sample_offset_k"].as_array().unwrap();
+            assert_eq!(offset.len(), 3);
+            assert!(
+                offset.iter().all(|d| d.as_f64().unwrap().abs() < 0.25),
+                "{offset:?}"
+            );
             assert_eq!(block["minimum_distance"]["degrees_of_freedom"], 3);
             assert!(block["minimum_distance"]["p_value"].is_number());
             let summary = report.summary();

@@ -255,6 +255,11 @@ pub struct Network {
     /// The weighted distance of the fitted network to the identified model, and its χ² test.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub minimum_distance: Option<MinimumDistance>,
+    /// Where the network was fitted to Θ̂ re-estimated with the first sample's offset: that
+    /// offset d per state, K (ŷ = x + d; d is minus the error of the sample the rises are
+    /// measured from), in the states' order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub first_sample_offset_k: Option<Vec<f64>>,
 }
 
 /// A 95 % interval of one network parameter, with its standard error (delta method).
@@ -544,6 +549,7 @@ impl Network {
             intervals_95: None,
             fitted_from: None,
             minimum_distance: None,
+            first_sample_offset_k: None,
         }
     }
 }

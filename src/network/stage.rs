@@ -213,6 +213,10 @@ fn nearest_network(
         "minimum distance to the identified model".into()
     });
     network.minimum_distance = Some(fitted.distance);
+    network.first_sample_offset_k = identified
+        .output_offset
+        .as_ref()
+        .map(|d| d.iter().map(|v| v * scaling.theta_base_k).collect());
     network
 }
 
