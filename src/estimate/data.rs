@@ -98,11 +98,17 @@ impl IdentificationData {
     }
 
     /// The outputs measured from references moved by `offset` (y − d per output, where
-    /// observed): the data an estimated output offset d (ŷ = x + d) leaves as ŷ = x.
+    /// observed): the data an estimated output offset d (ŷ = x + d) leaves as ŷ = x. The
+    /// instant the rises are measured from (the first segment's start, every output
+    /// exactly zero there) stays zero: there the state is zero by construction, as the
+    /// estimator took it, and a simulation starts from it.
     pub fn shift_outputs(&mut self, offset: &[f64]) {
+        let reference = self.segments().first().map(|s| s.start).filter(|&k| {
+            (0..self.states()).all(|j| self.observed(k, j) && self.outputs[(k, j)] == 0.0)
+        });
         for (j, d) in offset.iter().enumerate().take(self.states()) {
             for k in 0..self.len() {
-                if self.observed(k, j) {
+                if self.observed(k, j) && Some(k) != reference {
                     self.outputs[(k, j)] -= d;
                 }
             }
@@ -321,9 +327,18 @@ mod tests {
     fn shifting_the_outputs_moves_the_observed_entries_only() {
         let mut data = masked(4, |k, j| !(k == 2 && j == 1));
         data.shift_outputs(&[1.0, -0.5]);
-        // Output 0 is k − 1, output 1 is 2k + 0.5 where observed, 4 (unchanged) where not.
-        assert_eq!(data.outputs.column(0).as_slice(), &[-1.0, 0.0, 1.0, 2.0]);
-        assert_eq!(data.outputs.column(1).as_slice(), &[0.5, 2.5, 4.0, 6.5]);
+        // Output 0 is k − 1, output 1 is 2k + 0.5 where observed, 4 (unchanged) where not;
+        // the first instant, where every output is zero (the rises' reference), stays zero.
+        assert_eq!(data.outputs.column(0).as_slice(), &[0.0, 0.0, 1.0, 2.0]);
+        assert_eq!(data.outputs.column(1).as_slice(), &[0.0, 2.5, 4.0, 6.5]);
+        // Where the first instant is not all zero, it moves too.
+        let mut later = IdentificationData::complete(
+            1.0,
+            DMatrix::from_fn(3, 1, |k, _| k as f64 + 1.0),
+            DMatrix::from_element(3, 1, 1.0),
+        );
+        later.shift_outputs(&[1.0]);
+        assert_eq!(later.outputs.column(0).as_slice(), &[0.0, 1.0, 2.0]);
     }
 
     #[test]
