@@ -62,9 +62,15 @@ pub struct MonitorArgs {
     /// The model: a report written by `heatrun replay --report`.
     #[arg(long, value_name = "REPORT.json")]
     pub model: PathBuf,
-    /// The recording to monitor (MCAP, the heatrun SCADA profile), of the same machine.
+    /// The recording to monitor (MCAP, the heatrun SCADA profile), of the same machine;
+    /// `-` reads it from standard input as it arrives (a recording still being written:
+    /// `tail -c +1 -f growing.mcap | heatrun monitor --model m.json -`).
     #[arg(value_name = "RECORDING.mcap")]
     pub recording: PathBuf,
+    /// Seconds of the grid monitored at once: each stretch is published (--connect,
+    /// --rrd) as soon as the recording has been read past it.
+    #[arg(long, value_name = "SECONDS", default_value_t = heatrun::monitor::stream::DEFAULT_STRETCH_S)]
+    pub stretch: f64,
     /// Seconds a residual must stay outside its band before it is an alarm (returns inside
     /// shorter than a tenth of this do not end the excursion).
     #[arg(long, value_name = "SECONDS", default_value_t = heatrun::monitor::DEFAULT_HOLD_S)]

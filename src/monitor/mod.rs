@@ -96,16 +96,17 @@ pub struct PartStats {
 pub struct MonitorTraces {
     /// Grid times, ns since the epoch.
     pub time_ns: Vec<i64>,
-    /// θ_j per state, °C.
+    /// θ_j per state, °C (empty where the stream was told not to keep them,
+    /// [`StreamOptions::keep_traces`]).
     pub measured: Vec<Series>,
-    /// θ̂_j per state, °C.
+    /// θ̂_j per state, °C (empty likewise).
     pub predicted: Vec<Series>,
 }
 
 impl MonitorTraces {
     /// The residual θ_j − θ̂_j at instant k, K.
     pub fn residual(&self, j: usize, k: usize) -> Option<f64> {
-        Some(self.measured[j].get(k)? - self.predicted[j].get(k)?)
+        Some(self.measured.get(j)?.get(k)? - self.predicted.get(j)?.get(k)?)
     }
 }
 

@@ -67,6 +67,10 @@ pub struct StreamOptions {
     pub stretch_s: f64,
     /// How far the watermark may stay behind the newest sample for a silent channel, s.
     pub max_lateness_s: f64,
+    /// Whether the result keeps the measured and predicted temperatures of every instant
+    /// ([`MonitorTraces`], which grow with the grid: what an HTML page draws); without
+    /// them it keeps the grid's times only.
+    pub keep_traces: bool,
 }
 
 impl Default for StreamOptions {
@@ -74,6 +78,7 @@ impl Default for StreamOptions {
         StreamOptions {
             stretch_s: DEFAULT_STRETCH_S,
             max_lateness_s: DEFAULT_MAX_LATENESS_S,
+            keep_traces: true,
         }
     }
 }
@@ -254,7 +259,7 @@ impl<'m, 'w> Live<'m, 'w> {
             error: None,
             also: None,
             observer: None,
-            run: Runner::new(model, band, hold_s, stream.stretch_s),
+            run: Runner::new(model, band, hold_s, stream),
         })
     }
 
@@ -501,24 +506,49 @@ struct Runner {
     stats: Vec<Accumulator>,
     band_k: Vec<f64>,
     t0: Option<i64>,
-    traces: Traces,
-    /// The last stretch's instants in the traces, and what it made known.
-    last: std::ops::Range<usize>,
+    /// The last stretch's instants.
+    current: Traces,
+    /// All instants before it (the temperatures only where they are kept).
+    kept: Traces,
     overlay: Overlay,
     /// The coolant inlet and outlet on the grid (the inlet warning reads them).
-    coolant: [Vec<Option<f64>>; 2],
+    coolant: [Series; 2],
 }
 
 /// Measured and predicted temperature per state, grown stretch by stretch.
-#[derive(Default)]
 struct Traces {
     time_ns: Vec<i64>,
-    measured: Vec<Vec<Option<f64>>>,
-    predicted: Vec<Vec<Option<f64>>>,
+    measured: Vec<Series>,
+    predicted: Vec<Series>,
+}
+
+impl Traces {
+    fn new(n: usize) -> Traces {
+        Traces {
+            time_ns: Vec::new(),
+            measured: vec![Series::default(); n],
+            predicted: vec![Series::default(); n],
+        }
+    }
+
+    /// Moves `other`'s instants to the end of these (its temperatures where these keep
+    /// them).
+    fn append(&mut self, other: &mut Traces) {
+        self.time_ns.append(&mut other.time_ns);
+        for (kept, new) in self.measured.iter_mut().zip(&other.measured) {
+            kept.extend(new);
+        }
+        for (kept, new) in self.predicted.iter_mut().zip(&other.predicted) {
+            kept.extend(new);
+        }
+        for s in other.measured.iter_mut().chain(other.predicted.iter_mut()) {
+            *s = Series::default();
+        }
+    }
 }
 
 impl Runner {
-    fn new(model: &ThermalModel, band: &Band, hold_s: f64, stretch_s: f64) -> Runner {
+    fn new(model: &ThermalModel, band: &Band, hold_s: f64, stream: &StreamOptions) -> Runner {
         let n = model.state_count();
         let names = model.states.iter().map(|s| s.name.clone()).collect();
         let per_state = model
@@ -537,7 +567,8 @@ impl Runner {
         let detector = Detector::new(names, band.half_width_k.clone(), hold_s);
         // An excursion not yet known to be an alarm started at most the hold and the
         // clearing time before the last update, a stretch ago.
-        let ring = detector.hold_ns() + ((0.2 * hold_s + stretch_s + model.ts_s) * 1e9) as i64;
+        let ring = 0.2 * hold_s + stream.stretch_s + model.ts_s;
+        let ring = detector.hold_ns() + (ring * 1e9) as i64;
         Runner {
             per_state,
             base: model.temperature_base_k,
@@ -549,14 +580,10 @@ impl Runner {
             stats: vec![Accumulator::default(); n],
             band_k: band.half_width_k.clone(),
             t0: None,
-            traces: Traces {
-                measured: vec![Vec::new(); n],
-                predicted: vec![Vec::new(); n],
-                ..Traces::default()
-            },
-            last: 0..0,
+            current: Traces::new(n),
+            kept: Traces::new(if stream.keep_traces { n } else { 0 }),
             overlay: Overlay::new(n, ring),
-            coolant: [Vec::new(), Vec::new()],
+            coolant: [Series::default(), Series::default()],
         }
     }
 
@@ -571,7 +598,7 @@ impl Runner {
         let values = |q: Quantity| decimated.get(q).map(|s| &s.values);
         let inlet = values(Quantity::CoolingWaterInletTemp);
         let outlet = values(Quantity::CoolingWaterOutletTemp);
-        let first = self.traces.time_ns.len();
+        self.kept.append(&mut self.current);
         for k in range {
             let inlet_k = inlet.and_then(|s| s.get(k));
             self.coolant[0].push(inlet_k);
@@ -579,8 +606,7 @@ impl Runner {
             let shift = self.lagged_shift(inlet_k);
             self.step(model, signals, k, shift);
         }
-        self.last = first..self.traces.time_ns.len();
-        let now = self.traces.time_ns.last().copied().unwrap_or(0);
+        let now = self.current.time_ns.last().copied().unwrap_or(0);
         self.overlay.update(&self.detector, now);
     }
 
@@ -628,10 +654,10 @@ impl Runner {
             if let Some(r) = residuals[j] {
                 self.stats[j].add(r, t_s, self.band_k[j]);
             }
-            self.traces.measured[j].push(measured[j]);
-            self.traces.predicted[j].push(theta_hat);
+            self.current.measured[j].push(measured[j]);
+            self.current.predicted[j].push(theta_hat);
         }
-        self.traces.time_ns.push(time_ns);
+        self.current.time_ns.push(time_ns);
         self.detector.observe(time_ns, &residuals);
         self.overlay.remember(time_ns, residuals);
         let u: Option<Vec<f64>> = signals.inputs.iter().map(|i| i.values.get(k)).collect();
@@ -643,16 +669,10 @@ impl Runner {
 
     /// The last stretch sealed, for the observer.
     fn last_stretch(&self, samples_read: u64) -> StretchView {
-        let r = self.last.clone();
-        let cut = |v: &Vec<Vec<Option<f64>>>| -> Vec<Series> {
-            v.iter()
-                .map(|s| s[r.clone()].iter().copied().collect())
-                .collect()
-        };
         StretchView {
-            time_ns: self.traces.time_ns[r.clone()].to_vec(),
-            measured: cut(&self.traces.measured),
-            predicted: cut(&self.traces.predicted),
+            time_ns: self.current.time_ns.clone(),
+            measured: self.current.measured.clone(),
+            predicted: self.current.predicted.clone(),
             alarm_points: self.overlay.points.clone(),
             raised: self.overlay.raised.clone(),
             samples_read,
@@ -661,14 +681,15 @@ impl Runner {
 
     /// The result, once the recording has ended.
     fn finish(
-        self,
+        mut self,
         model: &ThermalModel,
         band: &Band,
         hold_s: f64,
         recording: &Path,
         data_loss: Vec<String>,
     ) -> MonitorResult {
-        let last = self.traces.time_ns.last().copied().unwrap_or(0);
+        self.kept.append(&mut self.current);
+        let last = self.kept.time_ns.last().copied().unwrap_or(0);
         let states: Vec<String> = model.states.iter().map(|s| s.name.clone()).collect();
         let stats = self
             .stats
@@ -683,9 +704,6 @@ impl Runner {
         let warnings = inlet_warning(model, &coolant_grid(self.coolant, model.ts_s, first_index))
             .into_iter()
             .collect();
-        let series = |v: Vec<Vec<Option<f64>>>| -> Vec<Series> {
-            v.into_iter().map(|s| s.into_iter().collect()).collect()
-        };
         MonitorResult {
             recording: recording.to_owned(),
             model: model.path.clone(),
@@ -700,9 +718,9 @@ impl Runner {
             data_loss,
             warnings,
             traces: MonitorTraces {
-                time_ns: self.traces.time_ns,
-                measured: series(self.traces.measured),
-                predicted: series(self.traces.predicted),
+                time_ns: self.kept.time_ns,
+                measured: self.kept.measured,
+                predicted: self.kept.predicted,
             },
         }
     }
@@ -724,22 +742,18 @@ fn lag_weight(model: &ThermalModel) -> f64 {
 }
 
 /// The coolant inlet and outlet on the grid, as the inlet warning reads a recording.
-fn coolant_grid(
-    [inlet, outlet]: [Vec<Option<f64>>; 2],
-    ts_s: f64,
-    first_index: i64,
-) -> DecimatedRecording {
+fn coolant_grid([inlet, outlet]: [Series; 2], ts_s: f64, first_index: i64) -> DecimatedRecording {
     let len = inlet.len();
     let mut series = BTreeMap::new();
     for (q, values) in [
         (Quantity::CoolingWaterInletTemp, inlet),
         (Quantity::CoolingWaterOutletTemp, outlet),
     ] {
-        if values.iter().any(Option::is_some) {
+        if values.iter().any(|v| v.is_some()) {
             let s = DecimatedSeries {
                 signal: Signal::Profile(q),
                 unit: q.canonical_unit().into(),
-                values: values.into_iter().collect(),
+                values,
                 sensors: 1,
                 observed: None,
             };
