@@ -36,13 +36,15 @@ use super::{
     description_of, grid_alignments, inlet_warning, Accumulator, Band, Detector, MonitorOptions,
     MonitorResult, MonitorTraces, StateRef,
 };
-use crate::decimate::{self, DecimateError, DecimatedRecording, DecimatedSeries, Decimator};
+use crate::decimate::{
+    self, DecimateError, DecimatedRecording, DecimatedSeries, Decimator, GAP_FACTOR,
+};
 use crate::error::{Error, Result};
 use crate::predict::model::StateReference;
 use crate::predict::ThermalModel;
 use crate::progress::Observer;
 use crate::recording::{
-    self, Alignment, Quantity, ReadOptions, Sample, SampleSink, SensorChannel, Signal,
+    self, Alignment, Quantity, ReadOptions, Sample, SampleSink, SensorChannel, Signal, Storage,
 };
 use crate::series::Series;
 use crate::signals::{self, Anchors, ModelSignals, FLOW_RISE_SMOOTHING_S};
@@ -189,8 +191,8 @@ struct Live<'m, 'w> {
     lateness_ns: u64,
     /// The channels announced, in index order.
     channel_list: Vec<SensorChannel>,
-    /// Per channel index: its latest sample time.
-    latest: Vec<Option<u64>>,
+    /// Per channel index: when its samples came.
+    arrivals: Vec<Option<Arrivals>>,
     newest: u64,
     /// The raw samples not yet sealed (and the overlap the next stretch needs).
     buffer: Vec<Sample>,
@@ -247,7 +249,7 @@ impl<'m, 'w> Live<'m, 'w> {
             lookahead: smoothing + MARGIN,
             lateness_ns: (stream.max_lateness_s.max(0.0) * 1e9) as u64,
             channel_list: Vec::new(),
-            latest: Vec::new(),
+            arrivals: Vec::new(),
             newest: 0,
             buffer: Vec::new(),
             window_range: None,
@@ -286,7 +288,12 @@ impl<'m, 'w> Live<'m, 'w> {
         if last {
             return Some(hi + 1);
         }
-        let slowest = self.latest.iter().flatten().min().copied()?;
+        let slowest = self
+            .arrivals
+            .iter()
+            .flatten()
+            .map(Arrivals::settled)
+            .min()?;
         let watermark = slowest.max(self.newest.saturating_sub(self.lateness_ns));
         Some((watermark as i64).div_euclid(self.ts_ns) - self.lookahead - MARGIN)
     }
@@ -310,16 +317,38 @@ impl<'m, 'w> Live<'m, 'w> {
         }
     }
 
-    /// The buffered samples laid on the grid from instant `lo` for `len` instants.
-    fn decimate(&self, lo: i64, len: usize) -> Result<DecimatedRecording> {
+    /// A decimator with every channel announced.
+    fn decimator(&self) -> Result<Decimator> {
         let mut decimator = Decimator::new(self.model.ts_s, self.alignments.clone())?;
         for c in &self.channel_list {
             decimator.channel(c);
         }
+        Ok(decimator)
+    }
+
+    /// Refuses a channel whose clock jumped back over its own samples within instants
+    /// `a..b`, judged, as a replay judges the whole recording, on their samples alone
+    /// (the neighbour kept from before a gap would make the stretch look dense).
+    fn check_clock(&self, a: i64, b: i64) -> Result<()> {
+        let mut decimator = self.decimator()?;
+        for s in &self.buffer {
+            if self.window(s).is_some_and(|w| (a..b).contains(&w)) {
+                decimator.sample(*s);
+            }
+        }
+        match decimator.finish(&self.channel_list) {
+            Err(e @ Error::Decimate(DecimateError::ClockJump { .. })) => Err(e),
+            _ => Ok(()),
+        }
+    }
+
+    /// The buffered samples laid on the grid from instant `lo` for `len` instants.
+    fn decimate(&self, lo: i64, len: usize) -> Result<DecimatedRecording> {
+        let mut decimator = self.decimator()?;
         for s in &self.buffer {
             decimator.sample(*s);
         }
-        match decimator.finish(&self.channel_list) {
+        match decimator.inspect(&self.channel_list) {
             Ok(d) => Ok(d.window(lo, len)),
             Err(Error::Decimate(DecimateError::NoSamples)) => Ok(self.unknown(lo, len)),
             Err(e) => Err(e),
@@ -364,6 +393,7 @@ impl<'m, 'w> Live<'m, 'w> {
                 Err(e) => return Err(e),
             }
         }
+        self.check_clock(a, b)?;
         let lo = a - self.lookback;
         let hi = if last { b } else { b + self.lookahead };
         let decimated = self.decimate(lo, (hi - lo) as usize)?;
@@ -397,10 +427,25 @@ impl<'m, 'w> Live<'m, 'w> {
                 *e = (*e).max(w);
             }
         }
+        // A neighbour further back than any interpolation reaches is not kept: laid out
+        // beside the first samples after a gap, it would make the gap look like the
+        // channel's spacing.
+        let reach = |c: usize, w: i64| {
+            let reach_s = match (self.channel_of(c).map(|c| c.storage), &self.arrivals.get(c)) {
+                (Some(Storage::Exception { max_interval_s, .. }), _) => {
+                    max_interval_s.map_or(f64::INFINITY, |m| GAP_FACTOR * m)
+                }
+                (_, Some(Some(a))) => 2.0 * GAP_FACTOR * a.period_s(),
+                _ => 0.0,
+            };
+            ((cut - w) as f64 - 2.0) * self.model.ts_s <= reach_s
+        };
         let keep: Vec<bool> = windows
             .iter()
             .zip(&self.buffer)
-            .map(|(&w, s)| w >= cut || last_before.get(&s.channel) == Some(&w))
+            .map(|(&w, s)| {
+                w >= cut || (last_before.get(&s.channel) == Some(&w) && reach(s.channel, w))
+            })
             .collect();
         let mut keep = keep.into_iter();
         self.buffer.retain(|_| keep.next().unwrap_or(true));
@@ -460,12 +505,20 @@ impl SampleSink for Live<'_, '_> {
             Some((lo, hi)) => (lo.min(w), hi.max(w)),
             None => (w, w),
         });
-        if self.latest.len() <= sample.channel {
-            self.latest.resize(sample.channel + 1, None);
+        if self.arrivals.len() <= sample.channel {
+            self.arrivals.resize(sample.channel + 1, None);
         }
         let t = sample.log_time_ns;
-        let latest = &mut self.latest[sample.channel];
-        *latest = Some(latest.map_or(t, |l| l.max(t)));
+        match &mut self.arrivals[sample.channel] {
+            Some(a) => a.add(t),
+            slot @ None => {
+                *slot = Some(Arrivals {
+                    first: t,
+                    latest: t,
+                    count: 1,
+                })
+            }
+        }
         self.newest = self.newest.max(t);
         self.buffer.push(sample);
         if t >= self.next_check_ns {
@@ -489,6 +542,40 @@ impl SampleSink for Live<'_, '_> {
                 }
             }
         }
+    }
+}
+
+/// When one channel's samples came: enough to say how far behind its latest sample its
+/// data are complete.
+#[derive(Debug, Clone, Copy)]
+struct Arrivals {
+    first: u64,
+    latest: u64,
+    count: u64,
+}
+
+/// Sample periods a channel's data are taken as complete behind its latest sample: the
+/// decimator judges a channel's spacing (a sample in every window, or slower and
+/// interpolated) from the samples it is given, so a stretch is laid out only once
+/// this many samples after it have come.
+const SETTLE_PERIODS: f64 = 20.0;
+
+impl Arrivals {
+    fn add(&mut self, t: u64) {
+        self.first = self.first.min(t);
+        self.latest = self.latest.max(t);
+        self.count += 1;
+    }
+
+    /// Its mean spacing so far, s (gaps make it longer, never shorter).
+    fn period_s(&self) -> f64 {
+        (self.latest - self.first) as f64 * 1e-9 / (self.count.max(2) - 1) as f64
+    }
+
+    /// The time up to which its data are complete, ns.
+    fn settled(&self) -> u64 {
+        let behind = (SETTLE_PERIODS * self.period_s() * 1e9) as u64;
+        self.latest.saturating_sub(behind)
     }
 }
 
