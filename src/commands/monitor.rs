@@ -68,10 +68,14 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<Outcome> {
         keep_traces: args.html.is_some(),
         ..StreamOptions::default()
     };
+    let mut live = Live {
+        publisher: publisher.as_mut(),
+        states: model.states.iter().map(|s| s.name.clone()).collect(),
+        hold_ns: (args.hold * 1e9).round() as i64,
+        print: !args.quiet,
+    };
     let watchers = Watchers {
-        observer: publisher
-            .as_mut()
-            .map(|p| p as &mut dyn monitor::StretchObserver),
+        observer: Some(&mut live),
         ..Default::default()
     };
     let result = monitor::monitor_stream(&model, source, &options, &stream, watchers)?;
@@ -106,6 +110,35 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<Outcome> {
     } else {
         Outcome::Complete
     })
+}
+
+/// What each sealed stretch goes to: the rerun recording, and a line on stderr for each
+/// alarm as it is raised (the summary on stdout comes when the recording has ended).
+struct Live<'p> {
+    publisher: Option<&'p mut LivePublisher>,
+    states: Vec<String>,
+    hold_ns: i64,
+    print: bool,
+}
+
+impl monitor::StretchObserver for Live<'_> {
+    fn stretch(&mut self, stretch: &monitor::Stretch<'_>) -> heatrun::Result<()> {
+        if self.print {
+            for &(j, start_ns) in stretch.raised {
+                let at = |ns: i64| heatrun::recording::format_time(ns.max(0) as u64);
+                eprintln!(
+                    "alarm raised: {} outside its band since {}, raised at {}",
+                    self.states[j],
+                    at(start_ns),
+                    at(start_ns + self.hold_ns)
+                );
+            }
+        }
+        match self.publisher.as_deref_mut() {
+            Some(p) => p.stretch(stretch),
+            None => Ok(()),
+        }
+    }
 }
 
 /// The rerun recording, opened before the recording is read so each stretch goes out as

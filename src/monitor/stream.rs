@@ -4,9 +4,11 @@
 //! pipe) while memory holds the raw samples of about one stretch, not of the file.
 //!
 //! The driver is the reader's [`SampleSink`]. It keeps the raw samples not yet sealed and
-//! a watermark W: the oldest of the channels' latest sample times (a channel slower
-//! than the grid has then delivered the sample after every instant before W, so its
-//! interpolation there is final), but never more than [`StreamOptions::max_lateness_s`]
+//! a watermark W: the oldest of the channels' settled times, each channel's latest sample
+//! time less [`SETTLE_PERIODS`] of its own mean spacing (a channel slower than the grid
+//! has then delivered the samples after every instant before W, so its interpolation
+//! there is final, and enough of them for the decimator to judge its spacing as it
+//! would on the whole file), but never more than [`StreamOptions::max_lateness_s`]
 //! behind the newest sample (a channel that fell silent does not hold the monitor
 //! back; its silence is a gap). Once W passes the end of the next stretch plus the
 //! signal stage's look-ahead (the ±30 s smoothing of the flow input), the stretch is

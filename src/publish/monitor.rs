@@ -1,7 +1,8 @@
 //! `heatrun monitor` in rerun: per part the measured temperature (wide, light) under the
 //! model's prediction (thin, full colour), and beside it the residual θ − θ̂ between its
 //! band ±b (grey), with the stretches that raised an alarm drawn over it in red; the
-//! alarm lines and the summary as text.
+//! alarm lines and the summary as text. Sent a stretch at a time as the monitor seals it
+//! ([`LivePublisher`]), so a connected viewer follows the recording as it is read.
 
 use rerun::{RecordingStream, Scalars, TimeColumn};
 
