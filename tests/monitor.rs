@@ -377,6 +377,30 @@ fn the_rrd_is_written_and_quiet_prints_only_the_alarms() {
         alarm > 600 && alarm <= 7200 - 1800,
         "{alarm} instants in alarm"
     );
+    // Drawn a stretch at a time as the alarms became known: exactly the instants the
+    // whole-file monitor puts inside an alarm.
+    let model = heatrun::predict::ThermalModel::read(&d.join("model.json")).unwrap();
+    let options = heatrun::monitor::MonitorOptions::default();
+    let whole =
+        heatrun::monitor::batch::monitor_whole_file(&model, &d.join("fault.mcap"), &options)
+            .unwrap();
+    for (j, state) in whole.states.iter().enumerate() {
+        let t = &whole.traces;
+        let in_alarm = (0..t.time_ns.len())
+            .filter(|&k| {
+                let now = t.time_ns[k];
+                t.residual(j, k).is_some()
+                    && whole.alarms.iter().any(|a| {
+                        a.state == j && now >= a.start_ns && a.end_ns.is_none_or(|e| now < e)
+                    })
+            })
+            .count();
+        let drawn = rows
+            .get(&format!("/monitor/residual/{state}/alarm"))
+            .copied()
+            .unwrap_or(0);
+        assert_eq!(drawn, in_alarm, "{state}");
+    }
 }
 
 /// Runs a monitor that must fail on bad input: exit 2, one line naming `names`, no output.
