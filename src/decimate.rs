@@ -350,21 +350,24 @@ impl DecimatedRecording {
     }
 }
 
-/// The grid window a sample of `channel` at `t_ns` falls in, on the grid of `ts_ns` with
-/// the signals' `alignments` (as a [`Decimator`] with them windows it).
-pub fn sample_window(
-    ts_ns: i64,
+/// Where a [`Decimator`] with the signals' `alignments` windows `channel`'s samples: a
+/// channel stored by exception at the nearest instant, a sampled one as its signal says.
+pub fn channel_alignment(
     alignments: &BTreeMap<Signal, Alignment>,
     channel: &SensorChannel,
-    t_ns: u64,
-) -> i64 {
-    let alignment = match channel.storage {
+) -> Alignment {
+    match channel.storage {
         Storage::Exception { .. } => Alignment::Instant,
         Storage::Sampled => alignments
             .get(&channel.signal)
             .copied()
             .unwrap_or(Alignment::Interval),
-    };
+    }
+}
+
+/// The grid window (index k on the grid of `ts_ns`) a sample at `t_ns` falls in, for a
+/// channel windowed with `alignment` ([`channel_alignment`]).
+pub fn window_index(ts_ns: i64, alignment: Alignment, t_ns: u64) -> i64 {
     window_of(ts_ns, alignment, t_ns as i64)
 }
 

@@ -193,11 +193,13 @@ struct Live<'m, 'w> {
     lateness_ns: u64,
     /// The channels announced, in index order.
     channel_list: Vec<SensorChannel>,
+    /// Per channel index: where its samples are windowed on the grid.
+    windowing: Vec<Option<Alignment>>,
     /// Per channel index: when its samples came.
     arrivals: Vec<Option<Arrivals>>,
     newest: u64,
     /// The raw samples not yet sealed (and the overlap the next stretch needs).
-    buffer: Vec<Sample>,
+    buffer: Vec<(Sample, i64)>,
     /// The earliest and latest grid window holding a sample.
     window_range: Option<(i64, i64)>,
     samples: u64,
@@ -251,6 +253,7 @@ impl<'m, 'w> Live<'m, 'w> {
             lookahead: smoothing + MARGIN,
             lateness_ns: (stream.max_lateness_s.max(0.0) * 1e9) as u64,
             channel_list: Vec::new(),
+            windowing: Vec::new(),
             arrivals: Vec::new(),
             newest: 0,
             buffer: Vec::new(),
@@ -275,11 +278,10 @@ impl<'m, 'w> Live<'m, 'w> {
     }
 
     fn window(&self, sample: &Sample) -> Option<i64> {
-        let c = self.channel_of(sample.channel)?;
-        Some(decimate::sample_window(
+        let alignment = (*self.windowing.get(sample.channel)?)?;
+        Some(decimate::window_index(
             self.ts_ns,
-            &self.alignments,
-            c,
+            alignment,
             sample.log_time_ns,
         ))
     }
@@ -333,8 +335,8 @@ impl<'m, 'w> Live<'m, 'w> {
     /// (the neighbour kept from before a gap would make the stretch look dense).
     fn check_clock(&self, a: i64, b: i64) -> Result<()> {
         let mut decimator = self.decimator()?;
-        for s in &self.buffer {
-            if self.window(s).is_some_and(|w| (a..b).contains(&w)) {
+        for (s, w) in &self.buffer {
+            if (a..b).contains(w) {
                 decimator.sample(*s);
             }
         }
@@ -347,7 +349,7 @@ impl<'m, 'w> Live<'m, 'w> {
     /// The buffered samples laid on the grid from instant `lo` for `len` instants.
     fn decimate(&self, lo: i64, len: usize) -> Result<DecimatedRecording> {
         let mut decimator = self.decimator()?;
-        for s in &self.buffer {
+        for (s, _) in &self.buffer {
             decimator.sample(*s);
         }
         match decimator.inspect(&self.channel_list) {
@@ -417,16 +419,10 @@ impl<'m, 'w> Live<'m, 'w> {
     /// Drops the samples before grid window `cut`, but each channel's last occupied window
     /// before it (the neighbour an interpolation after the cut needs).
     fn prune(&mut self, cut: i64) {
-        let windows: Vec<i64> = self
-            .buffer
-            .iter()
-            .map(|s| self.window(s).unwrap_or(i64::MIN))
-            .collect();
-        let mut last_before: BTreeMap<usize, i64> = BTreeMap::new();
-        for (s, &w) in self.buffer.iter().zip(&windows) {
-            if w < cut {
-                let e = last_before.entry(s.channel).or_insert(w);
-                *e = (*e).max(w);
+        let mut last_before = vec![i64::MIN; self.windowing.len()];
+        for (s, w) in &self.buffer {
+            if *w < cut {
+                last_before[s.channel] = last_before[s.channel].max(*w);
             }
         }
         // A neighbour further back than any interpolation reaches is not kept: laid out
@@ -442,15 +438,13 @@ impl<'m, 'w> Live<'m, 'w> {
             };
             ((cut - w) as f64 - 2.0) * self.model.ts_s <= reach_s
         };
-        let keep: Vec<bool> = windows
+        let reaches: Vec<bool> = last_before
             .iter()
-            .zip(&self.buffer)
-            .map(|(&w, s)| {
-                w >= cut || (last_before.get(&s.channel) == Some(&w) && reach(s.channel, w))
-            })
+            .enumerate()
+            .map(|(c, &w)| w > i64::MIN && reach(c, w))
             .collect();
-        let mut keep = keep.into_iter();
-        self.buffer.retain(|_| keep.next().unwrap_or(true));
+        self.buffer
+            .retain(|(s, w)| *w >= cut || (last_before[s.channel] == *w && reaches[s.channel]));
     }
 
     /// The data-loss lines of samples that came too late.
@@ -484,6 +478,11 @@ impl SampleSink for Live<'_, '_> {
         if let Some(also) = self.also.as_deref_mut() {
             also.channel(channel);
         }
+        if self.windowing.len() <= channel.index {
+            self.windowing.resize(channel.index + 1, None);
+        }
+        self.windowing[channel.index] =
+            Some(decimate::channel_alignment(&self.alignments, channel));
         self.channel_list.retain(|c| c.index != channel.index);
         self.channel_list.push(channel.clone());
         self.channel_list.sort_by_key(|c| c.index);
@@ -522,7 +521,7 @@ impl SampleSink for Live<'_, '_> {
             }
         }
         self.newest = self.newest.max(t);
-        self.buffer.push(sample);
+        self.buffer.push((sample, w));
         if t >= self.next_check_ns {
             self.next_check_ns = t + self.ts_ns as u64;
             self.advance(false);
@@ -539,8 +538,8 @@ impl SampleSink for Live<'_, '_> {
         match (self.window(&sample), self.sealed) {
             (Some(w), Some(s)) if w < s => self.late.entry(sample.channel).or_default().1 += 1,
             _ => {
-                if let Some(i) = self.buffer.iter().position(|s| *s == sample) {
-                    self.buffer.swap_remove(i);
+                if let Some(i) = self.buffer.iter().position(|(s, _)| *s == sample) {
+                    self.buffer.remove(i);
                 }
             }
         }
