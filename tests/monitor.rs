@@ -693,6 +693,23 @@ fn the_streamed_monitor_is_live_and_gives_the_whole_file_result() {
          their instant was monitored"
     );
     assert!(stderr.contains(&line), "{stderr}");
+
+    // A reading far below zero, judged faulty only at the end of the file, after its
+    // instant was monitored: counted the same way.
+    let mut faulty = load(&d.join("healthy.mcap"));
+    let current = faulty.channel_of("armature_current");
+    faulty.channels[current].2[3600].1 = "{\"value\":-3}".into();
+    faulty.write(&d.join("faulty.mcap"));
+    let out = common::heatrun(&["monitor", "--model", "model.json", "faulty.mcap"], d);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains(
+            "warning: data lost: 1 samples of channel /scada/armature_current were found \
+             faulty at the end of the file after their instant was monitored"
+        ),
+        "{stderr}"
+    );
 }
 
 /// The model carrying the cooling-water flow (its input smoothed over ±30 s around each
