@@ -4,6 +4,9 @@
 //! alarm lines and the summary as text. Sent a stretch at a time as the monitor seals it
 //! ([`LivePublisher`]), so a connected viewer follows the recording as it is read.
 
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
 use rerun::{RecordingStream, Scalars, TimeColumn};
 
 use super::layout::{Layout, Node, View, ViewKind};
@@ -34,7 +37,18 @@ pub struct LivePublisher {
     publisher: Publisher,
     states: Vec<String>,
     band_k: Vec<f64>,
+    /// Points not yet sent, per entity, and how many in all.
+    pending: BTreeMap<String, (Vec<i64>, Vec<f64>)>,
+    pending_points: usize,
+    last_sent: Instant,
 }
+
+/// Points gathered before they go out as column chunks: stretches that come faster
+/// than [`SEND_EVERY`] (a file read at speed) go out together, in fewer, larger chunks.
+const SEND_BATCH_POINTS: usize = 1 << 16;
+
+/// The longest a sealed stretch waits before it is sent (a recording read live).
+const SEND_EVERY: Duration = Duration::from_millis(500);
 
 impl LivePublisher {
     /// Opens the recording `name` on `sink` for a model's `states` (with their `parts`)
@@ -56,11 +70,15 @@ impl LivePublisher {
             publisher,
             states: states.to_vec(),
             band_k: band.half_width_k.clone(),
+            pending: BTreeMap::new(),
+            pending_points: 0,
+            last_sent: Instant::now(),
         })
     }
 
     /// Logs the summary and completes the output (an .rrd is renamed into place only now).
-    pub fn finish(self, result: &MonitorResult) -> Result<()> {
+    pub fn finish(mut self, result: &MonitorResult) -> Result<()> {
+        self.send_pending()?;
         let rec = &self.publisher.rec;
         rec.log_static(
             "monitor/summary",
@@ -77,57 +95,67 @@ impl LivePublisher {
     }
 }
 
+impl LivePublisher {
+    /// Adds points to an entity's pending ones.
+    fn queue(&mut self, entity: String, points: impl Iterator<Item = (i64, f64)>) {
+        let (times, values) = self.pending.entry(entity).or_default();
+        for (t, v) in points.filter(|(_, v)| v.is_finite()) {
+            times.push(t);
+            values.push(v);
+            self.pending_points += 1;
+        }
+    }
+
+    /// Sends every entity's pending points as one column chunk each.
+    fn send_pending(&mut self) -> Result<()> {
+        let rec = &self.publisher.rec;
+        for (entity, (times, values)) in std::mem::take(&mut self.pending) {
+            if times.is_empty() {
+                continue;
+            }
+            rec.send_columns(
+                entity,
+                [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
+                Scalars::new(values)
+                    .columns_of_unit_batches()
+                    .map_err(publish_err)?,
+            )
+            .map_err(publish_err)?;
+        }
+        self.pending_points = 0;
+        self.last_sent = Instant::now();
+        Ok(())
+    }
+}
+
 impl StretchObserver for LivePublisher {
     fn stretch(&mut self, s: &Stretch<'_>) -> Result<()> {
-        let rec = &self.publisher.rec;
         let t = s.time_ns;
-        for (j, state) in self.states.iter().enumerate() {
+        let states = self.states.clone();
+        for (j, state) in states.iter().enumerate() {
             let temp = temperature_entity(state);
             let res = residual_entity(state);
             let (measured, predicted) = (&s.measured[j], &s.predicted[j]);
-            send(
-                rec,
-                &format!("{temp}/measured"),
-                on_grid(t, measured.iter()),
-            )?;
-            send(
-                rec,
-                &format!("{temp}/predicted"),
-                on_grid(t, predicted.iter()),
-            )?;
+            self.queue(format!("{temp}/measured"), on_grid(t, measured.iter()));
+            self.queue(format!("{temp}/predicted"), on_grid(t, predicted.iter()));
             let residual = (0..t.len()).map(|k| Some(measured.get(k)? - predicted.get(k)?));
-            send(rec, &format!("{res}/residual"), on_grid(t, residual))?;
+            self.queue(format!("{res}/residual"), on_grid(t, residual));
             let b = self.band_k[j];
             let ends = [t.first(), t.last()];
             for (side, sign) in [("band_upper", 1.0), ("band_lower", -1.0)] {
                 let points = ends.into_iter().flatten().map(|&t| (t, sign * b));
-                send(rec, &format!("{res}/{side}"), points)?;
+                self.queue(format!("{res}/{side}"), points);
             }
             let alarm = s.alarm_points[j].iter().copied();
-            send(rec, &format!("{res}/alarm"), alarm)?;
+            self.queue(format!("{res}/alarm"), alarm);
         }
-        rec.flush_blocking().map_err(publish_err)
+        // Not waited for: the SDK sends on its own within milliseconds, and the monitor
+        // goes on reading meanwhile.
+        if self.pending_points >= SEND_BATCH_POINTS || self.last_sent.elapsed() >= SEND_EVERY {
+            self.send_pending()?;
+        }
+        Ok(())
     }
-}
-
-/// Sends points as one column chunk (a stretch is short; the caller flushes).
-fn send(
-    rec: &RecordingStream,
-    entity: &str,
-    points: impl Iterator<Item = (i64, f64)>,
-) -> Result<()> {
-    let (times, values): (Vec<i64>, Vec<f64>) = points.filter(|(_, v)| v.is_finite()).unzip();
-    if times.is_empty() {
-        return Ok(());
-    }
-    rec.send_columns(
-        entity,
-        [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
-        Scalars::new(values)
-            .columns_of_unit_batches()
-            .map_err(publish_err)?,
-    )
-    .map_err(publish_err)
 }
 
 /// State j's series names, colours and widths.
