@@ -51,7 +51,7 @@ pub enum Command {
     #[command(
         after_help = "Exit status: 0 healthy (no alarm), 4 alarms raised, 2 bad input (a report of \
 another profile or without the needed blocks, a recording lacking a state's channel), 3 data \
-lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300"
+lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300\n  tail -c +1 -f growing.mcap | heatrun monitor --model model.json - --connect"
     )]
     Monitor(MonitorArgs),
 }

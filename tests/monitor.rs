@@ -439,10 +439,16 @@ fn bad_input_is_one_line_and_exit_2() {
             .map(str::to_owned)
             .to_vec()
     };
-    let cases: [(Vec<String>, &[&str]); 4] = [
+    // Channels without a sample.
+    common::RecordingBuilder::heat_run(0.0, "").write(&d.join("empty.mcap"));
+    let cases: [(Vec<String>, &[&str]); 5] = [
         (
             run("other.json", "model.mcap"),
             &["other.json", "heatrun-scada/2"],
+        ),
+        (
+            run("model.json", "empty.mcap"),
+            &["empty.mcap", "no heat-run samples"],
         ),
         (run("bare.json", "model.mcap"), &["bare.json", "`model`"]),
         (
@@ -469,6 +475,16 @@ fn bad_input_is_one_line_and_exit_2() {
         ],
         &["--hold"],
     );
+    let stretch = [
+        "monitor",
+        "--model",
+        "model.json",
+        "model.mcap",
+        "--stretch=0",
+        "--json",
+        "out.json",
+    ];
+    assert_bad_input(d, &stretch, &["--stretch"]);
     assert_eq!(std::fs::read(d.join("model.mcap")).unwrap(), before);
 }
 

@@ -173,6 +173,9 @@ pub fn monitor_stream(
     if let Some(e) = live.error.take() {
         return Err(e.in_recording(&name));
     }
+    if live.sealed.is_none() {
+        return Err(Error::from(DecimateError::NoSamples).in_recording(&name));
+    }
     let mut data_loss = summary.data_loss;
     data_loss.extend(live.late_lines());
     Ok(live
