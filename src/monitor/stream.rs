@@ -210,6 +210,8 @@ struct Live<'m, 'w> {
     sealed: Option<i64>,
     next_check_ns: u64,
     anchors: Option<Anchors>,
+    /// The first instant not yet sealable at which to try taking the origins again.
+    anchor_retry: i64,
     /// Per channel index: samples that arrived, and were taken back, after their
     /// instant was sealed.
     late: BTreeMap<usize, (u64, u64)>,
@@ -265,6 +267,7 @@ impl<'m, 'w> Live<'m, 'w> {
             sealed: None,
             next_check_ns: 0,
             anchors: None,
+            anchor_retry: i64::MIN,
             late: BTreeMap::new(),
             error: None,
             also: None,
@@ -391,6 +394,12 @@ impl<'m, 'w> Live<'m, 'w> {
     /// the origins cannot be taken yet (the first stretch waits for more).
     fn seal(&mut self, a: i64, b: i64, end: i64, last: bool) -> Result<bool> {
         if self.anchors.is_none() {
+            // Tried again a stretch later, not at every sample: until the origins can be
+            // taken, the buffer holds the recording from its start.
+            if !last && end < self.anchor_retry {
+                return Ok(false);
+            }
+            self.anchor_retry = end + self.stretch;
             let whole = self.decimate(a, (end - a) as usize)?;
             let np = self.model.nameplate.as_ref();
             match Anchors::find(&self.description, &whole, np) {
