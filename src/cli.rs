@@ -51,7 +51,7 @@ pub enum Command {
     #[command(
         after_help = "Exit status: 0 healthy (no alarm), 4 alarms raised, 2 bad input (a report of \
 another profile or without the needed blocks, a recording lacking a state's channel), 3 data \
-lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300"
+lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300\n  tail -c +1 -f growing.mcap | heatrun monitor --model model.json - --connect"
     )]
     Monitor(MonitorArgs),
 }
@@ -62,9 +62,15 @@ pub struct MonitorArgs {
     /// The model: a report written by `heatrun replay --report`.
     #[arg(long, value_name = "REPORT.json")]
     pub model: PathBuf,
-    /// The recording to monitor (MCAP, the heatrun SCADA profile), of the same machine.
+    /// The recording to monitor (MCAP, the heatrun SCADA profile), of the same machine;
+    /// `-` reads it from standard input as it arrives (a recording still being written:
+    /// `tail -c +1 -f growing.mcap | heatrun monitor --model m.json -`).
     #[arg(value_name = "RECORDING.mcap")]
     pub recording: PathBuf,
+    /// Seconds of the grid monitored at once: each stretch is published (--connect,
+    /// --rrd) as soon as the recording has been read past it.
+    #[arg(long, value_name = "SECONDS", default_value_t = heatrun::monitor::stream::DEFAULT_STRETCH_S)]
+    pub stretch: f64,
     /// Seconds a residual must stay outside its band before it is an alarm (returns inside
     /// shorter than a tenth of this do not end the excursion).
     #[arg(long, value_name = "SECONDS", default_value_t = heatrun::monitor::DEFAULT_HOLD_S)]

@@ -312,6 +312,63 @@ impl DecimatedRecording {
     pub fn get_signal(&self, s: &Signal) -> Option<&DecimatedSeries> {
         self.series.get(s)
     }
+
+    /// The same signals on `len` grid instants from grid index `first_index` (t_0 =
+    /// first_index·Ts): unknown (and not observed) where this recording has no instant.
+    /// A stream lays each stretch on the one grid of the whole recording with it.
+    pub fn window(&self, first_index: i64, len: usize) -> DecimatedRecording {
+        let source = |i: usize| -> Option<usize> {
+            let k = first_index + i as i64 - self.first_index;
+            (0..self.len as i64).contains(&k).then_some(k as usize)
+        };
+        let series = self
+            .series
+            .iter()
+            .map(|(signal, s)| {
+                let values = (0..len).map(|i| s.values.get(source(i)?)).collect();
+                let observed = s
+                    .observed
+                    .as_ref()
+                    .map(|o| (0..len).map(|i| source(i).is_some_and(|k| o[k])).collect());
+                let laid = DecimatedSeries {
+                    signal: s.signal.clone(),
+                    unit: s.unit.clone(),
+                    values,
+                    sensors: s.sensors,
+                    observed,
+                };
+                (signal.clone(), laid)
+            })
+            .collect();
+        DecimatedRecording {
+            ts_ns: self.ts_ns,
+            first_index,
+            len,
+            series,
+            channels: self.channels.clone(),
+        }
+    }
+}
+
+/// Where a [`Decimator`] with the signals' `alignments` windows `channel`'s samples: a
+/// channel stored by exception at the nearest instant, a sampled one as its signal says.
+pub fn channel_alignment(
+    alignments: &BTreeMap<Signal, Alignment>,
+    channel: &SensorChannel,
+) -> Alignment {
+    match channel.storage {
+        Storage::Exception { .. } => Alignment::Instant,
+        Storage::Sampled => alignments
+            .get(&channel.signal)
+            .copied()
+            .unwrap_or(Alignment::Interval),
+    }
+}
+
+/// The grid window (index k on the grid of `ts_ns`) a sample at `t_ns` falls in, for a
+/// channel windowed with `alignment` ([`channel_alignment`]).
+pub fn window_index(ts_ns: i64, alignment: Alignment, t_ns: u64) -> i64 {
+    window_of(ts_ns, alignment, t_ns as i64)
 }
 
 /// One occupied window as a point: grid index, mean time in s after the grid's start,

@@ -34,6 +34,17 @@ impl Series {
         self.values.get(k).copied().filter(|v| v.is_finite())
     }
 
+    /// Appends x(len) (`None` or a non-finite value: unknown): a series grown as a
+    /// stream is read.
+    pub fn push(&mut self, value: Option<f64>) {
+        self.values.push(value.unwrap_or(f64::NAN));
+    }
+
+    /// Appends `other`'s values.
+    pub fn extend(&mut self, other: &Series) {
+        self.values.extend_from_slice(&other.values);
+    }
+
     /// Number of instants.
     pub fn len(&self) -> usize {
         self.values.len()

@@ -9,6 +9,8 @@
 //! reference; an input is u_i(k) = P_i(k) / P_base, P_i a channel, an expression of
 //! channels, or a heat source of the profile's loss model.
 
+use std::collections::BTreeMap;
+
 use nalgebra::DMatrix;
 
 use crate::decimate::{DecimatedRecording, DecimatedSeries};
@@ -272,12 +274,126 @@ impl ModelSignals {
     }
 }
 
-/// Computes the description's states and inputs from a decimated recording.
-pub fn compute(
+/// What the signal stage fixes once, from the start of a recording: each state's
+/// constant reference (its initial value θ_ref,j = θ_j(k₀), k₀ the first instant every
+/// state and reference is known), the initial level of every channel a reference, a
+/// boundary rise or a flow input is measured from (the mean of its first
+/// [`coolant::INITIAL_LEVEL_S`] of known values from k₀), and each input's origin where
+/// it is measured from its first value. A stream computes them on its first stretch and
+/// carries them, so that every later stretch is measured from the same origins as the
+/// whole recording would be ([`compute_anchored`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Anchors {
+    /// Per state, its constant reference (NaN where none could be taken), `None` for a
+    /// state referenced to a channel at each instant.
+    pub references: Vec<Option<f64>>,
+    /// The initial level of each channel one is taken of (those with a value).
+    pub levels: BTreeMap<Signal, f64>,
+    /// Whether every level's averaging window was full (a stream waits for more of the
+    /// recording while it is not).
+    pub complete: bool,
+    /// Per input, the first known value it is measured from (inputs with `from_initial`;
+    /// `None` until one is seen).
+    pub input_origins: Vec<Option<f64>>,
+}
+
+impl Anchors {
+    /// The anchors of a decimated recording: its first common instant k₀ and the levels
+    /// from there (errors where no instant has every state and reference known).
+    pub fn find(
+        description: &ModelDescription,
+        decimated: &DecimatedRecording,
+        nameplate: Option<&Nameplate>,
+    ) -> Result<Anchors> {
+        let states = states_of(description, decimated, nameplate)?;
+        Ok(anchors_at(
+            description,
+            decimated,
+            &states,
+            initial_index(&states, decimated.len)?,
+        ))
+    }
+}
+
+/// The channels whose initial level the description measures from.
+fn level_channels(description: &ModelDescription) -> Vec<&Signal> {
+    let refs = description
+        .states
+        .iter()
+        .filter_map(|d| match &d.reference {
+            Reference::InitialOf(r) => Some(r),
+            _ => None,
+        });
+    let inputs = description.inputs.iter().flat_map(|i| match &i.source {
+        InputSource::BoundaryRise(c) => vec![c],
+        InputSource::CoolantFlow { flow, inlet, .. } => vec![flow, inlet],
+        _ => Vec::new(),
+    });
+    refs.chain(inputs).collect()
+}
+
+/// The first instant at which every state's rise is known.
+fn initial_index(states: &[StateSignal], len: usize) -> Result<usize> {
+    (0..len)
+        .find(|&k| states.iter().all(|s| s.rise(k).is_some()))
+        .ok_or_else(|| Error::NoCommonInstant {
+            what: "the states and their references".into(),
+        })
+}
+
+fn anchors_at(
+    description: &ModelDescription,
+    decimated: &DecimatedRecording,
+    states: &[StateSignal],
+    initial_index: usize,
+) -> Anchors {
+    let ts_s = decimated.ts_s();
+    let window = (coolant::INITIAL_LEVEL_S / ts_s).round().max(1.0) as usize;
+    let mut complete = true;
+    let mut levels = BTreeMap::new();
+    for c in level_channels(description) {
+        let Some(series) = decimated.get_signal(c) else {
+            continue;
+        };
+        if let Some(level) = coolant::initial_level(&series.values, initial_index, ts_s) {
+            levels.insert(c.clone(), level);
+        }
+        let known = series
+            .values
+            .iter()
+            .skip(initial_index)
+            .flatten()
+            .take(window);
+        complete &= known.count() == window;
+    }
+    let references = states
+        .iter()
+        .zip(&description.states)
+        .map(|(s, d)| match (&s.reference, &d.reference) {
+            (ReferenceValues::Constant(c), _) if !c.is_nan() => Some(*c),
+            (ReferenceValues::Constant(_), Reference::InitialOf(r)) => {
+                Some(levels.get(r).copied().unwrap_or(f64::NAN))
+            }
+            (ReferenceValues::Constant(_), _) => {
+                Some(s.measured.get(initial_index).unwrap_or(f64::NAN))
+            }
+            (ReferenceValues::Channel(_), _) => None,
+        })
+        .collect();
+    Anchors {
+        references,
+        levels,
+        complete,
+        input_origins: vec![None; description.inputs.len()],
+    }
+}
+
+/// The states as measured, their constant references not yet taken (NaN).
+fn states_of(
     description: &ModelDescription,
     decimated: &DecimatedRecording,
     nameplate: Option<&Nameplate>,
-) -> Result<ModelSignals> {
+) -> Result<Vec<StateSignal>> {
     let series = |s: &Signal| {
         decimated
             .get_signal(s)
@@ -299,18 +415,81 @@ pub fn compute(
         state.exception = exception_storage(decimated, &s.channel);
         states.push(state);
     }
+    Ok(states)
+}
+
+/// Computes the description's states and inputs from a decimated recording.
+pub fn compute(
+    description: &ModelDescription,
+    decimated: &DecimatedRecording,
+    nameplate: Option<&Nameplate>,
+) -> Result<ModelSignals> {
+    let states = states_of(description, decimated, nameplate)?;
+    let initial_index = initial_index(&states, decimated.len)?;
+    let mut anchors = anchors_at(description, decimated, &states, initial_index);
+    finish(
+        description,
+        decimated,
+        nameplate,
+        (states, initial_index),
+        &mut anchors,
+    )
+}
+
+/// [`compute`] on a stretch of a recording, measured from `anchors` taken at the start of
+/// the whole recording ([`Anchors::find`]) rather than from the stretch's own start: the
+/// stretch's instants get the values the whole recording would give them, where the
+/// stretch holds what each instant's value depends on (the flow input's smoothing
+/// around it, an input's dead time before it). An input measured from its first value
+/// takes the first one seen into `anchors`. The loss model's field temperature scaled
+/// from the armature rise (neither θ_f nor U_f recorded) is scaled within the stretch.
+pub fn compute_anchored(
+    description: &ModelDescription,
+    decimated: &DecimatedRecording,
+    nameplate: Option<&Nameplate>,
+    anchors: &mut Anchors,
+) -> Result<ModelSignals> {
+    let mut states = states_of(description, decimated, nameplate)?;
+    for (s, r) in states.iter_mut().zip(&anchors.references) {
+        if let (ReferenceValues::Constant(c), Some(r)) = (&mut s.reference, r) {
+            *c = *r;
+        }
+    }
+    let initial_index = initial_index(&states, decimated.len).unwrap_or(0);
+    finish(
+        description,
+        decimated,
+        nameplate,
+        (states, initial_index),
+        anchors,
+    )
+}
+
+/// The inputs beside the states, from the anchors' references and levels.
+fn finish(
+    description: &ModelDescription,
+    decimated: &DecimatedRecording,
+    nameplate: Option<&Nameplate>,
+    (mut states, initial_index): (Vec<StateSignal>, usize),
+    anchors: &mut Anchors,
+) -> Result<ModelSignals> {
+    let series = |s: &Signal| {
+        decimated
+            .get_signal(s)
+            .ok_or_else(|| Error::MissingChannel {
+                channel: s.name().to_owned(),
+            })
+    };
     let n = decimated.len;
-    let initial_index = (0..n)
-        .find(|&k| states.iter().all(|s| s.rise(k).is_some()))
-        .ok_or_else(|| Error::NoCommonInstant {
-            what: "the states and their references".into(),
-        })?;
     let level = |c: &Signal| -> Result<f64> {
-        coolant::initial_level(&series(c)?.values, initial_index, decimated.ts_s()).ok_or_else(
-            || Error::NoCommonInstant {
+        series(c)?;
+        anchors
+            .levels
+            .get(c)
+            .copied()
+            .ok_or_else(|| Error::NoCommonInstant {
                 what: format!("the reference channel {}", c.name()),
-            },
-        )
+            })
     };
     for (s, d) in states.iter_mut().zip(&description.states) {
         if let ReferenceValues::Constant(c) = &mut s.reference {
@@ -340,15 +519,19 @@ pub fn compute(
         (true, None) => return Err(Error::NameplateNeeded),
         (false, _) => None,
     };
+    let origins = &mut anchors.input_origins;
+    origins.resize(description.inputs.len(), None);
     let inputs = description
         .inputs
         .iter()
-        .map(|i| {
+        .zip(origins.iter_mut())
+        .map(|(i, origin)| {
             let scale = Scales {
                 power_base,
                 temperature_base_k,
             };
-            input_signal(i, decimated, generator.as_ref(), scale, &series, &level)
+            let sources = (generator.as_ref(), &series, &level);
+            input_signal(i, decimated, sources, scale, origin)
         })
         .collect::<Result<Vec<_>>>()?;
     let mut inputs = inputs;
@@ -469,13 +652,18 @@ struct Scales {
     temperature_base_k: f64,
 }
 
+/// One input on the grid; `origin` is the value an input measured from its first value
+/// is measured from (taken here, the first known one, where it is not yet known).
 fn input_signal<'a>(
     i: &InputDescription,
     decimated: &DecimatedRecording,
-    generator: Option<&GeneratorLosses>,
+    (generator, series, level): (
+        Option<&GeneratorLosses>,
+        &impl Fn(&Signal) -> Result<&'a DecimatedSeries>,
+        &impl Fn(&Signal) -> Result<f64>,
+    ),
     scale: Scales,
-    series: &impl Fn(&Signal) -> Result<&'a DecimatedSeries>,
-    level: &impl Fn(&Signal) -> Result<f64>,
+    origin: &mut Option<f64>,
 ) -> Result<InputSignal> {
     let power_base = scale.power_base;
     let values: Series = match &i.source {
@@ -526,7 +714,10 @@ fn input_signal<'a>(
         )?,
     };
     let values = if i.from_initial {
-        let first = values.iter().flatten().next().unwrap_or(0.0);
+        if origin.is_none() {
+            *origin = values.iter().flatten().next();
+        }
+        let first = origin.unwrap_or(0.0);
         values.iter().map(|v| v.map(|v| v - first)).collect()
     } else {
         values

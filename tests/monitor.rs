@@ -365,11 +365,10 @@ fn the_rrd_is_written_and_quiet_prints_only_the_alarms() {
             let entity = format!("/monitor/{}", e.replace("{s}", state));
             assert_eq!(rows.get(&entity), Some(&instants), "{entity}: {rows:?}");
         }
+        // The band's ends, per stretch published (ten minutes each).
         for side in ["band_upper", "band_lower"] {
-            assert_eq!(
-                rows.get(&format!("/monitor/residual/{state}/{side}")),
-                Some(&2)
-            );
+            let ends = rows[&format!("/monitor/residual/{state}/{side}")];
+            assert!((2..=2 * (instants / 600 + 1)).contains(&ends), "{ends}");
         }
     }
     let alarm = rows["/monitor/residual/cooling_water_outlet_temp/alarm"];
@@ -378,6 +377,30 @@ fn the_rrd_is_written_and_quiet_prints_only_the_alarms() {
         alarm > 600 && alarm <= 7200 - 1800,
         "{alarm} instants in alarm"
     );
+    // Drawn a stretch at a time as the alarms became known: exactly the instants the
+    // whole-file monitor puts inside an alarm.
+    let model = heatrun::predict::ThermalModel::read(&d.join("model.json")).unwrap();
+    let options = heatrun::monitor::MonitorOptions::default();
+    let whole =
+        heatrun::monitor::batch::monitor_whole_file(&model, &d.join("fault.mcap"), &options)
+            .unwrap();
+    for (j, state) in whole.states.iter().enumerate() {
+        let t = &whole.traces;
+        let in_alarm = (0..t.time_ns.len())
+            .filter(|&k| {
+                let now = t.time_ns[k];
+                t.residual(j, k).is_some()
+                    && whole.alarms.iter().any(|a| {
+                        a.state == j && now >= a.start_ns && a.end_ns.is_none_or(|e| now < e)
+                    })
+            })
+            .count();
+        let drawn = rows
+            .get(&format!("/monitor/residual/{state}/alarm"))
+            .copied()
+            .unwrap_or(0);
+        assert_eq!(drawn, in_alarm, "{state}");
+    }
 }
 
 /// Runs a monitor that must fail on bad input: exit 2, one line naming `names`, no output.
@@ -416,10 +439,16 @@ fn bad_input_is_one_line_and_exit_2() {
             .map(str::to_owned)
             .to_vec()
     };
-    let cases: [(Vec<String>, &[&str]); 4] = [
+    // Channels without a sample.
+    common::RecordingBuilder::heat_run(0.0, "").write(&d.join("empty.mcap"));
+    let cases: [(Vec<String>, &[&str]); 5] = [
         (
             run("other.json", "model.mcap"),
             &["other.json", "heatrun-scada/2"],
+        ),
+        (
+            run("model.json", "empty.mcap"),
+            &["empty.mcap", "no heat-run samples"],
         ),
         (run("bare.json", "model.mcap"), &["bare.json", "`model`"]),
         (
@@ -446,5 +475,312 @@ fn bad_input_is_one_line_and_exit_2() {
         ],
         &["--hold"],
     );
+    let stretch = [
+        "monitor",
+        "--model",
+        "model.json",
+        "model.mcap",
+        "--stretch=0",
+        "--json",
+        "out.json",
+    ];
+    assert_bad_input(d, &stretch, &["--stretch"]);
     assert_eq!(std::fs::read(d.join("model.mcap")).unwrap(), before);
+}
+
+/// A recording read back into a builder (its channels, samples and nameplate), to be
+/// written again with samples removed or moved.
+fn load(path: &Path) -> common::RecordingBuilder {
+    let bytes = std::fs::read(path).unwrap();
+    let mut r = common::RecordingBuilder::new();
+    r.nameplate = None;
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    for index in &summary.metadata_indexes {
+        let m = mcap::read::metadata(&bytes, index).unwrap();
+        if m.name == "heatrun.nameplate" {
+            r.nameplate = Some(m.metadata);
+        }
+    }
+    let mut channel: std::collections::BTreeMap<String, usize> = Default::default();
+    for msg in mcap::MessageStream::new(&bytes).unwrap() {
+        let msg = msg.unwrap();
+        let topic = msg.channel.topic.clone();
+        let i = *channel.entry(topic.clone()).or_insert_with(|| {
+            r.channels
+                .push((topic, msg.channel.metadata.clone(), Vec::new()));
+            r.channels.len() - 1
+        });
+        let text = String::from_utf8(msg.data.to_vec()).unwrap();
+        r.channels[i].2.push((msg.log_time, text));
+    }
+    r
+}
+
+/// The first sample time of a recording, ns.
+fn start_ns(r: &common::RecordingBuilder) -> u64 {
+    r.channels
+        .iter()
+        .flat_map(|c| c.2.iter().map(|s| s.0))
+        .min()
+        .unwrap()
+}
+
+/// Drops the samples of the channels whose topic ends with one of `quantities` (all
+/// channels where empty) between `from_s` and `to_s` after the start.
+fn cut(r: &mut common::RecordingBuilder, quantities: &[&str], from_s: u64, to_s: u64) {
+    let t0 = start_ns(r);
+    let (from, to) = (t0 + from_s * 1_000_000_000, t0 + to_s * 1_000_000_000);
+    for (topic, _, samples) in r.channels.iter_mut() {
+        if quantities.is_empty() || quantities.iter().any(|q| topic.ends_with(q)) {
+            samples.retain(|s| s.0 < from || s.0 >= to);
+        }
+    }
+}
+
+/// Each sealed stretch's first and last instant and the samples read when it was sealed.
+#[derive(Default)]
+struct Seen(Vec<(i64, i64, u64)>);
+
+impl heatrun::monitor::StretchObserver for Seen {
+    fn stretch(&mut self, s: &heatrun::monitor::Stretch<'_>) -> heatrun::Result<()> {
+        assert_eq!(s.measured[0].len(), s.time_ns.len());
+        self.0
+            .push((s.time_ns[0], *s.time_ns.last().unwrap(), s.samples_read));
+        Ok(())
+    }
+}
+
+/// Monitors `recording` streamed (stretches of `stretch_s`) and, as the oracle, whole;
+/// asserts the same instants, alarms, residual statistics (to 1e-9 K) and restarts, and
+/// stretches that follow each other on the grid. The stream's result and stretches.
+fn streamed_as_whole(
+    model: &Path,
+    recording: &Path,
+    stretch_s: f64,
+) -> (heatrun::monitor::MonitorResult, Vec<(i64, i64, u64)>) {
+    use heatrun::monitor::{self, batch, MonitorOptions, Source, StreamOptions, Watchers};
+    let model = heatrun::predict::ThermalModel::read(model).unwrap();
+    let options = MonitorOptions::default();
+    let whole = batch::monitor_whole_file(&model, recording, &options).unwrap();
+    let mut seen = Seen::default();
+    let stream = StreamOptions {
+        stretch_s,
+        ..StreamOptions::default()
+    };
+    let watchers = Watchers {
+        observer: Some(&mut seen),
+        ..Default::default()
+    };
+    let source = Source::File(recording);
+    let streamed = monitor::monitor_stream(&model, source, &options, &stream, watchers).unwrap();
+    let name = recording.display();
+    assert_eq!(streamed.traces.time_ns, whole.traces.time_ns, "{name}");
+    // Every instant's measured and predicted temperature (to rounding).
+    let t = &whole.traces;
+    for j in 0..t.measured.len() {
+        for (series, of) in [
+            (&streamed.traces.measured[j], &t.measured[j]),
+            (&streamed.traces.predicted[j], &t.predicted[j]),
+        ] {
+            for k in 0..t.time_ns.len() {
+                let (a, b) = (series.get(k), of.get(k));
+                let same = match (a, b) {
+                    (Some(a), Some(b)) => (a - b).abs() < 1e-9,
+                    (a, b) => a == b,
+                };
+                assert!(same, "{name}: state {j} at {} s: {a:?} vs {b:?}", k);
+            }
+        }
+    }
+    assert_eq!(streamed.restarts, whole.restarts, "{name}");
+    assert_eq!(streamed.alarms.len(), whole.alarms.len(), "{name}");
+    for (a, b) in streamed.alarms.iter().zip(&whole.alarms) {
+        assert_eq!(
+            (a.state, a.start_ns, a.raised_ns, a.end_ns, a.peak_ns),
+            (b.state, b.start_ns, b.raised_ns, b.end_ns, b.peak_ns),
+            "{name}"
+        );
+        assert!((a.peak_deviation_k - b.peak_deviation_k).abs() < 1e-9);
+    }
+    for (a, b) in streamed.stats.iter().zip(&whole.stats) {
+        assert_eq!(a.instants, b.instants, "{name}");
+        for (x, y) in [
+            (a.mean_k, b.mean_k),
+            (a.rms_k, b.rms_k),
+            (a.max_deviation_k, b.max_deviation_k),
+            (a.outside_fraction, b.outside_fraction),
+        ] {
+            assert!((x - y).abs() < 1e-9, "{name}: {a:?} vs {b:?}");
+        }
+    }
+    assert_eq!(streamed.warnings, whole.warnings, "{name}");
+    // Every instant of the grid in exactly one stretch, in time order.
+    let ts_ns = (model.ts_s * 1e9).round() as i64;
+    let stretches = seen.0;
+    assert_eq!(stretches[0].0, whole.traces.time_ns[0], "{name}");
+    assert_eq!(
+        stretches.last().unwrap().1,
+        *whole.traces.time_ns.last().unwrap()
+    );
+    for pair in stretches.windows(2) {
+        assert_eq!(pair[1].0, pair[0].1 + ts_ns, "{name}: {pair:?}");
+        assert!(pair[1].2 >= pair[0].2);
+    }
+    (streamed, stretches)
+}
+
+/// The streamed monitor gives the whole-file monitor's result (the oracle) on healthy,
+/// fouled, gapped and stored-by-exception recordings, at the default stretch and at an
+/// odd short one; it publishes its first stretch early in the file; samples that come
+/// after their instant was monitored are counted as data loss, not fatal.
+#[test]
+fn the_streamed_monitor_is_live_and_gives_the_whole_file_result() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    identify(d, "model.mcap", &["--seed", "1"], "model.json");
+    let fault = FAULT_AT_S.to_string();
+    let faulty = ["--fault-at", &fault, "--fault-conductance-drop", "0.3"];
+    synth(
+        d,
+        "healthy.mcap",
+        &["--seed", "2", "--profile", "single-step"],
+    );
+    synth(
+        d,
+        "fault.mcap",
+        &[&["--seed", "3"][..], &faulty[..]].concat(),
+    );
+    let exception = ["--seed", "4", "--deadband", "0.1", "--heartbeat", "60"];
+    synth(d, "exception.mcap", &[&exception[..], &faulty[..]].concat());
+    // Gaps: every channel for 10 minutes, the stator winding's sensor for 2 hours.
+    let mut gapped = load(&d.join("fault.mcap"));
+    cut(&mut gapped, &[], 5_000, 5_600);
+    cut(&mut gapped, &["stator_winding_temp"], 12_000, 19_200);
+    gapped.write(&d.join("gapped.mcap"));
+    let model = d.join("model.json");
+    for name in [
+        "healthy.mcap",
+        "fault.mcap",
+        "exception.mcap",
+        "gapped.mcap",
+    ] {
+        let recording = d.join(name);
+        let (result, stretches) = streamed_as_whole(&model, &recording, 600.0);
+        assert_eq!(result.healthy(), name == "healthy.mcap", "{name}");
+        // Liveness: a 5.8-hour recording, the first stretch out when about a tenth of it
+        // was read (ten minutes of grid, the ten minutes its initial levels need).
+        let all = stretches.last().unwrap().2;
+        assert!(
+            (stretches[0].2 as f64) < 0.15 * all as f64,
+            "{name}: first stretch after {} of {all} samples",
+            stretches[0].2
+        );
+        assert!(
+            stretches.len() >= 30,
+            "{name}: {} stretches",
+            stretches.len()
+        );
+        streamed_as_whole(&model, &recording, 97.0);
+    }
+    let gapped = streamed_as_whole(&model, &d.join("gapped.mcap"), 600.0).0;
+    assert!(gapped.restarts >= 1, "{}", gapped.restarts);
+
+    // Late: 100 s of the core's samples stored at the end of the file.
+    let late = load(&d.join("healthy.mcap"));
+    let t0 = start_ns(&late);
+    let mut order: Vec<(usize, usize, u64)> = Vec::new();
+    let core = late.channel_of("core_temp");
+    let (from, to) = (t0 + 3_600_000_000_000, t0 + 3_700_000_000_000);
+    let moved = |c: usize, t: u64| c == core && (from..to).contains(&t);
+    for (c, (_, _, samples)) in late.channels.iter().enumerate() {
+        for (i, (t, _)) in samples.iter().enumerate() {
+            order.push((c, i, *t));
+        }
+    }
+    order.sort_by_key(|&(c, _, t)| (moved(c, t), t));
+    let expected = order.iter().filter(|&&(c, _, t)| moved(c, t)).count();
+    assert!(expected >= 10, "{expected}");
+    late.write_in_order(&d.join("late.mcap"), &order);
+    let out = common::heatrun(&["monitor", "--model", "model.json", "late.mcap"], d);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    let line = format!(
+        "warning: data lost: {expected} samples of channel /scada/core_temp arrived after \
+         their instant was monitored"
+    );
+    assert!(stderr.contains(&line), "{stderr}");
+
+    // A reading far below zero, judged faulty only at the end of the file, after its
+    // instant was monitored: counted the same way.
+    let mut faulty = load(&d.join("healthy.mcap"));
+    let current = faulty.channel_of("armature_current");
+    faulty.channels[current].2[3600].1 = "{\"value\":-3}".into();
+    faulty.write(&d.join("faulty.mcap"));
+    let out = common::heatrun(&["monitor", "--model", "model.json", "faulty.mcap"], d);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains(
+            "warning: data lost: 1 samples of channel /scada/armature_current were found \
+             faulty at the end of the file after their instant was monitored"
+        ),
+        "{stderr}"
+    );
+}
+
+/// The model carrying the cooling-water flow (its input smoothed over ±30 s around each
+/// instant, from the flow's initial level Q₀) streamed gives the whole file's result; so
+/// does a recording read from standard input.
+#[test]
+fn a_flow_carrying_model_streamed_and_standard_input_give_the_whole_file_result() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    identify(
+        d,
+        "model.mcap",
+        &["--seed", "8", "--pump-switch", "10000:0.6"],
+        "model.json",
+    );
+    let fault = FAULT_AT_S.to_string();
+    let pump = [
+        "--seed",
+        "9",
+        "--pump-switch",
+        "7000:0.7",
+        "--fault-at",
+        &fault,
+        "--fault-conductance-drop",
+        "0.3",
+    ];
+    synth(d, "pump.mcap", &pump);
+    let model = d.join("model.json");
+    let (result, _) = streamed_as_whole(&model, &d.join("pump.mcap"), 600.0);
+    assert!(!result.healthy());
+    streamed_as_whole(&model, &d.join("pump.mcap"), 97.0);
+    // The same file from standard input: the same document.
+    let (status, file_doc, _) = monitor(d, "model.json", "pump.mcap");
+    let stdin = std::fs::File::open(d.join("pump.mcap")).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_heatrun"))
+        .args([
+            "monitor",
+            "--model",
+            "model.json",
+            "-",
+            "--json",
+            "stdin.json",
+        ])
+        .current_dir(d)
+        .stdin(stdin)
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        status,
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdin_doc: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("stdin.json")).unwrap()).unwrap();
+    assert_eq!(stdin_doc["alarms"], file_doc["alarms"]);
+    assert_eq!(stdin_doc["parts"], file_doc["parts"]);
 }

@@ -123,6 +123,23 @@ impl Detector {
         }
     }
 
+    /// The alarms closed so far, in the order they closed (a stream shows them as they
+    /// close; [`Detector::finish`] adds those still open and orders them).
+    pub fn closed(&self) -> &[Alarm] {
+        &self.alarms
+    }
+
+    /// Part j's excursion in progress, if any: its first instant outside the band, and
+    /// the first instant of its current return inside it (`None` while outside), ns.
+    pub fn open_excursion(&self, j: usize) -> Option<(i64, Option<i64>)> {
+        self.open[j].map(|e| (e.start_ns, e.inside_since_ns))
+    }
+
+    /// The hold time, ns.
+    pub fn hold_ns(&self) -> i64 {
+        self.hold_ns
+    }
+
     /// The alarms, excursions still open at `last_ns` (the recording's last instant)
     /// included, in order of when they were raised.
     pub fn finish(mut self, last_ns: i64) -> Vec<Alarm> {

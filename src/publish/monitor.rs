@@ -1,15 +1,19 @@
 //! `heatrun monitor` in rerun: per part the measured temperature (wide, light) under the
 //! model's prediction (thin, full colour), and beside it the residual θ − θ̂ between its
 //! band ±b (grey), with the stretches that raised an alarm drawn over it in red; the
-//! alarm lines and the summary as text.
+//! alarm lines and the summary as text. Sent a stretch at a time as the monitor seals it
+//! ([`LivePublisher`]), so a connected viewer follows the recording as it is read.
 
-use rerun::RecordingStream;
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use rerun::{RecordingStream, Scalars, TimeColumn};
 
 use super::layout::{Layout, Node, View, ViewKind};
-use super::traces::{on_grid, send_series};
-use super::{publish_err, style, Publisher, RerunSink};
+use super::traces::on_grid;
+use super::{publish_err, style, Publisher, RerunSink, TIMELINE};
 use crate::error::Result;
-use crate::monitor::MonitorResult;
+use crate::monitor::{Band, MonitorResult, Stretch, StretchObserver};
 
 /// Near-black, for alarms (no part has it).
 const ALARM: [u8; 3] = [25, 25, 25];
@@ -24,90 +28,176 @@ pub fn residual_entity(state: &str) -> String {
     format!("monitor/residual/{state}")
 }
 
-/// Sends a monitoring result to `sink` (an .rrd is complete when this returns, or absent).
-pub fn publish(result: &MonitorResult, sink: &RerunSink) -> Result<()> {
-    let name = result
-        .recording
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let publisher = Publisher::open(sink, &name)?;
-    log_result(&publisher.rec, result)?;
-    layout(result).send(&publisher.rec).map_err(publish_err)?;
-    publisher.rec.flush_blocking().map_err(publish_err)?;
-    let Publisher { rec, pending, .. } = publisher;
-    drop(rec);
-    match pending {
-        Some(pending) => pending.commit(),
-        None => Ok(()),
+/// The monitor's recording, published a stretch at a time as the recording is read (a
+/// [`StretchObserver`]): per part the measured and predicted temperatures and the
+/// residual of each sealed stretch, the band along them, the alarm's residuals once the
+/// alarm is known; the blueprint first, so a connected viewer lays the plots out before
+/// the first stretch; the summary when the recording has ended ([`LivePublisher::finish`]).
+pub struct LivePublisher {
+    publisher: Publisher,
+    states: Vec<String>,
+    band_k: Vec<f64>,
+    /// Points not yet sent, per entity, and how many in all.
+    pending: BTreeMap<String, (Vec<i64>, Vec<f64>)>,
+    pending_points: usize,
+    last_sent: Instant,
+}
+
+/// Points gathered before they go out as column chunks: stretches that come faster
+/// than [`SEND_EVERY`] (a file read at speed) go out together, in fewer, larger chunks.
+const SEND_BATCH_POINTS: usize = 1 << 16;
+
+/// The longest a sealed stretch waits before it is sent (a recording read live).
+const SEND_EVERY: Duration = Duration::from_millis(500);
+
+impl LivePublisher {
+    /// Opens the recording `name` on `sink` for a model's `states` (with their `parts`)
+    /// and band, and sends the styles and the blueprint.
+    pub fn open(
+        sink: &RerunSink,
+        name: &str,
+        (states, parts): (&[String], &[String]),
+        band: &Band,
+    ) -> Result<LivePublisher> {
+        let publisher = Publisher::open(sink, name)?;
+        for (j, state) in states.iter().enumerate() {
+            styles(&publisher.rec, j, state, band.half_width_k[j])?;
+        }
+        layout(states, parts)
+            .send(&publisher.rec)
+            .map_err(publish_err)?;
+        Ok(LivePublisher {
+            publisher,
+            states: states.to_vec(),
+            band_k: band.half_width_k.clone(),
+            pending: BTreeMap::new(),
+            pending_points: 0,
+            last_sent: Instant::now(),
+        })
+    }
+
+    /// Logs the summary and completes the output (an .rrd is renamed into place only now).
+    pub fn finish(mut self, result: &MonitorResult) -> Result<()> {
+        self.send_pending()?;
+        let rec = &self.publisher.rec;
+        rec.log_static(
+            "monitor/summary",
+            &super::text::preformatted(&result.summary()),
+        )
+        .map_err(publish_err)?;
+        rec.flush_blocking().map_err(publish_err)?;
+        let Publisher { rec, pending, .. } = self.publisher;
+        drop(rec);
+        match pending {
+            Some(pending) => pending.commit(),
+            None => Ok(()),
+        }
     }
 }
 
-fn log_result(rec: &RecordingStream, result: &MonitorResult) -> Result<()> {
-    let t = &result.traces;
-    for (j, state) in result.states.iter().enumerate() {
-        let colour = style::part(j);
-        let temp = temperature_entity(state);
-        let measured = format!("{temp}/measured");
+impl LivePublisher {
+    /// Adds points to an entity's pending ones.
+    fn queue(&mut self, entity: String, points: impl Iterator<Item = (i64, f64)>) {
+        let (times, values) = self.pending.entry(entity).or_default();
+        for (t, v) in points.filter(|(_, v)| v.is_finite()) {
+            times.push(t);
+            values.push(v);
+            self.pending_points += 1;
+        }
+    }
+
+    /// Sends every entity's pending points as one column chunk each.
+    fn send_pending(&mut self) -> Result<()> {
+        let rec = &self.publisher.rec;
+        for (entity, (times, values)) in std::mem::take(&mut self.pending) {
+            if times.is_empty() {
+                continue;
+            }
+            rec.send_columns(
+                entity,
+                [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
+                Scalars::new(values)
+                    .columns_of_unit_batches()
+                    .map_err(publish_err)?,
+            )
+            .map_err(publish_err)?;
+        }
+        self.pending_points = 0;
+        self.last_sent = Instant::now();
+        Ok(())
+    }
+}
+
+impl StretchObserver for LivePublisher {
+    fn stretch(&mut self, s: &Stretch<'_>) -> Result<()> {
+        let t = s.time_ns;
+        let states = self.states.clone();
+        for (j, state) in states.iter().enumerate() {
+            let temp = temperature_entity(state);
+            let res = residual_entity(state);
+            let (measured, predicted) = (&s.measured[j], &s.predicted[j]);
+            self.queue(format!("{temp}/measured"), on_grid(t, measured.iter()));
+            self.queue(format!("{temp}/predicted"), on_grid(t, predicted.iter()));
+            let residual = (0..t.len()).map(|k| Some(measured.get(k)? - predicted.get(k)?));
+            self.queue(format!("{res}/residual"), on_grid(t, residual));
+            let b = self.band_k[j];
+            let ends = [t.first(), t.last()];
+            for (side, sign) in [("band_upper", 1.0), ("band_lower", -1.0)] {
+                let points = ends.into_iter().flatten().map(|&t| (t, sign * b));
+                self.queue(format!("{res}/{side}"), points);
+            }
+            let alarm = s.alarm_points[j].iter().copied();
+            self.queue(format!("{res}/alarm"), alarm);
+        }
+        // Not waited for: the SDK sends on its own within milliseconds, and the monitor
+        // goes on reading meanwhile.
+        if self.pending_points >= SEND_BATCH_POINTS || self.last_sent.elapsed() >= SEND_EVERY {
+            self.send_pending()?;
+        }
+        Ok(())
+    }
+}
+
+/// State j's series names, colours and widths.
+fn styles(rec: &RecordingStream, j: usize, state: &str, band_k: f64) -> Result<()> {
+    let colour = style::part(j);
+    let temp = temperature_entity(state);
+    let res = residual_entity(state);
+    let measured = (style::lightened(colour, 0.55), style::MEASURED_WIDTH);
+    style::series(
+        rec,
+        &format!("{temp}/measured"),
+        "measured, °C",
+        measured.0,
+        measured.1,
+    )?;
+    let line = style::LINE_WIDTH;
+    style::series(rec, &format!("{temp}/predicted"), "model, °C", colour, line)?;
+    style::series(rec, &format!("{res}/residual"), "θ − θ̂, K", colour, line)?;
+    let label = format!("band ±{band_k:.2} K");
+    for side in ["band_upper", "band_lower"] {
         style::series(
             rec,
-            &measured,
-            "measured, °C",
-            style::lightened(colour, 0.55),
-            style::MEASURED_WIDTH,
+            &format!("{res}/{side}"),
+            &label,
+            style::REFERENCE,
+            line,
         )?;
-        send_series(rec, &measured, on_grid(&t.time_ns, t.measured[j].iter()))?;
-        let predicted = format!("{temp}/predicted");
-        style::series(rec, &predicted, "model, °C", colour, style::LINE_WIDTH)?;
-        send_series(rec, &predicted, on_grid(&t.time_ns, t.predicted[j].iter()))?;
-        let res = residual_entity(state);
-        let residual = format!("{res}/residual");
-        style::series(rec, &residual, "θ − θ̂, K", colour, style::LINE_WIDTH)?;
-        let r = |k: usize| t.residual(j, k);
-        send_series(
-            rec,
-            &residual,
-            on_grid(&t.time_ns, (0..t.time_ns.len()).map(r)),
-        )?;
-        let b = result.band.half_width_k[j];
-        for (side, sign) in [("band_upper", 1.0), ("band_lower", -1.0)] {
-            let entity = format!("{res}/{side}");
-            let label = format!("band ±{b:.2} K");
-            style::series(rec, &entity, &label, style::REFERENCE, style::LINE_WIDTH)?;
-            let ends = [t.time_ns.first(), t.time_ns.last()];
-            send_series(
-                rec,
-                &entity,
-                ends.into_iter().flatten().map(|&t| (t, sign * b)),
-            )?;
-        }
-        let alarm = format!("{res}/alarm");
-        style::series(rec, &alarm, "alarm", ALARM, style::MEASURED_WIDTH)?;
-        let in_alarm = |k: usize| {
-            let now = t.time_ns[k];
-            result
-                .alarms
-                .iter()
-                .filter(|a| a.state == j)
-                .any(|a| now >= a.start_ns && a.end_ns.is_none_or(|e| now < e))
-        };
-        let points = (0..t.time_ns.len()).map(|k| r(k).filter(|_| in_alarm(k)));
-        send_series(rec, &alarm, on_grid(&t.time_ns, points))?;
     }
-    rec.log_static(
-        "monitor/summary",
-        &super::text::preformatted(&result.summary()),
+    style::series(
+        rec,
+        &format!("{res}/alarm"),
+        "alarm",
+        ALARM,
+        style::MEASURED_WIDTH,
     )
-    .map_err(publish_err)?;
-    Ok(())
 }
 
 /// One row per part: its temperatures beside its residual; the summary below.
-fn layout(result: &MonitorResult) -> Layout {
-    let mut rows: Vec<Node> = result
-        .states
+fn layout(states: &[String], parts: &[String]) -> Layout {
+    let mut rows: Vec<Node> = states
         .iter()
-        .zip(&result.parts)
+        .zip(parts)
         .map(|(state, part)| {
             Node::horizontal(
                 part.clone(),
