@@ -284,19 +284,20 @@ fn daisy_glassfurnace_standin_holds_its_fit() {
     let rows = 1247;
     let mut rng = StdRng::seed_from_u64(6);
     let noise = Normal::new(0.0, 0.01).unwrap();
-    let mut u = vec![[0.0; 3]; rows];
+    let mut u: Vec<[f64; 3]> = Vec::with_capacity(rows);
     for k in 0..rows {
-        for j in 0..3 {
-            u[k][j] = if k == 0 || rng.random_bool(0.5) {
+        let previous = u.last().copied().unwrap_or([0.0; 3]);
+        u.push(previous.map(|held| {
+            if k == 0 || rng.random_bool(0.5) {
                 if rng.random_bool(0.5) {
                     1.0
                 } else {
                     -1.0
                 }
             } else {
-                u[k - 1][j]
-            };
-        }
+                held
+            }
+        }));
     }
     let mut x = [0.0; 6];
     let (mut text, mut measured, mut errors) = (String::new(), vec![vec![]; 6], vec![vec![]; 6]);
