@@ -141,18 +141,20 @@ def glassfurnace(root):
     # (its `wls`); with lags 0..4 the inputs also act within the sample and with delay.
     n = len(ys)
     x = [[ys[i][k] for i in range(n)] for k in range(len(rows))]
-    # With lags ("d") heating 1 and cooling at lag 2, heating 2 at lag 1: heatrun's structure
-    # with the spec's delay_s (1, 1, 0 samples).
-    for lags, label in (([1], "lag 1 (heatrun's structure)"), (range(5), "lags 0..4"),
-                        ("d", "lags 2, 2, 1 (heatrun's structure with the spec's delays)")):
-        first = 2 if lags == "d" else max(max(lags), 1)
+    # Each structure gives every input its own lags: lag 1 alone is heatrun's plain model
+    # class; lags 2, 2, 1 its earlier spec (delay_s 1, 1, 0); lags 1..4 with heating 2 also
+    # at lag 0 the example's spec now (delay_s 0..3, heating 2 also `advance_s = 1`).
+    for lags, label in ((([1],) * 3, "lag 1 (heatrun's structure)"),
+                        ((range(5),) * 3, "lags 0..4"),
+                        (([2], [2], [1]), "lags 2, 2, 1 (heatrun's earlier spec, delays 1, 1, 0)"),
+                        ((range(1, 5), range(1, 5), range(5)),
+                         "lags 1..4, heating 2 also 0 (heatrun's spec: delays 0..3, heating 2 advanced)")):
+        first = max(1, max(max(ls) for ls in lags))
 
         def reg(state, k):
             row = list(state)
-            if lags == "d":
-                return row + [u[k - 2][0], u[k - 2][1], u[k - 1][2]]
-            for lag in lags:
-                row.extend(u[k - lag])
+            for j, ls in enumerate(lags):
+                row.extend(u[k - lag][j] for lag in ls)
             return row
 
         thetas = [solve_least_squares([reg(x[k - 1], k) for k in range(first, 748)],

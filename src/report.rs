@@ -708,7 +708,7 @@ impl Report {
             .model
             .inputs
             .iter()
-            .filter(|i| i.delay_s != 0.0)
+            .filter(|i| i.delay_s > 0.0)
             .map(|i| {
                 let d = (i.delay_s / self.sample_time_s).round();
                 format!("{} {} s (d = {d})", i.name, i.delay_s)
@@ -719,6 +719,20 @@ impl Report {
                 s,
                 "input dead times, x(k+1) = Φx(k) + Γu(k − d): {}",
                 delayed.join(", ")
+            );
+        }
+        let advanced: Vec<String> = self
+            .model
+            .inputs
+            .iter()
+            .filter(|i| i.delay_s < 0.0)
+            .map(|i| format!("{} {} s", i.name, -i.delay_s))
+            .collect();
+        if !advanced.is_empty() {
+            let _ = writeln!(
+                s,
+                "inputs advanced one sample (an interval's mean stamped at its end; non-causal in the recorded series), x(k+1) = Φx(k) + Γu(k + 1): {}",
+                advanced.join(", ")
             );
         }
         let _ = writeln!(

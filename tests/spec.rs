@@ -335,3 +335,156 @@ fn a_spec_measures_states_from_a_reference_channels_initial_level() {
         .fold(0.0, f64::max);
     assert!(off > 1e-4, "Φ {per_instant:?} vs {phi}");
 }
+
+/// The two-node rig as a logger that stamps each interval's mean at its end records it:
+/// heater 2's value at t_k is the power held over [t_{k−1}, t_k), so it acts within the
+/// sample, x(k) = Φ x(k−1) + Γ_2 p2(k); heater 1 acts spread over two samples, 60 % at
+/// k − 1 and 40 % at k − 2. Its commands switch every 3 s so the two lags can be told apart.
+fn stamped_recording(path: &Path) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (a, b) = two_node();
+    let (phi, gamma) = discretize(&a, &b, 1.0);
+    let n = 1500;
+    let q1: Vec<f64> = (0..n).map(|k| heater_command(3, 80 * k)).collect();
+    let p2: Vec<f64> = (0..n).map(|k| 0.02 * heater_command(4, 80 * k)).collect();
+    let mut x = vec![[0.0, 0.0]; n];
+    for k in 1..n {
+        let u1 = |j: usize| 0.01 * q1[j] * 3.0;
+        let heat1 = 0.6 * u1(k - 1) + 0.4 * u1(k.saturating_sub(2));
+        for i in 0..2 {
+            x[k][i] = (0..2).map(|j| phi[(i, j)] * x[k - 1][j]).sum::<f64>()
+                + gamma[(i, 0)] * heat1
+                + gamma[(i, 1)] * p2[k];
+        }
+    }
+    let at = |v: Vec<f64>| move |t: f64| v[t.round() as usize];
+    let t1: Vec<f64> = x.iter().map(|x| AMBIENT_C + x[0]).collect();
+    let t2: Vec<f64> = x.iter().map(|x| AMBIENT_C + x[1]).collect();
+    let mut r = RecordingBuilder::new()
+        .channel("Q1", "%", 1.0, n as f64, at(q1))
+        .channel("P2", "W", 1.0, n as f64, at(p2))
+        .channel("T1", "degC", 1.0, n as f64, at(t1))
+        .channel("T2", "degC", 1.0, n as f64, at(t2));
+    r.nameplate = None;
+    r.write(path);
+    (phi, gamma)
+}
+
+#[test]
+fn an_input_stamped_at_its_intervals_end_is_advanced_and_predicted_one_sample_ahead() {
+    let dir = tempdir();
+    let (phi, gamma) = stamped_recording(&dir.path().join("stamped.mcap"));
+    // Heater 1 at d = 0 and d = 1 (one channel, two inputs), heater 2 advanced one sample.
+    let spec = SPEC
+        .replace("reference = \"ambient\"", "reference = \"initial\"")
+        .replace("sample_time_s = 1.0", "sample_time_s = 1.0\nmethod = \"wls\"")
+        + "\n[[input]]\nname = \"heater_1_late\"\nexpression = \"0.01 * Q1 * 3.0\"\nunit = \"W\"\ndelay_s = 1.0\n";
+    let spec = spec.replace(
+        "channel = \"P2\"\nunit = \"W\"",
+        "channel = \"P2\"\nunit = \"W\"\nadvance_s = 1.0",
+    );
+    std::fs::write(dir.path().join("stamped.toml"), &spec).unwrap();
+    let replay = |spec: &str, report: &str| {
+        heatrun_ok(
+            &[
+                "replay",
+                "stamped.mcap",
+                "--spec",
+                spec,
+                "--report",
+                report,
+                "--rrd",
+                "r.rrd",
+                "-q",
+            ],
+            dir.path(),
+        );
+        let text = std::fs::read_to_string(dir.path().join(report)).unwrap();
+        serde_json::from_str::<Value>(&text).unwrap()
+    };
+    let report = replay("stamped.toml", "r.json");
+    assert_eq!(report["model"]["inputs"][1]["advance_s"], 1.0);
+    assert!(report["model"]["inputs"][1].get("delay_s").is_none());
+    assert_eq!(report["model"]["inputs"][2]["delay_s"], 1.0);
+    // Φ and Γ come back: heater 1's column split 60/40 over its two lags.
+    let (got_phi, got_gamma) = (matrix(&report["phi"]), matrix(&report["gamma"]));
+    for i in 0..2 {
+        for j in 0..2 {
+            assert!(
+                (got_phi[i][j] - phi[(i, j)]).abs() < 1e-6,
+                "Φ {got_phi:?} vs {phi}"
+            );
+        }
+        for (j, want) in [
+            (0, 0.6 * gamma[(i, 0)]),
+            (1, gamma[(i, 1)]),
+            (2, 0.4 * gamma[(i, 0)]),
+        ] {
+            let rel = (got_gamma[i][j] - want).abs() / gamma.amax();
+            assert!(rel < 1e-5, "Γ {got_gamma:?} vs {gamma}");
+        }
+    }
+    // Without the advance heater 2 is read a sample late: the same data fit worse.
+    std::fs::write(
+        dir.path().join("late.toml"),
+        spec.replace("advance_s = 1.0", ""),
+    )
+    .unwrap();
+    let late = replay("late.toml", "late.json");
+    let fit = |r: &Value| r["fit"]["nrmse_fit_percent"][0].as_f64().unwrap();
+    assert!(
+        fit(&report) > 99.9 && fit(&late) < 99.0,
+        "{} {}",
+        fit(&report),
+        fit(&late)
+    );
+
+    // predict reads heater 2 one sample ahead of the schedule: at step k the applied
+    // inputs are (u1(k), p2(k + 1), u1(k − 1)), heater 1 holding its first value before.
+    let rows: [(f64, f64); 6] = [
+        (50.0, 1.0),
+        (50.0, 1.0),
+        (80.0, 0.0),
+        (0.0, 2.0),
+        (20.0, 2.0),
+        (20.0, 0.5),
+    ];
+    let mut load = String::from("time_s,Q1,P2\n");
+    for (k, (q, p)) in rows.iter().enumerate() {
+        load.push_str(&format!("{k},{q},{p}\n"));
+    }
+    std::fs::write(dir.path().join("load.csv"), load).unwrap();
+    heatrun_ok(
+        &[
+            "predict",
+            "--model",
+            "r.json",
+            "--load",
+            "load.csv",
+            "--out",
+            "pred.csv",
+            "--initial-temps",
+            "21,21",
+        ],
+        dir.path(),
+    );
+    let pred = std::fs::read_to_string(dir.path().join("pred.csv")).unwrap();
+    let predicted: Vec<Vec<f64>> = pred
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').skip(1).map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let u1 = |k: usize| 0.01 * rows[k.min(rows.len() - 1)].0 * 3.0;
+    let p2 = |k: usize| rows[k.min(rows.len() - 1)].1;
+    let mut x = [0.0, 0.0];
+    for (k, row) in predicted.iter().enumerate() {
+        for i in 0..2 {
+            assert!((row[i] - (21.0 + x[i])).abs() < 1e-3, "step {k}: {pred}");
+        }
+        let u = [u1(k), p2(k + 1), u1(k.saturating_sub(1))];
+        x = [0, 1].map(|i| {
+            (0..2).map(|j| got_phi[i][j] * x[j]).sum::<f64>()
+                + (0..3).map(|j| got_gamma[i][j] * u[j]).sum::<f64>()
+        });
+    }
+    assert_eq!(predicted.len(), rows.len(), "{pred}");
+}

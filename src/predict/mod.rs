@@ -137,7 +137,14 @@ pub fn predict(
         let t = t0 + k as f64 * ts;
         let p = schedule.point_at(t);
         let theta = sim.temperatures(&x, p);
-        let u = delays.apply(sim.inputs(p, &theta)?);
+        let now = sim.inputs(p, &theta)?;
+        let u = if delays.reads_ahead() {
+            // An advanced input (`advance_s`) acts as u(k + 1): the schedule one sample on.
+            let next = sim.inputs(schedule.point_at(t + ts), &theta)?;
+            delays.apply_ahead(now, &next)
+        } else {
+            delays.apply(now)
+        };
         out.field_temperature_c
             .push(sim.field_temperature_c(&theta, p));
         out.time_s.push(t);

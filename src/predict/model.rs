@@ -79,8 +79,10 @@ pub struct ModelInput {
     pub source: InputUse,
     /// Heat, the reference node's temperature, or another exogenous input.
     pub kind: InputKind,
-    /// The input's dead time, s (0: none): the model is x(k+1) = Φ x(k) + Γ u(k − d),
-    /// d = delay_s / Ts whole samples ([`super::simulate::DelayLine`]).
+    /// The input's shift, s (0: none): a dead time (> 0), the model is
+    /// x(k+1) = Φ x(k) + Γ u(k − d), d = delay_s / Ts whole samples; or an advance
+    /// (< 0, the report's `advance_s`): u(k + 1), the schedule read one sample ahead
+    /// ([`super::simulate::DelayLine`]).
     pub delay_s: f64,
 }
 
@@ -205,6 +207,9 @@ struct InputFile {
     /// The input's dead time, s (absent: none).
     #[serde(default)]
     delay_s: f64,
+    /// The input's advance, s (absent: none).
+    #[serde(default)]
+    advance_s: f64,
 }
 
 #[derive(Deserialize)]
@@ -493,6 +498,12 @@ fn input(i: InputFile, path: &Path) -> Result<ModelInput, UseError> {
     if !crate::spec::delay::is_valid_delay(i.delay_s) {
         return Err(unsupported(format!("a dead time of {} s", i.delay_s)));
     }
+    if !crate::spec::delay::is_valid_delay(i.advance_s) || (i.advance_s > 0.0 && i.delay_s > 0.0) {
+        return Err(unsupported(format!(
+            "an advance of {} s (with a dead time of {} s)",
+            i.advance_s, i.delay_s
+        )));
+    }
     let (kind, value) = match &i.source {
         Value::Object(o) if o.len() == 1 => o.iter().next().map(|(k, v)| (k.as_str(), v)),
         _ => None,
@@ -522,11 +533,23 @@ fn input(i: InputFile, path: &Path) -> Result<ModelInput, UseError> {
         }
         _ => return Err(unsupported(format!("`{}`", i.source))),
     };
+    // An advanced input is read from the schedule one sample ahead; one computed from the
+    // predicted temperatures (a loss, the inlet, a flow's heat) is not known there.
+    if i.advance_s > 0.0 && !matches!(source, InputUse::Channel(_) | InputUse::Expression(_)) {
+        return Err(unsupported(format!(
+            "`{}` advanced {} s (only a channel or an expression can be read ahead)",
+            i.source, i.advance_s
+        )));
+    }
     Ok(ModelInput {
         name: i.name,
         source,
         kind: i.kind,
-        delay_s: i.delay_s,
+        delay_s: if i.advance_s > 0.0 {
+            -i.advance_s
+        } else {
+            i.delay_s
+        },
     })
 }
 

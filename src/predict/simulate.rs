@@ -220,38 +220,58 @@ impl<'a> Simulator<'a> {
 /// computed at step k − d_i (d_i = delay_s / Ts whole samples, input by input), so a
 /// step is x(k+1) = Φ x(k) + Γ u(k − d). Before the first step each input is taken to
 /// have held its first value (the schedule's first row, or the state a step starts
-/// from) for its whole dead time.
+/// from) for its whole dead time. An advanced input (the report's `advance_s`, one
+/// sample) is applied as u(k + 1): non-causal in the recorded series, so the caller reads
+/// it from the schedule one sample ahead ([`DelayLine::apply_ahead`]).
 #[derive(Debug, Clone)]
 pub struct DelayLine {
-    /// d_i, samples, per input.
+    /// d_i, samples, per input (0 for an advanced one).
     delays: Vec<usize>,
+    /// Whether input i is advanced one sample.
+    advanced: Vec<bool>,
     /// The inputs computed at the last max(d) + 1 steps, the newest last.
     past: VecDeque<DVector<f64>>,
 }
 
 impl DelayLine {
-    /// The model's dead times in whole samples of its Ts; one that is not refused by
-    /// name (the report was written by a spec whose delays sat on its own grid).
+    /// The model's shifts in whole samples of its Ts; one off the grid (or an advance
+    /// beyond one sample) is refused by name (the report was written by a spec whose
+    /// shifts sat on its own grid).
     pub fn new(model: &ThermalModel) -> Result<DelayLine, UseError> {
-        let delays = model
+        let shifts = model
             .inputs
             .iter()
             .map(|i| {
-                crate::spec::delay::samples(i.delay_s, model.ts_s).ok_or_else(|| {
+                crate::spec::delay::shift_samples(i.delay_s, model.ts_s).ok_or_else(|| {
+                    let what = if i.delay_s < 0.0 {
+                        format!("an advance of {} s is not one sample", -i.delay_s)
+                    } else {
+                        format!(
+                            "a dead time of {} s is not a whole number of samples",
+                            i.delay_s
+                        )
+                    };
                     UseError::Request(format!(
-                        "input `{}`: a dead time of {} s is not a whole number of samples of Ts = {} s",
-                        i.name, i.delay_s, model.ts_s
+                        "input `{}`: {what} of Ts = {} s",
+                        i.name, model.ts_s
                     ))
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(DelayLine {
-            delays,
+            delays: shifts.iter().map(|&s| s.max(0).unsigned_abs()).collect(),
+            advanced: shifts.iter().map(|&s| s < 0).collect(),
             past: VecDeque::new(),
         })
     }
 
-    /// Records the inputs computed now and returns those to apply now, u_i(k − d_i).
+    /// Whether some input is advanced: the caller must give the next instant's inputs.
+    pub fn reads_ahead(&self) -> bool {
+        self.advanced.iter().any(|&a| a)
+    }
+
+    /// Records the inputs computed now and returns those to apply now, u_i(k − d_i)
+    /// (an advanced input as computed now: see [`DelayLine::apply_ahead`]).
     pub fn apply(&mut self, u: DVector<f64>) -> DVector<f64> {
         let longest = self.delays.iter().copied().max().unwrap_or(0);
         if longest == 0 {
@@ -269,6 +289,16 @@ impl DelayLine {
             self.past[newest - self.delays[i]][i]
         })
     }
+
+    /// [`DelayLine::apply`] with the inputs computed for the next instant, `next`: an
+    /// advanced input is applied as u_i(k + 1), the others as u_i(k − d_i).
+    pub fn apply_ahead(&mut self, u: DVector<f64>, next: &DVector<f64>) -> DVector<f64> {
+        let mut applied = self.apply(u);
+        for (i, _) in self.advanced.iter().enumerate().filter(|(_, &a)| a) {
+            applied[i] = next[i];
+        }
+        applied
+    }
 }
 
 #[cfg(test)]
@@ -281,6 +311,7 @@ mod delay_tests {
         // (4, 40) → applied (1, 10), (2, 10), (3, 10), (4, 20), worked by hand.
         let mut line = DelayLine {
             delays: vec![0, 2],
+            advanced: vec![false, false],
             past: VecDeque::new(),
         };
         let applied: Vec<(f64, f64)> = (1..=4)
@@ -296,9 +327,41 @@ mod delay_tests {
     }
 
     #[test]
+    fn an_advanced_input_is_applied_from_the_next_instant() {
+        // Inputs delayed 1, advanced 1, as is: computed (1, 10, 100), (2, 20, 200), (3, 30,
+        // 300), next instant's inputs (k + 1) → applied (1, 20, 100), (1, 30, 200),
+        // (2, 40, 300), worked by hand.
+        let mut line = DelayLine {
+            delays: vec![1, 0, 0],
+            advanced: vec![false, true, false],
+            past: VecDeque::new(),
+        };
+        assert!(line.reads_ahead());
+        let at = |k: f64| DVector::from_vec(vec![k, 10.0 * k, 100.0 * k]);
+        let applied: Vec<Vec<f64>> = (1..=3)
+            .map(|k| {
+                let k = k as f64;
+                line.apply_ahead(at(k), &at(k + 1.0))
+                    .iter()
+                    .copied()
+                    .collect()
+            })
+            .collect();
+        assert_eq!(
+            applied,
+            vec![
+                vec![1.0, 20.0, 100.0],
+                vec![1.0, 30.0, 200.0],
+                vec![2.0, 40.0, 300.0]
+            ]
+        );
+    }
+
+    #[test]
     fn without_dead_times_the_inputs_pass_through() {
         let mut line = DelayLine {
             delays: vec![0, 0],
+            advanced: vec![false, false],
             past: VecDeque::new(),
         };
         let u = DVector::from_vec(vec![3.0, 4.0]);

@@ -15,6 +15,20 @@
 //! The delay must be a whole number of samples: d_i = τ_d,i / Ts within
 //! [`WHOLE_SAMPLE_TOLERANCE`] of an integer, or it is refused (rounding it would
 //! identify a different model than the one the spec names).
+//!
+//! **An advance** (`advance_s`, one sample at most) is the opposite shift, for a logger
+//! that stamps each interval's mean input at the interval's *end*: the value recorded at
+//! t_{k+1} is the input held over [t_k, t_{k+1}), so the model must read
+//!
+//! x(k+1) = Φ x(k) + Γ_i u_i(k + 1),
+//!
+//! and the series is shifted one instant earlier (its last instant unknown). The data
+//! show it as an output that moves in the same sample as the recorded input (a glass
+//! furnace's heating 2: the cross-correlation of Δy with u peaks at lag 0, 0.4-0.85,
+//! and is ≈ 0 at lag −1). In prediction terms the model is non-causal in the recorded
+//! series: a prediction needs each advanced input one sample ahead (a schedule gives
+//! it; an input computed from the predicted temperatures cannot, and is refused). It is
+//! carried as a negative shift, [`InputDescription::delay_s`] = −`advance_s`.
 
 use crate::series::Series;
 use crate::signals::InputSignal;
@@ -25,16 +39,37 @@ use super::InputDescription;
 /// sample: decimal seconds such as 0.1 s are not exact in binary).
 pub const WHOLE_SAMPLE_TOLERANCE: f64 = 1e-6;
 
-/// A delay that is not a whole number of samples, or not a delay.
+/// The most an input may be advanced, in samples: one interval's mean stamped at its end.
+pub const MAX_ADVANCE_SAMPLES: usize = 1;
+
+/// A delay that is not a whole number of samples, or an advance that is not one sample.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("input `{input}`: delay_s = {delay_s} s is not a whole number of samples of Ts = {ts_s} s (round it to a multiple of Ts)")]
 pub struct DelayError {
     /// The input's name.
     pub input: String,
-    /// Its delay as given, s.
+    /// Its shift as given, s: a delay (> 0) or an advance (< 0, `advance_s` = −delay_s).
     pub delay_s: f64,
     /// The grid's sample time, s.
     pub ts_s: f64,
+}
+
+impl std::fmt::Display for DelayError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (input, ts) = (&self.input, self.ts_s);
+        if self.delay_s < 0.0 {
+            write!(
+                f,
+                "input `{input}`: advance_s = {} s is not one sample of Ts = {ts} s (an advance is the interval's mean stamped at its end: one sample)",
+                -self.delay_s
+            )
+        } else {
+            write!(
+                f,
+                "input `{input}`: delay_s = {} s is not a whole number of samples of Ts = {ts} s (round it to a multiple of Ts)",
+                self.delay_s
+            )
+        }
+    }
 }
 
 /// Whether `delay_s` can be a delay at all (finite, not negative): the spec's check.
@@ -53,6 +88,24 @@ pub fn samples(delay_s: f64, ts_s: f64) -> Option<usize> {
     ((d - whole).abs() <= WHOLE_SAMPLE_TOLERANCE * whole.max(1.0)).then_some(whole as usize)
 }
 
+/// The signed shift in whole samples of `ts_s`: d = delay_s / Ts for a dead time (> 0),
+/// −a for an advance of a ≤ [`MAX_ADVANCE_SAMPLES`] samples (`delay_s` < 0); `None`
+/// where either is off the grid, an advance is longer, or `delay_s` is not finite.
+pub fn shift_samples(delay_s: f64, ts_s: f64) -> Option<isize> {
+    if delay_s >= 0.0 {
+        return samples(delay_s, ts_s).map(|d| d as isize);
+    }
+    samples(-delay_s, ts_s)
+        .filter(|&a| a <= MAX_ADVANCE_SAMPLES)
+        .map(|a| -(a as isize))
+}
+
+/// The series shifted `a` instants earlier: s'(k) = s(k + a), unknown for the last a
+/// instants (their input was recorded after the recording ends).
+pub fn advance(series: &Series, a: usize) -> Series {
+    (0..series.len()).map(|k| series.get(k + a)).collect()
+}
+
 /// The series shifted `d` instants later: s'(k) = s(k − d), unknown for k < d. Its length
 /// is the grid's; the last d values of `s` drop out (they act after the recording ends).
 pub fn shift(series: &Series, d: usize) -> Series {
@@ -62,9 +115,10 @@ pub fn shift(series: &Series, d: usize) -> Series {
         .collect()
 }
 
-/// Shifts each delayed input by its delay in samples of `ts_s` (the signal stage's one
-/// call): `inputs` and `descriptions` are in model order. Refuses a delay that is not a
-/// whole number of samples.
+/// Shifts each delayed input by its delay in samples of `ts_s`, and each advanced one
+/// that many instants earlier (the signal stage's one call): `inputs` and `descriptions`
+/// are in model order. Refuses a shift that is not a whole number of samples (or an
+/// advance beyond [`MAX_ADVANCE_SAMPLES`]).
 pub fn delay_inputs(
     descriptions: &[InputDescription],
     ts_s: f64,
@@ -74,12 +128,15 @@ pub fn delay_inputs(
         if description.delay_s == 0.0 {
             continue;
         }
-        let d = samples(description.delay_s, ts_s).ok_or_else(|| DelayError {
+        let d = shift_samples(description.delay_s, ts_s).ok_or_else(|| DelayError {
             input: description.name.clone(),
             delay_s: description.delay_s,
             ts_s,
         })?;
-        signal.values = shift(&signal.values, d);
+        signal.values = match usize::try_from(d) {
+            Ok(later) => shift(&signal.values, later),
+            Err(_) => advance(&signal.values, d.unsigned_abs()),
+        };
     }
     Ok(())
 }
@@ -98,6 +155,39 @@ mod tests {
         assert_eq!(samples(1.5, 1.0), None);
         assert_eq!(samples(-1.0, 1.0), None);
         assert_eq!(samples(f64::NAN, 1.0), None);
+    }
+
+    #[test]
+    fn an_advance_is_one_whole_sample_at_most() {
+        assert_eq!(shift_samples(2.0, 1.0), Some(2));
+        assert_eq!(shift_samples(-1.0, 1.0), Some(-1));
+        assert_eq!(shift_samples(-0.5, 0.5), Some(-1));
+        assert_eq!(shift_samples(-2.0, 1.0), None);
+        assert_eq!(shift_samples(-0.5, 1.0), None);
+        assert_eq!(shift_samples(f64::NAN, 1.0), None);
+    }
+
+    #[test]
+    fn an_advance_moves_values_earlier_and_leaves_the_end_unknown() {
+        let s: Series = vec![Some(1.0), Some(2.0), None, Some(4.0), Some(5.0)].into();
+        assert_eq!(
+            advance(&s, 1),
+            vec![Some(2.0), None, Some(4.0), Some(5.0), None]
+        );
+        assert_eq!(advance(&s, 0), s);
+    }
+
+    #[test]
+    fn an_advance_off_the_grid_names_its_key() {
+        let e = DelayError {
+            input: "heating".into(),
+            delay_s: -2.0,
+            ts_s: 1.0,
+        };
+        assert_eq!(
+            e.to_string(),
+            "input `heating`: advance_s = 2 s is not one sample of Ts = 1 s (an advance is the interval's mean stamped at its end: one sample)"
+        );
     }
 
     #[test]

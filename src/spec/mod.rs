@@ -102,8 +102,9 @@ pub enum InputSource {
     },
 }
 
-/// One input of the model.
+/// One input of the model (in the report, its shift as `delay_s` or `advance_s`).
 #[derive(Debug, Clone, Serialize)]
+#[serde(into = "InputReport")]
 pub struct InputDescription {
     /// The input's name (report, summary, rerun entity).
     pub name: String,
@@ -116,14 +117,39 @@ pub struct InputDescription {
     /// Whether the input is taken as its change from its first known value (a boundary
     /// temperature or a drive whose starting value is the equilibrium), or as it is.
     pub from_initial: bool,
-    /// Its dead time τ_d in s, a whole number of samples: it acts on the states as
-    /// u(k − τ_d / Ts) ([`delay`]); 0 for none (and then left out of the report).
-    #[serde(skip_serializing_if = "is_zero")]
+    /// Its shift in s, a whole number of samples ([`delay`]): a dead time τ_d > 0 acts on
+    /// the states as u(k − τ_d / Ts); a negative value is an advance of −delay_s (the
+    /// spec's `advance_s`, one sample: u(k + 1), an interval's mean stamped at its end);
+    /// 0 for none. The report writes `delay_s` or `advance_s`, never a negative delay.
     pub delay_s: f64,
 }
 
-fn is_zero(v: &f64) -> bool {
-    *v == 0.0
+/// An input as the report writes it: its shift as a dead time or an advance.
+#[derive(Serialize)]
+struct InputReport {
+    name: String,
+    source: InputSource,
+    unit: String,
+    kind: InputKind,
+    from_initial: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    delay_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    advance_s: Option<f64>,
+}
+
+impl From<InputDescription> for InputReport {
+    fn from(i: InputDescription) -> InputReport {
+        InputReport {
+            name: i.name,
+            source: i.source,
+            unit: i.unit,
+            kind: i.kind,
+            from_initial: i.from_initial,
+            delay_s: (i.delay_s > 0.0).then_some(i.delay_s),
+            advance_s: (i.delay_s < 0.0).then_some(-i.delay_s),
+        }
+    }
 }
 
 /// How the signals are scaled for estimation.
@@ -393,6 +419,9 @@ struct InputFile {
     reference: Option<String>,
     #[serde(default)]
     delay_s: f64,
+    /// One sample for an input whose logger stamps an interval's mean at its end.
+    #[serde(default)]
+    advance_s: f64,
 }
 
 impl SpecFile {
@@ -430,15 +459,23 @@ impl SpecFile {
             // the caller's, the signal stage refuses it.
             if let Some(i) = inputs
                 .iter()
-                .find(|i| delay::samples(i.delay_s, ts).is_none())
+                .find(|i| delay::shift_samples(i.delay_s, ts).is_none())
             {
+                let problem = if i.delay_s < 0.0 {
+                    format!(
+                        "advance_s = {} s is not one sample of sample_time_s = {ts} s",
+                        -i.delay_s
+                    )
+                } else {
+                    format!(
+                        "delay_s = {} s is not a whole number of samples of sample_time_s = {ts} s",
+                        i.delay_s
+                    )
+                };
                 return Err(SpecError::Entry {
                     what: "input",
                     name: i.name.clone(),
-                    problem: format!(
-                        "delay_s = {} s is not a whole number of samples of sample_time_s = {ts} s",
-                        i.delay_s
-                    ),
+                    problem,
                 });
             }
         }
@@ -541,25 +578,53 @@ impl InputFile {
                 })
             }
         };
-        if !delay::is_valid_delay(self.delay_s) {
-            return Err(SpecError::Entry {
-                what: "input",
-                name: self.name,
-                problem: format!(
-                    "delay_s = {}: a dead time is a number of seconds ≥ 0",
-                    self.delay_s
-                ),
-            });
-        }
+        let shift_s = shift_s(&self.name, self.delay_s, self.advance_s, &source)?;
         Ok(InputDescription {
             name: self.name,
             source,
             unit: self.unit.unwrap_or_else(|| "W".into()),
             kind: self.kind,
             from_initial,
-            delay_s: self.delay_s,
+            delay_s: shift_s,
         })
     }
+}
+
+/// An input's signed shift, s: its dead time, or minus its advance. An advance is refused
+/// together with a dead time (they are opposite shifts) and on a boundary input (a
+/// temperature is a point value at its instant, not an interval's mean).
+fn shift_s(
+    name: &str,
+    delay_s: f64,
+    advance_s: f64,
+    source: &InputSource,
+) -> Result<f64, SpecError> {
+    let entry = |problem: String| SpecError::Entry {
+        what: "input",
+        name: name.to_owned(),
+        problem,
+    };
+    for (key, value) in [("delay_s", delay_s), ("advance_s", advance_s)] {
+        if !delay::is_valid_delay(value) {
+            return Err(entry(format!(
+                "{key} = {value}: a shift is a number of seconds ≥ 0"
+            )));
+        }
+    }
+    if advance_s == 0.0 {
+        return Ok(delay_s);
+    }
+    if delay_s != 0.0 {
+        return Err(entry(
+            "give `delay_s` or `advance_s`, not both (they shift the input opposite ways)".into(),
+        ));
+    }
+    if matches!(source, InputSource::BoundaryRise(_)) {
+        return Err(entry(
+            "a boundary input is a temperature at its instant: it cannot be advanced".into(),
+        ));
+    }
+    Ok(-advance_s)
 }
 
 #[cfg(test)]
@@ -660,6 +725,48 @@ mod tests {
         let boundary =
             "[[state]]\nname=\"a\"\n[[input]]\nname=\"p\"\nexpression=\"x + 1\"\nkind=\"boundary\"";
         assert!(bad(boundary).contains("input `p`"), "{}", bad(boundary));
+    }
+
+    #[test]
+    fn an_input_may_be_advanced_one_sample_and_the_report_says_so() {
+        let spec = |extra: &str| {
+            format!(
+                "sample_time_s = 2.0\n[[state]]\nname=\"a\"\n\
+                 [[input]]\nname=\"p\"\nchannel=\"x\"\n\
+                 [[input]]\nname=\"p_late\"\nchannel=\"x\"\ndelay_s = 4.0\n\
+                 [[input]]\nname=\"p_early\"\nchannel=\"x\"\n{extra}"
+            )
+        };
+        // One channel in three inputs: at k + 1, k and k − 2 on the grid of 2 s.
+        let d = ModelDescription::from_toml(&spec("advance_s = 2.0")).unwrap();
+        let shifts: Vec<f64> = d.inputs.iter().map(|i| i.delay_s).collect();
+        assert_eq!(shifts, [0.0, 4.0, -2.0]);
+        let json = serde_json::to_value(&d.inputs).unwrap();
+        assert_eq!(json[1]["delay_s"], 4.0);
+        assert!(json[1].get("advance_s").is_none());
+        assert_eq!(json[2]["advance_s"], 2.0);
+        assert!(json[2].get("delay_s").is_none());
+        assert!(json[0].get("delay_s").is_none() && json[0].get("advance_s").is_none());
+        let bad = |extra: &str| {
+            ModelDescription::from_toml(&spec(extra))
+                .unwrap_err()
+                .to_string()
+        };
+        assert_eq!(
+            bad("advance_s = 4.0"),
+            "input `p_early`: advance_s = 4 s is not one sample of sample_time_s = 2 s"
+        );
+        assert!(bad("advance_s = -2.0").contains("input `p_early`: advance_s = -2"));
+        assert!(bad("advance_s = 2.0\ndelay_s = 2.0").contains("not both"));
+        let boundary = "[[state]]\nname=\"a\"\nreference={initial_of=\"inlet\"}\n\
+                        [[input]]\nname=\"inlet_rise\"\nchannel=\"inlet\"\nkind=\"boundary\"\nadvance_s = 1.0";
+        let e = ModelDescription::from_toml(boundary)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("input `inlet_rise`") && e.contains("cannot be advanced"),
+            "{e}"
+        );
     }
 
     #[test]
