@@ -487,4 +487,37 @@ fn an_input_stamped_at_its_intervals_end_is_advanced_and_predicted_one_sample_ah
         });
     }
     assert_eq!(predicted.len(), rows.len(), "{pred}");
+
+    // monitor, streamed in stretches of 7 s, reads heater 2 one sample ahead across every
+    // stretch's end as the whole-file monitor does, and the exact model stays on the data.
+    use heatrun::monitor::{self, batch, MonitorOptions, Source, StreamOptions, Watchers};
+    let model = heatrun::predict::ThermalModel::read(&dir.path().join("r.json")).unwrap();
+    let recording = dir.path().join("stamped.mcap");
+    let options = MonitorOptions::default();
+    let whole = batch::monitor_whole_file(&model, &recording, &options).unwrap();
+    let stream = StreamOptions {
+        stretch_s: 7.0,
+        ..StreamOptions::default()
+    };
+    let source = Source::File(&recording);
+    let streamed =
+        monitor::monitor_stream(&model, source, &options, &stream, Watchers::default()).unwrap();
+    assert_eq!(streamed.traces.time_ns, whole.traces.time_ns);
+    assert_eq!((streamed.restarts, whole.restarts), (1, 1));
+    for j in 0..2 {
+        for k in 0..whole.traces.time_ns.len() {
+            let (a, b) = (
+                streamed.traces.predicted[j].get(k),
+                whole.traces.predicted[j].get(k),
+            );
+            assert!(
+                (a.unwrap() - b.unwrap()).abs() < 1e-9,
+                "state {j} at {k} s: {a:?} {b:?}"
+            );
+            assert!(
+                streamed.traces.residual(j, k).unwrap().abs() < 1e-3,
+                "state {j} at {k} s"
+            );
+        }
+    }
 }

@@ -242,12 +242,14 @@ impl<'m, 'w> Live<'m, 'w> {
         } else {
             0
         };
-        let dead_time = description
+        // A dead time looks back d instants, an advance (a negative shift) ahead a.
+        let shifts: Vec<isize> = description
             .inputs
             .iter()
-            .filter_map(|i| delay::samples(i.delay_s, model.ts_s))
-            .max()
-            .unwrap_or(0) as i64;
+            .filter_map(|i| delay::shift_samples(i.delay_s, model.ts_s))
+            .collect();
+        let dead_time = shifts.iter().copied().max().unwrap_or(0).max(0) as i64;
+        let advance = -(shifts.iter().copied().min().unwrap_or(0).min(0)) as i64;
         Ok(Live {
             model,
             description: description.clone(),
@@ -255,7 +257,7 @@ impl<'m, 'w> Live<'m, 'w> {
             ts_ns,
             stretch: instants(stream.stretch_s).max(1),
             lookback: smoothing + dead_time + MARGIN,
-            lookahead: smoothing + MARGIN,
+            lookahead: smoothing + advance + MARGIN,
             lateness_ns: (stream.max_lateness_s.max(0.0) * 1e9) as u64,
             channel_list: Vec::new(),
             windowing: Vec::new(),
