@@ -9,12 +9,12 @@
 
 use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, RecordingId};
 use rerun::external::re_sdk_types::blueprint::archetypes::{
-    ContainerBlueprint, PanelBlueprint, TimeAxis, TimePanelBlueprint, ViewBlueprint, ViewContents,
-    ViewportBlueprint,
+    ContainerBlueprint, PanelBlueprint, PlotLegend, TimeAxis, TimePanelBlueprint, ViewBlueprint,
+    ViewContents, ViewportBlueprint,
 };
 use rerun::external::re_sdk_types::blueprint::components::{
-    ActiveTab, ColumnShare, ContainerKind, IncludedContent, LinkAxis, PanelState, QueryExpression,
-    RootContainer, RowShare, ViewClass,
+    ActiveTab, ColumnShare, ContainerKind, Corner2D, IncludedContent, LinkAxis, PanelState,
+    QueryExpression, RootContainer, RowShare, ViewClass,
 };
 use rerun::external::re_sdk_types::components::{Name, Visible};
 use rerun::external::re_sdk_types::datatypes::TimeRange;
@@ -66,14 +66,21 @@ impl View {
 
     /// A time-series view of the whole recording: its time axis shows every instant
     /// (rerun's own default for a run longer than a minute is the cursor ± 30 s), and it
-    /// follows its own zoom rather than the other plots'.
+    /// follows its own zoom rather than the other plots'. The legend sits in the lower
+    /// right: a heat run's temperatures rise from the lower left, where rerun's default
+    /// legend would hide the start of the run.
     pub fn time_series(name: impl Into<String>, origin: impl Into<String>) -> View {
-        View::new(ViewKind::TimeSeries, name, origin).with_property(
-            "TimeAxis",
-            &TimeAxis::new()
-                .with_link(LinkAxis::Independent)
-                .with_view_range(TimeRange::EVERYTHING),
-        )
+        View::new(ViewKind::TimeSeries, name, origin)
+            .with_property(
+                "TimeAxis",
+                &TimeAxis::new()
+                    .with_link(LinkAxis::Independent)
+                    .with_view_range(TimeRange::EVERYTHING),
+            )
+            .with_property(
+                "PlotLegend",
+                &PlotLegend::new().with_corner(Corner2D::RightBottom),
+            )
     }
 
     /// Adds a property archetype, logged at `view/<id>/<name>`.

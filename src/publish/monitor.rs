@@ -7,11 +7,11 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use rerun::{RecordingStream, Scalars, TimeColumn};
+use rerun::RecordingStream;
 
 use super::layout::{Layout, Node, View, ViewKind};
 use super::traces::on_grid;
-use super::{publish_err, style, Publisher, RerunSink, TIMELINE};
+use super::{publish_err, style, Publisher, RerunSink};
 use crate::error::Result;
 use crate::monitor::{Band, MonitorResult, Stretch, StretchObserver};
 
@@ -106,21 +106,11 @@ impl LivePublisher {
         }
     }
 
-    /// Sends every entity's pending points as one column chunk each.
+    /// Sends every entity's pending points as columns, as the replay sends its series.
     fn send_pending(&mut self) -> Result<()> {
         let rec = &self.publisher.rec;
         for (entity, (times, values)) in std::mem::take(&mut self.pending) {
-            if times.is_empty() {
-                continue;
-            }
-            rec.send_columns(
-                entity,
-                [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
-                Scalars::new(values)
-                    .columns_of_unit_batches()
-                    .map_err(publish_err)?,
-            )
-            .map_err(publish_err)?;
+            super::traces::send_series(rec, &entity, times.into_iter().zip(values))?;
         }
         self.pending_points = 0;
         self.last_sent = Instant::now();
@@ -173,7 +163,14 @@ fn styles(rec: &RecordingStream, j: usize, state: &str, band_k: f64) -> Result<(
     )?;
     let line = style::LINE_WIDTH;
     style::series(rec, &format!("{temp}/predicted"), "model, °C", colour, line)?;
-    style::series(rec, &format!("{res}/residual"), "θ − θ̂, K", colour, line)?;
+    // In words: the viewer's font draws θ̂'s combining hat as nothing ("θ − θ").
+    style::series(
+        rec,
+        &format!("{res}/residual"),
+        "measured − model, K",
+        colour,
+        line,
+    )?;
     let label = format!("band ±{band_k:.2} K");
     for side in ["band_upper", "band_lower"] {
         style::series(
