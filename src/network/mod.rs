@@ -299,6 +299,19 @@ pub struct Parts {
     pub loss_distribution: DMatrix<f64>,
 }
 
+impl Parts {
+    /// The network at another absolute scale: every C_i, G_ij and k_ij times `r`, so that
+    /// A_c = −C⁻¹·L and B_c = C⁻¹·K·S_n/θ_base stay as they are (the model fixes the
+    /// network only up to this factor; a calorimetric or energy balance sets it).
+    pub fn scaled(&self, r: f64) -> Parts {
+        Parts {
+            capacitance_j_per_k: self.capacitance_j_per_k.iter().map(|c| c * r).collect(),
+            conductance_w_per_k: &self.conductance_w_per_k * r,
+            loss_distribution: &self.loss_distribution * r,
+        }
+    }
+}
+
 /// A network at capacitance ratios r (scale 1): C = diag(r), G from the symmetric part
 /// of C·A_c, K = C·B_c·θ_base/P_base. Every quantity is linear in the scale.
 struct UnitNetwork {

@@ -177,19 +177,7 @@ fn nearest_network(
         link.conductance_w_per_k / fitted.parts.conductance_w_per_k[(link.state, link.state)]
     });
     let (parts, scale_from) = match ratio {
-        Some(r) => (
-            Parts {
-                capacitance_j_per_k: fitted
-                    .parts
-                    .capacitance_j_per_k
-                    .iter()
-                    .map(|c| c * r)
-                    .collect(),
-                conductance_w_per_k: &fitted.parts.conductance_w_per_k * r,
-                loss_distribution: &fitted.parts.loss_distribution * r,
-            },
-            ScaleSource::Calorimetric,
-        ),
+        Some(r) => (fitted.parts.scaled(r), ScaleSource::Calorimetric),
         None => (fitted.parts.clone(), ScaleSource::EnergyConservation),
     };
     let Ok(mut network) = Network::from_parts(&parts, scaling, scale_from, labels) else {
