@@ -788,10 +788,12 @@ impl<S: SampleSink> Reader<'_, S> {
                     .time_span_ns
                     .map(|(_, b)| format_time(b))
                     .unwrap_or_else(|| "none".into());
+                // A stream (standard input) has no size up front: what arrived is its size.
+                let total = file_bytes.max(consumed);
                 self.summary.data_loss.push(format!(
-                    "the file is cut short: it ends mid-record after byte {last_record_end} of {file_bytes}, \
+                    "the file is cut short: it ends mid-record after byte {last_record_end} of {total}, \
                      with no summary; the last {} bytes were not usable (last complete sample: {last})",
-                    file_bytes.saturating_sub(last_record_end)
+                    total.saturating_sub(last_record_end)
                 ));
             }
             ScanEnd::Damaged {
@@ -1122,6 +1124,30 @@ mod tests {
         ("rated_current_a", "3689.14"),
         ("rated_voltage_kv", "15.65"),
     ];
+
+    /// A stream of unknown size (standard input) cut short: the line counts the bytes
+    /// that arrived, not "of 0".
+    #[test]
+    fn a_stream_of_unknown_size_cut_short_names_the_bytes_that_arrived() {
+        let values: Vec<String> = (0..400).map(|i| format!("{{\"value\": {i}.5}}")).collect();
+        let payloads: Vec<&str> = values.iter().map(String::as_str).collect();
+        let channels = [("/scada/core_temp", "degC", payloads)];
+        let bytes = recording(&channels, &in_order(&channels), &RATED);
+        let cut = &bytes[..bytes.len() * 2 / 3];
+        let mut sink = Collect::default();
+        let options = ReadOptions::default();
+        let summary = read_stream_with(cut, Path::new("-"), 0, &mut sink, &options).unwrap();
+        let line = summary.data_loss.join("\n");
+        let arrived = cut.len();
+        assert!(line.contains(&format!(" of {arrived},")), "{line}");
+        let unusable: u64 = line
+            .split("the last ")
+            .nth(1)
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"));
+        assert!(unusable > 0 && unusable < arrived as u64, "{line}");
+    }
 
     #[test]
     fn a_decoded_message_is_small() {
