@@ -1,18 +1,18 @@
 //! The normal equations JᵀJ, Jᵀr of a least-squares problem whose Jacobian is met one
 //! row at a time and never stored whole: rows are gathered in a small block over the
-//! columns they can touch, and each full block is added as one matrix product,
-//! JᵀJ += BᵀB, Jᵀr += Bᵀr_B.
+//! columns they can touch, and each full block is added at once, JᵀJ += BᵀB,
+//! Jᵀr += Bᵀr_B.
 //!
-//! Adding each row's outer product entry by entry costs the same arithmetic but runs
-//! at a fraction of the speed (strided, bounds-checked access to JᵀJ); the block
-//! product runs at the speed of `matrixmultiply`'s kernels. With Θ of 114 entries (the
-//! DaISy glass furnace) that is most of an output-error fit's time.
+//! Adding each row's outer product to JᵀJ as it comes costs the same arithmetic but runs
+//! at a fraction of the speed (JᵀJ read across its columns, strided and bounds-checked);
+//! with Θ of 114 entries (the DaISy glass furnace) that was most of an output-error fit's
+//! time.
 
-use nalgebra::{DMatrix, DMatrixView, DVector};
+use nalgebra::{DMatrix, DVector};
 
-/// Rows gathered before they are added: enough for the product to run at full speed,
-/// few enough that the block stays in cache.
-const BLOCK_ROWS: usize = 128;
+/// Rows gathered before they are added: enough to amortise reading JᵀJ, few enough that
+/// the block stays in the first-level cache (32 rows of 120 entries: 30 kB).
+const BLOCK_ROWS: usize = 32;
 
 /// Rows of J over a set of columns (increasing), gathered and added to JᵀJ (upper
 /// triangle) and Jᵀr a block at a time.
@@ -25,8 +25,8 @@ pub(crate) struct RowBlock {
     /// The residual of each row.
     residuals: Vec<f64>,
     filled: usize,
-    /// BᵀB of the block (scratch).
-    product: DMatrix<f64>,
+    /// One row of the block's part of JᵀJ as it is summed.
+    scratch: Vec<f64>,
 }
 
 impl RowBlock {
@@ -37,7 +37,7 @@ impl RowBlock {
             rows: Vec::new(),
             residuals: Vec::with_capacity(BLOCK_ROWS),
             filled: 0,
-            product: DMatrix::zeros(0, 0),
+            scratch: Vec::new(),
         }
     }
 
@@ -54,7 +54,7 @@ impl RowBlock {
         debug_assert!(self.columns.windows(2).all(|w| w[0] < w[1]));
         let width = self.columns.len();
         self.rows.resize(BLOCK_ROWS * width, 0.0);
-        self.product = DMatrix::zeros(width, width);
+        self.scratch.resize(width, 0.0);
     }
 
     /// A new row with residual `r`, to be filled in over the block's columns (in their
@@ -76,25 +76,34 @@ impl RowBlock {
     }
 
     /// Adds the rows gathered so far to JᵀJ (upper triangle) and Jᵀr, and empties the block.
+    ///
+    /// Each entry receives its rows' products in row order, one at a time, exactly as
+    /// adding the rows one by one would: the sums are the same to the last bit, so the
+    /// estimates (and everything fitted to their covariance) do not move. A row of the
+    /// block's upper triangle is summed in a contiguous scratch row over contiguous rows of
+    /// the block, which the compiler vectorises across columns.
     pub(crate) fn flush(&mut self, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
         let (rows, width) = (self.filled, self.columns.len());
-        if rows == 0 || width == 0 {
-            self.filled = 0;
-            self.residuals.clear();
-            return;
-        }
         let data = &self.rows[..rows * width];
-        // B (rows × width) row-major, and Bᵀ over the same storage.
-        let b = DMatrixView::from_slice_with_strides(data, rows, width, width, 1);
-        let bt = DMatrixView::from_slice_with_strides(data, width, rows, 1, width);
-        self.product.gemm(1.0, &bt, &b, 0.0);
         for (a, &qa) in self.columns.iter().enumerate() {
-            let row = &data[a..];
-            grad[qa] += (0..rows)
-                .map(|k| row[k * width] * self.residuals[k])
-                .sum::<f64>();
-            for (bi, &qb) in self.columns.iter().enumerate().skip(a) {
-                gram[(qa, qb)] += self.product[(a, bi)];
+            let mut g = grad[qa];
+            for (k, r) in self.residuals.iter().enumerate() {
+                g += data[k * width + a] * r;
+            }
+            grad[qa] = g;
+            let upper = &self.columns[a..];
+            let sums = &mut self.scratch[..upper.len()];
+            for (sum, &qb) in sums.iter_mut().zip(upper) {
+                *sum = gram[(qa, qb)];
+            }
+            for row in data.chunks_exact(width) {
+                let ra = row[a];
+                for (sum, v) in sums.iter_mut().zip(&row[a..]) {
+                    *sum += ra * v;
+                }
+            }
+            for (sum, &qb) in sums.iter().zip(upper) {
+                gram[(qa, qb)] = *sum;
             }
         }
         self.filled = 0;
@@ -108,8 +117,8 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     #[test]
-    fn blocks_over_column_subsets_give_the_dense_normal_equations() {
-        // 300 rows (more than two blocks) of a 9-column J: the first 200 touch columns
+    fn blocks_over_column_subsets_give_the_row_by_row_sums_exactly() {
+        // 300 rows (several blocks) of a 9-column J: the first 200 touch columns
         // 0, 1, 2, 5, 6, the rest 0, 1, 2, 7, 8 (Θ and one segment's x0, as in an
         // output-error fit). Against JᵀJ, Jᵀr of the stored dense J.
         let mut rng = rand::rngs::StdRng::seed_from_u64(21);
@@ -121,6 +130,9 @@ mod tests {
         let mut gram = DMatrix::zeros(cols, cols);
         let mut grad = DVector::zeros(cols);
         let mut block = RowBlock::new();
+        // The reference sums as each row comes, entry by entry.
+        let mut one_by_one = DMatrix::<f64>::zeros(cols, cols);
+        let mut one_by_one_grad = DVector::<f64>::zeros(cols);
         for k in 0..rows {
             let columns: &[usize] = if k < 200 { &first } else { &second };
             if k == 0 || k == 200 {
@@ -131,8 +143,25 @@ mod tests {
                 *slot = rng.random_range(-1.0..1.0);
                 j[(k, q)] = *slot;
             }
+            for &qa in columns {
+                one_by_one_grad[qa] += j[(k, qa)] * r[k];
+                for &qb in columns.iter().filter(|&&qb| qb >= qa) {
+                    one_by_one[(qa, qb)] += j[(k, qa)] * j[(k, qb)];
+                }
+            }
         }
         block.flush(&mut gram, &mut grad);
+        // The same sums to the last bit (upper triangle).
+        assert_eq!(grad, one_by_one_grad);
+        for a in 0..cols {
+            for b in a..cols {
+                assert_eq!(
+                    gram[(a, b)].to_bits(),
+                    one_by_one[(a, b)].to_bits(),
+                    "[{a}, {b}]"
+                );
+            }
+        }
         let (dense_gram, dense_grad) = (j.transpose() * &j, j.transpose() * &r);
         for a in 0..cols {
             assert!((grad[a] - dense_grad[a]).abs() < 1e-12, "Jᵀr[{a}]");
