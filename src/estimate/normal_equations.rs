@@ -80,8 +80,7 @@ impl RowBlock {
     /// Each entry receives its rows' products in row order, one at a time, exactly as
     /// adding the rows one by one would: the sums are the same to the last bit, so the
     /// estimates (and everything fitted to their covariance) do not move. A row of the
-    /// block's upper triangle is summed in a contiguous scratch row over contiguous rows of
-    /// the block, which the compiler vectorises across columns.
+    /// block's upper triangle is summed in a contiguous scratch row ([`add_products`]).
     pub(crate) fn flush(&mut self, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
         let (rows, width) = (self.filled, self.columns.len());
         let data = &self.rows[..rows * width];
@@ -96,18 +95,41 @@ impl RowBlock {
             for (sum, &qb) in sums.iter_mut().zip(upper) {
                 *sum = gram[(qa, qb)];
             }
-            for row in data.chunks_exact(width) {
-                let ra = row[a];
-                for (sum, v) in sums.iter_mut().zip(&row[a..]) {
-                    *sum += ra * v;
-                }
-            }
+            add_products(data, width, a, sums);
             for (sum, &qb) in sums.iter().zip(upper) {
                 gram[(qa, qb)] = *sum;
             }
         }
         self.filled = 0;
         self.residuals.clear();
+    }
+}
+
+/// Columns summed together in registers by [`add_products`].
+const LANES: usize = 8;
+
+/// sums[b − a] += Σ_k B[k][a] B[k][b] for b = a…width−1, over the rows of `data`
+/// (row-major, `width` entries a row) in order, each product added on its own. The sums
+/// of [`LANES`] columns stay in registers through all the rows.
+fn add_products(data: &[f64], width: usize, a: usize, sums: &mut [f64]) {
+    let mut chunks = sums.chunks_exact_mut(LANES);
+    let mut b = a;
+    for chunk in &mut chunks {
+        let mut acc = [0.0; LANES];
+        acc.copy_from_slice(chunk);
+        for row in data.chunks_exact(width) {
+            let (ra, rb) = (row[a], &row[b..b + LANES]);
+            for (s, v) in acc.iter_mut().zip(rb) {
+                *s += ra * v;
+            }
+        }
+        chunk.copy_from_slice(&acc);
+        b += LANES;
+    }
+    for (i, sum) in chunks.into_remainder().iter_mut().enumerate() {
+        for row in data.chunks_exact(width) {
+            *sum += row[a] * row[b + i];
+        }
     }
 }
 
@@ -118,13 +140,14 @@ mod tests {
 
     #[test]
     fn blocks_over_column_subsets_give_the_row_by_row_sums_exactly() {
-        // 300 rows (several blocks) of a 9-column J: the first 200 touch columns
-        // 0, 1, 2, 5, 6, the rest 0, 1, 2, 7, 8 (Θ and one segment's x0, as in an
-        // output-error fit). Against JᵀJ, Jᵀr of the stored dense J.
+        // 300 rows (several blocks) of a 29-column J: the first 200 touch columns
+        // 0…12 and 19…23, the rest 0…12 and 24…28 (Θ and one segment's x0, as in an
+        // output-error fit; 18 columns, more than two register chunks and a remainder).
+        // Against the sums row by row, and JᵀJ, Jᵀr of the stored dense J.
         let mut rng = rand::rngs::StdRng::seed_from_u64(21);
-        let (rows, cols) = (300, 9);
-        let first = [0, 1, 2, 5, 6];
-        let second = [0, 1, 2, 7, 8];
+        let (rows, cols) = (300, 29);
+        let first: Vec<usize> = (0..13).chain(19..24).collect();
+        let second: Vec<usize> = (0..13).chain(24..29).collect();
         let mut j = DMatrix::<f64>::zeros(rows, cols);
         let r = DVector::from_fn(rows, |_, _| rng.random_range(-1.0..1.0));
         let mut gram = DMatrix::zeros(cols, cols);
@@ -171,9 +194,9 @@ mod tests {
                 assert!((got - want).abs() < 1e-12, "JᵀJ[{a}, {b}]: {got} vs {want}");
             }
         }
-        // Columns 3 and 4 are never touched; 5 and 7 never share a row.
-        assert_eq!(gram[(3, 3)], 0.0);
-        assert_eq!(gram[(5, 7)], 0.0);
+        // Columns 13…18 are never touched; 19 and 24 never share a row.
+        assert_eq!(gram[(15, 15)], 0.0);
+        assert_eq!(gram[(19, 24)], 0.0);
         assert!(gram[(0, 0)] > 50.0);
     }
 }
