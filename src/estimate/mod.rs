@@ -12,6 +12,7 @@ pub mod data;
 pub mod discrete;
 pub mod error;
 pub mod iv;
+pub(crate) mod normal_equations;
 pub mod oe;
 pub mod qr;
 pub mod rc;

@@ -22,6 +22,7 @@ use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 use super::censored;
 use super::iv::InstrumentalVariables;
+use super::normal_equations::RowBlock;
 use super::wls::WeightedLeastSquares;
 use super::{
     check_enough_rows, DiscreteModel, Estimate, EstimationError, Estimator, IdentificationData,
@@ -608,11 +609,15 @@ impl<'a> Problem<'a> {
     /// buffers.
     fn pass(&self, mut normal: Option<(&mut DMatrix<f64>, &mut DVector<f64>)>) -> Vec<f64> {
         let n = self.n;
-        let mut state = Propagation::new(&self.model(), self.params.len());
+        let mut state = Propagation::new(&self.model());
+        let mut block = RowBlock::new();
         let mut sse = vec![0.0; n];
         for (s, seg) in self.segments.iter().enumerate() {
             state.reset(self.x0(s));
             let x0_at = self.x0_at[s];
+            if let Some((gram, grad)) = normal.as_mut() {
+                block.set_columns(self.segment_columns(x0_at), gram, grad);
+            }
             for k in seg.clone() {
                 if k > seg.start {
                     state.load_input(self.data, k - 1);
@@ -630,13 +635,14 @@ impl<'a> Problem<'a> {
                     let r = sqrt_w * (self.data.outputs[(k, c)] - state.y[c] - offset);
                     sse[c] += r * r;
                     if let Some((gram, grad)) = normal.as_mut() {
-                        state.jacobian_row(c, sqrt_w, x0_at, self.offset_at);
-                        state.accumulate(r, gram, grad);
+                        let row = block.push(r, gram, grad);
+                        state.jacobian_row(c, sqrt_w, x0_at.is_some(), self.offset_at, row);
                     }
                 }
             }
         }
-        if let Some((gram, _)) = normal {
+        if let Some((gram, grad)) = normal {
+            block.flush(gram, grad);
             let cols = gram.nrows();
             for a in 0..cols {
                 for b in 0..a {
@@ -645,6 +651,15 @@ impl<'a> Problem<'a> {
             }
         }
         sse
+    }
+
+    /// The columns of J a segment's rows can touch, increasing: Θ, the segment's x0
+    /// where it is estimated (at `x0_at`), the output offsets where they are.
+    fn segment_columns(&self, x0_at: Option<usize>) -> impl Iterator<Item = usize> {
+        let n = self.n;
+        (0..self.p_theta())
+            .chain(x0_at.into_iter().flat_map(move |at| at..at + n))
+            .chain(self.offset_at.into_iter().flat_map(move |at| at..at + n))
     }
 
     /// The evaluation at the current parameters, computed once per parameter vector.
@@ -686,13 +701,10 @@ struct Propagation {
     /// sens_x0[q·n + c] = ∂ŷ_c/∂x0_q.
     sens_x0: Vec<f64>,
     sens_x0_next: Vec<f64>,
-    /// One row of J and the columns where it is not zero.
-    row_j: Vec<f64>,
-    nonzero: Vec<usize>,
 }
 
 impl Propagation {
-    fn new(model: &DiscreteModel, cols: usize) -> Propagation {
+    fn new(model: &DiscreteModel) -> Propagation {
         let (n, m) = (model.phi.nrows(), model.gamma.ncols());
         let pt = n * (n + m);
         Propagation {
@@ -707,8 +719,6 @@ impl Propagation {
             sens_next: vec![0.0; pt * n],
             sens_x0: vec![0.0; n * n],
             sens_x0_next: vec![0.0; n * n],
-            row_j: vec![0.0; cols],
-            nonzero: Vec::with_capacity(pt + n),
         }
     }
 
@@ -772,41 +782,33 @@ impl Propagation {
         std::mem::swap(&mut self.y, &mut self.y_next);
     }
 
-    /// The row of J for output c: −√w_c ∂ŷ_c/∂(θ, this segment's x0 at `x0_at`, the
-    /// output offsets at `offset_at`), zero elsewhere.
+    /// The row of J for output c over a segment's columns ([`Problem::segment_columns`]):
+    /// −√w_c ∂ŷ_c/∂θ, then −√w_c ∂ŷ_c/∂x0 where the segment's x0 is estimated, then
+    /// −√w_c ∂ŷ_c/∂d (one output's offset) where the offsets are.
     fn jacobian_row(
-        &mut self,
+        &self,
         c: usize,
         sqrt_w: f64,
-        x0_at: Option<usize>,
+        x0: bool,
         offset_at: Option<usize>,
+        row: &mut [f64],
     ) {
         let n = self.n;
         let pt = n * (n + self.m);
-        self.nonzero.clear();
-        for q in 0..pt {
-            self.row_j[q] = -sqrt_w * self.sens[q * n + c];
-            self.nonzero.push(q);
+        for (q, slot) in row[..pt].iter_mut().enumerate() {
+            *slot = -sqrt_w * self.sens[q * n + c];
         }
-        if let Some(at) = x0_at {
-            for q in 0..n {
-                self.row_j[at + q] = -sqrt_w * self.sens_x0[q * n + c];
-                self.nonzero.push(at + q);
+        let mut at = pt;
+        if x0 {
+            for (q, slot) in row[at..at + n].iter_mut().enumerate() {
+                *slot = -sqrt_w * self.sens_x0[q * n + c];
             }
+            at += n;
         }
-        if let Some(at) = offset_at {
-            self.row_j[at + c] = -sqrt_w;
-            self.nonzero.push(at + c);
-        }
-    }
-
-    /// Adds the row's outer product to JᵀJ (upper triangle) and r times it to Jᵀr.
-    fn accumulate(&self, r: f64, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
-        for (a, &qa) in self.nonzero.iter().enumerate() {
-            grad[qa] += self.row_j[qa] * r;
-            for &qb in &self.nonzero[a..] {
-                gram[(qa, qb)] += self.row_j[qa] * self.row_j[qb];
-            }
+        if offset_at.is_some() {
+            let offsets = &mut row[at..at + n];
+            offsets.iter_mut().for_each(|v| *v = 0.0);
+            offsets[c] = -sqrt_w;
         }
     }
 }
