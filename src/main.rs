@@ -20,9 +20,7 @@ fn main() -> ExitCode {
         Ok(Outcome::DataLoss) => ExitCode::from(3),
         Ok(Outcome::Alarms) => ExitCode::from(4),
         Err(err) => {
-            let bad_input = err
-                .downcast_ref::<heatrun::Error>()
-                .is_some_and(|e| e.is_bad_input());
+            let bad_input = commands::is_bad_input(&err);
             // One line: what is wrong, then (where the command line can mend it) what to do.
             let message = commands::hint::one_line(&err);
             match commands::hint::for_error(&err) {

@@ -542,7 +542,10 @@ fn cut(r: &mut common::RecordingBuilder, quantities: &[&str], from_s: u64, to_s:
 struct Seen(Vec<(i64, i64, u64)>);
 
 impl heatrun::monitor::StretchObserver for Seen {
-    fn stretch(&mut self, s: &heatrun::monitor::Stretch<'_>) -> heatrun::Result<()> {
+    fn stretch(
+        &mut self,
+        s: &heatrun::monitor::Stretch<'_>,
+    ) -> Result<(), heatrun::monitor::ObserverError> {
         assert_eq!(s.measured[0].len(), s.time_ns.len());
         self.0
             .push((s.time_ns[0], *s.time_ns.last().unwrap(), s.samples_read));

@@ -7,6 +7,9 @@ use heatrun::estimate::EstimationError;
 use heatrun::import::ImportError;
 use heatrun::model::ModelError;
 use heatrun::predict::UseError;
+use heatrun::recording::RecordingError;
+use heatrun::signals::SignalError;
+use heatrun::losses::LossError;
 use heatrun::Error;
 
 /// The error as one line: its message, then each cause whose text the message does not
@@ -40,49 +43,67 @@ pub fn for_error(err: &anyhow::Error) -> Option<String> {
         Error::ModelUse(e) => for_model_use(e),
         Error::Decimate(e) => for_decimation(e),
         Error::Import(e) => for_import(e),
+        Error::Recording(e) => for_recording(e),
+        Error::Signals(e) => for_signals(e),
         other => for_replay(other),
     }
 }
 
-/// Hints for the replay's own errors: the recording, the nameplate, the options.
-fn for_replay(e: &Error) -> Option<String> {
+/// Hints for the recording: its channels and nameplate.
+fn for_recording(e: &RecordingError) -> Option<String> {
     Some(match e {
-        Error::NoFieldTemperature | Error::FieldScalingRise { .. } => {
-            "give `field_winding_final_temp_c` in a machine file with --machine FILE.toml".into()
-        }
-        Error::NoFieldState => {
-            "replay it without --field-state, or record the field winding's temperature or voltage"
-                .into()
-        }
-        Error::MissingNameplateKey { .. } | Error::BadNameplateValue { .. } => {
+        RecordingError::MissingNameplateKey { .. } | RecordingError::BadNameplateValue { .. } => {
             "give the key in a machine file with --machine FILE.toml".into()
         }
-        Error::NameplateNeeded => {
-            "give the nameplate in a machine file with --machine FILE.toml (the README's \
-             \"The recording format\" lists its keys)"
-                .into()
-        }
-        Error::MissingChannel { .. } => {
-            "`heatrun info FILE` lists the channels; a recording of another system needs \
-             --spec SPEC.toml naming its channels"
-                .into()
-        }
-        Error::NoCommonInstant { .. } | Error::InsufficientData(_) => {
-            "`heatrun info FILE` shows each channel's span and gaps; a longer --ts bridges \
-             short gaps"
-                .into()
-        }
-        Error::Channel { .. } => {
+        RecordingError::Channel { .. } => {
             "mend the channel's metadata where the recording is written, or convert the table \
              again with `heatrun import` and the column's `unit` in the map"
                 .into()
         }
+        _ => return None,
+    })
+}
+
+/// Hints for the signal stage: the channels and nameplate the model needs.
+fn for_signals(e: &SignalError) -> Option<String> {
+    Some(match e {
+        SignalError::Losses(LossError::NoFieldTemperature | LossError::FieldScalingRise { .. }) => {
+            "give `field_winding_final_temp_c` in a machine file with --machine FILE.toml".into()
+        }
+        SignalError::NoFieldState => {
+            "replay it without --field-state, or record the field winding's temperature or voltage"
+                .into()
+        }
+        SignalError::NameplateNeeded => {
+            "give the nameplate in a machine file with --machine FILE.toml (the README's \
+             \"The recording format\" lists its keys)"
+                .into()
+        }
+        SignalError::MissingChannel { .. } | SignalError::Losses(LossError::MissingChannel { .. }) => {
+            "`heatrun info FILE` lists the channels; a recording of another system needs \
+             --spec SPEC.toml naming its channels"
+                .into()
+        }
+        SignalError::NoCommonInstant { .. } => {
+            "`heatrun info FILE` shows each channel's span and gaps; a longer --ts bridges \
+             short gaps"
+                .into()
+        }
+        _ => return None,
+    })
+}
+
+/// Hints for the replay's own errors: the options and the spec.
+fn for_replay(e: &Error) -> Option<String> {
+    Some(match e {
         Error::HoldOutFraction { .. } => "give --holdout a fraction such as 0.3".into(),
         Error::SplitOutside { .. } => {
             "give --split-at a time inside the recording, in seconds from its start".into()
         }
         Error::Weights { .. } => "give --weights one positive number per state".into(),
-        Error::BadSpec { .. } => "the README's \"Any thermal system\" shows the spec's keys".into(),
+        Error::Spec(heatrun::spec::SpecFileError::Bad { .. }) => {
+            "the README's \"Any thermal system\" shows the spec's keys".into()
+        }
         _ => return None,
     })
 }
@@ -250,10 +271,10 @@ mod tests {
     #[test]
     fn a_cause_already_in_the_message_is_not_repeated() {
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
-        let err = anyhow::Error::from(Error::ReadInput {
+        let err = anyhow::Error::from(Error::from(RecordingError::ReadInput {
             path: "a.mcap".into(),
             source: io,
-        });
+        }));
         assert_eq!(one_line(&err), "a.mcap: cannot read: No such file");
         let wrapped = anyhow::Error::from(std::io::Error::other("disk full")).context("b.rrd");
         assert_eq!(one_line(&wrapped), "b.rrd: disk full");

@@ -12,7 +12,7 @@ pub fn run(args: ImportArgs) -> anyhow::Result<Outcome> {
         return Ok(Outcome::Complete);
     }
     let (Some(map_path), Some(out)) = (&args.map, &args.out) else {
-        anyhow::bail!(heatrun::Error::Usage(
+        anyhow::bail!(super::Usage(
             "give the map with --map MAP.toml and the output with --out OUT.mcap (--guess prints a starting map)".into()
         ));
     };

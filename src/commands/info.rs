@@ -14,8 +14,10 @@ use crate::cli::InfoArgs;
 pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     // The generator's placement of each profile quantity on the grid; channels it does not
     // name are averaged over intervals.
-    let mut decimator = Decimator::new(1.0, ModelDescription::generator().alignments())?;
-    let summary = recording::read_recording(&args.file, &mut decimator)?;
+    let mut decimator = Decimator::new(1.0, ModelDescription::generator().alignments())
+        .map_err(heatrun::Error::from)?;
+    let summary =
+        recording::read_recording(&args.file, &mut decimator).map_err(heatrun::Error::from)?;
     // `inspect`, not `finish`: a channel whose clock jumped is shown, not refused.
     let grid = if summary.channels.is_empty() {
         None

@@ -25,6 +25,28 @@ pub enum Outcome {
     Alarms,
 }
 
+/// A command line that cannot run as given: a value out of range, a flag that needs
+/// another (exit status 2, as the input's fault). The library never raises it.
+#[derive(Debug)]
+pub struct Usage(pub String);
+
+impl std::fmt::Display for Usage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Usage {}
+
+/// Whether a command's error is the input's fault (exit status 2) rather than the
+/// machine's (1): a usage error of the command line, or a library error that says so.
+pub fn is_bad_input(err: &anyhow::Error) -> bool {
+    err.downcast_ref::<Usage>().is_some()
+        || err
+            .downcast_ref::<heatrun::Error>()
+            .is_some_and(heatrun::Error::is_bad_input)
+}
+
 /// Runs a command.
 pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
     match command {

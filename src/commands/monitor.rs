@@ -6,15 +6,15 @@ use std::path::Path;
 
 use heatrun::monitor::{self, BandRule, MonitorOptions, Source, StreamOptions, Watchers};
 use heatrun::predict::ThermalModel;
-use heatrun::publish::monitor::LivePublisher;
-use heatrun::publish::RerunSink;
+use heatrun_rerun::monitor::LivePublisher;
+use heatrun_rerun::RerunSink;
 
 use super::Outcome;
 use crate::cli::MonitorArgs;
 
 pub fn run(args: MonitorArgs) -> anyhow::Result<Outcome> {
     if !(args.hold >= 0.0 && args.band_factor > 0.0 && args.band_floor >= 0.0) {
-        return Err(heatrun::Error::Usage(format!(
+        return Err(super::Usage(format!(
             "--hold {} --band-factor {} --band-floor {}: the hold and the floor must be \
              0 or more, the factor more than 0",
             args.hold, args.band_factor, args.band_floor
@@ -22,7 +22,7 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<Outcome> {
         .into());
     }
     if !(args.stretch >= 1.0 && args.stretch.is_finite()) {
-        return Err(heatrun::Error::Usage(format!(
+        return Err(super::Usage(format!(
             "--stretch {}: the stretch must be at least 1 s",
             args.stretch
         ))
@@ -122,7 +122,7 @@ struct Live<'p> {
 }
 
 impl monitor::StretchObserver for Live<'_> {
-    fn stretch(&mut self, stretch: &monitor::Stretch<'_>) -> heatrun::Result<()> {
+    fn stretch(&mut self, stretch: &monitor::Stretch<'_>) -> Result<(), monitor::ObserverError> {
         if self.print {
             for &(j, start_ns) in stretch.raised {
                 let at = |ns: i64| heatrun::recording::format_time(ns.max(0) as u64);

@@ -20,12 +20,12 @@ pub fn run(args: PredictArgs) -> anyhow::Result<Outcome> {
     prediction.write_csv(&args.out)?;
     if let Some(rrd) = &args.rrd {
         let limits = limits(&model, &args)?;
-        heatrun::publish::prediction::publish(
+        heatrun_rerun::prediction::publish(
             &prediction,
             &schedule,
             &model,
             &limits,
-            &heatrun::publish::RerunSink::Rrd(rrd.clone()),
+            &heatrun_rerun::RerunSink::Rrd(rrd.clone()),
         )?;
     }
     for w in &prediction.warnings {

@@ -10,7 +10,7 @@ use clap::ValueEnum;
 use heatrun::atomic::write_atomically;
 use heatrun::pipeline::{self, Method, Replay, ReplayOptions, ValidationSource};
 use heatrun::progress::{Observer, Progress};
-use heatrun::publish::{Publisher, RerunSink};
+use heatrun_rerun::{Publisher, RerunSink};
 use heatrun::report::Report;
 use heatrun::spec::coolant::ReferencePolicy;
 use heatrun::spec::ModelDescription;
@@ -37,7 +37,7 @@ fn default_fixture() -> PathBuf {
 /// method, then the defaults (1 s, `oe`).
 fn options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
     let model = match &args.spec {
-        Some(path) => ModelDescription::from_toml_file(path)?,
+        Some(path) => ModelDescription::from_toml_file(path).map_err(heatrun::Error::from)?,
         None if args.field_state => ModelDescription::generator_with_field_state(),
         None => ModelDescription::generator(),
     };
@@ -109,7 +109,7 @@ impl Recordings {
         }
         if out.is_empty() {
             return Err(
-                heatrun::Error::Usage("no .mcap recordings in the folders given".into()).into(),
+                super::Usage("no .mcap recordings in the folders given".into()).into(),
             );
         }
         Ok(Recordings {
@@ -127,9 +127,11 @@ impl Recordings {
 /// The `.mcap` files of a folder, sorted by name.
 fn mcap_files_in(folder: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut found: Vec<PathBuf> = std::fs::read_dir(folder)
-        .map_err(|e| heatrun::Error::ReadInput {
-            path: folder.to_owned(),
-            source: e,
+        .map_err(|source| {
+            heatrun::Error::from(heatrun::recording::RecordingError::ReadInput {
+                path: folder.to_owned(),
+                source,
+            })
         })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
@@ -276,7 +278,7 @@ fn html_path(args: &ReplayArgs, file: &Path) -> anyhow::Result<Option<PathBuf>> 
     }
     let path = PathBuf::from(given);
     if path.extension().is_some_and(|x| x == "mcap") {
-        return Err(heatrun::Error::Usage(format!(
+        return Err(super::Usage(format!(
             "--html would write the page over the recording {}; write --html=PAGE.html, \
              or put --html after the recordings",
             path.display()
@@ -402,7 +404,7 @@ fn fleet(args: &ReplayArgs, files: &[PathBuf]) -> anyhow::Result<Outcome> {
         args.out_dir.display()
     );
     if tally.failed > 0 {
-        return Err(heatrun::Error::Usage(format!(
+        return Err(super::Usage(format!(
             "{} of {} recordings failed (see the table)",
             tally.failed,
             rows.len()
@@ -425,7 +427,7 @@ fn check_fleet_args(args: &ReplayArgs) -> anyhow::Result<()> {
         || args.spawn
         || args.connect.is_some()
     {
-        return Err(heatrun::Error::Usage(
+        return Err(super::Usage(
             "with several recordings, outputs go to --out-dir (one .rrd and report each, and \
              an HTML page each with a bare --html); --rrd, --report, --html PATH, --spawn and \
              --connect name one output"

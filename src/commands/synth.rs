@@ -45,7 +45,7 @@ pub fn run(args: SynthArgs) -> anyhow::Result<Outcome> {
         ..SynthOptions::default()
     };
     if args.machine == MachineArg::RcField && args.field == FieldArg::Nameplate {
-        return Err(heatrun::Error::Usage(
+        return Err(super::Usage(
             "--machine rc-field records its field winding node: give --field voltage or --field temperature"
                 .into(),
         )
@@ -60,7 +60,7 @@ pub fn run(args: SynthArgs) -> anyhow::Result<Outcome> {
             ..last
         }];
     }
-    let truth = synth::write(&args.out, &options)?;
+    let truth = synth::write(&args.out, &options).map_err(heatrun::Error::from)?;
     println!(
         "wrote {} ({:.0} s, {}; true time constants [{}] s; true steady-state rise [{}] K) and {}",
         args.out.display(),
@@ -108,7 +108,7 @@ fn disturbances(args: &SynthArgs) -> anyhow::Result<Disturbances> {
             ("--fault-at", args.fault_at.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, set)| *set) {
-            return Err(heatrun::Error::Usage(format!(
+            return Err(super::Usage(format!(
                 "{flag} needs a machine built from a thermal network, and the paper's model is not one; give --machine rc-unit or --machine rc-field"
             ))
             .into());

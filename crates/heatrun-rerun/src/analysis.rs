@@ -1,0 +1,148 @@
+//! The analyses behind the result: the sensitivity responses that assign each time
+//! constant to a part (eqs. 27-29), the residuals' correlations, and the recursive
+//! estimate's trajectory.
+
+use rerun::RecordingStream;
+
+use crate::Result;
+use heatrun::model::sensitivity::SensitivityModel;
+use heatrun::pipeline::Replay;
+
+use super::style;
+use super::traces::{on_grid, send_by_lag, send_series, short_part, SERIES_SLICE};
+
+/// The sensitivity responses T_i ∂ŷ/∂T_i behind the assignment, regenerated from the
+/// model over the instants it was estimated on, one state at a time, each in its part's
+/// colour.
+pub(super) fn log_sensitivities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let analysis = &replay.analysis;
+    let tcs = &analysis.spectrum.time_constants_s;
+    let recursion = SensitivityModel::new(&analysis.continuous, tcs, replay.signals.ts_s)?;
+    let end = replay.estimation_range.end;
+    let segments: Vec<_> = replay
+        .data
+        .segments()
+        .into_iter()
+        .map(|s| s.start..s.end.min(end))
+        .filter(|s| s.len() >= 2)
+        .collect();
+    let t = &replay.signals.time_ns;
+    for i in 0..tcs.len() {
+        for (k, state) in replay.signals.states.iter().enumerate() {
+            let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
+            let name = format!("{}, pu", short_part(&state.part));
+            style::series(rec, &entity, &name, style::part(k), style::LINE_WIDTH)?;
+            let mut points = Vec::with_capacity(SERIES_SLICE);
+            let mut failed = None;
+            recursion.for_each_response(i, &replay.data, &segments, |instant, rel| {
+                points.push((t[instant], rel[k]));
+                if points.len() == SERIES_SLICE && failed.is_none() {
+                    failed = send_series(rec, &entity, points.drain(..)).err();
+                }
+            });
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            send_series(rec, &entity, points.into_iter())?;
+        }
+    }
+    Ok(())
+}
+
+/// Per state: the residual's autocorrelation with its 99 % band, and its
+/// cross-correlation with each input, against the lag.
+pub(super) fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let res = &replay.analysis.residuals;
+    let lag = res.max_lag as i64;
+    for (i, state) in replay.signals.states.iter().enumerate() {
+        let root = format!("residual_correlation/{}", state.name);
+        let auto = format!("{root}/autocorrelation");
+        style::series(
+            rec,
+            &auto,
+            "autocorrelation",
+            style::part(i),
+            style::MEASURED_WIDTH / 2.0,
+        )?;
+        send_by_lag(
+            rec,
+            &auto,
+            (0..=lag).collect(),
+            res.autocorrelation[i].clone(),
+        )?;
+        for (bound, sign) in [("band99_upper", 1.0), ("band99_lower", -1.0)] {
+            let entity = format!("{root}/{bound}");
+            style::series(rec, &entity, "99 % band", style::REFERENCE, 1.0)?;
+            send_by_lag(rec, &entity, vec![-lag, lag], vec![sign * res.band99; 2])?;
+        }
+        for (j, input) in replay.signals.inputs.iter().enumerate() {
+            let entity = format!("{root}/cross_{}", input.name);
+            let name = format!("× {}", input.name.replace('_', " "));
+            style::series(rec, &entity, &name, style::input(j), style::LINE_WIDTH)?;
+            send_by_lag(
+                rec,
+                &entity,
+                (-lag..=lag).collect(),
+                res.cross_correlation[i][j].clone(),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// The recursive estimate's Φ, Γ and time constants as they evolve (`--method rls`).
+pub(super) fn log_trajectory(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let Some(traj) = &replay.estimate.trajectory else {
+        return Ok(());
+    };
+    let model = &replay.estimate.model;
+    let (n, m) = (model.phi.nrows(), model.gamma.ncols());
+    let p = n + m;
+    let t: Vec<i64> = traj
+        .iter()
+        .map(|pt| replay.signals.time_ns[pt.instant])
+        .collect();
+    for i in 0..n {
+        for j in 0..p {
+            let (entity, name, colour) = if j < n {
+                (
+                    format!("rls/phi/{}{}", i + 1, j + 1),
+                    format!("Φ({},{})", i + 1, j + 1),
+                    style::part(j),
+                )
+            } else {
+                (
+                    format!("rls/gamma/{}{}", i + 1, j - n + 1),
+                    format!("Γ({},{})", i + 1, j - n + 1),
+                    style::input(j - n),
+                )
+            };
+            style::series(rec, &entity, &name, colour, style::LINE_WIDTH)?;
+            send_series(
+                rec,
+                &entity,
+                on_grid(&t, traj.iter().map(|pt| Some(pt.theta[i * p + j]))),
+            )?;
+        }
+    }
+    // Time constants where the running estimate is a stable thermal system.
+    let constants: Vec<Option<Vec<f64>>> = traj
+        .iter()
+        .map(|pt| {
+            heatrun::model::Spectrum::of(&model.with_theta(&pt.theta))
+                .ok()
+                .map(|s| s.time_constants_s)
+        })
+        .collect();
+    for i in 0..n {
+        let entity = format!("rls/time_constant/T{}", i + 1);
+        let name = format!("T{}, s", i + 1);
+        style::series(rec, &entity, &name, style::part(i), style::LINE_WIDTH)?;
+        send_series(
+            rec,
+            &entity,
+            on_grid(&t, constants.iter().map(|c| c.as_ref().map(|c| c[i]))),
+        )?;
+    }
+    Ok(())
+}

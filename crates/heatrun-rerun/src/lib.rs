@@ -1,0 +1,254 @@
+//! Publishing stage: a [`Replay`] → a rerun recording (an .rrd file, a running
+//! viewer, or one spawned for it), on the recording's own time line.
+//!
+//! Long series go out as columns with `send_columns`, one chunk per entity, each
+//! named and coloured (a part keeps its colour in every plot), and a blueprint opens
+//! the viewer on the story with every plot showing the whole recording: measured
+//! against model per part, the residuals, the inputs and the model's figures; tabs
+//! for the sensitivities, residual analysis, recursive estimate and raw channels.
+//!
+//! Modules: `traces` (the time series), `analysis` (sensitivities, correlations, RLS),
+//! `text` (the figures panel), `style` (names and colours), `layout` (a blueprint
+//! writer with view properties), `blueprint` (the layout of a replay).
+
+use std::path::PathBuf;
+
+use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
+
+mod analysis;
+pub mod blueprint;
+pub mod layout;
+pub mod monitor;
+pub mod network;
+pub mod prediction;
+mod style;
+mod text;
+mod traces;
+
+pub use blueprint::blueprint;
+pub use traces::temperature_entity;
+
+#[allow(unused_imports)]
+use heatrun::recording::SampleSink as _;
+
+use heatrun::atomic::{PendingOutput, WriteError};
+use heatrun::pipeline::Replay;
+
+/// Name of the timeline: the recording's own clock (log_time).
+pub const TIMELINE: &str = "time";
+
+/// Where the rerun data go.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RerunSink {
+    /// A saved .rrd file, complete when [`publish`] returns.
+    Rrd(PathBuf),
+    /// A running viewer at a gRPC URL (`None`: the default local viewer).
+    Connect(Option<String>),
+    /// A viewer started for this replay.
+    Spawn,
+}
+
+/// Publishing failed: rerun refused a recording or a batch, or the .rrd could not be
+/// completed.
+#[derive(Debug, thiserror::Error)]
+pub enum PublishError {
+    /// rerun's SDK reported an error (a viewer that cannot be reached or spawned, a
+    /// batch that cannot be serialised).
+    #[error("rerun: {0}")]
+    Rerun(String),
+    /// The .rrd file could not be renamed into place.
+    #[error(transparent)]
+    Output(#[from] WriteError),
+    /// The model's sensitivities cannot be computed for their plots.
+    #[error(transparent)]
+    Model(#[from] heatrun::model::ModelError),
+}
+
+/// The publisher's result.
+pub type Result<T, E = PublishError> = std::result::Result<T, E>;
+
+fn publish_err(e: impl std::fmt::Display) -> PublishError {
+    PublishError::Rerun(e.to_string())
+}
+
+/// An open rerun recording: created before the replay (so full-rate samples can stream
+/// into it), finished with the replay's traces and the blueprint.
+pub struct Publisher {
+    rec: RecordingStream,
+    pending: Option<PendingOutput>,
+    full_rate: std::cell::Cell<bool>,
+}
+
+impl Publisher {
+    /// Opens the recording on `sink`; `name` is the recording's name in the viewer.
+    pub fn open(sink: &RerunSink, name: &str) -> Result<Publisher> {
+        let builder = RecordingStreamBuilder::new("heatrun").recording_name(name.to_owned());
+        Ok(match sink {
+            RerunSink::Rrd(path) => {
+                let pending = PendingOutput::new(path);
+                let rec = builder.save(pending.path()).map_err(publish_err)?;
+                Publisher {
+                    rec,
+                    pending: Some(pending),
+                    full_rate: Default::default(),
+                }
+            }
+            RerunSink::Connect(url) => {
+                let rec = match url {
+                    Some(url) => builder.connect_grpc_opts(url.clone()),
+                    None => builder.connect_grpc(),
+                }
+                .map_err(publish_err)?;
+                Publisher {
+                    rec,
+                    pending: None,
+                    full_rate: Default::default(),
+                }
+            }
+            RerunSink::Spawn => Publisher {
+                rec: builder.spawn().map_err(publish_err)?,
+                pending: None,
+                full_rate: Default::default(),
+            },
+        })
+    }
+
+    /// A sink that publishes every raw sample at full rate under `full_rate/<topic>`.
+    pub fn full_rate(&self) -> FullRatePublisher {
+        self.full_rate.set(true);
+        FullRatePublisher {
+            rec: self.rec.clone(),
+            channels: Vec::new(),
+            failed: None,
+        }
+    }
+
+    /// Logs the replay's traces, sends the blueprint, and completes the output (an .rrd
+    /// is renamed into place only now).
+    pub fn finish(self, replay: &Replay, summary_text: &str) -> Result<()> {
+        log_all(&self.rec, replay, summary_text)?;
+        blueprint(replay, self.full_rate.get())
+            .send(&self.rec)
+            .map_err(publish_err)?;
+        self.rec.flush_blocking().map_err(publish_err)?;
+        drop(self.rec);
+        match self.pending {
+            Some(pending) => Ok(pending.commit()?),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Sends a replay's traces to `sink`. For an .rrd the file is written under a
+/// temporary name and renamed when complete.
+pub fn publish(replay: &Replay, summary_text: &str, sink: &RerunSink) -> Result<()> {
+    let name = replay
+        .path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    Publisher::open(sink, &name)?.finish(replay, summary_text)
+}
+
+/// Samples buffered per channel before they go out as one column chunk.
+const FULL_RATE_BATCH: usize = 1 << 16;
+
+/// Publishes raw samples at full rate as they stream by, in column batches, so that
+/// memory stays bounded whatever the recording's length.
+pub struct FullRatePublisher {
+    rec: RecordingStream,
+    /// Per channel: entity path, times, values.
+    channels: Vec<(String, Vec<i64>, Vec<f64>)>,
+    failed: Option<String>,
+}
+
+impl FullRatePublisher {
+    fn flush_channel(&mut self, i: usize) {
+        let (entity, times, values) = &mut self.channels[i];
+        if times.is_empty() {
+            return;
+        }
+        let t = std::mem::take(times);
+        let v = std::mem::take(values);
+        let result = Scalars::new(v)
+            .columns_of_unit_batches()
+            .map_err(publish_err)
+            .and_then(|cols| {
+                self.rec
+                    .send_columns(
+                        entity.as_str(),
+                        [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, t)],
+                        cols,
+                    )
+                    .map_err(publish_err)
+            })
+            // Waited for, so that rerun's queue holds one batch, not a week of them.
+            .and_then(|()| self.rec.flush_blocking().map_err(publish_err));
+        if let Err(e) = result {
+            self.failed.get_or_insert(e.to_string());
+        }
+    }
+
+    /// Sends what is buffered; reports the first failure, if any.
+    pub fn flush(&mut self) -> Result<()> {
+        for i in 0..self.channels.len() {
+            self.flush_channel(i);
+        }
+        match self.failed.take() {
+            Some(e) => Err(PublishError::Rerun(e)),
+            None => Ok(()),
+        }
+    }
+}
+
+impl heatrun::recording::SampleSink for FullRatePublisher {
+    fn channel(&mut self, channel: &heatrun::recording::SensorChannel) {
+        while self.channels.len() <= channel.index {
+            self.channels.push((String::new(), Vec::new(), Vec::new()));
+        }
+        let entity = format!("full_rate/{}", channel.topic.trim_start_matches('/'));
+        let _ = self.rec.log_static(
+            entity.as_str(),
+            &SeriesLines::new().with_names([format!(
+                "{} [{}]",
+                channel.signal,
+                channel.canonical_unit()
+            )]),
+        );
+        self.channels[channel.index].0 = entity;
+    }
+
+    fn sample(&mut self, sample: heatrun::recording::Sample) {
+        let ch = &mut self.channels[sample.channel];
+        ch.1.push(sample.log_time_ns as i64);
+        ch.2.push(sample.value);
+        if ch.1.len() >= FULL_RATE_BATCH {
+            self.flush_channel(sample.channel);
+        }
+    }
+
+    /// The full-rate view shows the channels as recorded, faults included: nothing to undo.
+    fn retract(&mut self, _sample: heatrun::recording::Sample) {}
+}
+
+/// Name of the timeline of the correlation plots (lag in samples).
+pub const LAG_TIMELINE: &str = "lag";
+
+fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result<()> {
+    traces::log_temperatures(rec, replay)?;
+    traces::log_inputs_and_quantities(rec, replay)?;
+    traces::log_calorimetry(rec, replay)?;
+    analysis::log_sensitivities(rec, replay)?;
+    analysis::log_residual_correlation(rec, replay)?;
+    analysis::log_trajectory(rec, replay)?;
+    network::log_network(rec, replay)?;
+    let figures = text::model_figures(&heatrun::report::Report::new(replay));
+    rec.log_static(
+        "model",
+        &rerun::TextDocument::new(figures).with_media_type(rerun::MediaType::markdown()),
+    )
+    .map_err(publish_err)?;
+    rec.log_static("summary", &text::preformatted(summary_text))
+        .map_err(publish_err)?;
+    Ok(())
+}

@@ -1,0 +1,51 @@
+//! The model's figures as a text panel beside the plots: time constants with their
+//! 95 % intervals and parts, and the fit per part; plain-text tables in a fixed-width font.
+
+use std::fmt::Write as _;
+
+use heatrun::report::Report;
+
+/// Markdown: the time constants (eq. 26) and their parts, and the fit (eq. 25) per part.
+pub fn model_figures(report: &Report) -> String {
+    let mut s = String::from("**Time constants** (eq. 26)\n\n| | T, s | part |\n|---|---:|---|\n");
+    let ci = report
+        .uncertainty
+        .as_ref()
+        .map(|u| &u.time_constants_ci95_s);
+    for (i, a) in report.assignment.iter().enumerate() {
+        let interval = ci
+            .and_then(|c| c.get(i))
+            .map(|c| format!(" ± {c:.1}"))
+            .unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "| T{} | {:.1}{interval} | {} |",
+            i + 1,
+            a.time_constant_s,
+            a.part
+        );
+    }
+    s.push_str("\n**Fit** (eq. 25)\n\n| part | NRMSE fit, % | RMSE, K | largest, K |\n|---|---:|---:|---:|\n");
+    let fit = &report.fit;
+    for (j, part) in report.model.states.iter().map(|s| &s.part).enumerate() {
+        let _ = writeln!(
+            s,
+            "| {} | {:.2} | {:.3} | {:.3} |",
+            part, fit.nrmse_fit_percent[j], fit.rmse_k[j], fit.max_abs_error_k[j]
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nmethod `{}`, Ts = {} s, {} instants",
+        report.method, report.sample_time_s, fit.samples
+    );
+    s
+}
+
+/// A plain-text table (the terminal summary, the monitor's) as a document the viewer shows
+/// in a fixed-width font: Markdown, the text in one fenced block, so its columns line up
+/// as they do on a terminal (rerun draws plain text proportionally).
+pub fn preformatted(text: &str) -> rerun::TextDocument {
+    rerun::TextDocument::new(format!("```text\n{}\n```\n", text.trim_end()))
+        .with_media_type(rerun::MediaType::markdown())
+}

@@ -1,0 +1,254 @@
+//! The replay's time series on the recording's clock: measured and model temperature per
+//! part, residuals, inputs and the decimated quantities. Each series goes out as columns
+//! in slices it waits for (rerun's queue never holds more than one slice).
+
+use rerun::{RecordingStream, Scalars, TimeColumn};
+
+use crate::Result;
+use heatrun::pipeline::Replay;
+use heatrun::spec::{InputKind, Scaling};
+
+use super::{publish_err, style, LAG_TIMELINE, TIMELINE};
+
+/// Rows per column chunk of a series.
+pub(super) const SERIES_SLICE: usize = 1 << 16;
+
+/// Entity path of a state's temperature plot.
+pub fn temperature_entity(state: &str) -> String {
+    format!("temperature/{state}")
+}
+
+/// Sends one series as columns, `(time ns, value)` pairs in time order, skipping
+/// non-finite values. It goes out in slices of [`SERIES_SLICE`] rows, each waited for
+/// before the next is built, so a week-long series never sits in memory twice.
+pub(super) fn send_series(
+    rec: &RecordingStream,
+    entity: &str,
+    points: impl Iterator<Item = (i64, f64)>,
+) -> Result<usize> {
+    let mut points = points.filter(|(_, v)| v.is_finite()).peekable();
+    let mut sent = 0;
+    while points.peek().is_some() {
+        let (times, values): (Vec<i64>, Vec<f64>) = points.by_ref().take(SERIES_SLICE).unzip();
+        sent += times.len();
+        rec.send_columns(
+            entity,
+            [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
+            Scalars::new(values)
+                .columns_of_unit_batches()
+                .map_err(publish_err)?,
+        )
+        .map_err(publish_err)?;
+        rec.flush_blocking().map_err(publish_err)?;
+    }
+    Ok(sent)
+}
+
+/// Sends a series against a lag (the correlation plots).
+pub(super) fn send_by_lag(
+    rec: &RecordingStream,
+    entity: &str,
+    lags: Vec<i64>,
+    values: Vec<f64>,
+) -> Result<()> {
+    rec.send_columns(
+        entity,
+        [TimeColumn::new_sequence(LAG_TIMELINE, lags)],
+        Scalars::new(values)
+            .columns_of_unit_batches()
+            .map_err(publish_err)?,
+    )
+    .map_err(publish_err)
+}
+
+/// Entity root of the calorimetric balance's traces.
+pub const CALORIMETRY: &str = "calorimetry";
+
+/// The calorimetric balance over time (paper eqs. 17-18), where the flow is recorded:
+/// the heat the cooling water carries away, c·ρ·(θ_out − θ_in)·Q, beside the sum of the
+/// computed losses, both in kW, so a wrong loss model or flow meter shows as a gap.
+pub(super) fn log_calorimetry(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let Some(c) = &replay.network.calorimetry else {
+        return Ok(());
+    };
+    let s = &replay.signals;
+    let water = format!("{CALORIMETRY}/heat_carried_away");
+    style::series(
+        rec,
+        &water,
+        "heat carried away by the water, kW",
+        style::input(0),
+        style::LINE_WIDTH,
+    )?;
+    send_series(
+        rec,
+        &water,
+        on_grid(&s.time_ns, c.heat.watts.iter().map(|w| w.map(|w| w / 1e3))),
+    )?;
+    let losses = format!("{CALORIMETRY}/losses");
+    style::series(
+        rec,
+        &losses,
+        "sum of the losses, kW",
+        style::input(1),
+        style::LINE_WIDTH,
+    )?;
+    let scale = input_plot_scale(replay);
+    let sum = (0..s.len()).map(|k| {
+        s.inputs
+            .iter()
+            .filter(|i| i.kind == InputKind::Heat)
+            .map(|i| i.values.get(k))
+            .sum::<Option<f64>>()
+            .map(|v| v * scale)
+    });
+    send_series(rec, &losses, on_grid(&s.time_ns, sum))?;
+    Ok(())
+}
+
+/// Pairs a grid series with the grid's times, keeping the instants where it is known.
+pub(super) fn on_grid<'a>(
+    time_ns: &'a [i64],
+    values: impl Iterator<Item = Option<f64>> + 'a,
+) -> impl Iterator<Item = (i64, f64)> + 'a {
+    time_ns
+        .iter()
+        .zip(values)
+        .filter_map(|(t, v)| v.map(|v| (*t, v)))
+}
+
+/// The unit of state `j`'s values as the plots show them (°C for the generator).
+pub(super) fn state_unit(replay: &Replay, j: usize) -> String {
+    match replay.model.states.get(j).map(|s| s.unit.as_str()) {
+        Some("degC") | Some("°C") | None => "°C".into(),
+        Some(u) => u.into(),
+    }
+}
+
+/// The unit of a rise or residual of state `j` (K for temperatures).
+pub(super) fn rise_unit(replay: &Replay, j: usize) -> String {
+    match state_unit(replay, j).as_str() {
+        "°C" | "K" => "K".into(),
+        u => u.into(),
+    }
+}
+
+/// Title of the inputs' plot: the generator's heat sources in kW, or a spec's inputs.
+pub(super) fn input_title(replay: &Replay) -> String {
+    match replay.model.scaling {
+        Scaling::NameplatePerUnit => "heat sources (losses), kW".into(),
+        Scaling::AsRecorded => {
+            let mut units: Vec<&str> = replay
+                .signals
+                .inputs
+                .iter()
+                .map(|i| i.unit.as_str())
+                .collect();
+            units.dedup();
+            format!("inputs, {}", units.join(", "))
+        }
+    }
+}
+
+/// Factor from an input in the model's scaling to the plotted unit (kW for pu of S_n).
+fn input_plot_scale(replay: &Replay) -> f64 {
+    match replay.model.scaling {
+        Scaling::NameplatePerUnit => replay.signals.power_base / 1e3,
+        Scaling::AsRecorded => replay.signals.power_base,
+    }
+}
+
+/// Measured and model temperature per part, in the part's colour (measured wide and
+/// light, the model thin on top), and the residual y − ŷ in the same colour.
+pub(super) fn log_temperatures(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let s = &replay.signals;
+    let t = &s.time_ns;
+    let base = s.temperature_base_k;
+    let sim = &replay.analysis.simulated;
+    for (j, state) in s.states.iter().enumerate() {
+        let root = temperature_entity(&state.name);
+        let (unit, colour) = (state_unit(replay, j), style::part(j));
+        let measured = format!("{root}/measured");
+        let model = format!("{root}/model");
+        style::series(
+            rec,
+            &measured,
+            &format!("measured, {unit}"),
+            style::lightened(colour, 0.55),
+            style::MEASURED_WIDTH,
+        )?;
+        style::series(
+            rec,
+            &model,
+            &format!("model, {unit}"),
+            colour,
+            style::LINE_WIDTH,
+        )?;
+        send_series(rec, &measured, on_grid(t, state.measured.iter()))?;
+        send_series(
+            rec,
+            &model,
+            on_grid(
+                t,
+                (0..s.len()).map(|k| Some(state.reference_at(k)? + base * sim[(k, j)])),
+            ),
+        )?;
+        let residual = format!("residual/{}", state.name);
+        let label = format!("{}, {}", short_part(&state.part), rise_unit(replay, j));
+        style::series(rec, &residual, &label, colour, style::LINE_WIDTH)?;
+        send_series(
+            rec,
+            &residual,
+            on_grid(
+                t,
+                (0..s.len()).map(|k| s.rise_pu(j, k).map(|y| base * (y - sim[(k, j)]))),
+            ),
+        )?;
+    }
+    Ok(())
+}
+
+/// A part's name up to its parenthesis ("stator winding (copper)" → "stator winding").
+pub(super) fn short_part(part: &str) -> &str {
+    part.split(" (").next().unwrap_or(part)
+}
+
+/// The inputs (the generator's losses in kW) and the decimated quantities with units.
+pub(super) fn log_inputs_and_quantities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let s = &replay.signals;
+    let t = &s.time_ns;
+    let scale = input_plot_scale(replay);
+    let per_unit = replay.model.scaling == Scaling::NameplatePerUnit;
+    // The losses; a coolant inlet's rise is a temperature, published with the
+    // decimated quantities (its channel), not among the heat sources.
+    let heat = s.inputs.iter().filter(|i| i.kind == InputKind::Heat);
+    for (j, input) in heat.enumerate() {
+        let entity = format!("loss/{}", input.name);
+        let unit = if per_unit { "kW" } else { input.unit.as_str() };
+        let name = format!("{}, {unit}", input.name.replace('_', " "));
+        style::series(rec, &entity, &name, style::input(j), style::LINE_WIDTH)?;
+        send_series(
+            rec,
+            &entity,
+            on_grid(t, input.values.iter().map(|v| v.map(|v| v * scale))),
+        )?;
+    }
+    for (i, series) in replay.decimated.series.values().enumerate() {
+        let entity = format!("decimated/{}", series.signal.name());
+        let name = format!("{}, {}", series.signal.name(), series.unit);
+        style::series(rec, &entity, &name, style::input(i), style::LINE_WIDTH)?;
+        send_series(rec, &entity, on_grid(t, series.values.iter()))?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_part_is_named_up_to_its_parenthesis() {
+        assert_eq!(short_part("stator winding (copper)"), "stator winding");
+        assert_eq!(short_part("iron core"), "iron core");
+    }
+}

@@ -1,0 +1,215 @@
+//! Outputs that are either complete or absent: written under a temporary name in
+//! the destination's folder (so the final rename stays on one file system) and
+//! renamed into place only when complete, by `tempfile`'s persist.
+
+use std::fs::File;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+use tempfile::{Builder, NamedTempFile, TempPath};
+
+/// An output could not be written (the folder is missing or read-only, the disk is full).
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: cannot write: {message}")]
+pub struct WriteError {
+    /// The output file (its final name, not the temporary one).
+    pub path: PathBuf,
+    /// What went wrong.
+    pub message: String,
+}
+
+impl WriteError {
+    /// A failure to write `path`, with the operating system's (or a writer's) message.
+    pub fn new(path: &Path, message: impl std::fmt::Display) -> WriteError {
+        WriteError {
+            path: path.to_owned(),
+            message: message.to_string(),
+        }
+    }
+}
+
+type Result<T> = std::result::Result<T, WriteError>;
+
+/// A temporary file beside `destination`, removed on drop unless committed.
+#[derive(Debug)]
+pub struct PendingOutput {
+    /// The temporary file (removed when dropped), or why none could be made.
+    temporary: std::io::Result<TempPath>,
+    /// Where the caller writes: the temporary file's name.
+    path: PathBuf,
+    destination: PathBuf,
+}
+
+impl PendingOutput {
+    /// Creates an empty temporary file `.<name>.<random>.partial` beside `destination`
+    /// for the caller to write at [`PendingOutput::path`] (by name: rerun's file sink and
+    /// the MCAP writer open it themselves).
+    ///
+    /// Where the folder cannot take a file (missing, read-only), the caller's own attempt
+    /// to write at [`PendingOutput::path`] meets the same failure and reports it, naming
+    /// the destination; [`PendingOutput::commit`] would report it too.
+    pub fn new(destination: &Path) -> PendingOutput {
+        let temporary = temporary_file(destination).map(NamedTempFile::into_temp_path);
+        let path = match &temporary {
+            Ok(file) => file.to_path_buf(),
+            Err(_) => folder_of(destination).join(format!(".{}.partial", file_name(destination))),
+        };
+        PendingOutput {
+            temporary,
+            path,
+            destination: destination.to_owned(),
+        }
+    }
+
+    /// The temporary file to write.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The final name, given only to a complete output.
+    pub fn destination(&self) -> &Path {
+        &self.destination
+    }
+
+    /// Renames the finished temporary file to its destination (replacing what was there).
+    pub fn commit(self) -> Result<()> {
+        match self.temporary {
+            Ok(file) => file
+                .persist(&self.destination)
+                .map_err(|e| write_error(&self.destination, &e.error)),
+            Err(e) => Err(write_error(&self.destination, &e)),
+        }
+    }
+}
+
+/// Writes `bytes` to `destination` atomically.
+pub fn write_atomically(destination: &Path, bytes: &[u8]) -> Result<()> {
+    let mut file = temporary_file(destination).map_err(|e| write_error(destination, &e))?;
+    file.write_all(bytes)
+        .map_err(|e| write_error(destination, &e))?;
+    file.persist(destination)
+        .map_err(|e| write_error(destination, &e.error))?;
+    Ok(())
+}
+
+/// A new, uniquely named file beside `destination`. Created with `File::create_new`
+/// rather than tempfile's default so that it gets the usual permissions (0666 less the
+/// umask), not 0600: the output is an ordinary file once renamed.
+fn temporary_file(destination: &Path) -> std::io::Result<NamedTempFile> {
+    Builder::new()
+        .prefix(&format!(".{}.", file_name(destination)))
+        .suffix(".partial")
+        .make_in(folder_of(destination), |path| File::create_new(path))
+}
+
+/// The folder an output goes to (`.` for a bare file name).
+fn folder_of(destination: &Path) -> &Path {
+    match destination.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+fn file_name(destination: &Path) -> String {
+    destination
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+fn write_error(destination: &Path, e: &std::io::Error) -> WriteError {
+    WriteError::new(destination, e)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names_in(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[test]
+    fn a_committed_output_replaces_the_old_one_and_leaves_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("report.json");
+        std::fs::write(&out, "old").unwrap();
+        let pending = PendingOutput::new(&out);
+        assert_eq!(pending.path().parent(), Some(dir.path()));
+        let temporary = pending
+            .path()
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        assert!(
+            temporary.starts_with(".report.json.") && temporary.ends_with(".partial"),
+            "{temporary}"
+        );
+        std::fs::write(pending.path(), "new").unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&out).unwrap(),
+            "old",
+            "not before commit"
+        );
+        pending.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), "new");
+        assert_eq!(names_in(dir.path()), ["report.json"]);
+    }
+
+    #[test]
+    fn an_abandoned_output_leaves_no_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run.rrd");
+        let pending = PendingOutput::new(&out);
+        std::fs::write(pending.path(), "half a recording").unwrap();
+        drop(pending);
+        assert!(names_in(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn two_pending_outputs_of_one_destination_do_not_collide() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("fleet-summary.csv");
+        let (a, b) = (PendingOutput::new(&out), PendingOutput::new(&out));
+        assert_ne!(a.path(), b.path());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn an_output_gets_the_usual_permissions() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("report.json");
+        write_atomically(&out, b"{}").unwrap();
+        let mode = std::fs::metadata(&out).unwrap().permissions().mode() & 0o777;
+        // What `File::create` gives under this umask (0644 under the usual 022), not
+        // tempfile's 0600 for its own files.
+        let usual = {
+            let probe = dir.path().join("probe");
+            File::create(&probe).unwrap();
+            std::fs::metadata(&probe).unwrap().permissions().mode() & 0o777
+        };
+        assert_eq!(mode, usual);
+        assert_eq!(std::fs::read(&out).unwrap(), b"{}");
+        assert_eq!(names_in(dir.path()), ["probe", "report.json"]);
+    }
+
+    #[test]
+    fn a_missing_folder_is_an_error_naming_the_destination() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("no/such/folder/report.json");
+        let err = write_atomically(&out, b"{}").unwrap_err().to_string();
+        assert!(err.starts_with(&out.display().to_string()), "{err}");
+        assert!(err.contains("cannot write"), "{err}");
+        // The pending form reports it when written and committed, not before.
+        let pending = PendingOutput::new(&out);
+        assert!(std::fs::write(pending.path(), "x").is_err());
+        assert!(pending.commit().is_err());
+    }
+}

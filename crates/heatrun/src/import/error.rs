@@ -1,0 +1,167 @@
+//! What can go wrong in an import, each naming the file, line and column it is about.
+
+use std::path::PathBuf;
+
+/// An import that could not be done. Every message is one line naming the file and,
+/// where there is one, the line and column; no output is left behind.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    /// A file (the table or the map) could not be opened or read.
+    #[error("{path}: cannot read: {error}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The operating-system error (not a `source`: the message already says it).
+        error: std::io::Error,
+    },
+    /// The map is not valid TOML or has a key it does not know.
+    #[error("{path}: line {line}: {message}")]
+    MapSyntax {
+        /// The map file.
+        path: PathBuf,
+        /// The line of the map, 1-based.
+        line: usize,
+        /// What the TOML parser found.
+        message: String,
+    },
+    /// A value of the map is out of its range or contradicts another.
+    #[error("{path}: {key}: {message}")]
+    MapValue {
+        /// The map file.
+        path: PathBuf,
+        /// The key, as `column 3 (T1).deadband` or `time.zone`.
+        key: String,
+        /// What is wrong and what is accepted.
+        message: String,
+    },
+    /// The map names a column by header name, but the table has no header line.
+    #[error("{map}: column `{column}` is named, but {path} has no header line; give its position (1-based) instead")]
+    NoHeader {
+        /// The map file.
+        map: PathBuf,
+        /// The table.
+        path: PathBuf,
+        /// The name the map gives.
+        column: String,
+    },
+    /// The map names a column the table does not have.
+    #[error(
+        "{path}: line {line}: no column {column} (named in {map}); the columns are {available}"
+    )]
+    AbsentColumn {
+        /// The table.
+        path: PathBuf,
+        /// The line that shows the columns (the header, or the first data line).
+        line: u64,
+        /// The map file.
+        map: PathBuf,
+        /// The column as the map names it (`Heater 3` or `12`).
+        column: String,
+        /// The table's columns, for the reader to choose from.
+        available: String,
+    },
+    /// A row has another number of fields than the header (or the first row).
+    #[error("{path}: line {line} has {found} fields where line {first_line} has {expected}")]
+    RaggedRow {
+        /// The table.
+        path: PathBuf,
+        /// The line of the row.
+        line: u64,
+        /// Fields found on it.
+        found: usize,
+        /// Fields of the first row (or the header).
+        expected: usize,
+        /// The line that set the expected count.
+        first_line: u64,
+    },
+    /// A value cell that is neither a number nor missing (empty, `NaN`).
+    #[error("{path}: line {line}, column {column}: `{text}` is not a number (an empty cell or NaN is a missing sample)")]
+    BadNumber {
+        /// The table.
+        path: PathBuf,
+        /// The line of the row.
+        line: u64,
+        /// The column, by position and header name.
+        column: String,
+        /// The cell as written.
+        text: String,
+    },
+    /// A quality cell that is none of the accepted flags.
+    #[error("{path}: line {line}, column {column}: `{text}` is not a quality flag ({accepted})")]
+    BadQuality {
+        /// The table.
+        path: PathBuf,
+        /// The line of the row.
+        line: u64,
+        /// The quality column, by position and header name.
+        column: String,
+        /// The cell as written.
+        text: String,
+        /// What the column may hold.
+        accepted: String,
+    },
+    /// A time cell that cannot be read as the map's time format says.
+    #[error("{path}: line {line}, column {column}: `{text}` is not a time: {reason}")]
+    BadTime {
+        /// The table.
+        path: PathBuf,
+        /// The line of the row.
+        line: u64,
+        /// The time column, by position and header name.
+        column: String,
+        /// The cell as written.
+        text: String,
+        /// Why it was not read.
+        reason: String,
+    },
+    /// A row's time is earlier than the row before it.
+    #[error("{path}: line {line}, column {column}: time goes backwards, from {previous} on the line before to {current}")]
+    TimeBackwards {
+        /// The table.
+        path: PathBuf,
+        /// The line of the row.
+        line: u64,
+        /// The time column, by position and header name.
+        column: String,
+        /// The previous row's time (RFC 3339, UTC).
+        previous: String,
+        /// This row's time (RFC 3339, UTC).
+        current: String,
+    },
+    /// The CSV reader could not read a record (a broken quote).
+    #[error("{path}: line {line}: {message}")]
+    Table {
+        /// The table.
+        path: PathBuf,
+        /// The line where the record starts.
+        line: u64,
+        /// What the CSV reader found.
+        message: String,
+    },
+    /// The table holds no data rows.
+    #[error("{path}: no data rows")]
+    NoData {
+        /// The table.
+        path: PathBuf,
+    },
+    /// The output would replace the input.
+    #[error("{path}: the output would replace the input")]
+    OutputIsInput {
+        /// The file named as both.
+        path: PathBuf,
+    },
+    /// Writing the recording failed.
+    #[error(transparent)]
+    Write(#[from] crate::atomic::WriteError),
+}
+
+impl ImportError {
+    /// Whether the error is the input's fault (a bad table or map) rather than the
+    /// machine's (the output could not be written).
+    pub fn is_bad_input(&self) -> bool {
+        match self {
+            ImportError::Write(_) => false,
+            _ => true,
+        }
+    }
+}

@@ -1,0 +1,995 @@
+//! The streamed monitor: the model runs beside a recording as it is read, a finished
+//! stretch of the grid at a time, in time order, so that a connected viewer and the
+//! printout follow a recording of any length (or one still being written, read from a
+//! pipe) while memory holds the raw samples of about one stretch, not of the file.
+//!
+//! The driver is the reader's [`SampleSink`]. It keeps the raw samples not yet sealed and
+//! a watermark W: the oldest of the channels' settled times, each channel's latest sample
+//! time less [`SETTLE_PERIODS`] of its own mean spacing (a channel slower than the grid
+//! has then delivered the samples after every instant before W, so its interpolation
+//! there is final, and enough of them for the decimator to judge its spacing as it
+//! would on the whole file), but never more than [`StreamOptions::max_lateness_s`]
+//! behind the newest sample (a channel that fell silent does not hold the monitor
+//! back; its silence is a gap). Once W passes the end of the next stretch plus the
+//! signal stage's look-ahead (the ±30 s smoothing of the flow input), the stretch is
+//! sealed: its samples, with an overlap before it (the look-back of the smoothing and of
+//! the inputs' dead times) and after it (the look-ahead), are laid on the grid by a
+//! [`Decimator`] of their own and windowed onto the one grid of the whole recording
+//! ([`DecimatedRecording::window`]); the signal stage computes the stretch measured
+//! from the origins taken once on the first stretch ([`Anchors`]: the initial
+//! references and levels, the flow's Q₀); then the model steps through its instants,
+//! carrying x̂, the alarm detector, the residual statistics and the lagged inlet shift
+//! across stretches. An observer ([`StretchObserver`]: the rerun publisher) receives
+//! each stretch as it is sealed.
+//!
+//! On a complete file this gives what the whole-file monitor gave ([`super::batch`], kept
+//! as the test oracle): the same instants and values (to rounding), alarms, statistics
+//! and restarts. Samples that arrive for an instant already sealed (a file's order is not
+//! strictly time order), and samples the reader takes back at the end of the file after
+//! their instant was sealed, are counted and reported as data loss, never fatal.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use nalgebra::DVector;
+
+use super::{
+    description_of, grid_alignments, inlet_warning, Accumulator, Band, Detector, MonitorOptions,
+    MonitorResult, MonitorTraces, StateRef,
+};
+use crate::decimate::{
+    self, DecimateError, DecimatedRecording, DecimatedSeries, Decimator, GAP_FACTOR,
+};
+use crate::error::{Error, Result};
+use crate::signals::SignalError;
+use crate::predict::model::StateReference;
+use crate::predict::ThermalModel;
+use crate::progress::Observer;
+use crate::recording::{
+    self, Alignment, Quantity, ReadOptions, Sample, SampleSink, SensorChannel, Signal, Storage,
+};
+use crate::series::Series;
+use crate::signals::{self, Anchors, ModelSignals, FLOW_RISE_SMOOTHING_S};
+use crate::spec::{delay, InputSource, ModelDescription};
+
+/// The default stretch, s: ten minutes of grid, short against a fouling's hours and
+/// long against the look-back and look-ahead each stretch decimates again.
+pub const DEFAULT_STRETCH_S: f64 = 600.0;
+
+/// The default longest wait for a silent channel, s: fifteen minutes.
+pub const DEFAULT_MAX_LATENESS_S: f64 = 900.0;
+
+/// Grid instants of margin on either side of a stretch beyond what the signal stage
+/// looks at (the interval a sample of an interval-aligned channel is averaged over, the
+/// neighbour an interpolation needs).
+const MARGIN: i64 = 2;
+
+/// How the recording is streamed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreamOptions {
+    /// The grid time sealed at once, s.
+    pub stretch_s: f64,
+    /// How far the watermark may stay behind the newest sample for a silent channel, s.
+    pub max_lateness_s: f64,
+    /// Whether the result keeps the measured and predicted temperatures of every instant
+    /// ([`MonitorTraces`], which grow with the grid: what an HTML page draws); without
+    /// them it keeps the grid's times only.
+    pub keep_traces: bool,
+}
+
+impl Default for StreamOptions {
+    fn default() -> Self {
+        StreamOptions {
+            stretch_s: DEFAULT_STRETCH_S,
+            max_lateness_s: DEFAULT_MAX_LATENESS_S,
+            keep_traces: true,
+        }
+    }
+}
+
+/// One sealed stretch, as the observer receives it.
+#[derive(Debug)]
+pub struct Stretch<'a> {
+    /// Its grid instants, ns since the epoch.
+    pub time_ns: &'a [i64],
+    /// θ_j per state on them, °C.
+    pub measured: &'a [Series],
+    /// θ̂_j per state on them, °C.
+    pub predicted: &'a [Series],
+    /// Per state, the instants (ns) and residuals (K) now known to lie inside an alarm
+    /// and not given before (an alarm is known the hold time after its start, so these
+    /// may reach back into earlier stretches).
+    pub alarm_points: &'a [Vec<(i64, f64)>],
+    /// Alarms raised in this stretch: (state, first instant outside the band, ns).
+    pub raised: &'a [(usize, i64)],
+    /// Samples the reader had delivered when the stretch was sealed.
+    pub samples_read: u64,
+}
+
+/// Why an observer stopped the monitor (its own error, boxed: the library does not know
+/// the observer's kind).
+pub type ObserverError = Box<dyn std::error::Error + Send + Sync>;
+
+/// Receives the stretches as they are sealed, in time order.
+pub trait StretchObserver {
+    /// A stretch was sealed; an error stops the monitor (it becomes
+    /// [`crate::Error::Observer`]).
+    fn stretch(&mut self, stretch: &Stretch<'_>) -> std::result::Result<(), ObserverError>;
+}
+
+/// Where the recording comes from.
+pub enum Source<'r> {
+    /// A file.
+    File(&'r Path),
+    /// A stream (standard input), read in order to its end, named `name` in messages.
+    Stream {
+        /// The bytes.
+        reader: Box<dyn Read + Send + 'r>,
+        /// Its name in messages (`-`).
+        name: PathBuf,
+    },
+}
+
+impl Source<'_> {
+    fn name(&self) -> PathBuf {
+        match self {
+            Source::File(p) => p.to_path_buf(),
+            Source::Stream { name, .. } => name.clone(),
+        }
+    }
+}
+
+/// What a streamed monitor is told besides the model and the recording.
+#[derive(Default)]
+pub struct Watchers<'a> {
+    /// Receives every raw sample as the file streams by (the full-rate publisher).
+    pub also: Option<&'a mut dyn SampleSink>,
+    /// Receives each sealed stretch.
+    pub observer: Option<&'a mut dyn StretchObserver>,
+    /// The reader's progress.
+    pub progress: Observer,
+}
+
+/// Monitors `source` with `model` as it is read (see the module).
+pub fn monitor_stream(
+    model: &ThermalModel,
+    source: Source<'_>,
+    options: &MonitorOptions,
+    stream: &StreamOptions,
+    watchers: Watchers<'_>,
+) -> Result<MonitorResult> {
+    let description = description_of(model)?;
+    let name = source.name();
+    let band = Band::from_model_error(&model.error, options.band);
+    let mut live = Live::new(model, description.clone(), &band, options.hold_s, stream)?;
+    live.also = watchers.also;
+    live.observer = watchers.observer;
+    let read_options = ReadOptions {
+        free_channels: description.free_channels(),
+        progress: watchers.progress,
+    };
+    let summary = match source {
+        Source::File(path) => recording::read_recording_with(path, &mut live, &read_options)?,
+        Source::Stream { reader, name } => {
+            recording::read_stream_with(reader, &name, 0, &mut live, &read_options)?
+        }
+    };
+    live.advance(true);
+    if let Some(e) = live.error.take() {
+        return Err(e.in_recording(&name));
+    }
+    if live.sealed.is_none() {
+        return Err(Error::from(DecimateError::NoSamples).in_recording(&name));
+    }
+    let mut data_loss = summary.data_loss;
+    data_loss.extend(live.late_lines());
+    Ok(live
+        .run
+        .finish(model, &band, options.hold_s, &name, data_loss))
+}
+
+/// The sample sink that seals stretches as the watermark passes them.
+struct Live<'m, 'w> {
+    model: &'m ThermalModel,
+    description: ModelDescription,
+    alignments: BTreeMap<Signal, Alignment>,
+    ts_ns: i64,
+    /// Instants per stretch, of look-back and of look-ahead.
+    stretch: i64,
+    lookback: i64,
+    lookahead: i64,
+    lateness_ns: u64,
+    /// The channels announced, in index order.
+    channel_list: Vec<SensorChannel>,
+    /// Per channel index: where its samples are windowed on the grid.
+    windowing: Vec<Option<Alignment>>,
+    /// Per channel index: when its samples came.
+    arrivals: Vec<Option<Arrivals>>,
+    newest: u64,
+    /// The raw samples not yet sealed (and the overlap the next stretch needs).
+    buffer: Vec<(Sample, i64)>,
+    /// The earliest and latest grid window holding a sample.
+    window_range: Option<(i64, i64)>,
+    samples: u64,
+    /// The first instant not yet sealed (`None` before the first stretch).
+    sealed: Option<i64>,
+    next_check_ns: u64,
+    anchors: Option<Anchors>,
+    /// The first instant not yet sealable at which to try taking the origins again.
+    anchor_retry: i64,
+    /// Per channel index: samples that arrived, and were taken back, after their
+    /// instant was sealed.
+    late: BTreeMap<usize, (u64, u64)>,
+    error: Option<Error>,
+    also: Option<&'w mut dyn SampleSink>,
+    observer: Option<&'w mut dyn StretchObserver>,
+    run: Runner,
+}
+
+impl<'m, 'w> Live<'m, 'w> {
+    fn new(
+        model: &'m ThermalModel,
+        description: ModelDescription,
+        band: &Band,
+        hold_s: f64,
+        stream: &StreamOptions,
+    ) -> Result<Live<'m, 'w>> {
+        // The decimator's own check of the sample time, before any sample.
+        Decimator::new(model.ts_s, BTreeMap::new())?;
+        let ts_ns = (model.ts_s * 1e9).round() as i64;
+        let instants = |s: f64| (s / model.ts_s).ceil() as i64;
+        let flow = description
+            .inputs
+            .iter()
+            .any(|i| matches!(i.source, InputSource::CoolantFlow { .. }));
+        let smoothing = if flow {
+            instants(FLOW_RISE_SMOOTHING_S)
+        } else {
+            0
+        };
+        // A dead time looks back d instants, an advance (a negative shift) ahead a.
+        let shifts: Vec<isize> = description
+            .inputs
+            .iter()
+            .filter_map(|i| delay::shift_samples(i.delay_s, model.ts_s))
+            .collect();
+        let dead_time = shifts.iter().copied().max().unwrap_or(0).max(0) as i64;
+        let advance = -(shifts.iter().copied().min().unwrap_or(0).min(0)) as i64;
+        Ok(Live {
+            model,
+            description: description.clone(),
+            alignments: grid_alignments(model, &description),
+            ts_ns,
+            stretch: instants(stream.stretch_s).max(1),
+            lookback: smoothing + dead_time + MARGIN,
+            lookahead: smoothing + advance + MARGIN,
+            lateness_ns: (stream.max_lateness_s.max(0.0) * 1e9) as u64,
+            channel_list: Vec::new(),
+            windowing: Vec::new(),
+            arrivals: Vec::new(),
+            newest: 0,
+            buffer: Vec::new(),
+            window_range: None,
+            samples: 0,
+            sealed: None,
+            next_check_ns: 0,
+            anchors: None,
+            anchor_retry: i64::MIN,
+            late: BTreeMap::new(),
+            error: None,
+            also: None,
+            observer: None,
+            run: Runner::new(model, band, hold_s, stream),
+        })
+    }
+
+    fn channel_of(&self, index: usize) -> Option<&SensorChannel> {
+        match self.channel_list.get(index) {
+            Some(c) if c.index == index => Some(c),
+            _ => self.channel_list.iter().find(|c| c.index == index),
+        }
+    }
+
+    fn window(&self, sample: &Sample) -> Option<i64> {
+        let alignment = (*self.windowing.get(sample.channel)?)?;
+        Some(decimate::window_index(
+            self.ts_ns,
+            alignment,
+            sample.log_time_ns,
+        ))
+    }
+
+    /// The first instant not yet sealable: every instant before it has its samples in.
+    fn sealable_end(&self, last: bool) -> Option<i64> {
+        let (_, hi) = self.window_range?;
+        if last {
+            return Some(hi + 1);
+        }
+        let slowest = self
+            .arrivals
+            .iter()
+            .flatten()
+            .map(Arrivals::settled)
+            .min()?;
+        let watermark = slowest.max(self.newest.saturating_sub(self.lateness_ns));
+        Some((watermark as i64).div_euclid(self.ts_ns) - self.lookahead - MARGIN)
+    }
+
+    /// Seals every stretch the watermark has passed (all of them at the end).
+    fn advance(&mut self, last: bool) {
+        while self.error.is_none() {
+            let (Some(end), Some((lo, _))) = (self.sealable_end(last), self.window_range) else {
+                return;
+            };
+            let start = self.sealed.unwrap_or(lo);
+            if end <= start || (!last && end - start < self.stretch) {
+                return;
+            }
+            let upto = if last { end } else { start + self.stretch };
+            match self.seal(start, upto, end, last) {
+                Ok(true) => {}
+                Ok(false) => return,
+                Err(e) => self.error = Some(e),
+            }
+        }
+    }
+
+    /// A decimator with every channel announced.
+    fn decimator(&self) -> Result<Decimator> {
+        let mut decimator = Decimator::new(self.model.ts_s, self.alignments.clone())?;
+        for c in &self.channel_list {
+            decimator.channel(c);
+        }
+        Ok(decimator)
+    }
+
+    /// Refuses a channel whose clock jumped back over its own samples within instants
+    /// `a..b`, judged, as a replay judges the whole recording, on their samples alone
+    /// (the neighbour kept from before a gap would make the stretch look dense).
+    fn check_clock(&self, a: i64, b: i64) -> Result<()> {
+        let mut decimator = self.decimator()?;
+        for (s, w) in &self.buffer {
+            if (a..b).contains(w) {
+                decimator.sample(*s);
+            }
+        }
+        match decimator.finish(&self.channel_list) {
+            Err(e @ DecimateError::ClockJump { .. }) => Err(e.into()),
+            _ => Ok(()),
+        }
+    }
+
+    /// The buffered samples laid on the grid from instant `lo` for `len` instants.
+    fn decimate(&self, lo: i64, len: usize) -> Result<DecimatedRecording> {
+        let mut decimator = self.decimator()?;
+        for (s, _) in &self.buffer {
+            decimator.sample(*s);
+        }
+        match decimator.inspect(&self.channel_list) {
+            Ok(d) => Ok(d.window(lo, len)),
+            Err(DecimateError::NoSamples) => Ok(self.unknown(lo, len)),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// Every announced channel's signal, unknown throughout.
+    fn unknown(&self, lo: i64, len: usize) -> DecimatedRecording {
+        let series = self
+            .channel_list
+            .iter()
+            .map(|c| {
+                let s = DecimatedSeries {
+                    signal: c.signal.clone(),
+                    unit: c.canonical_unit().to_owned(),
+                    values: Series::unknown(len),
+                    sensors: 1,
+                    observed: None,
+                };
+                (c.signal.clone(), s)
+            })
+            .collect();
+        DecimatedRecording {
+            ts_ns: self.ts_ns,
+            first_index: lo,
+            len,
+            series,
+            channels: Vec::new(),
+        }
+    }
+
+    /// Seals instants `a..b` (`end`: the first instant not yet sealable). `false` where
+    /// the origins cannot be taken yet (the first stretch waits for more).
+    fn seal(&mut self, a: i64, b: i64, end: i64, last: bool) -> Result<bool> {
+        if self.anchors.is_none() {
+            // Tried again a stretch later, not at every sample: until the origins can be
+            // taken, the buffer holds the recording from its start.
+            if !last && end < self.anchor_retry {
+                return Ok(false);
+            }
+            self.anchor_retry = end + self.stretch;
+            let whole = self.decimate(a, (end - a) as usize)?;
+            let np = self.model.nameplate.as_ref();
+            match Anchors::find(&self.description, &whole, np) {
+                Ok(anchors) if anchors.complete || last => self.anchors = Some(anchors),
+                Ok(_) => return Ok(false),
+                Err(SignalError::NoCommonInstant { .. }) if !last => return Ok(false),
+                Err(e) => return Err(e.into()),
+            }
+        }
+        self.check_clock(a, b)?;
+        let lo = a - self.lookback;
+        let hi = if last { b } else { b + self.lookahead };
+        let decimated = self.decimate(lo, (hi - lo) as usize)?;
+        let anchors = self.anchors.as_mut().expect("anchored above");
+        let np = self.model.nameplate.as_ref();
+        let signals = signals::compute_anchored(&self.description, &decimated, np, anchors)?;
+        let offset = (a - lo) as usize;
+        let count = (b - a) as usize;
+        self.run
+            .stretch(self.model, &signals, &decimated, offset..offset + count);
+        self.sealed = Some(b);
+        self.prune(b - self.lookback - 1);
+        if let Some(observer) = self.observer.as_deref_mut() {
+            observer
+                .stretch(&self.run.last_stretch(self.samples).borrow())
+                .map_err(crate::Error::Observer)?;
+        }
+        Ok(true)
+    }
+
+    /// Drops the samples before grid window `cut`, but each channel's last occupied window
+    /// before it (the neighbour an interpolation after the cut needs).
+    fn prune(&mut self, cut: i64) {
+        let mut last_before = vec![i64::MIN; self.windowing.len()];
+        for (s, w) in &self.buffer {
+            if *w < cut {
+                last_before[s.channel] = last_before[s.channel].max(*w);
+            }
+        }
+        // A neighbour further back than any interpolation reaches is not kept: laid out
+        // beside the first samples after a gap, it would make the gap look like the
+        // channel's spacing.
+        let reach = |c: usize, w: i64| {
+            let reach_s = match (self.channel_of(c).map(|c| c.storage), &self.arrivals.get(c)) {
+                (Some(Storage::Exception { max_interval_s, .. }), _) => {
+                    max_interval_s.map_or(f64::INFINITY, |m| GAP_FACTOR * m)
+                }
+                (_, Some(Some(a))) => 2.0 * GAP_FACTOR * a.period_s(),
+                _ => 0.0,
+            };
+            ((cut - w) as f64 - 2.0) * self.model.ts_s <= reach_s
+        };
+        let reaches: Vec<bool> = last_before
+            .iter()
+            .enumerate()
+            .map(|(c, &w)| w > i64::MIN && reach(c, w))
+            .collect();
+        self.buffer
+            .retain(|(s, w)| *w >= cut || (last_before[s.channel] == *w && reaches[s.channel]));
+    }
+
+    /// The data-loss lines of samples that came too late.
+    fn late_lines(&self) -> Vec<String> {
+        let topic = |c: usize| {
+            self.channel_of(c)
+                .map_or_else(|| format!("#{c}"), |c| c.topic.clone())
+        };
+        let mut lines = Vec::new();
+        for (&c, &(arrived, retracted)) in &self.late {
+            if arrived > 0 {
+                lines.push(format!(
+                    "{arrived} samples of channel {} arrived after their instant was monitored",
+                    topic(c)
+                ));
+            }
+            if retracted > 0 {
+                lines.push(format!(
+                    "{retracted} samples of channel {} were found faulty at the end of the \
+                     file after their instant was monitored",
+                    topic(c)
+                ));
+            }
+        }
+        lines
+    }
+}
+
+impl SampleSink for Live<'_, '_> {
+    fn channel(&mut self, channel: &SensorChannel) {
+        if let Some(also) = self.also.as_deref_mut() {
+            also.channel(channel);
+        }
+        if self.windowing.len() <= channel.index {
+            self.windowing.resize(channel.index + 1, None);
+        }
+        self.windowing[channel.index] =
+            Some(decimate::channel_alignment(&self.alignments, channel));
+        self.channel_list.retain(|c| c.index != channel.index);
+        self.channel_list.push(channel.clone());
+        self.channel_list.sort_by_key(|c| c.index);
+    }
+
+    fn sample(&mut self, sample: Sample) {
+        if let Some(also) = self.also.as_deref_mut() {
+            also.sample(sample);
+        }
+        if self.error.is_some() || !sample.value.is_finite() {
+            return;
+        }
+        let Some(w) = self.window(&sample) else {
+            return;
+        };
+        self.samples += 1;
+        if self.sealed.is_some_and(|s| w < s) {
+            self.late.entry(sample.channel).or_default().0 += 1;
+        }
+        self.window_range = Some(match self.window_range {
+            Some((lo, hi)) => (lo.min(w), hi.max(w)),
+            None => (w, w),
+        });
+        if self.arrivals.len() <= sample.channel {
+            self.arrivals.resize(sample.channel + 1, None);
+        }
+        let t = sample.log_time_ns;
+        match &mut self.arrivals[sample.channel] {
+            Some(a) => a.add(t),
+            slot @ None => {
+                *slot = Some(Arrivals {
+                    first: t,
+                    latest: t,
+                    count: 1,
+                })
+            }
+        }
+        self.newest = self.newest.max(t);
+        self.buffer.push((sample, w));
+        if t >= self.next_check_ns {
+            self.next_check_ns = t + self.ts_ns as u64;
+            self.advance(false);
+        }
+    }
+
+    fn retract(&mut self, sample: Sample) {
+        if let Some(also) = self.also.as_deref_mut() {
+            also.retract(sample);
+        }
+        if !sample.value.is_finite() {
+            return;
+        }
+        match (self.window(&sample), self.sealed) {
+            (Some(w), Some(s)) if w < s => self.late.entry(sample.channel).or_default().1 += 1,
+            _ => {
+                if let Some(i) = self.buffer.iter().position(|(s, _)| *s == sample) {
+                    self.buffer.remove(i);
+                }
+            }
+        }
+    }
+}
+
+/// When one channel's samples came: enough to say how far behind its latest sample its
+/// data are complete.
+#[derive(Debug, Clone, Copy)]
+struct Arrivals {
+    first: u64,
+    latest: u64,
+    count: u64,
+}
+
+/// Sample periods a channel's data are taken as complete behind its latest sample: the
+/// decimator judges a channel's spacing (a sample in every window, or slower and
+/// interpolated) from the samples it is given, so a stretch is laid out only once
+/// this many samples after it have come.
+const SETTLE_PERIODS: f64 = 20.0;
+
+impl Arrivals {
+    fn add(&mut self, t: u64) {
+        self.first = self.first.min(t);
+        self.latest = self.latest.max(t);
+        self.count += 1;
+    }
+
+    /// Its mean spacing so far, s (gaps make it longer, never shorter).
+    fn period_s(&self) -> f64 {
+        (self.latest - self.first) as f64 * 1e-9 / (self.count.max(2) - 1) as f64
+    }
+
+    /// The time up to which its data are complete, ns.
+    fn settled(&self) -> u64 {
+        let behind = (SETTLE_PERIODS * self.period_s() * 1e9) as u64;
+        self.latest.saturating_sub(behind)
+    }
+}
+
+/// The model beside the recording, carried from one stretch to the next.
+struct Runner {
+    per_state: Vec<StateRef>,
+    base: f64,
+    /// The inlet temperature of the model test and the lag's weight per instant, where
+    /// initial references shift with this recording's inlet.
+    shift: Option<(f64, f64)>,
+    shift_state: Option<f64>,
+    x_hat: Option<DVector<f64>>,
+    starts: usize,
+    detector: Detector,
+    stats: Vec<Accumulator>,
+    band_k: Vec<f64>,
+    t0: Option<i64>,
+    /// The last stretch's instants.
+    current: Traces,
+    /// All instants before it (the temperatures only where they are kept).
+    kept: Traces,
+    overlay: Overlay,
+    /// The coolant inlet and outlet on the grid (the inlet warning reads them).
+    coolant: [Series; 2],
+}
+
+/// Measured and predicted temperature per state, grown stretch by stretch.
+struct Traces {
+    time_ns: Vec<i64>,
+    measured: Vec<Series>,
+    predicted: Vec<Series>,
+}
+
+impl Traces {
+    fn new(n: usize) -> Traces {
+        Traces {
+            time_ns: Vec::new(),
+            measured: vec![Series::default(); n],
+            predicted: vec![Series::default(); n],
+        }
+    }
+
+    /// Moves `other`'s instants to the end of these (its temperatures where these keep
+    /// them).
+    fn append(&mut self, other: &mut Traces) {
+        self.time_ns.append(&mut other.time_ns);
+        for (kept, new) in self.measured.iter_mut().zip(&other.measured) {
+            kept.extend(new);
+        }
+        for (kept, new) in self.predicted.iter_mut().zip(&other.predicted) {
+            kept.extend(new);
+        }
+        for s in other.measured.iter_mut().chain(other.predicted.iter_mut()) {
+            *s = Series::default();
+        }
+    }
+}
+
+impl Runner {
+    fn new(model: &ThermalModel, band: &Band, hold_s: f64, stream: &StreamOptions) -> Runner {
+        let n = model.state_count();
+        let names = model.states.iter().map(|s| s.name.clone()).collect();
+        let per_state = model
+            .states
+            .iter()
+            .map(|s| match s.reference {
+                StateReference::Initial(r) => StateRef::ModelInitial(r),
+                StateReference::Absolute => StateRef::ModelInitial(0.0),
+                _ => StateRef::FromSignals,
+            })
+            .collect();
+        let shift = match model.coolant_inlet_temp_c {
+            Some(test) if !model.uses_coolant_inlet() => Some((test, lag_weight(model))),
+            _ => None,
+        };
+        let detector = Detector::new(names, band.half_width_k.clone(), hold_s);
+        // An excursion not yet known to be an alarm started at most the hold and the
+        // clearing time before the last update, a stretch ago.
+        let ring = 0.2 * hold_s + stream.stretch_s + model.ts_s;
+        let ring = detector.hold_ns() + (ring * 1e9) as i64;
+        Runner {
+            per_state,
+            base: model.temperature_base_k,
+            shift,
+            shift_state: None,
+            x_hat: None,
+            starts: 0,
+            detector,
+            stats: vec![Accumulator::default(); n],
+            band_k: band.half_width_k.clone(),
+            t0: None,
+            current: Traces::new(n),
+            kept: Traces::new(if stream.keep_traces { n } else { 0 }),
+            overlay: Overlay::new(n, ring),
+            coolant: [Series::default(), Series::default()],
+        }
+    }
+
+    /// Steps the model through instants `range` of a stretch's signals.
+    fn stretch(
+        &mut self,
+        model: &ThermalModel,
+        signals: &ModelSignals,
+        decimated: &DecimatedRecording,
+        range: std::ops::Range<usize>,
+    ) {
+        let values = |q: Quantity| decimated.get(q).map(|s| &s.values);
+        let inlet = values(Quantity::CoolingWaterInletTemp);
+        let outlet = values(Quantity::CoolingWaterOutletTemp);
+        self.kept.append(&mut self.current);
+        for k in range {
+            let inlet_k = inlet.and_then(|s| s.get(k));
+            self.coolant[0].push(inlet_k);
+            self.coolant[1].push(outlet.and_then(|s| s.get(k)));
+            let shift = self.lagged_shift(inlet_k);
+            self.step(model, signals, k, shift);
+        }
+        let now = self.current.time_ns.last().copied().unwrap_or(0);
+        self.overlay.update(&self.detector, now);
+    }
+
+    /// θ_in − θ_in,test through the first-order lag, the last value held across gaps.
+    fn lagged_shift(&mut self, inlet: Option<f64>) -> f64 {
+        let Some((test, alpha)) = self.shift else {
+            return 0.0;
+        };
+        if let Some(v) = inlet {
+            let d = v - test;
+            self.shift_state = Some(self.shift_state.map_or(d, |s| s + alpha * (d - s)));
+        }
+        self.shift_state.unwrap_or(0.0)
+    }
+
+    /// One instant: start (or restart) from the measured state, predict, compare, step.
+    fn step(&mut self, model: &ThermalModel, signals: &ModelSignals, k: usize, shift: f64) {
+        let n = self.per_state.len();
+        let time_ns = signals.time_ns[k];
+        let t0 = *self.t0.get_or_insert(time_ns);
+        let measured: Vec<Option<f64>> = signals.states.iter().map(|s| s.measured.get(k)).collect();
+        let reference: Vec<Option<f64>> = (0..n)
+            .map(|j| match self.per_state[j] {
+                StateRef::ModelInitial(r) => Some(r + shift),
+                StateRef::FromSignals => signals.states[j].reference_at(k),
+            })
+            .collect();
+        if self.x_hat.is_none() {
+            let rises: Option<Vec<f64>> = (0..n)
+                .map(|j| Some((measured[j]? - reference[j]?) / self.base))
+                .collect();
+            if let Some(r) = rises {
+                self.x_hat = Some(DVector::from_vec(r));
+                self.starts += 1;
+            }
+        }
+        let t_s = (time_ns - t0) as f64 / 1e9;
+        let mut residuals = vec![None; n];
+        for j in 0..n {
+            let theta_hat = self
+                .x_hat
+                .as_ref()
+                .and_then(|x| Some(reference[j]? + self.base * x[j]));
+            residuals[j] = measured[j].zip(theta_hat).map(|(m, p)| m - p);
+            if let Some(r) = residuals[j] {
+                self.stats[j].add(r, t_s, self.band_k[j]);
+            }
+            self.current.measured[j].push(measured[j]);
+            self.current.predicted[j].push(theta_hat);
+        }
+        self.current.time_ns.push(time_ns);
+        self.detector.observe(time_ns, &residuals);
+        self.overlay.remember(time_ns, residuals);
+        let u: Option<Vec<f64>> = signals.inputs.iter().map(|i| i.values.get(k)).collect();
+        self.x_hat = match (self.x_hat.take(), u) {
+            (Some(x), Some(u)) => Some(&model.phi * x + &model.gamma * DVector::from_vec(u)),
+            _ => None,
+        };
+    }
+
+    /// The last stretch sealed, for the observer.
+    fn last_stretch(&self, samples_read: u64) -> StretchView {
+        StretchView {
+            time_ns: self.current.time_ns.clone(),
+            measured: self.current.measured.clone(),
+            predicted: self.current.predicted.clone(),
+            alarm_points: self.overlay.points.clone(),
+            raised: self.overlay.raised.clone(),
+            samples_read,
+        }
+    }
+
+    /// The result, once the recording has ended.
+    fn finish(
+        mut self,
+        model: &ThermalModel,
+        band: &Band,
+        hold_s: f64,
+        recording: &Path,
+        data_loss: Vec<String>,
+    ) -> MonitorResult {
+        self.kept.append(&mut self.current);
+        let last = self.kept.time_ns.last().copied().unwrap_or(0);
+        let states: Vec<String> = model.states.iter().map(|s| s.name.clone()).collect();
+        let stats = self
+            .stats
+            .iter()
+            .enumerate()
+            .map(|(j, acc)| acc.finish(&states[j], &model.states[j].part, band.half_width_k[j]))
+            .collect();
+        let first_index = self
+            .t0
+            .unwrap_or(0)
+            .div_euclid((model.ts_s * 1e9).round() as i64);
+        let warnings = inlet_warning(model, &coolant_grid(self.coolant, model.ts_s, first_index))
+            .into_iter()
+            .collect();
+        MonitorResult {
+            recording: recording.to_owned(),
+            model: model.path.clone(),
+            ts_s: model.ts_s,
+            parts: model.states.iter().map(|s| s.part.clone()).collect(),
+            states,
+            band: band.clone(),
+            hold_s,
+            alarms: self.detector.finish(last),
+            stats,
+            restarts: self.starts.saturating_sub(1),
+            data_loss,
+            warnings,
+            traces: MonitorTraces {
+                time_ns: self.kept.time_ns,
+                measured: self.kept.measured,
+                predicted: self.kept.predicted,
+            },
+        }
+    }
+}
+
+/// The lag's weight per instant, 1 − exp(−Ts/τ) for the model's fastest time constant.
+fn lag_weight(model: &ThermalModel) -> f64 {
+    let tau = model
+        .time_constants_s
+        .iter()
+        .copied()
+        .filter(|t| t.is_finite() && *t > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if tau.is_finite() {
+        1.0 - (-model.ts_s / tau).exp()
+    } else {
+        1.0
+    }
+}
+
+/// The coolant inlet and outlet on the grid, as the inlet warning reads a recording.
+fn coolant_grid([inlet, outlet]: [Series; 2], ts_s: f64, first_index: i64) -> DecimatedRecording {
+    let len = inlet.len();
+    let mut series = BTreeMap::new();
+    for (q, values) in [
+        (Quantity::CoolingWaterInletTemp, inlet),
+        (Quantity::CoolingWaterOutletTemp, outlet),
+    ] {
+        if values.iter().any(|v| v.is_some()) {
+            let s = DecimatedSeries {
+                signal: Signal::Profile(q),
+                unit: q.canonical_unit().into(),
+                values,
+                sensors: 1,
+                observed: None,
+            };
+            series.insert(Signal::Profile(q), s);
+        }
+    }
+    DecimatedRecording {
+        ts_ns: (ts_s * 1e9).round() as i64,
+        first_index,
+        len,
+        series,
+        channels: Vec::new(),
+    }
+}
+
+/// A sealed stretch, owned (the observer borrows it as a [`Stretch`]).
+struct StretchView {
+    time_ns: Vec<i64>,
+    measured: Vec<Series>,
+    predicted: Vec<Series>,
+    alarm_points: Vec<Vec<(i64, f64)>>,
+    raised: Vec<(usize, i64)>,
+    samples_read: u64,
+}
+
+impl StretchView {
+    fn borrow(&self) -> Stretch<'_> {
+        Stretch {
+            time_ns: &self.time_ns,
+            measured: &self.measured,
+            predicted: &self.predicted,
+            alarm_points: &self.alarm_points,
+            raised: &self.raised,
+            samples_read: self.samples_read,
+        }
+    }
+}
+
+/// Which residuals lie inside an alarm, as far as the detector knows: an excursion is an
+/// alarm once it has lasted longer than the hold time, which is known only that long
+/// after its start, so the last hold time's residuals are kept to draw it from its start.
+struct Overlay {
+    /// The recent instants' residuals.
+    ring: VecDeque<(i64, Vec<Option<f64>>)>,
+    ring_ns: i64,
+    /// Per state, the last instant given as inside an alarm.
+    given_until: Vec<i64>,
+    /// Per state, whether its open excursion was raised.
+    raised_open: Vec<bool>,
+    /// Closed alarms already drawn.
+    closed_seen: usize,
+    /// What the last update made known.
+    points: Vec<Vec<(i64, f64)>>,
+    raised: Vec<(usize, i64)>,
+}
+
+impl Overlay {
+    fn new(n: usize, ring_ns: i64) -> Overlay {
+        Overlay {
+            ring: VecDeque::new(),
+            ring_ns,
+            given_until: vec![i64::MIN; n],
+            raised_open: vec![false; n],
+            closed_seen: 0,
+            points: vec![Vec::new(); n],
+            raised: Vec::new(),
+        }
+    }
+
+    fn remember(&mut self, time_ns: i64, residuals: Vec<Option<f64>>) {
+        self.ring.push_back((time_ns, residuals));
+    }
+
+    /// Gives the residuals of state j in `[start, end)` not given before.
+    fn give(&mut self, j: usize, start: i64, end: i64) {
+        for (t, r) in &self.ring {
+            if *t >= start && *t < end && *t > self.given_until[j] {
+                if let Some(r) = r[j] {
+                    self.points[j].push((*t, r));
+                }
+            }
+        }
+        let upto = self.ring.iter().map(|(t, _)| *t).filter(|t| *t < end).max();
+        if let Some(t) = upto {
+            self.given_until[j] = self.given_until[j].max(t);
+        }
+    }
+
+    /// What the detector knows at `now` (the last instant observed).
+    fn update(&mut self, detector: &Detector, now: i64) {
+        self.points.iter_mut().for_each(Vec::clear);
+        self.raised.clear();
+        let closed: Vec<(usize, i64, Option<i64>)> = detector.closed()[self.closed_seen..]
+            .iter()
+            .map(|a| (a.state, a.start_ns, a.end_ns))
+            .collect();
+        self.closed_seen += closed.len();
+        for (j, start, end) in closed {
+            if !self.raised_open[j] {
+                self.raised.push((j, start));
+            }
+            self.raised_open[j] = false;
+            self.give(j, start, end.unwrap_or(i64::MAX));
+        }
+        let hold = detector.hold_ns();
+        for j in 0..self.given_until.len() {
+            let Some((start, inside_since)) = detector.open_excursion(j) else {
+                self.raised_open[j] = false;
+                continue;
+            };
+            // Outside now: it lasts until now at least (as the detector's end would count it).
+            let certain = inside_since.unwrap_or(now) - start > hold;
+            if certain {
+                if !self.raised_open[j] {
+                    self.raised.push((j, start));
+                    self.raised_open[j] = true;
+                }
+                self.give(j, start, inside_since.unwrap_or(i64::MAX));
+            }
+        }
+        while self
+            .ring
+            .front()
+            .is_some_and(|(t, _)| now - *t > self.ring_ns)
+        {
+            self.ring.pop_front();
+        }
+    }
+}

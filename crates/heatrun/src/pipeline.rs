@@ -1,0 +1,607 @@
+//! The replay pipeline: recording → decimation → signals → estimation → analysis.
+//!
+//! This is the one place that knows the order of the stages; each stage returns what it
+//! owns, and publishing and the report read their outputs, gathered in a [`Replay`].
+//! What the model is — states, inputs, alignment, scaling — comes from the
+//! [`ModelDescription`] in the options (the generator by default).
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use std::borrow::Cow;
+
+use crate::decimate::{DecimatedRecording, Decimator};
+use crate::error::{Error, Result};
+use crate::recording::RecordingError;
+use crate::signals::SignalError;
+use crate::estimate::{
+    Estimate, EstimationError, Estimator, IdentificationData, InstrumentalVariables, OutputError,
+    RecursiveLeastSquares, ResistanceCapacitance, WeightedLeastSquares,
+};
+use crate::model::{self, ModelAnalysis};
+use crate::network::{self, NetworkAnalysis};
+use crate::progress::Observer;
+use crate::recording::{
+    self, Nameplate, NameplateEntries, ReadOptions, RecordingSummary, SampleSink,
+};
+use crate::signals::{self, ModelSignals};
+use crate::spec::coolant::{self, ReferencePolicy};
+use crate::spec::ModelDescription;
+use crate::warnings;
+
+/// An identification method selectable on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// Ordinary least squares (eq. 7), W = I: biased by sensor noise on y.
+    Ls,
+    /// Weighted least squares (eqs. 3–7) with per-output weights.
+    Wls,
+    /// Recursive least squares with a forgetting factor.
+    Rls,
+    /// Iterated instrumental variables.
+    Iv,
+    /// Output error by Levenberg–Marquardt from the IV estimate (the default).
+    Oe,
+    /// Grey-box output error in the thermal network's own parameters (C, G, K), passive
+    /// by construction, from the OE estimate's network.
+    Rc,
+}
+
+impl Method {
+    /// The method's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Ls => "ls",
+            Method::Wls => "wls",
+            Method::Rls => "rls",
+            Method::Iv => "iv",
+            Method::Oe => "oe",
+            Method::Rc => "rc",
+        }
+    }
+
+    /// Every method that identifies Φ and Γ freely (black box), for benchmarks and tests;
+    /// `rc` fits a network and has its own benchmark (`benches/network.rs`).
+    pub const ALL: [Method; 5] = [Method::Ls, Method::Wls, Method::Rls, Method::Iv, Method::Oe];
+}
+
+/// How to replay a recording.
+#[derive(Debug, Clone)]
+pub struct ReplayOptions {
+    /// Sample time Ts of the grid, s.
+    pub ts_s: f64,
+    /// A machine file whose keys override the recording's nameplate.
+    pub machine: Option<PathBuf>,
+    /// The identification method.
+    pub method: Method,
+    /// Per-output weights w_i for `wls` and `oe` (constant in time); `None`: equal for
+    /// `wls`, the inverse noise variances for `oe`.
+    pub weights: Option<Vec<f64>>,
+    /// Forgetting factor λ of `rls`.
+    pub forgetting: f64,
+    /// Where to validate the model, if anywhere.
+    pub validation: Option<ValidationSource>,
+    /// The thermal system: its states, inputs and scaling.
+    pub model: ModelDescription,
+    /// What the states are measured from: the description's references, or the coolant
+    /// inlet where the recording calls for it ([`coolant::resolve`]).
+    pub reference: ReferencePolicy,
+    /// Told how reading and estimation go ([`crate::progress`]); silent by default.
+    pub progress: Observer,
+}
+
+/// Data the model is validated on, not estimated from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ValidationSource {
+    /// The last fraction (0, 1) of the recording is held out of the estimation.
+    HoldOut(f64),
+    /// The recording is estimated on before this many seconds from its first grid instant
+    /// and validated on from there (a data set's published split, e.g. "the first 400
+    /// samples").
+    SplitAt(f64),
+    /// Another recording of the same machine.
+    Recording(PathBuf),
+}
+
+/// Fit of the model on data it was not estimated from.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Validation {
+    /// What the data were: `hold-out of the last 30 %` or a file.
+    pub source: String,
+    /// The fit (NRMSE %, MSE K², largest error K), from the measured state at the start.
+    pub fit: crate::model::Fit,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        ReplayOptions {
+            ts_s: 1.0,
+            machine: None,
+            method: Method::Oe,
+            weights: None,
+            forgetting: 1.0,
+            validation: None,
+            model: ModelDescription::generator(),
+            reference: ReferencePolicy::Auto,
+            progress: Observer::silent(),
+        }
+    }
+}
+
+/// Another estimate's figures, set beside the replay's own (rc beside oe).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Beside {
+    /// Its method.
+    pub method: String,
+    /// Its time constants, ascending, s.
+    pub time_constants_s: Vec<f64>,
+    /// Its fit on the estimation range.
+    pub fit: crate::model::Fit,
+}
+
+impl Beside {
+    /// The figures of `model` on `data`'s `range`, where it has real time constants.
+    fn of(
+        method: &str,
+        model: &crate::estimate::DiscreteModel,
+        data: &IdentificationData,
+        range: Range<usize>,
+        temperature_base_k: f64,
+    ) -> Option<Beside> {
+        let spectrum = model::Spectrum::of(model).ok()?;
+        let data = data.slice(range);
+        let sim = model::fit::simulate(model, &data, &data.segments());
+        Some(Beside {
+            method: method.into(),
+            time_constants_s: spectrum.time_constants_s,
+            fit: model::fit::fit(&data, &sim, temperature_base_k),
+        })
+    }
+}
+
+/// Everything a replay produced, stage by stage.
+#[derive(Debug, Clone)]
+pub struct Replay {
+    /// The recording replayed.
+    pub path: PathBuf,
+    /// The model description the replay identified (the options' one, resolved against
+    /// the recording's coolant inlet).
+    pub model: ModelDescription,
+    /// What the recording stage found.
+    pub recording: RecordingSummary,
+    /// The nameplate used (recording's record, overridden by the machine file), where the
+    /// model needs one.
+    pub nameplate: Option<Nameplate>,
+    /// The decimated quantities.
+    pub decimated: DecimatedRecording,
+    /// The model's states and inputs on the grid.
+    pub signals: ModelSignals,
+    /// The identification data of the whole recording.
+    pub data: IdentificationData,
+    /// The instants the estimator saw (all, or those before a hold-out).
+    pub estimation_range: Range<usize>,
+    /// The model's fit on held-out data or another recording.
+    pub validation: Option<Validation>,
+    /// The estimate (with its method's own details, e.g. the RLS trajectory).
+    pub estimate: Estimate,
+    /// The analysis of the estimate.
+    pub analysis: ModelAnalysis,
+    /// The physical network, calorimetric balance and equilibrium checks.
+    pub network: NetworkAnalysis,
+    /// For `rc`: the output-error model it started from, fitted on the same instants, to
+    /// set beside it.
+    pub output_error_beside: Option<Beside>,
+    /// Warnings for the user (data loss, gaps).
+    pub warnings: Vec<String>,
+}
+
+impl Replay {
+    /// Whether data were lost to damage in the file (exit status 3).
+    pub fn had_data_loss(&self) -> bool {
+        !self.recording.data_loss.is_empty()
+    }
+}
+
+/// The stages up to the estimator's input, for one recording.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// The model description the signals follow (the options', resolved against the
+    /// recording's coolant inlet).
+    pub model: ModelDescription,
+    /// What the recording stage found.
+    pub recording: RecordingSummary,
+    /// The nameplate used, where the model needs one.
+    pub nameplate: Option<Nameplate>,
+    /// The decimated quantities.
+    pub decimated: DecimatedRecording,
+    /// The model's states and inputs.
+    pub signals: ModelSignals,
+    /// The estimator's input.
+    pub data: IdentificationData,
+}
+
+/// Reads, decimates and computes the signals of one recording.
+pub fn prepare(path: &Path, options: &ReplayOptions) -> Result<Prepared> {
+    prepare_with(path, options, None)
+}
+
+/// Gives every sample to the decimator and to a second sink (the full-rate publisher).
+pub(crate) struct Tee<'a> {
+    pub(crate) decimator: &'a mut Decimator,
+    pub(crate) also: &'a mut dyn SampleSink,
+}
+
+impl SampleSink for Tee<'_> {
+    fn channel(&mut self, channel: &recording::SensorChannel) {
+        self.decimator.channel(channel);
+        self.also.channel(channel);
+    }
+
+    fn sample(&mut self, sample: recording::Sample) {
+        self.decimator.sample(sample);
+        self.also.sample(sample);
+    }
+
+    fn retract(&mut self, sample: recording::Sample) {
+        self.decimator.retract(sample);
+        self.also.retract(sample);
+    }
+}
+
+/// [`prepare`], with every raw sample also given to `also` as the file streams by.
+pub fn prepare_with(
+    path: &Path,
+    options: &ReplayOptions,
+    also: Option<&mut dyn SampleSink>,
+) -> Result<Prepared> {
+    let model = &options.model;
+    let mut decimator = Decimator::new(options.ts_s, model.alignments())?;
+    let read = ReadOptions {
+        free_channels: model.free_channels(),
+        progress: options.progress.clone(),
+    };
+    let summary = match also {
+        Some(also) => recording::read_recording_with(
+            path,
+            &mut Tee {
+                decimator: &mut decimator,
+                also,
+            },
+            &read,
+        )?,
+        None => recording::read_recording_with(path, &mut decimator, &read)?,
+    };
+    if summary.channels.is_empty() {
+        return Err(no_heat_run_data(path, &summary));
+    }
+    let nameplate = if model.needs_nameplate() {
+        Some(resolve_nameplate(path, &summary, options)?)
+    } else {
+        None
+    };
+    let decimated = decimator
+        .finish(&summary.channels)
+        .map_err(|e| Error::from(e).in_recording(path))?;
+    let model = coolant::resolve(
+        model,
+        options.reference,
+        coolant::inlet_behaviour(&decimated).as_ref(),
+    )
+    .map_err(|channel| SignalError::MissingChannel {
+        channel: channel.to_owned(),
+    })
+    .map_err(|e| Error::from(e).in_recording(path))?;
+    let signals = signals::compute(&model, &decimated, nameplate.as_ref())
+        .map_err(|e| Error::from(e).in_recording(path))?;
+    let data = signals.identification_data();
+    Ok(Prepared {
+        model,
+        recording: summary,
+        nameplate,
+        decimated,
+        signals,
+        data,
+    })
+}
+
+/// The error of a recording none of whose channels the model can read.
+fn no_heat_run_data(path: &Path, summary: &RecordingSummary) -> Error {
+    let ignored = if summary.ignored_channels.is_empty() {
+        "it has no channels at all".to_owned()
+    } else {
+        let topics: Vec<&str> = summary
+            .ignored_channels
+            .iter()
+            .map(|c| c.topic.as_str())
+            .take(5)
+            .collect();
+        format!(
+            "its {} channel(s) ({}) carry no quantity of the profile",
+            summary.ignored_channels.len(),
+            topics.join(", ")
+        )
+    };
+    Error::Recording(RecordingError::BadRecording {
+        path: path.to_owned(),
+        message: format!("holds no heat-run data: {ignored}"),
+    })
+}
+
+/// The recording's nameplate record, overridden by the machine file's keys.
+fn resolve_nameplate(
+    path: &Path,
+    summary: &RecordingSummary,
+    options: &ReplayOptions,
+) -> Result<Nameplate> {
+    let entries = match &options.machine {
+        Some(file) => summary
+            .nameplate
+            .clone()
+            .overridden_by(&NameplateEntries::from_toml_file(file)?),
+        None => summary.nameplate.clone(),
+    };
+    Ok(entries.resolve(&path.display().to_string())?)
+}
+
+/// Replays one recording through every stage.
+pub fn replay(path: &Path, options: &ReplayOptions) -> Result<Replay> {
+    replay_with(path, options, None)
+}
+
+/// [`replay`], with every raw sample also given to `also` as the file streams by.
+pub fn replay_with(
+    path: &Path,
+    options: &ReplayOptions,
+    also: Option<&mut dyn SampleSink>,
+) -> Result<Replay> {
+    let mut prepared = prepare_with(path, options, also)?;
+    let estimation_range = estimation_range(prepared.data.len(), options)?;
+    let in_file = |e: Error| e.in_recording(path);
+    let (estimate, network_source) = {
+        // Borrowed unless a part is held out: a week's data are not copied for nothing.
+        let estimation_data = if estimation_range.len() == prepared.data.len() {
+            Cow::Borrowed(&prepared.data)
+        } else {
+            Cow::Owned(prepared.data.slice(estimation_range.clone()))
+        };
+        let scaling = network::Scaling {
+            theta_base_k: prepared.signals.temperature_base_k,
+            p_base_w: prepared.signals.power_base,
+        };
+        let estimate = estimate_in(&estimation_data, options, scaling).map_err(in_file)?;
+        let network_source = with_output_offset(&estimation_data, options, &estimate);
+        (estimate, network_source)
+    };
+    // Where the estimator found the rises offset by the error of the first sample they are
+    // measured from, the references become the initial temperatures it estimated: from
+    // here on ŷ = x (the analysis, validation, steady state, network and report).
+    let analysed = match &estimate.output_offset {
+        Some(offset) => {
+            prepared.signals.shift_references(offset);
+            prepared.data.shift_outputs(offset);
+            Cow::Owned(Estimate {
+                output_offset: None,
+                ..estimate.clone()
+            })
+        }
+        None => Cow::Borrowed(&estimate),
+    };
+    // The steady state's input: the last one, with an input fed by the outlet's rise
+    // (a changed flow's heat) made consistent with the steady state it leads to.
+    let continuous = crate::model::ContinuousModel::from_discrete(&estimate.model).ok();
+    let steady_input = match &continuous {
+        Some(c) => prepared.signals.steady_state_input(&c.a_c, &c.b_c),
+        None => prepared.signals.last_inputs().map(|(_, u)| u),
+    };
+    let steady_input = steady_input.ok_or_else(|| {
+        in_file(Error::Signals(SignalError::NoCommonInstant {
+            what: "the inputs".into(),
+        }))
+    })?;
+    options.progress.stage("analysing the model");
+    let analysis = model::analyse(
+        &analysed,
+        &prepared.data,
+        estimation_range.clone(),
+        prepared.signals.temperature_base_k,
+        &steady_input,
+    )
+    .map_err(|e| in_file(e.into()))?;
+    let validation = validate(&prepared, &analysed, &estimation_range, options)?;
+    drop(analysed);
+    let grey_box = estimate.network.as_deref();
+    let output_error_beside = grey_box.and_then(|n| {
+        Beside::of(
+            &n.output_error.method,
+            &n.output_error.model,
+            &prepared.data,
+            estimation_range.clone(),
+            prepared.signals.temperature_base_k,
+        )
+    });
+    let network = network::stage::analyse(
+        &prepared.model,
+        grey_box,
+        network_source.as_ref().unwrap_or(&estimate),
+        &analysis.continuous,
+        &analysis.spectrum.time_constants_s,
+        &prepared.signals,
+        &prepared.decimated,
+    );
+    let warnings = warnings::collect(&prepared, &analysis, &network);
+    Ok(Replay {
+        path: path.to_owned(),
+        model: prepared.model,
+        recording: prepared.recording,
+        nameplate: prepared.nameplate,
+        decimated: prepared.decimated,
+        signals: prepared.signals,
+        data: prepared.data,
+        estimation_range,
+        validation,
+        estimate,
+        analysis,
+        network,
+        output_error_beside,
+        warnings,
+    })
+}
+
+/// What the network is fitted to after `oe`: its Θ re-estimated with the constant output
+/// offset of the first sample the rises are measured from
+/// ([`OutputError::refit_with_output_offset`]), where the data start at that sample and are
+/// not stored by exception. The free Φ, Γ take that offset up, which biases the passive
+/// network nearest them (its conductances to the coolant most); the reported model stays
+/// `oe`'s own. `None` where the refit does not apply or fails (the network is then
+/// fitted to `oe`'s Θ).
+fn with_output_offset(
+    data: &IdentificationData,
+    options: &ReplayOptions,
+    estimate: &Estimate,
+) -> Option<Estimate> {
+    let applies = options.method == Method::Oe
+        && crate::estimate::oe::starts_at_reference(data)
+        && !crate::estimate::censored::applies(data);
+    if !applies {
+        return None;
+    }
+    let oe = OutputError {
+        weights: options.weights.clone(),
+        progress: options.progress.clone(),
+    };
+    oe.refit_with_output_offset(data, &estimate.model).ok()
+}
+
+/// The instants the estimator sees: all, or those before the held-out fraction.
+fn estimation_range(len: usize, options: &ReplayOptions) -> Result<Range<usize>> {
+    match &options.validation {
+        Some(ValidationSource::HoldOut(f)) => {
+            if !(*f > 0.0 && *f < 0.9) {
+                return Err(Error::HoldOutFraction { fraction: *f });
+            }
+            Ok(0..((len as f64 * (1.0 - f)).round() as usize))
+        }
+        Some(ValidationSource::SplitAt(t)) => {
+            let k = (t / options.ts_s).round();
+            if !(k >= 1.0 && (k as usize) < len.saturating_sub(1)) {
+                return Err(Error::SplitOutside {
+                    split_s: *t,
+                    span_s: len as f64 * options.ts_s,
+                });
+            }
+            Ok(0..k as usize)
+        }
+        _ => Ok(0..len),
+    }
+}
+
+/// The model's fit on the held-out instants or on another recording, simulated from
+/// that data's own measured state at the start of each segment.
+fn validate(
+    prepared: &Prepared,
+    estimate: &Estimate,
+    estimation_range: &Range<usize>,
+    options: &ReplayOptions,
+) -> Result<Option<Validation>> {
+    let fit_on = |data: &IdentificationData, base: f64| {
+        let sim = estimate.model.simulate_segments(data, &data.segments());
+        model::fit::fit(data, &sim, base)
+    };
+    Ok(match &options.validation {
+        None => None,
+        Some(held @ (ValidationSource::HoldOut(_) | ValidationSource::SplitAt(_))) => {
+            let rest = estimation_range.end..prepared.data.len();
+            let source = match held {
+                ValidationSource::HoldOut(f) => {
+                    format!("hold-out of the last {:.0} % of the recording", f * 100.0)
+                }
+                _ => format!(
+                    "the recording from {} s on (instants {}..{})",
+                    rest.start as f64 * options.ts_s,
+                    rest.start,
+                    rest.end
+                ),
+            };
+            Some(Validation {
+                source,
+                fit: fit_on(
+                    &prepared.data.slice(rest),
+                    prepared.signals.temperature_base_k,
+                ),
+            })
+        }
+        Some(ValidationSource::Recording(other)) => {
+            // The same description as this recording's, whatever the other's inlet does.
+            let same = ReplayOptions {
+                model: prepared.model.clone(),
+                reference: ReferencePolicy::Initial,
+                ..options.clone()
+            };
+            let other_data = prepare(other, &same)?;
+            Some(Validation {
+                source: other.display().to_string(),
+                fit: fit_on(&other_data.data, other_data.signals.temperature_base_k),
+            })
+        }
+    })
+}
+
+/// Runs the chosen estimator on the data; `rc`'s network is then in the data's own units
+/// (states in K, inputs in W): [`estimate_in`] gives it the model's scaling.
+pub fn estimate(data: &IdentificationData, options: &ReplayOptions) -> Result<Estimate> {
+    estimate_in(data, options, network::Scaling::PHYSICAL)
+}
+
+/// Runs the chosen estimator on data in `scaling` (x = θ/θ_base, u = P/P_base), which
+/// `rc` needs to put its network in J/K and W/K. `rc` refuses a model with an input that
+/// is not heat: a thermal network has no place for it.
+pub fn estimate_in(
+    data: &IdentificationData,
+    options: &ReplayOptions,
+    scaling: network::Scaling,
+) -> Result<Estimate> {
+    if let Some(w) = &options.weights {
+        if w.len() != data.states() || w.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+            return Err(Error::Weights {
+                states: data.states(),
+                given: w.len(),
+            });
+        }
+    }
+    let per_instant =
+        |w: &Vec<f64>| nalgebra::DMatrix::from_fn(data.len(), data.states(), |_, j| w[j]);
+    let estimator: Box<dyn Estimator> = match options.method {
+        Method::Ls => Box::new(WeightedLeastSquares::default()),
+        Method::Wls => Box::new(WeightedLeastSquares {
+            weights: options.weights.as_ref().map(per_instant),
+        }),
+        Method::Rls => Box::new(RecursiveLeastSquares {
+            forgetting: options.forgetting,
+            keep_every: 10,
+        }),
+        Method::Iv => Box::new(InstrumentalVariables::default()),
+        Method::Oe => Box::new(OutputError {
+            weights: options.weights.clone(),
+            progress: options.progress.clone(),
+        }),
+        Method::Rc => {
+            if let Some(input) = options
+                .model
+                .inputs
+                .iter()
+                .find(|i| i.kind != crate::spec::InputKind::Heat)
+            {
+                return Err(EstimationError::InputNotHeat {
+                    input: input.name.clone(),
+                }
+                .into());
+            }
+            Box::new(ResistanceCapacitance {
+                weights: options.weights.clone(),
+                scaling,
+                progress: options.progress.clone(),
+            })
+        }
+    };
+    Ok(estimator.estimate(data)?)
+}

@@ -1,0 +1,205 @@
+//! Prediction: an identified model (the report of `heatrun replay --report`) and a load
+//! schedule → every part's temperature on the model's sample time.
+//!
+//! Input: a [`ThermalModel`] ([`model`], read from the report: n states and m inputs
+//! by name) and a [`LoadSchedule`] ([`load`], a CSV). Output: a [`Prediction`]. The
+//! inputs follow the profile's loss model with the resistances at the predicted
+//! temperatures ([`simulate`]); an apparent-power schedule gets its field current from
+//! the salient-pole phasor diagram ([`phasor`]). Each schedule row holds until the
+//! next (as the model's inputs hold over a sample interval): x(k+1) = Φ x(k) + Γ u(k),
+//! u(k) from the row in force at t_k and the temperatures at t_k.
+
+pub mod error;
+pub mod load;
+pub mod model;
+pub mod phasor;
+pub mod simulate;
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use nalgebra::DVector;
+
+pub use error::UseError;
+pub use load::{LoadSchedule, OperatingPoint};
+pub use model::ThermalModel;
+pub use simulate::{DelayLine, Simulator};
+
+/// Where the prediction starts.
+#[derive(Debug, Clone, PartialEq)]
+pub enum InitialState {
+    /// The temperatures at the start of the model's recording (its initial rises).
+    Measured,
+    /// The steady state of the schedule's first row.
+    Steady,
+    /// These temperatures, °C, one per state.
+    Temperatures(Vec<f64>),
+}
+
+/// Every state's predicted temperature on the model's grid.
+#[derive(Debug, Clone)]
+pub struct Prediction {
+    /// State names, in model order.
+    pub states: Vec<String>,
+    /// Input names, in model order.
+    pub inputs: Vec<String>,
+    /// Times, s (the schedule's clock), on the model's sample time.
+    pub time_s: Vec<f64>,
+    /// `temperatures_c[k][j]`: state j at t_k, °C.
+    pub temperatures_c: Vec<Vec<f64>>,
+    /// `inputs_model[k][i]`: input i held over [t_k, t_k+1), in the model's scaling
+    /// (the last instant repeats the one before).
+    pub inputs_model: Vec<Vec<f64>>,
+    /// The field winding temperature used for R_f, °C, where there is one.
+    pub field_temperature_c: Vec<Option<f64>>,
+    /// Whether the field winding temperature is derived from the stator winding's (not a
+    /// state): it is then written as a column of its own, `field_winding_temp_c`.
+    pub field_derived: bool,
+    /// What was assumed or ignored.
+    pub warnings: Vec<String>,
+}
+
+/// Runs `model` over `schedule` from `initial`.
+pub fn predict(
+    model: &ThermalModel,
+    schedule: &LoadSchedule,
+    initial: &InitialState,
+) -> Result<Prediction, UseError> {
+    let sim = Simulator::new(model)?;
+    let mut warnings = schedule.warnings.clone();
+    if schedule.points.iter().any(|p| p.coolant_inlet_c.is_some()) && !sim.coolant_applies() {
+        warnings.push(format!(
+            "{}: the model's recording has no coolant inlet temperature, so `{}` is ignored: \
+             the rises are those of the model's test",
+            schedule.path.display(),
+            load::COOLANT_COLUMN
+        ));
+    }
+    if let Some(q) = model
+        .inputs
+        .iter()
+        .find(|i| matches!(i.source, model::InputUse::CoolantFlow { .. }))
+    {
+        warnings.push(format!(
+            "the model carries the cooling-water flow (input `{}`): the prediction holds the \
+             flow at the start of the model's test, the flow its A_c describes",
+            q.name
+        ));
+    }
+    let (t0, t_end) = schedule.span_s();
+    let ts = model.ts_s;
+    let steps = ((t_end - t0) / ts + 1e-9).floor() as usize;
+    let first = schedule.point_at(t0);
+    let n = model.state_count();
+    let mut x = match initial {
+        InitialState::Measured => DVector::from_fn(n, |j, _| {
+            let theta0 = model.initial_temperature_c[j];
+            let r0 = match &model.states[j].reference {
+                model::StateReference::Initial(r)
+                | model::StateReference::Channel(_, r)
+                | model::StateReference::InitialOf(_, r) => *r,
+                model::StateReference::Absolute => 0.0,
+            };
+            (theta0 - r0) / model.temperature_base_k
+        }),
+        InitialState::Steady => sim.steady_state(first)?,
+        InitialState::Temperatures(theta) => {
+            if theta.len() != n {
+                return Err(UseError::Request(format!(
+                    "{} initial temperatures given; the model has {n} states ({})",
+                    theta.len(),
+                    model
+                        .states
+                        .iter()
+                        .map(|s| s.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )));
+            }
+            sim.rises(theta, first)
+        }
+    };
+    let mut out = Prediction {
+        states: model.states.iter().map(|s| s.name.clone()).collect(),
+        inputs: model.inputs.iter().map(|i| i.name.clone()).collect(),
+        time_s: Vec::with_capacity(steps + 1),
+        temperatures_c: Vec::with_capacity(steps + 1),
+        inputs_model: Vec::with_capacity(steps + 1),
+        field_temperature_c: Vec::with_capacity(steps + 1),
+        field_derived: matches!(
+            model.field_temperature,
+            model::FieldTemperatureUse::FromStator { .. }
+        ),
+        warnings,
+    };
+    let mut delays = DelayLine::new(model)?;
+    for k in 0..=steps {
+        let t = t0 + k as f64 * ts;
+        let p = schedule.point_at(t);
+        let theta = sim.temperatures(&x, p);
+        let now = sim.inputs(p, &theta)?;
+        let u = if delays.reads_ahead() {
+            // An advanced input (`advance_s`) acts as u(k + 1): the schedule one sample on.
+            let next = sim.inputs(schedule.point_at(t + ts), &theta)?;
+            delays.apply_ahead(now, &next)
+        } else {
+            delays.apply(now)
+        };
+        out.field_temperature_c
+            .push(sim.field_temperature_c(&theta, p));
+        out.time_s.push(t);
+        out.temperatures_c.push(theta);
+        out.inputs_model.push(u.iter().copied().collect());
+        x = sim.step(&x, &u);
+    }
+    Ok(out)
+}
+
+impl Prediction {
+    /// The prediction as CSV: `time_s` and `<state>_c` per state, °C (and
+    /// `field_winding_temp_c` where the field winding is derived, not a state).
+    pub fn to_csv(&self) -> String {
+        let mut s = String::from("time_s");
+        for name in &self.states {
+            let _ = write!(s, ",{name}_c");
+        }
+        if self.field_derived {
+            s.push_str(",field_winding_temp_c");
+        }
+        s.push('\n');
+        for (k, (t, theta)) in self.time_s.iter().zip(&self.temperatures_c).enumerate() {
+            let _ = write!(s, "{t}");
+            for v in theta {
+                let _ = write!(s, ",{v:.4}");
+            }
+            if self.field_derived {
+                let _ = write!(s, ",{:.4}", self.field_temperature_c[k].unwrap_or(f64::NAN));
+            }
+            s.push('\n');
+        }
+        s
+    }
+
+    /// Writes [`Prediction::to_csv`] to `path`, complete or not at all.
+    pub fn write_csv(&self, path: &Path) -> Result<(), crate::atomic::WriteError> {
+        crate::atomic::write_atomically(path, self.to_csv().as_bytes())
+    }
+
+    /// Each state's highest temperature and when, (°C, s).
+    pub fn peaks(&self) -> Vec<(f64, f64)> {
+        (0..self.states.len())
+            .map(|j| {
+                self.temperatures_c.iter().zip(&self.time_s).fold(
+                    (f64::NEG_INFINITY, 0.0),
+                    |m, (th, &t)| {
+                        if th[j] > m.0 {
+                            (th[j], t)
+                        } else {
+                            m
+                        }
+                    },
+                )
+            })
+            .collect()
+    }
+}

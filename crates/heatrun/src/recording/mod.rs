@@ -1,0 +1,22 @@
+//! Recording stage: an MCAP heat run → typed samples, units and nameplate.
+//!
+//! Input: a file in the heatrun SCADA MCAP profile. Output: [`Sample`]s in
+//! canonical units pushed to a [`SampleSink`] as the file streams by, and a
+//! [`RecordingSummary`] (channels, nameplate entries, metadata, data loss).
+
+pub mod channel;
+pub mod chunk;
+mod error;
+pub mod nameplate;
+pub mod quantity;
+pub mod reader;
+
+pub use channel::{ChannelError, Storage};
+pub use error::RecordingError;
+pub use nameplate::{Nameplate, NameplateEntries, NAMEPLATE_RECORD};
+pub use quantity::{Alignment, Quantity, Signal};
+pub use reader::{
+    format_time, read_recording, read_recording_with, read_stream, read_stream_with,
+    IgnoredChannel, ReadOptions, RecordingSummary, Sample, SampleSink, SensorChannel,
+    SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING, SAMPLE_SCHEMA_NAME,
+};

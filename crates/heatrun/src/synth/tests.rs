@@ -1,0 +1,498 @@
+//! Tests of the synthetic runs: storage by exception, the network machines against an
+//! independent integration, the coolant channels, the refusals.
+
+use super::*;
+
+/// Reads a recording's messages: (topic, log time, JSON text).
+fn messages(path: &Path) -> Vec<(String, u64, String)> {
+    let bytes = std::fs::read(path).unwrap();
+    mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| {
+            let m = m.unwrap();
+            let text = String::from_utf8(m.data.to_vec()).unwrap();
+            (m.channel.topic.clone(), m.log_time, text)
+        })
+        .collect()
+}
+
+#[test]
+fn storage_by_exception_keeps_a_subset_that_obeys_deadband_and_heartbeat() {
+    let dir = std::env::temp_dir().join(format!("heatrun-synth-exc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let base = SynthOptions {
+        duration_s: 3000.0,
+        ..SynthOptions::default().with_noise_level(1.0)
+    };
+    let exception = SynthOptions {
+        temperature_storage: Storage::Exception {
+            deadband: 0.1,
+            max_interval_s: Some(600.0),
+        },
+        ..base.clone()
+    };
+    write(&dir.join("all.mcap"), &base).unwrap();
+    write(&dir.join("exc.mcap"), &exception).unwrap();
+    let all = messages(&dir.join("all.mcap"));
+    let exc = messages(&dir.join("exc.mcap"));
+    std::fs::remove_dir_all(&dir).unwrap();
+
+    let value = |text: &str| -> f64 {
+        serde_json::from_str::<serde_json::Value>(text).unwrap()["value"]
+            .as_f64()
+            .unwrap()
+    };
+    let topic = "/scada/stator_winding_temp";
+    let full: Vec<(u64, f64)> = all
+        .iter()
+        .filter(|m| m.0 == topic)
+        .map(|m| (m.1, value(&m.2)))
+        .collect();
+    let kept: Vec<(u64, f64)> = exc
+        .iter()
+        .filter(|m| m.0 == topic)
+        .map(|m| (m.1, value(&m.2)))
+        .collect();
+    // The electrical channels are untouched.
+    let electrical = |ms: &[(String, u64, String)]| {
+        ms.iter()
+            .filter(|m| m.0 == "/scada/armature_current")
+            .count()
+    };
+    assert_eq!(electrical(&all), electrical(&exc));
+    assert!(
+        kept.len() < full.len() / 2,
+        "{} of {}",
+        kept.len(),
+        full.len()
+    );
+    // Each stored sample is the full run's sample at that time; every sample in
+    // between stayed within the deadband of the last stored one, inside the heartbeat.
+    let mut j = 0;
+    let mut last = full[0];
+    assert_eq!(kept[0], full[0]);
+    for &(t, v) in &full[1..] {
+        let stored = j + 1 < kept.len() && kept[j + 1].0 == t;
+        let due = (v - last.1).abs() > 0.1 || t - last.0 >= 600_000_000_000;
+        assert_eq!(stored, due, "at {t}: {v} after {last:?}");
+        if stored {
+            assert_eq!(kept[j + 1].1, v);
+            j += 1;
+            last = (t, v);
+        }
+    }
+    assert_eq!(j + 1, kept.len());
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("heatrun-synth-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn network_options(machine: NetworkMachine, duration_s: f64, d: Disturbances) -> SynthOptions {
+    SynthOptions {
+        machine: Machine::Network(machine),
+        duration_s,
+        disturbances: d,
+        ..SynthOptions::default()
+    }
+}
+
+fn all_disturbances() -> Disturbances {
+    Disturbances {
+        inlet_drift_k: 3.0,
+        start_above_k: 10.0,
+        pump_switch: Some(PumpSwitch {
+            time_s: 1000.0,
+            factor: 0.6,
+        }),
+        fault: Some(CoolerFault {
+            time_s: 2000.0,
+            conductance_drop: 0.3,
+        }),
+    }
+}
+
+/// C·dθ/dt = −L·θ + K·P + g₀·θ_in in absolute temperatures by classical Runge–Kutta
+/// (0.05 s steps), L built here from C, G and c·ρ·Q, the losses taken at the temperatures
+/// of each second's start and held with the inlet (at the second's middle) over it: an
+/// independent reference for the piecewise zero-order-hold simulation. Returns θ at
+/// every second, °C.
+fn integrate(o: &SynthOptions, m: &NetworkMachine, traj: &plant::Trajectory) -> Vec<Vec<f64>> {
+    let n = m.nodes.len();
+    let np = &o.nameplate;
+    let d = o.disturbances;
+    let c_rho = crate::network::calorimetry::Water::at(o.coolant.inlet_temp_c)
+        .unwrap()
+        .heat_per_litre_j_per_k();
+    let outlet = m.node(Quantity::CoolingWaterOutletTemp).unwrap();
+    let field = m.node(Quantity::FieldWindingTemp);
+    let steps = (o.duration_s / m.ts_s).round() as usize;
+    let mut theta = vec![o.coolant.inlet_temp_c + d.start_above_k; n];
+    let mut out = vec![theta.clone()];
+    for k in 0..steps {
+        let t = k as f64;
+        let mut g = m.conductance_w_per_k.clone();
+        let pumped = d
+            .pump_switch
+            .filter(|s| t >= s.time_s)
+            .map_or(1.0, |s| s.factor);
+        g[(outlet, outlet)] = c_rho * o.coolant.flow_l_per_s * pumped;
+        if let Some(f) = d.fault.filter(|f| t >= f.time_s) {
+            for i in 0..n {
+                g[(i, i)] *= 1.0 - f.conductance_drop;
+            }
+        }
+        let inlet = o.coolant.inlet_temp_c
+            + 0.6 * d.inlet_drift_k * (t + 0.5) / o.duration_s
+            + 0.4 * d.inlet_drift_k * (2.0 * std::f64::consts::PI * (t + 0.5) / 86_400.0).sin();
+        let p = traj.points[k];
+        let theta_f = match (field, traj.field) {
+            (Some(i), _) => theta[i],
+            (
+                None,
+                plant::FieldTemperature::Scaled {
+                    scale, reference_c, ..
+                },
+            ) => reference_c + scale * (theta[0] - reference_c),
+            (None, plant::FieldTemperature::Node(_)) => unreachable!(),
+        };
+        let losses = [
+            crate::losses::armature_copper_loss_w(
+                np,
+                p.armature_current_pu * np.rated_current_a,
+                theta[0],
+            ),
+            crate::losses::field_copper_loss_w(
+                np,
+                p.field_current_pu * np.rated_field_current_a.unwrap(),
+                theta_f,
+            ),
+            crate::losses::iron_loss_w(np, p.line_voltage_pu * np.rated_voltage_v),
+        ];
+        let heat: Vec<f64> = (0..n)
+            .map(|i| {
+                (0..3)
+                    .map(|j| m.loss_distribution[(i, j)] * losses[j])
+                    .sum()
+            })
+            .collect();
+        let rate = |th: &[f64]| -> Vec<f64> {
+            (0..n)
+                .map(|i| {
+                    let mut q = heat[i] + g[(i, i)] * (inlet - th[i]);
+                    for j in (0..n).filter(|&j| j != i) {
+                        q += g[(i, j)] * (th[j] - th[i]);
+                    }
+                    q / m.capacitance_j_per_k[i]
+                })
+                .collect()
+        };
+        let h = 0.05;
+        for _ in 0..20 {
+            let add = |a: &[f64], b: &[f64], s: f64| -> Vec<f64> {
+                a.iter().zip(b).map(|(x, y)| x + s * y).collect()
+            };
+            let k1 = rate(&theta);
+            let k2 = rate(&add(&theta, &k1, h / 2.0));
+            let k3 = rate(&add(&theta, &k2, h / 2.0));
+            let k4 = rate(&add(&theta, &k3, h));
+            for i in 0..n {
+                theta[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+        }
+        out.push(theta.clone());
+    }
+    out
+}
+
+fn largest_difference(o: &SynthOptions, m: &NetworkMachine) -> f64 {
+    let traj = plant::simulate(o).unwrap();
+    let reference = integrate(o, m, &traj);
+    let base = o.nameplate.temperature_base_k;
+    let mut worst: f64 = 0.0;
+    for (k, theta) in reference.iter().enumerate() {
+        for (i, want) in theta.iter().enumerate() {
+            worst = worst.max((traj.temperature(&traj.states[k], i, base) - want).abs());
+        }
+    }
+    worst
+}
+
+#[test]
+fn network_machines_match_an_independent_integration_under_every_disturbance() {
+    for machine in [NetworkMachine::rc_unit(), NetworkMachine::rc_field()] {
+        for d in [Disturbances::default(), all_disturbances()] {
+            let o = network_options(machine.clone(), 3000.0, d);
+            let worst = largest_difference(&o, &machine);
+            assert!(worst < 1e-6, "{} {d:?}: {worst} K", machine.name);
+        }
+    }
+}
+
+#[test]
+fn the_rc_units_time_constants_and_network_are_the_documented_ones() {
+    let dir = temp_dir("rc");
+    for (machine, want) in [
+        (NetworkMachine::rc_unit(), &[71.0, 710.0, 4500.0][..]),
+        (NetworkMachine::rc_field(), &[70.0, 690.0, 1592.0, 4497.0]),
+    ] {
+        let o = network_options(machine.clone(), 600.0, Disturbances::default());
+        let truth = write(&dir.join(format!("{}.mcap", machine.name)), &o).unwrap();
+        assert_eq!(truth.time_constants_s.len(), want.len());
+        for (t, w) in truth.time_constants_s.iter().zip(want) {
+            assert!(
+                (t / w - 1.0).abs() < 0.02,
+                "{}: {t} s against {w} s",
+                machine.name
+            );
+        }
+        let network = truth.network.as_ref().unwrap();
+        let n = want.len();
+        for j in 0..3 {
+            let sum: f64 = (0..n).map(|i| network.loss_distribution[i][j]).sum();
+            assert!((sum - 1.0).abs() < 1e-12, "column {j} sums to {sum}");
+        }
+        // The outlet's conductance to the coolant is c·ρ·Q of the recorded 48.2 l/s.
+        let c_rho = crate::network::calorimetry::Water::at(10.5)
+            .unwrap()
+            .heat_per_litre_j_per_k();
+        let g = network.conductance_w_per_k[network.outlet_state][network.outlet_state];
+        assert!((g / (c_rho * 48.2) - 1.0).abs() < 1e-12, "{g}");
+        assert!((4100.0..4250.0).contains(&c_rho), "{c_rho}");
+        assert_eq!(truth.states.len(), n);
+        assert_eq!(truth.machine, machine.name);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn at_steady_state_the_water_carries_away_every_loss() {
+    // One load held for 13 slowest time constants: the calorimetric balance closes, and
+    // the truth's steady state is where the run ends.
+    let mut o = network_options(NetworkMachine::rc_unit(), 60_000.0, Disturbances::default());
+    let last = *heat_run_with_load_steps().last().unwrap();
+    o.profile = vec![OperatingPoint {
+        start_fraction: 0.0,
+        ..last
+    }];
+    let traj = plant::simulate(&o).unwrap();
+    let truth = truth::truth_of(&o, &traj).unwrap();
+    let losses_w: f64 = truth.final_input_pu.iter().sum::<f64>() * 100e6;
+    let network = truth.network.as_ref().unwrap();
+    let outlet_rise = truth.final_temperatures_c[2] - 10.5;
+    let water_w = network.heat_per_litre_j_per_k * 48.2 * outlet_rise;
+    assert!(
+        (water_w / losses_w - 1.0).abs() < 1e-4,
+        "{water_w} W against {losses_w} W"
+    );
+    for i in 0..3 {
+        let end_rise = truth.final_temperatures_c[i] - 10.5;
+        assert!(
+            (end_rise - truth.steady_state_rise_k[i]).abs() < 1e-3,
+            "{i}: {end_rise} K against {} K",
+            truth.steady_state_rise_k[i]
+        );
+    }
+}
+
+fn values(ms: &[(String, u64, String)], topic: &str) -> Vec<(u64, f64)> {
+    ms.iter()
+        .filter(|m| m.0 == topic)
+        .map(|m| {
+            let v: serde_json::Value = serde_json::from_str(&m.2).unwrap();
+            (m.1, v["value"].as_f64().unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn the_coolant_channels_carry_the_inlet_drift_and_the_pump_switch() {
+    let dir = temp_dir("coolant");
+    let path = dir.join("drift.mcap");
+    let d = Disturbances {
+        inlet_drift_k: 3.0,
+        pump_switch: Some(PumpSwitch {
+            time_s: 1000.0,
+            factor: 0.5,
+        }),
+        ..Disturbances::default()
+    };
+    let o = network_options(NetworkMachine::rc_unit(), 2000.0, d);
+    let start = o.start_time_ns;
+    let truth = write(&path, &o).unwrap();
+    let ms = messages(&path);
+    let inlet = values(&ms, "/scada/cooling_water_inlet_temp");
+    let flow = values(&ms, "/scada/cooling_water_flow");
+    assert_eq!((inlet.len(), flow.len()), (2000, 2000));
+    for (t, v) in inlet {
+        let s = (t - start) as f64 * 1e-9;
+        let want =
+            10.5 + 1.8 * s / 2000.0 + 1.2 * (2.0 * std::f64::consts::PI * s / 86_400.0).sin();
+        assert!((v - want).abs() < 1e-9, "{s} s: {v} °C");
+    }
+    for (t, v) in flow {
+        let s = (t - start) as f64 * 1e-9;
+        assert_eq!(v, if s >= 1000.0 { 24.1 } else { 48.2 }, "{s} s");
+    }
+    assert_eq!(truth.changes.len(), 1);
+    assert_eq!(truth.changes[0].time_s, 1000.0);
+    assert_eq!(truth.changes[0].flow_l_per_s, 24.1);
+    // Less water, slower and warmer cooler.
+    assert!(truth.changes[0].steady_state_rise_k[2] > 1.9 * truth.steady_state_rise_k[2]);
+
+    // The paper's run: a constant inlet of 10.5 °C and 48.2 l/s; none without the channels.
+    let paper = dir.join("paper.mcap");
+    write(
+        &paper,
+        &SynthOptions {
+            duration_s: 100.0,
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
+    let ms = messages(&paper);
+    let inlet = values(&ms, "/scada/cooling_water_inlet_temp");
+    assert!(inlet.len() == 100 && inlet.iter().all(|v| v.1 == 10.5));
+    let flow = values(&ms, "/scada/cooling_water_flow");
+    assert!(flow.len() == 100 && flow.iter().all(|v| v.1 == 48.2));
+    write(
+        &paper,
+        &SynthOptions {
+            duration_s: 100.0,
+            coolant: Coolant {
+                channels: false,
+                ..Coolant::default()
+            },
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(messages(&paper)
+        .iter()
+        .all(|m| !m.0.contains("cooling_water_in") && !m.0.contains("cooling_water_flow")));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_field_node_is_seen_through_the_resistance_method() {
+    let o = network_options(NetworkMachine::rc_field(), 2000.0, Disturbances::default());
+    let traj = plant::simulate(&o).unwrap();
+    let mut source = SampleSource::new(&o, &traj).unwrap();
+    let np = o.nameplate.clone();
+    for k in [0usize, 500, 1999] {
+        let t_ns = k as u64 * 1_000_000_000 + 500_000_000;
+        let u_f = source.value(Quantity::FieldVoltage, t_ns);
+        let i_f = source.value(Quantity::FieldCurrent, t_ns);
+        let theta = crate::losses::field_temp_from_resistance(&np, u_f, i_f);
+        let node = traj.temperature(&traj.states[k], 3, np.temperature_base_k);
+        assert!((theta - node).abs() < 1e-8, "{k}: {theta} against {node}");
+    }
+    // The field winding heats well above the stator winding at the end.
+    let end = &traj.states[2000];
+    assert!(traj.temperature(end, 3, 80.0) > traj.temperature(end, 0, 80.0) + 5.0);
+}
+
+#[test]
+fn disturbances_and_options_a_machine_cannot_take_are_refused() {
+    let dir = temp_dir("refused");
+    let out = dir.join("x.mcap");
+    let refused = |o: SynthOptions, needle: &str| {
+        let e = write(&out, &o).expect_err("must be refused");
+        assert!(matches!(e, SynthError::Options(_)), "{e:?}");
+        assert!(e.to_string().contains(needle), "{e}");
+        assert!(!out.exists());
+    };
+    let on_paper = |d: Disturbances| SynthOptions {
+        disturbances: d,
+        ..SynthOptions::default()
+    };
+    let all = all_disturbances();
+    for (d, what) in [
+        (
+            Disturbances {
+                inlet_drift_k: 3.0,
+                ..Disturbances::default()
+            },
+            "an inlet drift",
+        ),
+        (
+            Disturbances {
+                start_above_k: 25.0,
+                ..Disturbances::default()
+            },
+            "a warm start",
+        ),
+        (
+            Disturbances {
+                pump_switch: all.pump_switch,
+                ..Disturbances::default()
+            },
+            "a pump switch",
+        ),
+        (
+            Disturbances {
+                fault: all.fault,
+                ..Disturbances::default()
+            },
+            "a cooler fault",
+        ),
+    ] {
+        refused(on_paper(d), what);
+    }
+    refused(
+        SynthOptions {
+            field_channel: FieldChannel::Nameplate,
+            ..network_options(NetworkMachine::rc_field(), 100.0, Disturbances::default())
+        },
+        "field-winding node",
+    );
+    let mut bad = all;
+    bad.fault = Some(CoolerFault {
+        time_s: 10.0,
+        conductance_drop: 1.0,
+    });
+    refused(
+        network_options(NetworkMachine::rc_unit(), 100.0, bad),
+        "conductance drop",
+    );
+    bad = all;
+    bad.pump_switch = Some(PumpSwitch {
+        time_s: 10.0,
+        factor: 0.0,
+    });
+    refused(
+        network_options(NetworkMachine::rc_unit(), 100.0, bad),
+        "flow factor",
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_warm_start_decays_and_the_field_winding_ends_at_the_nameplates_temperature() {
+    let d = Disturbances {
+        start_above_k: 25.0,
+        ..Disturbances::default()
+    };
+    let o = network_options(NetworkMachine::rc_unit(), 20_868.0, d);
+    let traj = plant::simulate(&o).unwrap();
+    let truth = truth::truth_of(&o, &traj).unwrap();
+    assert_eq!(truth.initial_temperatures_c, vec![35.5; 3]);
+    // The winding first cools towards its loaded equilibrium (its rise at the end is below
+    // the start's 25 K), and the field ends at the nameplate's 81 °C.
+    assert!(truth.final_temperatures_c[0] < 35.5, "{truth:?}");
+    let end = traj.field_temps.last().unwrap();
+    assert!((end - 81.0).abs() < 1e-9, "{end}");
+    let dir = temp_dir("warm");
+    let refused = write(
+        &dir.join("x.mcap"),
+        &SynthOptions {
+            field_channel: FieldChannel::Nameplate,
+            ..o
+        },
+    )
+    .expect_err("the paper's field method cannot follow a warm start");
+    assert!(refused.to_string().contains("warm start"), "{refused}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
