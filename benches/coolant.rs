@@ -14,7 +14,7 @@
 //! (`spec::coolant::a_c_at_flow`; the paper's model has one A_c), and a second table
 //! compares A_c itself with the truth at the initial flow.
 
-use heatrun::model::matrix::eigenvalues;
+use heatrun::thermal::matrix::eigenvalues;
 use heatrun::pipeline::{replay, Replay, ReplayOptions};
 use heatrun::spec::coolant::{a_c_at_flow, ReferencePolicy};
 use heatrun::spec::InputSource;

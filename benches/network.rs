@@ -12,9 +12,9 @@
 use std::time::Instant;
 
 use heatrun::estimate::{DiscreteModel, Estimate, Estimator, OutputError};
-use heatrun::model::matrix::discretize;
+use heatrun::thermal::matrix::discretize;
 use heatrun::model::{uncertainty, Spectrum};
-use heatrun::network::example::{generator_like, rich_heat_run};
+use heatrun::synth::example::{generator_like, rich_heat_run};
 use heatrun::network::{Interval, Labels, Network, NetworkIntervals, Parts, ScaleSource, Scaling};
 use heatrun::pipeline::{prepare, replay, Method, ReplayOptions};
 use heatrun::recording::Nameplate;

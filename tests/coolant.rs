@@ -8,7 +8,7 @@ use serde_json::Value;
 
 use crate::common::{self, heatrun, heatrun_ok};
 use crate::outputs::ReportSchema;
-use heatrun::model::matrix::eigenvalues;
+use heatrun::thermal::matrix::eigenvalues;
 use heatrun::pipeline::{replay, Replay, ReplayOptions};
 use heatrun::spec::coolant::a_c_at_flow;
 use heatrun::spec::coolant::ReferencePolicy;
@@ -204,7 +204,7 @@ fn a_pump_switch_is_named_and_the_inlet_reference_needs_the_inlet() {
     // By default the flow is carried into the model, and the note says so; the paper's
     // formulation assumes it constant, and the warning says that.
     let prepared = heatrun::pipeline::prepare(&mcap, &ReplayOptions::default()).unwrap();
-    let warning = heatrun::warnings::flow_change(&prepared).expect("a flow change");
+    let warning = heatrun::warnings::flow_change(&prepared.for_warnings()).expect("a flow change");
     assert!(
         warning.contains("cooling_water_flow") && warning.contains("`cooling_water_flow_heat`"),
         "{warning}"
@@ -214,7 +214,7 @@ fn a_pump_switch_is_named_and_the_inlet_reference_needs_the_inlet() {
         ..ReplayOptions::default()
     };
     let prepared = heatrun::pipeline::prepare(&mcap, &paper).unwrap();
-    let warning = heatrun::warnings::flow_change(&prepared).expect("a flow change");
+    let warning = heatrun::warnings::flow_change(&prepared.for_warnings()).expect("a flow change");
     assert!(warning.contains("constant flow"), "{warning}");
     // Named in the 10-minute block the switch falls in (10,000 s: 08:46:40).
     assert!(warning.contains("T08:40:00"), "{warning}");
@@ -222,7 +222,7 @@ fn a_pump_switch_is_named_and_the_inlet_reference_needs_the_inlet() {
     let constant = dir.path().join("constant.mcap");
     rc_run(&constant, Disturbances::default(), 1);
     let prepared = heatrun::pipeline::prepare(&constant, &ReplayOptions::default()).unwrap();
-    assert_eq!(heatrun::warnings::flow_change(&prepared), None);
+    assert_eq!(heatrun::warnings::flow_change(&prepared.for_warnings()), None);
     // `--reference inlet` on a recording without the inlet: exit 2 naming the channel.
     let bare = dir.path().join("bare.mcap");
     synth::write(

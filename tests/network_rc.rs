@@ -4,9 +4,9 @@
 use crate::common;
 
 use heatrun::estimate::{DiscreteModel, EstimationError, IdentificationData};
-use heatrun::model::matrix::discretize;
+use heatrun::thermal::matrix::discretize;
 use heatrun::model::ContinuousModel;
-use heatrun::network::example::rich_heat_run;
+use heatrun::synth::example::rich_heat_run;
 use heatrun::network::{Interval, Labels, Network, NetworkIntervals, Parts, ScaleSource, Scaling};
 use heatrun::pipeline::{self, replay, Method, Replay, ReplayOptions};
 use heatrun::recording::Nameplate;
@@ -16,7 +16,7 @@ use heatrun::Error;
 use nalgebra::DMatrix;
 
 fn machine() -> Parts {
-    heatrun::network::example::generator_like().0
+    heatrun::synth::example::generator_like().0
 }
 
 fn scaling() -> Scaling {

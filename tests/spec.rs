@@ -5,7 +5,7 @@ use crate::common;
 use std::path::Path;
 
 use common::{heatrun, heatrun_ok, tempdir, RecordingBuilder};
-use heatrun::model::matrix::discretize;
+use heatrun::thermal::matrix::discretize;
 use nalgebra::DMatrix;
 use serde_json::Value;
 

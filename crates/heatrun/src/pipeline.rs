@@ -220,6 +220,17 @@ pub struct Prepared {
     pub data: IdentificationData,
 }
 
+impl Prepared {
+    /// The pieces the warnings are built from.
+    pub fn for_warnings(&self) -> warnings::Prepared<'_> {
+        warnings::Prepared {
+            model: &self.model,
+            recording: &self.recording,
+            decimated: &self.decimated,
+        }
+    }
+}
+
 /// Reads, decimates and computes the signals of one recording.
 pub fn prepare(path: &Path, options: &ReplayOptions) -> Result<Prepared> {
     prepare_with(path, options, None)
@@ -428,7 +439,7 @@ pub fn replay_with(
         &prepared.signals,
         &prepared.decimated,
     );
-    let warnings = warnings::collect(&prepared, &analysis, &network);
+    let warnings = warnings::collect(&prepared.for_warnings(), &analysis, &network);
     Ok(Replay {
         path: path.to_owned(),
         model: prepared.model,
@@ -461,7 +472,7 @@ fn with_output_offset(
 ) -> Option<Estimate> {
     let applies = options.method == Method::Oe
         && crate::estimate::oe::starts_at_reference(data)
-        && !crate::estimate::censored::applies(data);
+        && !crate::estimate::oe::censored::applies(data);
     if !applies {
         return None;
     }

@@ -616,7 +616,7 @@ fn finish(
         }
     }
     // Dead times: each delayed input shifted on the grid, once, for every later stage.
-    delay::delay_inputs(&description.inputs, decimated.ts_s(), &mut inputs)?;
+    delay_inputs(&description.inputs, decimated.ts_s(), &mut inputs)?;
     Ok(ModelSignals {
         ts_s: decimated.ts_s(),
         time_ns: (0..n).map(|i| decimated.time_ns(i)).collect(),
@@ -840,6 +840,33 @@ pub(crate) fn local_quadratic(values: &[Option<f64>], half: usize) -> Vec<Option
         })
         .collect()
 }
+
+/// Shifts each delayed input by its delay in samples of `ts_s`, and each advanced one
+/// that many instants earlier (the signal stage's one call): `inputs` and `descriptions`
+/// are in model order. Refuses a shift that is not a whole number of samples (or an
+/// advance beyond [`delay::MAX_ADVANCE_SAMPLES`]).
+fn delay_inputs(
+    descriptions: &[InputDescription],
+    ts_s: f64,
+    inputs: &mut [InputSignal],
+) -> Result<(), delay::DelayError> {
+    for (signal, description) in inputs.iter_mut().zip(descriptions) {
+        if description.delay_s == 0.0 {
+            continue;
+        }
+        let d = delay::shift_samples(description.delay_s, ts_s).ok_or_else(|| delay::DelayError {
+            input: description.name.clone(),
+            delay_s: description.delay_s,
+            ts_s,
+        })?;
+        signal.values = match usize::try_from(d) {
+            Ok(later) => delay::shift(&signal.values, later),
+            Err(_) => delay::advance(&signal.values, d.unsigned_abs()),
+        };
+    }
+    Ok(())
+}
+
 
 #[cfg(test)]
 mod tests {

@@ -3,18 +3,30 @@
 //! early, time constants that two states claimed, and a steady state that lies beyond
 //! what the recording shows.
 
+use crate::decimate::DecimatedRecording;
 use crate::model::ModelAnalysis;
 use crate::network::NetworkAnalysis;
-use crate::pipeline::Prepared;
-use crate::recording::format_time;
-use crate::spec::{coolant, InputSource};
+use crate::recording::{format_time, RecordingSummary};
+use crate::spec::{coolant, InputSource, ModelDescription};
+
+/// What the stages before the estimator found, as the warnings read it (the pipeline's
+/// prepared recording, borrowed piece by piece: this module knows no pipeline).
+#[derive(Debug, Clone, Copy)]
+pub struct Prepared<'a> {
+    /// The model description the signals follow.
+    pub model: &'a ModelDescription,
+    /// What the recording stage found.
+    pub recording: &'a RecordingSummary,
+    /// The decimated quantities.
+    pub decimated: &'a DecimatedRecording,
+}
 
 /// A channel that stops this long before the recording ends gets a warning, s.
 const EARLY_STOP_S: f64 = 600.0;
 
 /// Every warning for a prepared recording and its model's analysis, in a stable order.
 pub fn collect(
-    prepared: &Prepared,
+    prepared: &Prepared<'_>,
     analysis: &ModelAnalysis,
     network: &NetworkAnalysis,
 ) -> Vec<String> {
@@ -43,7 +55,7 @@ pub fn collect(
     out
 }
 
-fn data_loss(p: &Prepared, out: &mut Vec<String>) {
+fn data_loss(p: &Prepared<'_>, out: &mut Vec<String>) {
     out.extend(
         p.recording
             .data_loss
@@ -52,7 +64,7 @@ fn data_loss(p: &Prepared, out: &mut Vec<String>) {
     );
 }
 
-fn gaps(p: &Prepared, out: &mut Vec<String>) {
+fn gaps(p: &Prepared<'_>, out: &mut Vec<String>) {
     for ch in p.decimated.channels.iter().filter(|c| c.gaps > 0) {
         out.push(format!(
             "channel {} has {} gap(s) ({} instants without data); no equation bridges them",
@@ -61,7 +73,7 @@ fn gaps(p: &Prepared, out: &mut Vec<String>) {
     }
 }
 
-fn implausible(p: &Prepared, out: &mut Vec<String>) {
+fn implausible(p: &Prepared<'_>, out: &mut Vec<String>) {
     let summary = &p.recording;
     for (i, ch) in summary.channels.iter().enumerate() {
         if let Some((t, v)) = summary.first_implausible[i] {
@@ -79,7 +91,7 @@ fn implausible(p: &Prepared, out: &mut Vec<String>) {
 }
 
 /// Samples written as `null` or NaN: a sensor's dropouts, left out like `bad` ones.
-fn dropouts(p: &Prepared, out: &mut Vec<String>) {
+fn dropouts(p: &Prepared<'_>, out: &mut Vec<String>) {
     let summary = &p.recording;
     for (i, ch) in summary.channels.iter().enumerate() {
         let count = summary.dropouts_per_channel.get(i).copied().unwrap_or(0);
@@ -94,7 +106,7 @@ fn dropouts(p: &Prepared, out: &mut Vec<String>) {
 }
 
 /// A channel that stops well before the others.
-fn early_stops(p: &Prepared, out: &mut Vec<String>) {
+fn early_stops(p: &Prepared<'_>, out: &mut Vec<String>) {
     let Some((_, end)) = p.recording.time_span_ns else {
         return;
     };
@@ -119,7 +131,7 @@ fn early_stops(p: &Prepared, out: &mut Vec<String>) {
 /// ([`coolant::flow_behaviour`]); a change beyond [`coolant::FLOW_VARIES`] of their
 /// median is named with its time, and the note says whether the model carries the flow
 /// (an [`InputSource::CoolantFlow`] input) or assumes it constant.
-pub fn flow_change(p: &Prepared) -> Option<String> {
+pub fn flow_change(p: &Prepared<'_>) -> Option<String> {
     let flow = coolant::flow_behaviour(&p.decimated)?;
     let (k, changed) = flow.first_change?;
     let carried = p

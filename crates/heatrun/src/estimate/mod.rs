@@ -7,7 +7,6 @@
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-pub mod censored;
 pub mod data;
 pub mod discrete;
 pub mod error;

@@ -5,10 +5,7 @@
 //! Input: an [`Estimate`] and the [`IdentificationData`] it came from. Output: a
 //! [`ModelAnalysis`].
 
-pub mod continuous;
-pub mod error;
 pub mod fit;
-pub mod matrix;
 pub mod residuals;
 pub mod sensitivity;
 pub mod uncertainty;
@@ -19,8 +16,8 @@ use std::ops::Range;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-pub use continuous::{ContinuousModel, Spectrum};
-pub use error::ModelError;
+pub use crate::thermal::{continuous, matrix};
+pub use crate::thermal::{ContinuousModel, ModelError, Spectrum};
 pub use fit::Fit;
 pub use residuals::ResidualAnalysis;
 pub use sensitivity::{Assignment, Sensitivities};

@@ -18,9 +18,8 @@ use std::ops::Range;
 use nalgebra::{Complex, DMatrix, DVector};
 use serde::Serialize;
 
-use super::continuous::ContinuousModel;
-use super::matrix::{complex_eigenvector, eigenvalues, eigenvector};
-use super::ModelError;
+use crate::thermal::matrix::{complex_eigenvector, eigenvalues, eigenvector};
+use crate::thermal::{ContinuousModel, ModelError};
 use crate::estimate::{DiscreteModel, IdentificationData};
 
 type Result<T, E = ModelError> = std::result::Result<T, E>;
@@ -418,7 +417,7 @@ mod tests {
         let data = IdentificationData::complete(ts, DMatrix::zeros(n, 3), inputs.clone());
         let simulate = |t: f64| {
             let m = oscillating_model(t, omega, t_real);
-            let (phi, gamma) = crate::model::matrix::discretize(&m.a_c, &m.b_c, ts);
+            let (phi, gamma) = crate::thermal::matrix::discretize(&m.a_c, &m.b_c, ts);
             let mut y = DVector::zeros(3);
             let mut out = vec![y.clone()];
             for k in 1..n {
@@ -445,7 +444,7 @@ mod tests {
         }
         assert!(largest > 1e-2, "the pair moves the outputs: {largest}");
         // The modal Φ is the model's own.
-        let (phi, _) = crate::model::matrix::discretize(&model.a_c, &model.b_c, ts);
+        let (phi, _) = crate::thermal::matrix::discretize(&model.a_c, &model.b_c, ts);
         assert!((&recursion.discrete.phi - phi).norm() < 1e-12);
     }
 

@@ -6,11 +6,10 @@
 use nalgebra::DVector;
 use serde::Serialize;
 
-use super::continuous::{ContinuousModel, Spectrum};
+use crate::thermal::{ContinuousModel, Spectrum};
 use crate::estimate::Estimate;
 
-/// z of the two-sided 95 % normal interval.
-pub const Z95: f64 = 1.959_963_984_540_054;
+pub use crate::thermal::Z95;
 
 /// 95 % confidence half-widths.
 #[derive(Debug, Clone, Serialize)]

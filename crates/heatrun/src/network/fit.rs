@@ -23,11 +23,10 @@
 //! and no χ² test is made.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
-use serde::Serialize;
 
-use super::{Parts, Scaling};
-use crate::estimate::rc::{projected, Parametrisation, LOG_RANGE};
-use crate::estimate::DiscreteModel;
+use super::{MinimumDistance, Parts, Scaling};
+use crate::thermal::rc::{projected, Parametrisation, LOG_RANGE};
+use crate::thermal::DiscreteModel;
 
 /// Eigenvalues of Σ̂'s correlation matrix below this share of the largest are raised to
 /// it: the whitening stays finite where Σ̂ is (nearly) singular.
@@ -35,22 +34,6 @@ pub const RELATIVE_EIGENVALUE_FLOOR: f64 = 1e-10;
 
 /// Gauss–Newton (Levenberg–Marquardt) steps at most.
 const MAX_ITERATIONS: usize = 200;
-
-/// What the minimum-distance fit found besides the network.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct MinimumDistance {
-    /// d at the minimum: (θ̂ − θ(p))ᵀ Σ̂⁻¹ (θ̂ − θ(p)).
-    pub distance: f64,
-    /// n(n+m) − dim p: the χ² degrees of freedom of d where the model is a network.
-    pub degrees_of_freedom: usize,
-    /// P(χ² ≥ d): small where the identified model is no passive, energy-conserving
-    /// network; `None` where the distance is unweighted or has no degrees of freedom.
-    pub p_value: Option<f64>,
-    /// How Σ̂ was used: regularised, or not at all, and why.
-    pub weighting: String,
-    /// Steps taken.
-    pub iterations: usize,
-}
 
 /// The fitted network (in the energy-conservation scale: each column of K sums to 1)
 /// and its distance.
@@ -268,7 +251,7 @@ pub fn chi_square_survival(x: f64, k: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::network::example::generator_like;
+    use crate::synth::example::generator_like;
 
     fn model_of(parts: &Parts, scaling: Scaling) -> DiscreteModel {
         let map = Parametrisation::of_shape(1.0, scaling, parts);

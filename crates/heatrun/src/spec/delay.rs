@@ -8,7 +8,7 @@
 //! conduction time to reach the sensor (a glass furnace's cooling acts after 3-5 samples,
 //! a lab heater's thermistor after ~15 s). It is carried out in one place: the signal
 //! stage shifts each delayed input's series d_i instants later on the grid
-//! ([`delay_inputs`]), so that every stage after it (estimators, simulation, fit, report)
+//! (`signals::delay_inputs`), so that every stage after it (estimators, simulation, fit, report)
 //! sees an ordinary model of the shifted input. The first d_i instants have no input
 //! value: they are unknown, and the estimators skip them as they skip any gap.
 //!
@@ -31,9 +31,6 @@
 //! carried as a negative shift, [`InputDescription::delay_s`] = −`advance_s`.
 
 use crate::series::Series;
-use crate::signals::InputSignal;
-
-use super::InputDescription;
 
 /// How far τ_d / Ts may sit from a whole number and still count as one (a fraction of a
 /// sample: decimal seconds such as 0.1 s are not exact in binary).
@@ -113,32 +110,6 @@ pub fn shift(series: &Series, d: usize) -> Series {
     (0..len)
         .map(|k| k.checked_sub(d).and_then(|j| series.get(j)))
         .collect()
-}
-
-/// Shifts each delayed input by its delay in samples of `ts_s`, and each advanced one
-/// that many instants earlier (the signal stage's one call): `inputs` and `descriptions`
-/// are in model order. Refuses a shift that is not a whole number of samples (or an
-/// advance beyond [`MAX_ADVANCE_SAMPLES`]).
-pub fn delay_inputs(
-    descriptions: &[InputDescription],
-    ts_s: f64,
-    inputs: &mut [InputSignal],
-) -> Result<(), DelayError> {
-    for (signal, description) in inputs.iter_mut().zip(descriptions) {
-        if description.delay_s == 0.0 {
-            continue;
-        }
-        let d = shift_samples(description.delay_s, ts_s).ok_or_else(|| DelayError {
-            input: description.name.clone(),
-            delay_s: description.delay_s,
-            ts_s,
-        })?;
-        signal.values = match usize::try_from(d) {
-            Ok(later) => shift(&signal.values, later),
-            Err(_) => advance(&signal.values, d.unsigned_abs()),
-        };
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -70,7 +70,7 @@ pub fn second_machine_model() -> DiscreteModel {
         0.004, 0.006, 0.012,
         0.010, -0.080, 0.140,
     ]);
-    let (phi, gamma) = crate::model::matrix::discretize(&a_c, &b_c, 1.0);
+    let (phi, gamma) = crate::thermal::matrix::discretize(&a_c, &b_c, 1.0);
     DiscreteModel {
         phi,
         gamma,

@@ -13,6 +13,7 @@
 //! Gaussian noise and resolution, and the temperatures are optionally stored by
 //! exception as a SCADA historian does (deadband and heartbeat).
 
+pub mod example;
 mod machines;
 pub mod plant;
 mod truth;
@@ -51,7 +52,7 @@ impl SynthError {
 /// The synthesiser's result.
 pub type Result<T, E = SynthError> = std::result::Result<T, E>;
 use crate::losses::copper_resistance;
-use crate::model::matrix::discretize;
+use crate::thermal::matrix::discretize;
 use crate::recording::{Nameplate, Quantity};
 use crate::writer::{
     ChannelId, ChannelSpec, ExceptionFilter, RecordingWriter, Storage, WriterOptions,

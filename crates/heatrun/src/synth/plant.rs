@@ -21,7 +21,7 @@ use super::machines::{Machine, NetworkMachine};
 use super::{FieldChannel, OperatingPoint, SynthOptions};
 use super::{Result, SynthError};
 use crate::losses;
-use crate::model::matrix::discretize;
+use crate::thermal::matrix::discretize;
 use crate::model::ContinuousModel;
 use crate::network::calorimetry::WaterModel;
 use crate::network::{Labels, Network, Parts, ScaleSource, Scaling};

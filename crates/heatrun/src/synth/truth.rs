@@ -9,7 +9,7 @@ use super::plant::{self, ChangeCause, Piece, Trajectory};
 use super::{Disturbances, OperatingPoint, SynthOptions};
 use super::Result;
 use crate::estimate::DiscreteModel;
-use crate::model::matrix::rows;
+use crate::thermal::matrix::rows;
 use crate::model::{ContinuousModel, Spectrum};
 
 /// What a synthetic run was made from. States are in the machine's order (`states`);

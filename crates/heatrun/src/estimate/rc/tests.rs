@@ -3,6 +3,7 @@
 use nalgebra::DMatrix;
 
 use super::*;
+use crate::thermal::network::Interval;
 use crate::estimate::testing::{simulate, step_inputs, with_noise};
 
 /// Three parts in physical units (inputs in units of 20 W): C = [200, 1000, 100] J/K,
@@ -30,7 +31,7 @@ fn known() -> (Parts, Scaling) {
 
 fn data_of(parts: &Parts, scaling: Scaling, len: usize, sigma: f64) -> IdentificationData {
     let template = IdentificationData::complete(1.0, DMatrix::zeros(2, 3), DMatrix::zeros(2, 3));
-    let map = Parametrisation::new(&template, scaling, parts);
+    let map = Parametrisation::of_shape(template.ts_s, scaling, parts);
     let model = map.model(&map.start);
     let u = step_inputs(len, 3, 21);
     let y = simulate(&model, &u, &[2.0, 1.0, 0.5]);
@@ -84,7 +85,7 @@ fn the_map_gives_the_hand_worked_two_part_model() {
         p_base_w: 1e6,
     };
     let template = IdentificationData::complete(1.0, DMatrix::zeros(2, 2), DMatrix::zeros(2, 2));
-    let map = Parametrisation::new(&template, scaling, &parts);
+    let map = Parametrisation::of_shape(template.ts_s, scaling, &parts);
     assert_eq!(map.reference, vec![0, 1]);
     let expected_p = [
         1000f64.ln(),
@@ -111,7 +112,7 @@ fn the_map_gives_the_hand_worked_two_part_model() {
 fn the_jacobian_of_theta_matches_central_differences() {
     let (parts, scaling) = known();
     let data = data_of(&parts, scaling, 10, 0.0);
-    let map = Parametrisation::new(&data, scaling, &parts);
+    let map = Parametrisation::of_shape(data.ts_s, scaling, &parts);
     let p = map.start.clone();
     let d = map.theta_jacobian(&p);
     assert_eq!(d.shape(), (18, 15));
@@ -143,7 +144,7 @@ fn from_a_distant_start_noise_free_data_give_the_true_network() {
     }
     start.conductance_w_per_k.apply(|g| *g *= 1.4);
     start.loss_distribution = start.loss_distribution.map(|k| 0.5 * k + 0.5 / 3.0);
-    let map = Parametrisation::new(&data, scaling, &start);
+    let map = Parametrisation::of_shape(data.ts_s, scaling, &start);
     let p0 = map.start.clone();
     let estimator = ResistanceCapacitance {
         weights: None,

@@ -336,7 +336,7 @@ fn paper_network() -> Network {
         theta_base_k: 80.0,
         p_base_w: 100e6,
     };
-    let g_out = calorimetry::heat_flow_w(4183.0 * 1.0, 1.0, 48.2);
+    let g_out = crate::network::calorimetry::heat_flow_w(4183.0 * 1.0, 1.0, 48.2);
     Network::from_continuous(&a, &b, scaling, water_link(2, g_out), &labels).unwrap()
 }
 

@@ -25,8 +25,8 @@ use std::f64::consts::{FRAC_1_SQRT_2, PI};
 
 use nalgebra::DMatrix;
 
-use super::oe::{information_covariance, normalised_inverse, Fitted, OutputError};
-use super::{Estimate, IdentificationData, Result};
+use super::fit::{information_covariance, normalised_inverse, Fitted, OutputError};
+use crate::estimate::{Estimate, IdentificationData, Result};
 
 /// Most reweighting iterations.
 pub const MAX_ITERATIONS: usize = 50;

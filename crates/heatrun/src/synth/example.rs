@@ -3,8 +3,8 @@
 
 use nalgebra::DMatrix;
 
-use super::{Labels, Parts};
-use crate::synth::OperatingPoint;
+use super::OperatingPoint;
+use crate::thermal::network::{Labels, Parts};
 
 /// Stator winding, iron core, cooling-water outlet; the generator's three losses.
 ///

@@ -5,7 +5,7 @@ use serde::Serialize;
 
 use super::matrix::{eigenvalues, logm};
 use super::ModelError;
-use crate::estimate::DiscreteModel;
+use super::DiscreteModel;
 
 type Result<T, E = ModelError> = std::result::Result<T, E>;
 
@@ -141,7 +141,7 @@ mod tests {
         assert!(sp.has_oscillating_modes());
         // The continuous form exists and reproduces the pair.
         let cm = ContinuousModel::from_discrete(&model).unwrap();
-        let back = crate::model::matrix::discretize(&cm.a_c, &cm.b_c, ts);
+        let back = crate::thermal::matrix::discretize(&cm.a_c, &cm.b_c, ts);
         assert!((back.0 - &model.phi).norm() < 1e-12);
         assert!((back.1 - &model.gamma).norm() < 1e-12);
     }
