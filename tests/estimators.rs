@@ -107,7 +107,7 @@ fn rls_without_forgetting_ends_at_least_squares() {
         .expect("rls keeps its trajectory");
     assert!(!trajectory.is_empty());
     assert_eq!(trajectory.last().unwrap().theta, rls.estimate.model.theta());
-    assert_eq!(rls.estimate.method, "rls");
+    assert_eq!(rls.estimate.method, heatrun::estimate::Method::Rls);
     assert!(ls.estimate.trajectory.is_none());
 }
 

@@ -168,7 +168,7 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
     let mut outside = 0;
     for seed in 1..=3 {
         let r = run(seed, Method::Rc);
-        assert_eq!(r.estimate.method, "rc");
+        assert_eq!(r.estimate.method, heatrun::estimate::Method::Rc);
         let network = r.network.network.as_ref().unwrap();
         assert!(
             network.passivity.is_passive,
@@ -207,7 +207,7 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
         }
         rc.push(of_network(network));
         let start = &r.estimate.network.as_ref().unwrap().output_error;
-        assert_eq!(start.method, "oe");
+        assert_eq!(start.method, heatrun::estimate::Method::Oe);
         let continuous = ContinuousModel::from_discrete(&start.model).unwrap();
         let identified = Network::from_continuous(
             &continuous.a_c,
@@ -271,7 +271,7 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
         oe.push(of_network(nearest));
         // oe is set beside rc, on the same instants.
         let beside = r.output_error_beside.as_ref().unwrap();
-        assert_eq!(beside.method, "oe");
+        assert_eq!(beside.method, heatrun::estimate::Method::Oe);
         assert_eq!(beside.time_constants_s.len(), 3);
         if seed == 1 {
             let report = heatrun::report::Report::new(&r);

@@ -29,41 +29,7 @@ use crate::spec::coolant::{self, ReferencePolicy};
 use crate::spec::ModelDescription;
 use crate::warnings;
 
-/// An identification method selectable on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
-    /// Ordinary least squares (eq. 7), W = I: biased by sensor noise on y.
-    Ls,
-    /// Weighted least squares (eqs. 3–7) with per-output weights.
-    Wls,
-    /// Recursive least squares with a forgetting factor.
-    Rls,
-    /// Iterated instrumental variables.
-    Iv,
-    /// Output error by Levenberg–Marquardt from the IV estimate (the default).
-    Oe,
-    /// Grey-box output error in the thermal network's own parameters (C, G, K), passive
-    /// by construction, from the OE estimate's network.
-    Rc,
-}
-
-impl Method {
-    /// The method's name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Ls => "ls",
-            Method::Wls => "wls",
-            Method::Rls => "rls",
-            Method::Iv => "iv",
-            Method::Oe => "oe",
-            Method::Rc => "rc",
-        }
-    }
-
-    /// Every method that identifies Φ and Γ freely (black box), for benchmarks and tests;
-    /// `rc` fits a network and has its own benchmark (`benches/network.rs`).
-    pub const ALL: [Method; 5] = [Method::Ls, Method::Wls, Method::Rls, Method::Iv, Method::Oe];
-}
+pub use crate::estimate::Method;
 
 /// How to replay a recording.
 #[derive(Debug, Clone)]
@@ -132,7 +98,7 @@ impl Default for ReplayOptions {
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Beside {
     /// Its method.
-    pub method: String,
+    pub method: Method,
     /// Its time constants, ascending, s.
     pub time_constants_s: Vec<f64>,
     /// Its fit on the estimation range.
@@ -142,7 +108,7 @@ pub struct Beside {
 impl Beside {
     /// The figures of `model` on `data`'s `range`, where it has real time constants.
     fn of(
-        method: &str,
+        method: Method,
         model: &crate::estimate::DiscreteModel,
         data: &IdentificationData,
         range: Range<usize>,
@@ -152,7 +118,7 @@ impl Beside {
         let data = data.slice(range);
         let sim = model::fit::simulate(model, &data, &data.segments());
         Some(Beside {
-            method: method.into(),
+            method,
             time_constants_s: spectrum.time_constants_s,
             fit: model::fit::fit(&data, &sim, temperature_base_k),
         })
@@ -423,7 +389,7 @@ pub fn replay_with(
     let grey_box = estimate.network.as_deref();
     let output_error_beside = grey_box.and_then(|n| {
         Beside::of(
-            &n.output_error.method,
+            n.output_error.method,
             &n.output_error.model,
             &prepared.data,
             estimation_range.clone(),

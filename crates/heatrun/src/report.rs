@@ -539,7 +539,7 @@ impl Report {
             profile: PROFILE.into(),
             heatrun_version: env!("CARGO_PKG_VERSION").into(),
             sample_time_s: r.signals.ts_s,
-            method: r.estimate.method.clone(),
+            method: r.estimate.method.to_string(),
             states: states.iter().map(|s| s.name.clone()).collect(),
             inputs: r.signals.inputs.iter().map(|i| i.name.clone()).collect(),
             phi: rows(&r.estimate.model.phi),
@@ -615,7 +615,7 @@ impl Report {
             calorimetry: r.network.calorimetry.clone(),
             equilibrium: r.network.equilibrium.clone(),
             output_error_beside: r.output_error_beside.as_ref().map(|b| BesideEntry {
-                method: b.method.clone(),
+                method: b.method.to_string(),
                 time_constants_s: b.time_constants_s.clone(),
                 fit: FitEntry::from(&b.fit),
             }),

@@ -7,6 +7,7 @@
 //! ŷ comes from the previous estimate, starting from least squares, repeated until
 //! Θ stops changing.
 
+use crate::estimate::Method;
 use nalgebra::{DMatrix, DVector};
 
 use super::wls::{full_rank, WeightedLeastSquares};
@@ -34,8 +35,8 @@ impl Default for InstrumentalVariables {
 }
 
 impl Estimator for InstrumentalVariables {
-    fn name(&self) -> &'static str {
-        "iv"
+    fn method(&self) -> Method {
+        Method::Iv
     }
 
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
@@ -208,7 +209,7 @@ impl InstrumentalVariables {
             .collect();
         Ok(Estimate {
             model,
-            method: self.name().into(),
+            method: self.method(),
             rows_used: rows.len(),
             condition_number: last.condition_number,
             covariance: Some(block_diagonal_covariance(&[&core], &noise_variance)),
@@ -234,7 +235,7 @@ mod tests {
         assert!(theta_error(&first, &truth) < 1e-9, "{first:?}");
         let e = InstrumentalVariables::default().estimate(&data).unwrap();
         assert!(theta_error(&e.model, &truth) < 1e-9, "{:?}", e.model);
-        assert_eq!(e.method, "iv");
+        assert_eq!(e.method, Method::Iv);
         assert_eq!(e.rows_used, 1499);
     }
 

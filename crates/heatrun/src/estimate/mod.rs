@@ -11,6 +11,7 @@ pub mod data;
 pub mod discrete;
 pub mod error;
 pub mod iv;
+mod method;
 pub(crate) mod normal_equations;
 pub mod oe;
 pub mod qr;
@@ -24,6 +25,7 @@ pub use data::{ExceptionStorage, IdentificationData};
 pub use discrete::DiscreteModel;
 pub use error::EstimationError;
 pub use iv::InstrumentalVariables;
+pub use method::{Method, UnknownMethod};
 pub use oe::OutputError;
 pub use rc::{NetworkEstimate, ResistanceCapacitance};
 pub use rls::{RecursiveLeastSquares, TrajectoryPoint};
@@ -37,8 +39,8 @@ pub type Result<T, E = EstimationError> = std::result::Result<T, E>;
 pub struct Estimate {
     /// The model.
     pub model: DiscreteModel,
-    /// The method's name (`ls`, `wls`, `rls`, `iv`, `oe`, `rc`), set by the estimator.
-    pub method: String,
+    /// The method, set by the estimator.
+    pub method: Method,
     /// Number of equations used: regression rows, or for output error the instants after
     /// each segment's start where some output is compared.
     pub rows_used: usize,
@@ -65,8 +67,8 @@ pub struct Estimate {
 
 /// An identification method.
 pub trait Estimator {
-    /// The method's name as it appears in [`Estimate::method`].
-    fn name(&self) -> &'static str;
+    /// The method, as it appears in [`Estimate::method`].
+    fn method(&self) -> Method;
     /// Estimates Φ and Γ from the data.
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate>;
 }

@@ -33,6 +33,7 @@
 //! [0, 1], and Θ the covariance D·cov(p)·Dᵀ that the model analysis propagates.
 //! A record stored by exception is fitted as its kept values (without OE's censoring).
 
+use crate::estimate::Method;
 use std::cell::RefCell;
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
@@ -75,8 +76,8 @@ pub struct NetworkEstimate {
 }
 
 impl Estimator for ResistanceCapacitance {
-    fn name(&self) -> &'static str {
-        "rc"
+    fn method(&self) -> Method {
+        Method::Rc
     }
 
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {
@@ -138,7 +139,7 @@ impl ResistanceCapacitance {
         // output, estimated beside the network (without it the slow columns of K and the
         // conductances to the coolant absorb it; README, "The thermal network").
         let mut inner = Problem::new(data, segments, &start_model, &weights).with_output_offset();
-        inner.progress = Some(oe::Reporting::new(&self.progress, self.name()));
+        inner.progress = Some(oe::Reporting::new(&self.progress, self.method().name()));
         let mut problem = RcProblem::new(inner, map, start);
         let mut evaluations = 0;
         // Fewer evaluations than OE's 200·(p+1): a conductance or share that is zero in
@@ -199,7 +200,7 @@ impl ResistanceCapacitance {
                 termination: TerminationReason::Numerical("a network the model cannot hold"),
             });
         }
-        Ok(problem.conclude(self.name(), rows_used, evaluations, start_model))
+        Ok(problem.conclude(self.method(), rows_used, evaluations, start_model))
     }
 }
 
@@ -341,7 +342,7 @@ impl<'a> RcProblem<'a> {
     /// The estimate at the minimum, with the network and its intervals.
     fn conclude(
         &self,
-        method: &str,
+        method: Method,
         rows_used: usize,
         evaluations: usize,
         start_model: DiscreteModel,
@@ -364,7 +365,8 @@ impl<'a> RcProblem<'a> {
         let p = self.p();
         let start_estimate = Estimate {
             model: start_model,
-            method: "start".into(),
+            // OE's, once [`Estimator::estimate`] puts its estimate here.
+            method: Method::Oe,
             rows_used,
             condition_number: f64::NAN,
             covariance: None,
@@ -376,7 +378,7 @@ impl<'a> RcProblem<'a> {
         };
         Estimate {
             model: self.map.model(p),
-            method: method.into(),
+            method,
             rows_used,
             condition_number,
             covariance: Some(theta_cov),

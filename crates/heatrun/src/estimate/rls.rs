@@ -6,6 +6,7 @@
 //! It starts diffuse (θ = 0, P large on the regressors' scales), and with λ = 1 ends
 //! at the batch LS estimate.
 
+use crate::estimate::Method;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
@@ -93,8 +94,8 @@ impl Recursion {
 }
 
 impl Estimator for RecursiveLeastSquares {
-    fn name(&self) -> &'static str {
-        "rls"
+    fn method(&self) -> Method {
+        Method::Rls
     }
 
     /// Runs the recursion over the usable rows; the estimate is where it ends, with its
@@ -126,7 +127,7 @@ impl Estimator for RecursiveLeastSquares {
         let noise_variance: Vec<f64> = sse.iter().map(|s| s / dof).collect();
         Ok(Estimate {
             model: DiscreteModel::from_theta(n, m, data.ts_s, &recursion.theta_vec()),
-            method: self.name().into(),
+            method: self.method(),
             rows_used: rows.len(),
             condition_number: f64::NAN,
             covariance: Some(block_diagonal_covariance(&[&recursion.p], &noise_variance)),
@@ -162,7 +163,7 @@ mod tests {
             "noisy enough to matter"
         );
         assert_eq!(rls.rows_used, ls.rows_used);
-        assert_eq!(rls.method, "rls");
+        assert_eq!(rls.method, Method::Rls);
         let trajectory = rls.trajectory.as_ref().unwrap();
         let rows = data.usable_rows();
         assert_eq!(trajectory[0].instant, rows[0]);

@@ -3,6 +3,7 @@
 //! with the recording — not by the normal equations (FᵀF)⁻¹, whose condition number
 //! is the square of F's.
 
+use crate::estimate::Method;
 use nalgebra::{DMatrix, DVector};
 
 use super::qr::StreamingQr;
@@ -34,11 +35,11 @@ struct GroupSolution {
 }
 
 impl Estimator for WeightedLeastSquares {
-    fn name(&self) -> &'static str {
+    fn method(&self) -> Method {
         if self.weights.is_some() {
-            "wls"
+            Method::Wls
         } else {
-            "ls"
+            Method::Ls
         }
     }
 
@@ -72,7 +73,7 @@ impl Estimator for WeightedLeastSquares {
         let cores: Vec<&DMatrix<f64>> = cores.iter().collect();
         Ok(Estimate {
             model: DiscreteModel::from_theta(n, m, data.ts_s, &theta),
-            method: self.name().into(),
+            method: self.method(),
             rows_used: rows.len(),
             condition_number,
             covariance: Some(block_diagonal_covariance(&cores, &noise_variance)),
@@ -141,7 +142,7 @@ impl WeightedLeastSquares {
         let sv = r.clone().singular_values();
         let (s_max, s_min) = (sv.max(), sv.min());
         let no_excitation = || EstimationError::NoExcitation {
-            method: self.name(),
+            method: self.method().name(),
             singular_value_ratio: s_min / s_max,
         };
         if !full_rank(s_min, s_max, RANK_TOLERANCE) {
@@ -252,13 +253,13 @@ mod tests {
     fn the_method_is_named_by_whether_it_is_weighted() {
         let (data, _, _) = simulated(300, 10);
         let plain = WeightedLeastSquares::default().estimate(&data).unwrap();
-        assert_eq!(plain.method, "ls");
+        assert_eq!(plain.method, Method::Ls);
         let weighted = WeightedLeastSquares {
             weights: Some(DMatrix::from_element(300, 2, 1.0)),
         }
         .estimate(&data)
         .unwrap();
-        assert_eq!(weighted.method, "wls");
+        assert_eq!(weighted.method, Method::Wls);
         assert!(plain.trajectory.is_none());
         let wrong = WeightedLeastSquares {
             weights: Some(DMatrix::from_element(299, 2, 1.0)),

@@ -8,6 +8,7 @@ use super::network::{diagram, short_name};
 use super::plot::{palette, Chart, Line, Panel, Thinning, TimeAxis, MEASURED, MODEL};
 use super::{HtmlError, Section};
 use crate::model::sensitivity::SensitivityModel;
+use crate::estimate::Method;
 use crate::pipeline::{Replay, ReplayOptions, ValidationSource};
 use crate::report::{NetworkEntry, Report};
 use crate::spec::Scaling;
@@ -1215,17 +1216,6 @@ pub struct EstimatorSection<'a> {
     pub options: &'a ReplayOptions,
 }
 
-fn method_description(method: &str) -> &'static str {
-    match method {
-        "oe" => "output error: the simulation error minimised by Levenberg–Marquardt from the IV estimate",
-        "iv" => "iterated instrumental variables, instruments from the simulated model",
-        "rls" => "recursive least squares with a forgetting factor",
-        "wls" => "weighted least squares (eqs. 3–7)",
-        "ls" => "ordinary least squares (eq. 7)",
-        _ => "",
-    }
-}
-
 impl EstimatorSection<'_> {
     fn settings(&self) -> Table {
         let (r, o, e) = (self.report, self.options, &self.replay.estimate);
@@ -1236,18 +1226,18 @@ impl EstimatorSection<'_> {
         );
         t.row(
             "method",
-            vec![format!("{} ({})", r.method, method_description(&r.method))],
+            vec![format!("{} ({})", e.method, e.method.description())],
         );
         t.row("model", vec![r.model.name.clone()]);
         t.row("sample time Ts, s", vec![sig(r.sample_time_s, 6)]);
-        let weights = match (&o.weights, r.method.as_str()) {
+        let weights = match (&o.weights, e.method) {
             (Some(w), _) => w.iter().map(|v| sig(*v, 4)).collect::<Vec<_>>().join(", "),
-            (None, "oe") => "1/σ_i², estimated".into(),
-            (None, "wls") => "equal".into(),
+            (None, Method::Oe) => "1/σ_i², estimated".into(),
+            (None, Method::Wls) => "equal".into(),
             (None, _) => "–".into(),
         };
         t.row("weights", vec![weights]);
-        if r.method == "rls" {
+        if e.method == Method::Rls {
             t.row("forgetting factor λ", vec![sig(o.forgetting, 6)]);
         }
         let validation = match &o.validation {

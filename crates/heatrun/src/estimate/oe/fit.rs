@@ -1,6 +1,7 @@
 //! The output-error fit (see [`super`]): Levenberg–Marquardt over Θ and each segment's x0,
 //! its Jacobian by forward sensitivities, the start, the weights and the covariance.
 
+use crate::estimate::Method;
 use std::cell::RefCell;
 use std::ops::Range;
 
@@ -143,10 +144,10 @@ impl OutputError {
             problem = problem.with_output_offset();
         }
         problem.entry_weight = entry_weight;
-        problem.progress = Some(Reporting::new(&self.progress, self.name()));
+        problem.progress = Some(Reporting::new(&self.progress, self.method().name()));
         let (problem, evaluations) = self.minimise(problem)?;
         Ok(Fitted {
-            estimate: conclude(&problem, self.name(), rows_used, evaluations),
+            estimate: conclude(&problem, self.method(), rows_used, evaluations),
             initial_states: problem.initial_states(),
         })
     }
@@ -339,7 +340,7 @@ pub(crate) fn information_covariance(
 
 /// The estimate at the minimum: Θ's block of the covariance, the noise variance per
 /// output from the unweighted residuals.
-fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usize) -> Estimate {
+fn conclude(problem: &Problem, method: Method, rows_used: usize, evaluations: usize) -> Estimate {
     let n = problem.n;
     let w: Vec<f64> = problem.sqrt_w.iter().map(|v| v * v).collect();
     let evaluation = problem.evaluate_full();
@@ -352,7 +353,7 @@ fn conclude(problem: &Problem, method: &str, rows_used: usize, evaluations: usiz
         .collect();
     Estimate {
         model: problem.model(),
-        method: method.into(),
+        method,
         rows_used,
         condition_number,
         covariance: Some(covariance),
@@ -878,7 +879,7 @@ mod tests {
         assert!(theta_error(&start, &truth) > 0.02);
         let e = OutputError::default().refine(&data, &start).unwrap();
         assert!(theta_error(&e.model, &truth) < 1e-8, "{:?}", e.model);
-        assert_eq!(e.method, "oe");
+        assert_eq!(e.method, Method::Oe);
         assert_eq!(e.rows_used, 1499);
         // The residuals are zero, so is the covariance.
         assert!(e.covariance.unwrap().amax() < 1e-12);

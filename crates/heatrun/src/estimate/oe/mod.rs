@@ -19,11 +19,12 @@ mod fit;
 
 pub use fit::*;
 
+use crate::estimate::Method;
 use super::{Estimate, Estimator, IdentificationData, Result};
 
 impl Estimator for OutputError {
-    fn name(&self) -> &'static str {
-        "oe"
+    fn method(&self) -> Method {
+        Method::Oe
     }
 
     fn estimate(&self, data: &IdentificationData) -> Result<Estimate> {

@@ -155,7 +155,7 @@ fn from_a_distant_start_noise_free_data_give_the_true_network() {
     let network = e.network.as_ref().unwrap();
     let (cg, k) = errors(&network.parts, &truth);
     assert!(cg < 1e-6 && k < 1e-7, "C, G off by {cg}, K by {k}");
-    assert_eq!(e.method, "rc");
+    assert_eq!(e.method, Method::Rc);
 }
 
 #[test]
@@ -171,7 +171,7 @@ fn pt100_noise_gives_c_and_g_within_ten_percent_and_intervals_that_hold_them() {
     .estimate(&data)
     .unwrap();
     let network = e.network.as_ref().unwrap();
-    assert_eq!(network.output_error.method, "oe");
+    assert_eq!(network.output_error.method, Method::Oe);
     let (cg, k) = errors(&network.parts, &truth);
     assert!(cg < 0.10 && k < 0.05, "C, G off by {cg}, K by {k}");
     // The 95 % intervals: bounded, and at most one of the 15 entries misses the truth.
