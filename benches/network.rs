@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use heatrun::estimate::{DiscreteModel, Estimate, Estimator, OutputError};
 use heatrun::thermal::matrix::discretize;
-use heatrun::model::{uncertainty, Spectrum};
+use heatrun::model::{propagate, Spectrum};
 use heatrun::synth::example::{generator_like, rich_heat_run};
 use heatrun::network::{Interval, Labels, Network, NetworkIntervals, Parts, ScaleSource, Scaling};
 use heatrun::pipeline::{prepare, replay, Method, ReplayOptions};
@@ -443,7 +443,7 @@ fn time_constants(e: &Estimate, truth: &[f64], u: &[f64]) -> (Vec<f64>, Vec<bool
     let found = Spectrum::of(&e.model)
         .expect("real time constants")
         .time_constants_s;
-    let ci = uncertainty::propagate(e, u).map(|u| u.time_constants_ci95_s);
+    let ci = propagate(e, u).map(|u| u.time_constants_ci95_s);
     let err = found.iter().zip(truth).map(|(f, t)| (f - t) / t).collect();
     let cov = found
         .iter()

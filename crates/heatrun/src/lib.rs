@@ -1,22 +1,27 @@
 //! heatrun: thermal system identification of hydro generators from heat-run
-//! recordings in the heatrun SCADA MCAP profile.
+//! recordings in the heatrun SCADA MCAP profile. This is the library; the `heatrun`
+//! command and the rerun publisher (`heatrun-rerun`) are packages of their own above it.
 //!
-//! The library follows the data, one module per pipeline stage, each with a typed
-//! input and output and no knowledge of the stages after it:
+//! The library follows the data, one module per stage, each with a typed input, output
+//! and error, and no knowledge of the stages after it; [`pipeline`] alone knows their
+//! order, and [`Error`] alone combines their errors:
 //!
 //! | stage | module | input → output |
 //! |---|---|---|
-//! | recording | [`recording`] | MCAP file → [`recording::Sample`]s, nameplate |
-//! | decimation | [`decimate`] | samples → [`decimate::DecimatedRecording`] on a grid of Ts |
-//! | signals | [`signals`] | decimated channels + [`spec::ModelDescription`] (+ the generator's [`losses`]) → [`signals::ModelSignals`] |
-//! | estimation | [`estimate`] | [`estimate::IdentificationData`] → [`estimate::Estimate`] (Φ, Γ) |
-//! | model analysis | [`model`] | estimate → [`model::ModelAnalysis`] (A_c, B_c, T_i, fit, …) |
-//! | report | [`report`] | everything → the profile's JSON report and a summary |
-//! | HTML report | [`html`] | the replay and its report → one self-contained page |
+//! | recording | [`recording`] | MCAP file → [`Sample`]s to a [`recording::SampleSink`], [`RecordingSummary`], nameplate |
+//! | decimation | [`decimate`] | samples → [`DecimatedRecording`] on a grid of Ts |
+//! | signals | [`signals`] | decimated channels + [`ModelDescription`] (+ the generator's [`losses`]) → [`ModelSignals`] |
+//! | estimation | [`estimate`] | [`IdentificationData`] → [`Estimate`] (Φ, Γ) by a [`Method`] |
+//! | model analysis | [`model`] | estimate → [`ModelAnalysis`] (A_c, B_c, T_i, fit, …) |
+//! | network | [`network`] | continuous model + signals → [`NetworkAnalysis`] |
+//! | report | [`report`] | [`Replay`] → the profile's JSON [`Report`] and a summary |
 //!
-//! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs,
-//! [`import`] turns tables (CSV, historian exports) into recordings, and [`writer`]
-//! writes any recording in the profile.
+//! Below the stages, [`thermal`] holds what estimation and analysis share (the discrete
+//! and continuous model, ZOH, the passive network and its RC parametrisation, water).
+//! The uses of an identified model read the report: [`predict`], [`rating`],
+//! [`monitor`], and [`html`] draws any of them as one page. [`import`] turns tables into
+//! recordings, [`synth`] simulates heat runs of known machines, and [`writer`] writes
+//! any recording in the profile.
 //!
 //! # A replay in a few lines
 //!
@@ -70,4 +75,13 @@ pub mod thermal;
 pub mod warnings;
 pub mod writer;
 
+pub use decimate::DecimatedRecording;
 pub use error::{Error, Result};
+pub use estimate::{Estimate, IdentificationData, Method};
+pub use model::ModelAnalysis;
+pub use network::NetworkAnalysis;
+pub use pipeline::{replay, Replay, ReplayOptions};
+pub use recording::{RecordingSummary, Sample};
+pub use report::Report;
+pub use signals::ModelSignals;
+pub use spec::ModelDescription;

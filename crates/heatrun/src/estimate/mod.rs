@@ -7,19 +7,19 @@
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-pub mod data;
-pub mod discrete;
-pub mod error;
-pub mod iv;
+mod data;
+mod discrete;
+mod error;
+mod iv;
 mod method;
 pub(crate) mod normal_equations;
-pub mod oe;
-pub mod qr;
-pub mod rc;
-pub mod rls;
+pub(crate) mod oe;
+mod qr;
+mod rc;
+mod rls;
 #[cfg(test)]
 pub(crate) mod testing;
-pub mod wls;
+mod wls;
 
 pub use data::{ExceptionStorage, IdentificationData};
 pub use discrete::DiscreteModel;

@@ -4,7 +4,7 @@
 //! and the trailing q×q block holds the residuals. Stacking [T; block] and refactoring
 //! is as stable as a QR of the whole matrix, with no normal equations.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 
 /// Rows gathered before each refactorisation.
 const BLOCK_ROWS: usize = 2048;
@@ -16,7 +16,6 @@ pub struct StreamingQr {
     q: usize,
     t: DMatrix<f64>,
     block: Vec<f64>,
-    rows: usize,
 }
 
 impl StreamingQr {
@@ -27,7 +26,6 @@ impl StreamingQr {
             q,
             t: DMatrix::zeros(p + q, p + q),
             block: Vec::with_capacity(BLOCK_ROWS * (p + q)),
-            rows: 0,
         }
     }
 
@@ -35,15 +33,9 @@ impl StreamingQr {
     pub fn push(&mut self, f: &[f64], y: &[f64]) {
         self.block.extend_from_slice(f);
         self.block.extend_from_slice(y);
-        self.rows += 1;
         if self.block.len() >= BLOCK_ROWS * (self.p + self.q) {
             self.fold();
         }
-    }
-
-    /// Rows added.
-    pub fn rows(&self) -> usize {
-        self.rows
     }
 
     fn fold(&mut self) {
@@ -81,14 +73,15 @@ impl StreamingQr {
     }
 }
 
-/// Solves R θ = Qᵀy for an upper-triangular R.
-pub fn back_substitute(r: &DMatrix<f64>, qty: &DVector<f64>) -> Option<DVector<f64>> {
-    r.solve_upper_triangular(qty)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DVector;
+
+    /// Solves R θ = Qᵀy for an upper-triangular R.
+    fn back_substitute(r: &DMatrix<f64>, qty: &DVector<f64>) -> Option<DVector<f64>> {
+        r.solve_upper_triangular(qty)
+    }
 
     #[test]
     fn matches_a_whole_matrix_solution() {

@@ -19,10 +19,10 @@
 //! file, line and column, and nothing is written.
 
 mod error;
-pub mod guess;
-pub mod map;
-pub mod table;
-pub mod time;
+mod guess;
+mod map;
+mod table;
+mod time;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

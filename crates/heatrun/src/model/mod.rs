@@ -5,10 +5,10 @@
 //! Input: an [`Estimate`] and the [`IdentificationData`] it came from. Output: a
 //! [`ModelAnalysis`].
 
-pub mod fit;
-pub mod residuals;
+pub(crate) mod fit;
+mod residuals;
 pub mod sensitivity;
-pub mod uncertainty;
+mod uncertainty;
 
 use std::borrow::Cow;
 use std::ops::Range;
@@ -16,12 +16,12 @@ use std::ops::Range;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-pub use crate::thermal::{continuous, matrix};
+pub use crate::thermal::matrix;
 pub use crate::thermal::{ContinuousModel, ModelError, Spectrum};
 pub use fit::Fit;
 pub use residuals::ResidualAnalysis;
 pub use sensitivity::{Assignment, Sensitivities};
-pub use uncertainty::Uncertainty;
+pub use uncertainty::{propagate, Uncertainty};
 
 use crate::estimate::{Estimate, IdentificationData};
 

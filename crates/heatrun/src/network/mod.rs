@@ -9,9 +9,9 @@
 //! network nearest an identified model; [`stage`] runs them for a replay.
 
 pub mod calorimetry;
-pub mod equilibrium;
-pub mod fit;
-pub mod stage;
+pub(crate) mod equilibrium;
+pub(crate) mod fit;
+pub(crate) mod stage;
 
 pub use crate::thermal::network::*;
 pub use stage::{Calorimetry, NetworkAnalysis};

@@ -71,7 +71,8 @@ pub enum ChunkError {
 }
 
 /// Decompresses a chunk's records field and checks its size and CRC.
-pub fn decompress(header: &ChunkHeader, data: &[u8]) -> Result<Vec<u8>, ChunkError> {
+#[cfg(test)]
+fn decompress(header: &ChunkHeader, data: &[u8]) -> Result<Vec<u8>, ChunkError> {
     let mut decoder = ChunkDecoder::default();
     decoder.decompress(header, data)?;
     Ok(decoder.plain)

@@ -4,12 +4,12 @@
 //! canonical units pushed to a [`SampleSink`] as the file streams by, and a
 //! [`RecordingSummary`] (channels, nameplate entries, metadata, data loss).
 
-pub mod channel;
-pub mod chunk;
+mod channel;
+mod chunk;
 mod error;
-pub mod nameplate;
-pub mod quantity;
-pub mod reader;
+mod nameplate;
+mod quantity;
+mod reader;
 
 pub use channel::{ChannelError, Storage};
 pub use error::RecordingError;

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use super::channel::{classify, ChannelKind};
 pub use super::channel::{
-    IgnoredChannel, SensorChannel, Storage, SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING,
+    IgnoredChannel, SensorChannel, SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING,
     SAMPLE_SCHEMA_NAME,
 };
 use super::chunk::ChunkError;

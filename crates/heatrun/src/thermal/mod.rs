@@ -10,12 +10,12 @@
 //! | [`rc`] | the network's own parameters (C, G, K in logarithms) and their discrete model |
 //! | [`water`] | liquid water's c_p and ρ (IAPWS-IF97) |
 
-pub mod continuous;
-pub mod discrete;
+pub(crate) mod continuous;
+mod discrete;
 mod error;
 pub mod matrix;
 pub mod network;
-pub mod rc;
+pub(crate) mod rc;
 pub mod water;
 
 pub use continuous::{ContinuousModel, Spectrum};
