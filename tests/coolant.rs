@@ -17,7 +17,7 @@ use heatrun::synth::{self, Disturbances, Machine, NetworkMachine, SynthOptions, 
 
 /// The rc unit (true constants 70.8 s, 710 s, 4504 s) at PT100-like noise. Every test
 /// uses seed 1: the same noise with and without each disturbance (the spread over seeds
-/// is in the README's table, `cargo bench --bench coolant`).
+/// is in the table of docs/src/methods/coolant.md, `cargo bench --bench coolant`).
 fn rc_run(path: &Path, disturbances: Disturbances, seed: u64) -> Truth {
     synth::write(
         path,

@@ -1,7 +1,7 @@
 //! Regression checks on measured data: the TCLab MIMO heaters (Apache-2.0, shipped in
 //! `tests/datasets/tclab/` with its notice), imported with the example's map and identified
 //! with its spec, validated on the other experiment, as `examples/tclab_mimo_heaters/run`
-//! does. The bounds sit just under the figures measured when the example was made (README,
+//! does. The bounds sit just under the figures measured when the example was made (docs/src/validation/datasets.md,
 //! "Measured data sets"): a change that makes heatrun fit real data worse fails here.
 //!
 //! The DaISy files and the PMSM slice state no licence that lets a slice of them into the

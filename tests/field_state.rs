@@ -33,7 +33,7 @@ fn field_run(path: &Path, seed: u64) -> Truth {
 /// 1–5 at PT100-like noise its error was −2.7 % to +13.5 % (its own 95 % interval about
 /// ±8 %), so it is held to 15 %, not 5 %. Over seeds 1–20 the errors' standard deviation
 /// (4.2 %) matches the σ its interval reports (4.5 %), whatever the field sensor's noise:
-/// the limit of this experiment, not of the estimator (README, "The field winding as a
+/// the limit of this experiment, not of the estimator (docs/src/methods/field-state.md, "The field winding as a
 /// fourth state").
 fn assert_within_bars(time_constants: &[f64], rise_k: &[f64], truth: &Truth, what: &str) {
     assert_eq!(time_constants.len(), 4, "{what}");

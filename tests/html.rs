@@ -499,7 +499,7 @@ fn a_fleet_writes_one_page_per_recording() {
     assert!(String::from_utf8_lossy(&mistaken.stderr).contains("--html=PAGE.html"));
 }
 
-/// The fixture's model as a report, and the README's day (60 % load, rated, a 115 %
+/// The fixture's model as a report, and the day of docs/src/guide/predict-and-rating.md (60 % load, rated, a 115 %
 /// hour), in a fresh folder.
 fn fixture_model_and_day() -> tempfile::TempDir {
     let dir = common::tempdir();

@@ -13,7 +13,7 @@ use crate::common;
 /// The time of the cooler fault, s.
 const FAULT_AT_S: f64 = 10_000.0;
 /// The documented delay from the fault to the first alarm with the default band and
-/// hold (README, "Monitoring"): the hold (600 s) plus up to 600 s for the residual to
+/// hold (docs/src/guide/monitoring.md): the hold (600 s) plus up to 600 s for the residual to
 /// leave the band at a 30 % conductance drop.
 const DOCUMENTED_DELAY_S: f64 = 1_200.0;
 

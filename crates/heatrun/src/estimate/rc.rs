@@ -137,7 +137,7 @@ impl ResistanceCapacitance {
         };
         // The rises are measured from one noisy first sample each: a constant offset per
         // output, estimated beside the network (without it the slow columns of K and the
-        // conductances to the coolant absorb it; README, "The thermal network").
+        // conductances to the coolant absorb it; docs/src/methods/thermal-network.md).
         let mut inner = Problem::new(data, segments, &start_model, &weights).with_output_offset();
         inner.progress = Some(oe::Reporting::new(&self.progress, self.method().name()));
         let mut problem = RcProblem::new(inner, map, start);
