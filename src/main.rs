@@ -14,8 +14,10 @@ use commands::Outcome;
 
 fn main() -> ExitCode {
     end_quietly_on_closed_pipe();
-    let cli = cli::Cli::parse();
-    match commands::dispatch(cli.command) {
+    // clap refuses what it can declare (and exits 2); the rest is checked once, here,
+    // before any handler runs, and reported as every other error is.
+    let command = cli::Cli::parse().command;
+    match cli::Request::try_from(command).and_then(commands::dispatch) {
         Ok(Outcome::Complete) => ExitCode::SUCCESS,
         Ok(Outcome::DataLoss) => ExitCode::from(3),
         Ok(Outcome::Alarms) => ExitCode::from(4),
