@@ -12,6 +12,8 @@ use clap::Parser;
 
 use commands::Outcome;
 
+/// Parses the command line, validates it, runs the command, and turns the outcome into
+/// the exit status (printing the error, with its hint, as one line).
 fn main() -> ExitCode {
     end_quietly_on_closed_pipe();
     // clap refuses what it can declare (and exits 2); the rest is checked once, here,

@@ -45,6 +45,7 @@ pub enum Import {
 impl TryFrom<ImportArgs> for Import {
     type Error = Usage;
 
+    /// A map guessed, or a table converted with its map and output.
     fn try_from(args: ImportArgs) -> Result<Import, Usage> {
         if args.guess {
             return Ok(Import::Guess { input: args.input });

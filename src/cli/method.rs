@@ -24,9 +24,7 @@ pub fn method_help(method: Method) -> &'static str {
         Method::Wls => "Weighted least squares (eqs. 3-7) with --weights",
         Method::Rls => "Recursive least squares with --forgetting; its trajectory goes to rerun",
         Method::Iv => "Iterated instrumental variables (instruments from the simulated model)",
-        Method::Oe => {
-            "Output error: minimises the simulation error by Levenberg-Marquardt from IV"
-        }
+        Method::Oe => "Output error: minimises the simulation error by Levenberg-Marquardt from IV",
         Method::Rc => {
             "Grey-box output error in the thermal network's C, G and K (passive by \
              construction, 95 % intervals on each), started from oe's network; heat inputs only"

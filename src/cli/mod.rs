@@ -114,6 +114,10 @@ pub struct ManArgs {
 /// A command as validated: what each handler takes. `info`, `completions` and `man` have
 /// nothing to check beyond clap's, and take their flags as typed.
 #[derive(Debug)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "one request per process, made once and moved once: boxing saves nothing"
+)]
 pub enum Request {
     /// `heatrun replay`.
     Replay(Replay),

@@ -95,6 +95,7 @@ pub struct Predict {
 }
 
 impl From<PredictArgs> for Predict {
+    /// The starting state and the limits as the library takes them; the sink of `--rrd`.
     fn from(args: PredictArgs) -> Predict {
         Predict {
             initial: match (args.initial_temps, args.initial) {

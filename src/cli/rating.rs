@@ -21,6 +21,7 @@ pub enum ClassArg {
 }
 
 impl From<ClassArg> for InsulationClass {
+    /// The library's class of the same name.
     fn from(class: ClassArg) -> InsulationClass {
         match class {
             ClassArg::B => InsulationClass::B,
@@ -103,6 +104,7 @@ pub struct Rating {
 }
 
 impl From<RatingArgs> for Rating {
+    /// The rating's options in the library's units.
     fn from(args: RatingArgs) -> Rating {
         Rating {
             model: args.model,

@@ -137,6 +137,8 @@ pub struct Synth {
 impl TryFrom<SynthArgs> for Synth {
     type Error = anyhow::Error;
 
+    /// The library's options, once the disturbances and the field channel suit the
+    /// machine.
     fn try_from(args: SynthArgs) -> anyhow::Result<Synth> {
         let disturbances = disturbances(&args)?;
         if args.machine == MachineArg::RcField && args.field == FieldArg::Nameplate {

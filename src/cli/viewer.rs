@@ -72,6 +72,7 @@ impl<O> ViewerArgs<O> {
 }
 
 impl<O: Offer> Args for ViewerArgs<O> {
+    /// Adds the flags the command offers, with its help.
     fn augment_args(command: clap::Command) -> clap::Command {
         let (value_name, help) = O::RRD;
         let mut rrd = Arg::new("rrd")
@@ -108,12 +109,14 @@ impl<O: Offer> Args for ViewerArgs<O> {
         command
     }
 
+    /// The same flags: none is required, so an update takes them as they are.
     fn augment_args_for_update(command: clap::Command) -> clap::Command {
         Self::augment_args(command)
     }
 }
 
 impl<O: Offer> FromArgMatches for ViewerArgs<O> {
+    /// The flags as given.
     fn from_arg_matches(matches: &ArgMatches) -> Result<Self, clap::Error> {
         // A flag the command does not offer was never defined: asking clap for it would
         // panic (debug builds), so it is read only where offered.
@@ -128,6 +131,7 @@ impl<O: Offer> FromArgMatches for ViewerArgs<O> {
         })
     }
 
+    /// The flags given here, over those given before.
     fn update_from_arg_matches(&mut self, matches: &ArgMatches) -> Result<(), clap::Error> {
         // As clap's derive updates: only what these matches hold, only flags offered.
         if matches.contains_id("rrd") {

@@ -21,13 +21,18 @@ use crate::cli::{stem, Fleet, Replay};
 /// `time_constants_s`, `fit.nrmse_fit_percent` and `steady_state.temperature_c`, so the
 /// table made here and one gathered from a cluster's reports agree.
 struct FleetFigures {
+    /// The model's time constants, s.
     time_constants_s: Vec<f64>,
+    /// Each state's fit, NRMSE %.
     nrmse_fit_percent: Vec<f64>,
+    /// Each state's steady-state temperature, °C.
     steady_state_c: Vec<f64>,
+    /// Whether part of the recording was damaged and skipped.
     data_lost: bool,
 }
 
 impl FleetFigures {
+    /// The figures of one replayed recording.
     fn of(replayed: &Replayed) -> FleetFigures {
         let report = &replayed.report;
         FleetFigures {
@@ -38,6 +43,7 @@ impl FleetFigures {
         }
     }
 
+    /// The status column: `ok`, or `data lost`.
     fn status(&self) -> &'static str {
         if self.data_lost {
             "data lost"
@@ -49,19 +55,25 @@ impl FleetFigures {
 
 /// One recording of a fleet: its figures, or the one-line reason it failed.
 struct FleetRow {
+    /// The recording, as named.
     file: PathBuf,
+    /// Its figures, or why it failed.
     outcome: Result<FleetFigures, String>,
 }
 
 /// How a fleet's recordings ended.
 #[derive(Debug, Default, PartialEq, Eq)]
 struct FleetTally {
+    /// Replayed whole.
     ok: usize,
+    /// Replayed, with part of the recording skipped.
     data_lost: usize,
+    /// Not replayed.
     failed: usize,
 }
 
 impl FleetTally {
+    /// Counts the rows by outcome.
     fn of(rows: &[FleetRow]) -> FleetTally {
         let mut tally = FleetTally::default();
         for row in rows {

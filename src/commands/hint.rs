@@ -5,11 +5,11 @@
 use heatrun::decimate::DecimateError;
 use heatrun::estimate::EstimationError;
 use heatrun::import::ImportError;
+use heatrun::losses::LossError;
 use heatrun::model::ModelError;
 use heatrun::predict::UseError;
 use heatrun::recording::RecordingError;
 use heatrun::signals::SignalError;
-use heatrun::losses::LossError;
 use heatrun::Error;
 
 /// The error as one line: its message, then each cause whose text the message does not

@@ -15,7 +15,12 @@ use crate::cli::{Input, Monitor};
 pub fn run(monitor: Monitor) -> anyhow::Result<Outcome> {
     let model = ThermalModel::read(&monitor.model).map_err(heatrun::Error::from)?;
     let mut publisher = match &monitor.sink {
-        Some(sink) => Some(open_publisher(sink, &monitor.name, &model, &monitor.options)?),
+        Some(sink) => Some(open_publisher(
+            sink,
+            &monitor.name,
+            &model,
+            &monitor.options,
+        )?),
         None => None,
     };
     let source = match &monitor.recording {

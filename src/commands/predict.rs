@@ -30,7 +30,8 @@ pub fn run(request: &Predict) -> anyhow::Result<Outcome> {
     }
     prediction.write_csv(&request.out)?;
     if let Some(sink) = &request.sink {
-        let limits: Vec<(String, f64)> = limits.iter().map(|p| (p.name.clone(), p.limit_c)).collect();
+        let limits: Vec<(String, f64)> =
+            limits.iter().map(|p| (p.name.clone(), p.limit_c)).collect();
         heatrun_rerun::prediction::publish(&prediction, &schedule, &model, &limits, sink)?;
     }
     for w in &prediction.warnings {
