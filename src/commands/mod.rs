@@ -62,6 +62,6 @@ pub fn dispatch(request: Request) -> anyhow::Result<Outcome> {
         Request::Man(args) => man::run(&args),
         Request::Predict(predict) => predict::run(&predict),
         Request::Rating(rating) => rating::run(&rating),
-        Request::Monitor(monitor) => monitor::run(monitor),
+        Request::Monitor(monitor) => monitor::run(&monitor),
     }
 }

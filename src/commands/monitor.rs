@@ -12,18 +12,18 @@ use crate::cli::{Input, Monitor};
 
 /// Monitors the recording as it is read, publishing each stretch as it is sealed; then
 /// writes the outputs and prints the summary (or the alarm lines).
-pub fn run(monitor: Monitor) -> anyhow::Result<Outcome> {
-    let model = ThermalModel::read(&monitor.model).map_err(heatrun::Error::from)?;
-    let mut publisher = match &monitor.sink {
+pub fn run(request: &Monitor) -> anyhow::Result<Outcome> {
+    let model = ThermalModel::read(&request.model).map_err(heatrun::Error::from)?;
+    let mut publisher = match &request.sink {
         Some(sink) => Some(open_publisher(
             sink,
-            &monitor.name,
+            &request.name,
             &model,
-            &monitor.options,
+            &request.options,
         )?),
         None => None,
     };
-    let source = match &monitor.recording {
+    let source = match &request.recording {
         Input::Stdin => Source::Stream {
             reader: Box::new(std::io::stdin()),
             name: "-".into(),
@@ -33,27 +33,27 @@ pub fn run(monitor: Monitor) -> anyhow::Result<Outcome> {
     let mut live = Live {
         publisher: publisher.as_mut(),
         states: model.states.iter().map(|s| s.name.clone()).collect(),
-        hold_ns: (monitor.options.hold_s * 1e9).round() as i64,
-        print: !monitor.quiet,
+        hold_ns: (request.options.hold_s * 1e9).round() as i64,
+        print: !request.quiet,
     };
     let watchers = Watchers {
         observer: Some(&mut live),
         ..Default::default()
     };
     let result =
-        monitor::monitor_stream(&model, source, &monitor.options, &monitor.stream, watchers)?;
+        monitor::monitor_stream(&model, source, &request.options, &request.stream, watchers)?;
     // Outputs first, then the printout: a closed stdout must not cut an output short.
-    if let Some(path) = &monitor.json {
+    if let Some(path) = &request.json {
         result.write_json(path)?;
     }
-    if let Some(path) = &monitor.html {
+    if let Some(path) = &request.html {
         // Written whatever the verdict: a page with alarms is the one most worth reading.
         heatrun::html::monitor_page(&result).write(path)?;
     }
     if let Some(publisher) = publisher {
         publisher.finish(&result)?;
     }
-    print(&result, monitor.quiet);
+    print(&result, request.quiet);
     Ok(if !result.healthy() {
         Outcome::Alarms
     } else if !result.data_loss.is_empty() {
