@@ -12,10 +12,14 @@ use clap::Parser;
 
 use commands::Outcome;
 
+/// Parses the command line, validates it, runs the command, and turns the outcome into
+/// the exit status (printing the error, with its hint, as one line).
 fn main() -> ExitCode {
     end_quietly_on_closed_pipe();
-    let cli = cli::Cli::parse();
-    match commands::dispatch(cli.command) {
+    // clap refuses what it can declare (and exits 2); the rest is checked once, here,
+    // before any handler runs, and reported as every other error is.
+    let command = cli::Cli::parse().command;
+    match cli::Request::try_from(command).and_then(commands::dispatch) {
         Ok(Outcome::Complete) => ExitCode::SUCCESS,
         Ok(Outcome::DataLoss) => ExitCode::from(3),
         Ok(Outcome::Alarms) => ExitCode::from(4),

@@ -7,7 +7,7 @@ use super::Outcome;
 use crate::cli::{Cli, CompletionsArgs};
 
 /// Prints the completion script for `args.shell` on stdout.
-pub fn run(args: CompletionsArgs) -> anyhow::Result<Outcome> {
+pub fn run(args: &CompletionsArgs) -> anyhow::Result<Outcome> {
     let mut command = Cli::command();
     clap_complete::generate(args.shell, &mut command, "heatrun", &mut std::io::stdout());
     Ok(Outcome::Complete)

@@ -5,11 +5,11 @@
 use heatrun::decimate::DecimateError;
 use heatrun::estimate::EstimationError;
 use heatrun::import::ImportError;
+use heatrun::losses::LossError;
 use heatrun::model::ModelError;
 use heatrun::predict::UseError;
 use heatrun::recording::RecordingError;
 use heatrun::signals::SignalError;
-use heatrun::losses::LossError;
 use heatrun::Error;
 
 /// The error as one line: its message, then each cause whose text the message does not
@@ -75,8 +75,8 @@ fn for_signals(e: &SignalError) -> Option<String> {
                 .into()
         }
         SignalError::NameplateNeeded => {
-            "give the nameplate in a machine file with --machine FILE.toml (the README's \
-             \"The recording format\" lists its keys)"
+            "give the nameplate in a machine file with --machine FILE.toml (the keys of the \
+             SCADA profile's `heatrun.nameplate` record; see docs/src/reference/recording-format.md)"
                 .into()
         }
         SignalError::MissingChannel { .. } | SignalError::Losses(LossError::MissingChannel { .. }) => {
@@ -102,7 +102,7 @@ fn for_replay(e: &Error) -> Option<String> {
         }
         Error::Weights { .. } => "give --weights one positive number per state".into(),
         Error::Spec(heatrun::spec::SpecFileError::Bad { .. }) => {
-            "the README's \"Any thermal system\" shows the spec's keys".into()
+            "docs/src/reference/spec.md shows the spec's keys".into()
         }
         _ => return None,
     })
@@ -199,8 +199,8 @@ fn for_import(e: &ImportError) -> Option<String> {
                 .into()
         }
         ImportError::MapSyntax { .. } | ImportError::MapValue { .. } => {
-            "`heatrun import --guess FILE` prints a map to start from; the README's \
-             \"Importing CSV\" shows its keys"
+            "`heatrun import --guess FILE` prints a map to start from; \
+             docs/src/reference/import-map.md shows its keys"
                 .into()
         }
         _ => return None,
@@ -220,12 +220,12 @@ fn for_model_use(e: &UseError) -> Option<String> {
         }
         UseError::UnknownColumn { column, known, .. } => match closest(column, known) {
             Some(name) => format!("did you mean `{name}`? Rename the column in the file"),
-            None => "rename or remove the column; the README's \"Using the model\" shows a \
-                     schedule"
+            None => "rename or remove the column; docs/src/guide/predict-and-rating.md shows \
+                     a schedule"
                 .into(),
         },
         UseError::MissingColumn { .. } => {
-            "the README's \"Using the model\" shows a schedule's columns".into()
+            "docs/src/guide/predict-and-rating.md shows a schedule's columns".into()
         }
         UseError::BadCell { .. } | UseError::TimeBackwards { .. } => {
             "mend that cell of the load file; rows are in increasing time_s".into()

@@ -1,23 +1,22 @@
-//! `heatrun import`.
+//! `heatrun import`: a table into a recording, or a starting map guessed from it.
 
 use heatrun::import::{self, ImportError, ImportMap};
 use heatrun::recording::format_time;
 
 use super::Outcome;
-use crate::cli::ImportArgs;
+use crate::cli::Import;
 
-pub fn run(args: ImportArgs) -> anyhow::Result<Outcome> {
-    if args.guess {
-        print!("{}", import::guess_map(&args.input).map_err(library)?);
-        return Ok(Outcome::Complete);
-    }
-    let (Some(map_path), Some(out)) = (&args.map, &args.out) else {
-        anyhow::bail!(super::Usage(
-            "give the map with --map MAP.toml and the output with --out OUT.mcap (--guess prints a starting map)".into()
-        ));
+/// Prints a guessed map, or converts the table and prints what the recording holds.
+pub fn run(request: &Import) -> anyhow::Result<Outcome> {
+    let (input, map_path, out) = match request {
+        Import::Guess { input } => {
+            print!("{}", import::guess_map(input).map_err(library)?);
+            return Ok(Outcome::Complete);
+        }
+        Import::Convert { input, map, out } => (input, map, out),
     };
     let map = ImportMap::load(map_path).map_err(library)?;
-    let summary = import::import(&args.input, &map, out).map_err(library)?;
+    let summary = import::import(input, &map, out).map_err(library)?;
     let (first, last) = summary.time_span_ns;
     let missing: u64 = summary.channels.iter().map(|c| c.missing).sum();
     let empty: Vec<&str> = summary

@@ -11,7 +11,7 @@ use crate::cli::InfoArgs;
 
 /// Reads the recording, lays it on a 1 s grid for the channels' periods and gaps, and
 /// prints both (text or JSON).
-pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
+pub fn run(args: &InfoArgs) -> anyhow::Result<Outcome> {
     // The generator's placement of each profile quantity on the grid; channels it does not
     // name are averaged over intervals.
     let mut decimator = Decimator::new(1.0, ModelDescription::generator().alignments())

@@ -8,7 +8,7 @@ use crate::cli::{Cli, ManArgs};
 use heatrun::atomic::write_atomically;
 
 /// Renders the page to stdout, or to `--out` (complete or absent).
-pub fn run(args: ManArgs) -> anyhow::Result<Outcome> {
+pub fn run(args: &ManArgs) -> anyhow::Result<Outcome> {
     let mut page = Vec::new();
     clap_mangen::Man::new(Cli::command()).render(&mut page)?;
     match &args.out {

@@ -1,7 +1,9 @@
-//! One handler per command, behind [`dispatch`].
+//! One handler per command, behind [`dispatch`]: each takes its validated
+//! [`Request`](crate::cli::Request) and does the work (read, compute, write, print).
 
 mod bars;
 mod completions;
+mod fleet;
 pub mod hint;
 mod import;
 mod info;
@@ -12,7 +14,7 @@ mod rating;
 mod replay;
 mod synth;
 
-use crate::cli::Command;
+use crate::cli::Request;
 
 /// How a command ended, when it did not fail.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,7 +28,9 @@ pub enum Outcome {
 }
 
 /// A command line that cannot run as given: a value out of range, a flag that needs
-/// another (exit status 2, as the input's fault). The library never raises it.
+/// another (exit status 2, as the input's fault). Raised where the command line is
+/// validated ([`crate::cli`]), and by a fleet some of whose recordings failed; the library
+/// never raises it.
 #[derive(Debug)]
 pub struct Usage(pub String);
 
@@ -47,17 +51,17 @@ pub fn is_bad_input(err: &anyhow::Error) -> bool {
             .is_some_and(heatrun::Error::is_bad_input)
 }
 
-/// Runs a command.
-pub fn dispatch(command: Command) -> anyhow::Result<Outcome> {
-    match command {
-        Command::Replay(args) => replay::run(args),
-        Command::Synth(args) => synth::run(args),
-        Command::Info(args) => info::run(args),
-        Command::Import(args) => import::run(args),
-        Command::Completions(args) => completions::run(args),
-        Command::Man(args) => man::run(args),
-        Command::Predict(args) => predict::run(args),
-        Command::Rating(args) => rating::run(args),
-        Command::Monitor(args) => monitor::run(args),
+/// Runs a validated command.
+pub fn dispatch(request: Request) -> anyhow::Result<Outcome> {
+    match request {
+        Request::Replay(replay) => replay::run(&replay),
+        Request::Synth(synth) => synth::run(&synth),
+        Request::Info(args) => info::run(&args),
+        Request::Import(import) => import::run(&import),
+        Request::Completions(args) => completions::run(&args),
+        Request::Man(args) => man::run(&args),
+        Request::Predict(predict) => predict::run(&predict),
+        Request::Rating(rating) => rating::run(&rating),
+        Request::Monitor(monitor) => monitor::run(&monitor),
     }
 }

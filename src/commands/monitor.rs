@@ -2,95 +2,70 @@
 //! recording is read (from a file, or from standard input for `-`), each stretch
 //! published to rerun as it is sealed.
 
-use std::path::Path;
-
-use heatrun::monitor::{self, BandRule, MonitorOptions, Source, StreamOptions, Watchers};
+use heatrun::monitor::{self, MonitorOptions, MonitorResult, Source, Watchers};
 use heatrun::predict::ThermalModel;
 use heatrun_rerun::monitor::LivePublisher;
 use heatrun_rerun::RerunSink;
 
 use super::Outcome;
-use crate::cli::MonitorArgs;
+use crate::cli::{Input, Monitor};
 
-pub fn run(args: MonitorArgs) -> anyhow::Result<Outcome> {
-    if !(args.hold >= 0.0 && args.band_factor > 0.0 && args.band_floor >= 0.0) {
-        return Err(super::Usage(format!(
-            "--hold {} --band-factor {} --band-floor {}: the hold and the floor must be \
-             0 or more, the factor more than 0",
-            args.hold, args.band_factor, args.band_floor
-        ))
-        .into());
-    }
-    if !(args.stretch >= 1.0 && args.stretch.is_finite()) {
-        return Err(super::Usage(format!(
-            "--stretch {}: the stretch must be at least 1 s",
-            args.stretch
-        ))
-        .into());
-    }
-    let model = ThermalModel::read(&args.model).map_err(heatrun::Error::from)?;
-    let options = MonitorOptions {
-        band: BandRule {
-            factor: args.band_factor,
-            floor_k: args.band_floor,
-        },
-        hold_s: args.hold,
-    };
-    let sink = match (&args.rrd, &args.connect) {
-        (Some(path), _) => Some(RerunSink::Rrd(path.clone())),
-        (None, Some(url)) => Some(RerunSink::Connect((!url.is_empty()).then(|| url.clone()))),
-        (None, None) => None,
-    };
-    let stdin = args.recording == Path::new("-");
-    let name = if stdin {
-        "standard input".to_owned()
-    } else {
-        args.recording
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    };
-    let mut publisher = match &sink {
-        Some(sink) => Some(open_publisher(sink, &name, &model, &options)?),
+/// Monitors the recording as it is read, publishing each stretch as it is sealed; then
+/// writes the outputs and prints the summary (or the alarm lines).
+pub fn run(request: &Monitor) -> anyhow::Result<Outcome> {
+    let model = ThermalModel::read(&request.model).map_err(heatrun::Error::from)?;
+    let mut publisher = match &request.sink {
+        Some(sink) => Some(open_publisher(
+            sink,
+            &request.name,
+            &model,
+            &request.options,
+        )?),
         None => None,
     };
-    let source = if stdin {
-        Source::Stream {
+    let source = match &request.recording {
+        Input::Stdin => Source::Stream {
             reader: Box::new(std::io::stdin()),
             name: "-".into(),
-        }
-    } else {
-        Source::File(&args.recording)
-    };
-    let stream = StreamOptions {
-        stretch_s: args.stretch,
-        // Only the HTML page draws every instant; rerun is sent each stretch as it goes.
-        keep_traces: args.html.is_some(),
-        ..StreamOptions::default()
+        },
+        Input::File(path) => Source::File(path),
     };
     let mut live = Live {
         publisher: publisher.as_mut(),
         states: model.states.iter().map(|s| s.name.clone()).collect(),
-        hold_ns: (args.hold * 1e9).round() as i64,
-        print: !args.quiet,
+        hold_ns: (request.options.hold_s * 1e9).round() as i64,
+        print: !request.quiet,
     };
     let watchers = Watchers {
         observer: Some(&mut live),
         ..Default::default()
     };
-    let result = monitor::monitor_stream(&model, source, &options, &stream, watchers)?;
+    let result =
+        monitor::monitor_stream(&model, source, &request.options, &request.stream, watchers)?;
     // Outputs first, then the printout: a closed stdout must not cut an output short.
-    if let Some(path) = &args.json {
+    if let Some(path) = &request.json {
         result.write_json(path)?;
     }
-    if let Some(path) = &args.html {
+    if let Some(path) = &request.html {
         // Written whatever the verdict: a page with alarms is the one most worth reading.
         heatrun::html::monitor_page(&result).write(path)?;
     }
     if let Some(publisher) = publisher {
         publisher.finish(&result)?;
     }
-    if args.quiet {
+    print(&result, request.quiet);
+    Ok(if !result.healthy() {
+        Outcome::Alarms
+    } else if !result.data_loss.is_empty() {
+        Outcome::DataLoss
+    } else {
+        Outcome::Complete
+    })
+}
+
+/// The summary on stdout (only the alarm lines if quiet); warnings and data lost on stderr.
+fn print(result: &MonitorResult, quiet: bool) {
+    if quiet {
         for a in &result.alarms {
             println!("{}", result.alarm_line(a));
         }
@@ -103,13 +78,6 @@ pub fn run(args: MonitorArgs) -> anyhow::Result<Outcome> {
     for line in &result.data_loss {
         eprintln!("warning: data lost: {line}");
     }
-    Ok(if !result.healthy() {
-        Outcome::Alarms
-    } else if !result.data_loss.is_empty() {
-        Outcome::DataLoss
-    } else {
-        Outcome::Complete
-    })
 }
 
 /// What each sealed stretch goes to: the rerun recording, and a line on stderr for each

@@ -1,79 +1,69 @@
 //! `heatrun predict`: a model report and a load schedule → predicted temperatures.
 
-use heatrun::predict::{self, InitialState, ThermalModel};
+use heatrun::predict::{self, Prediction, ThermalModel};
+use heatrun::rating;
 
 use super::Outcome;
-use crate::cli::{ClassArg, InitialArg, PredictArgs};
+use crate::cli::Predict;
 
-pub fn run(args: PredictArgs) -> anyhow::Result<Outcome> {
-    let model = ThermalModel::read(&args.model).map_err(heatrun::Error::from)?;
-    let schedule = predict::load::read(&args.load, &model).map_err(heatrun::Error::from)?;
-    let initial = match (&args.initial_temps, args.initial) {
-        (Some(t), _) => InitialState::Temperatures(t.clone()),
-        (None, InitialArg::Measured) => InitialState::Measured,
-        (None, InitialArg::Steady) => InitialState::Steady,
+/// Predicts, writes the CSV (and the page and the .rrd, with the limits drawn), then prints
+/// each part's start and peak.
+pub fn run(request: &Predict) -> anyhow::Result<Outcome> {
+    let model = ThermalModel::read(&request.model).map_err(heatrun::Error::from)?;
+    let schedule = predict::load::read(&request.load, &model).map_err(heatrun::Error::from)?;
+    let prediction =
+        predict::predict(&model, &schedule, &request.initial).map_err(heatrun::Error::from)?;
+    // The limits, per part, once for both outputs that draw them; a limit naming no part is
+    // refused before anything is written.
+    let limits = match &request.limits {
+        Some(options) => rating::parts(&model, options).map_err(heatrun::Error::from)?,
+        None => Vec::new(),
     };
-    let prediction = predict::predict(&model, &schedule, &initial).map_err(heatrun::Error::from)?;
-    if let Some(page) = &args.html {
-        super::rating::write_prediction_page(&args, &model, &schedule, &prediction, page)?;
+    if let Some(page) = &request.html {
+        let view = heatrun::html::PredictionView {
+            model: &model,
+            schedule: &schedule,
+            prediction: &prediction,
+            limits: &limits,
+        };
+        heatrun::html::predict_page(view).write(page)?;
     }
-    prediction.write_csv(&args.out)?;
-    if let Some(rrd) = &args.rrd {
-        let limits = limits(&model, &args)?;
-        heatrun_rerun::prediction::publish(
-            &prediction,
-            &schedule,
-            &model,
-            &limits,
-            &heatrun_rerun::RerunSink::Rrd(rrd.clone()),
-        )?;
+    prediction.write_csv(&request.out)?;
+    if let Some(sink) = &request.sink {
+        let limits: Vec<(String, f64)> =
+            limits.iter().map(|p| (p.name.clone(), p.limit_c)).collect();
+        heatrun_rerun::prediction::publish(&prediction, &schedule, &model, &limits, sink)?;
     }
     for w in &prediction.warnings {
         eprintln!("warning: {w}");
     }
-    if !args.quiet {
-        let (t0, t1) = (
-            prediction.time_s[0],
-            prediction.time_s[prediction.time_s.len() - 1],
-        );
-        println!(
-            "predicted {} instants, {t0} s to {t1} s at Ts = {} s, with the model {} -> {}",
-            prediction.time_s.len(),
-            model.ts_s,
-            args.model.display(),
-            args.out.display()
-        );
-        println!(
-            "  {:<28}{:>10}{:>12}{:>12}",
-            "state", "start °C", "peak °C", "at s"
-        );
-        for (j, (peak, at)) in prediction.peaks().into_iter().enumerate() {
-            println!(
-                "  {:<28}{:>10.2}{:>12.2}{:>12.0}",
-                prediction.states[j], prediction.temperatures_c[0][j], peak, at
-            );
-        }
+    if !request.quiet {
+        print_summary(request, &model, &prediction);
     }
     Ok(Outcome::Complete)
 }
 
-/// The limits of `--class` and `--limit`, per part, as `rating` takes them.
-fn limits(model: &ThermalModel, args: &PredictArgs) -> anyhow::Result<Vec<(String, f64)>> {
-    if args.class.is_none() && args.limit.is_empty() {
-        return Ok(Vec::new());
+/// What was predicted, from when to when, and each part's start and peak.
+fn print_summary(request: &Predict, model: &ThermalModel, prediction: &Prediction) {
+    let (t0, t1) = (
+        prediction.time_s[0],
+        prediction.time_s[prediction.time_s.len() - 1],
+    );
+    println!(
+        "predicted {} instants, {t0} s to {t1} s at Ts = {} s, with the model {} -> {}",
+        prediction.time_s.len(),
+        model.ts_s,
+        request.model.display(),
+        request.out.display()
+    );
+    println!(
+        "  {:<28}{:>10}{:>12}{:>12}",
+        "state", "start °C", "peak °C", "at s"
+    );
+    for (j, (peak, at)) in prediction.peaks().into_iter().enumerate() {
+        println!(
+            "  {:<28}{:>10.2}{:>12.2}{:>12.0}",
+            prediction.states[j], prediction.temperatures_c[0][j], peak, at
+        );
     }
-    let options = heatrun::rating::RatingOptions {
-        class: args.class.map(|c| match c {
-            ClassArg::B => heatrun::rating::InsulationClass::B,
-            ClassArg::F => heatrun::rating::InsulationClass::F,
-            ClassArg::H => heatrun::rating::InsulationClass::H,
-        }),
-        limits_c: args.limit.clone(),
-        power_factor: None,
-        voltage_v: None,
-        coolant_c: None,
-        overloads: Vec::new(),
-    };
-    let parts = heatrun::rating::parts(model, &options).map_err(heatrun::Error::from)?;
-    Ok(parts.into_iter().map(|p| (p.name, p.limit_c)).collect())
 }

@@ -1,44 +1,26 @@
-//! `heatrun rating`: a model report → the machine's thermal rating; and the limits a
-//! prediction's page draws.
+//! `heatrun rating`: a model report → the machine's thermal rating.
 
-use std::path::Path;
-
-use heatrun::predict::{LoadSchedule, Prediction, ThermalModel};
-use heatrun::rating::{self, InsulationClass, RatingOptions};
+use heatrun::predict::ThermalModel;
+use heatrun::rating::{self, RatingOptions};
 
 use super::Outcome;
-use crate::cli::{ClassArg, PredictArgs, RatingArgs};
+use crate::cli::Rating;
 
-fn class(arg: Option<ClassArg>) -> Option<InsulationClass> {
-    arg.map(|c| match c {
-        ClassArg::B => InsulationClass::B,
-        ClassArg::F => InsulationClass::F,
-        ClassArg::H => InsulationClass::H,
-    })
-}
-
-pub fn run(args: RatingArgs) -> anyhow::Result<Outcome> {
-    let model = ThermalModel::read(&args.model).map_err(heatrun::Error::from)?;
-    let options = RatingOptions {
-        class: class(args.class),
-        limits_c: args.limit.clone(),
-        power_factor: args.power_factor,
-        voltage_v: args.voltage.map(|kv| kv * 1e3),
-        coolant_c: args.coolant,
-        overloads: args.overloads.iter().map(|p| p / 100.0).collect(),
-    };
-    let rating = rating::rate(&model, &options).map_err(heatrun::Error::from)?;
-    if let Some(path) = &args.json {
+/// Rates the machine, writes the JSON and the page, then prints the rating's table.
+pub fn run(request: &Rating) -> anyhow::Result<Outcome> {
+    let model = ThermalModel::read(&request.model).map_err(heatrun::Error::from)?;
+    let rating = rating::rate(&model, &request.options).map_err(heatrun::Error::from)?;
+    if let Some(path) = &request.json {
         let text = serde_json::to_string_pretty(&rating)?;
         heatrun::atomic::write_atomically(path, text.as_bytes())?;
     }
-    if let Some(path) = &args.html {
+    if let Some(path) = &request.html {
         // The plot's curve: every 2 % from rated to twice rated current.
         let curve = rating::rate(
             &model,
             &RatingOptions {
                 overloads: (50..=100).map(|i| f64::from(i) / 50.0).collect(),
-                ..options.clone()
+                ..request.options.clone()
             },
         )
         .map_err(heatrun::Error::from)?
@@ -47,36 +29,4 @@ pub fn run(args: RatingArgs) -> anyhow::Result<Outcome> {
     }
     print!("{}", rating.table());
     Ok(Outcome::Complete)
-}
-
-/// `heatrun predict --html`: the prediction's page, with the limits of `--class` and
-/// `--limit` drawn where given.
-pub fn write_prediction_page(
-    args: &PredictArgs,
-    model: &ThermalModel,
-    schedule: &LoadSchedule,
-    prediction: &Prediction,
-    page: &Path,
-) -> anyhow::Result<()> {
-    let limits = if args.class.is_none() && args.limit.is_empty() {
-        Vec::new()
-    } else {
-        let options = RatingOptions {
-            class: class(args.class),
-            limits_c: args.limit.clone(),
-            power_factor: None,
-            voltage_v: None,
-            coolant_c: None,
-            overloads: Vec::new(),
-        };
-        rating::parts(model, &options).map_err(heatrun::Error::from)?
-    };
-    let view = heatrun::html::PredictionView {
-        model,
-        schedule,
-        prediction,
-        limits: &limits,
-    };
-    heatrun::html::predict_page(view).write(page)?;
-    Ok(())
 }

@@ -1,0 +1,374 @@
+//! `heatrun replay`: its flags, and the [`Replay`] they are validated into: the recordings
+//! found (one, or a fleet), each output's path, and the library's options resolved once.
+
+use std::path::{Path, PathBuf};
+
+use clap::{Args, ValueEnum};
+use heatrun::estimate::Method;
+use heatrun::pipeline::{ReplayOptions, ValidationSource};
+use heatrun::progress::Observer;
+use heatrun::recording::RecordingError;
+use heatrun::spec::coolant::ReferencePolicy;
+use heatrun::spec::ModelDescription;
+use heatrun_rerun::RerunSink;
+
+use super::viewer::{Offer, ViewerArgs};
+use crate::commands::Usage;
+
+/// The fixture replayed when no file is named.
+pub const DEFAULT_FIXTURE: &str = "fixtures/paper_heat_run.mcap";
+
+/// What the rises are measured from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
+pub enum ReferenceArg {
+    /// The coolant inlet where cooling_water_inlet_temp varies or the machine starts warm
+    /// (its outlet above the inlet); elsewhere each temperature's initial value.
+    #[default]
+    Auto,
+    /// Each temperature's initial value, the losses the only inputs (the paper).
+    Initial,
+    /// The coolant inlet's initial level, its drift an input where it varies.
+    Inlet,
+}
+
+/// How `replay` prints its summary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SummaryFormat {
+    /// The paper-style tables.
+    Text,
+    /// The report (profile section "Report") as JSON.
+    Json,
+}
+
+/// `replay`'s rerun outputs: an .rrd (by default), a running viewer or a spawned one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReplayViewer;
+
+impl Offer for ReplayViewer {
+    const RRD: (&'static str, &'static str) = (
+        "PATH",
+        "Save the rerun recording to this .rrd file (the default: <recording>.rrd here)",
+    );
+    const CONNECT: Option<&'static str> =
+        Some("Stream to a running rerun viewer (optionally at this gRPC URL)");
+    const SPAWN: Option<&'static str> = Some("Start a rerun viewer and stream to it");
+}
+
+/// Arguments of `heatrun replay`.
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// Recordings (MCAP, heatrun SCADA profile), or folders of them. Default: the shipped
+    /// fixture. More than one recording (or a folder) replays a fleet in parallel.
+    pub files: Vec<PathBuf>,
+    /// Sample time Ts of the model in seconds [default: the spec's, else 1].
+    #[arg(long)]
+    pub ts: Option<f64>,
+    /// Model spec (TOML): the states, inputs and sample time of any thermal system
+    /// [default: the hydro generator of the profile and its loss model].
+    #[arg(long, value_name = "SPEC.toml")]
+    pub spec: Option<PathBuf>,
+    /// Identify the field winding as a fourth state (its rise, from field_winding_temp or
+    /// by the resistance method U_f/I_f from field_voltage).
+    #[arg(long, conflicts_with = "spec")]
+    pub field_state: bool,
+    /// What the rises are measured from: the coolant inlet (auto: where it varies or the
+    /// machine starts warm) or each temperature's initial value (the paper).
+    #[arg(long, value_enum, default_value_t)]
+    pub reference: ReferenceArg,
+    /// Machine file (TOML) whose keys override the recording's nameplate.
+    #[arg(long, value_name = "FILE.toml")]
+    pub machine: Option<PathBuf>,
+    /// Identification method (oe: unbiased under sensor noise, the most accurate)
+    /// [default: the spec's, else oe].
+    #[arg(long, value_parser = super::method::parser())]
+    pub method: Option<Method>,
+    /// Per-state weights w_i of wls and oe, comma-separated (oe default: 1/noise variance).
+    #[arg(long, value_delimiter = ',', value_name = "W1,W2,W3")]
+    pub weights: Option<Vec<f64>>,
+    /// Forgetting factor of rls, in (0, 1].
+    #[arg(long, default_value_t = 1.0)]
+    pub forgetting: f64,
+    /// Hold out the last FRACTION of the recording and report the model's fit on it.
+    #[arg(long, value_name = "FRACTION", conflicts_with_all = ["validate", "split_at"])]
+    pub holdout: Option<f64>,
+    /// Estimate on the recording before SECONDS (from its start) and report the fit on the
+    /// rest, simulated from the measured state there.
+    #[arg(long, value_name = "SECONDS", conflicts_with = "validate")]
+    pub split_at: Option<f64>,
+    /// Report the model's fit on another recording of the same machine.
+    #[arg(long, value_name = "FILE")]
+    pub validate: Option<PathBuf>,
+    /// `--rrd`, `--connect`, `--spawn`.
+    #[command(flatten)]
+    pub viewer: ViewerArgs<ReplayViewer>,
+    /// Write the JSON report (profile section "Report") to this file.
+    #[arg(long, value_name = "PATH")]
+    pub report: Option<PathBuf>,
+    /// Write the HTML report, one self-contained page that prints to PDF (without PATH:
+    /// <recording>.html here; in fleet mode, <stem>.report.html beside each report in
+    /// --out-dir).
+    #[arg(
+        long,
+        value_name = "PATH",
+        num_args = 0..=1,
+        default_missing_value = "",
+        value_parser = clap::value_parser!(std::ffi::OsString)
+    )]
+    pub html: Option<std::ffi::OsString>,
+    /// Also publish every channel at its full rate (columns streamed as the file is read).
+    #[arg(long)]
+    pub raw: bool,
+    /// Fleet mode: the folder for each recording's .rrd and report and the fleet summary.
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    pub out_dir: PathBuf,
+    /// Fleet mode: recordings replayed at once (default: the number of cores).
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Do not print the summary.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// How the summary is printed: `text` for people, `json` (the report's JSON on stdout,
+    /// nothing else) for scripts.
+    #[arg(long, value_enum, default_value_t = SummaryFormat::Text, conflicts_with = "quiet")]
+    pub summary: SummaryFormat,
+}
+
+/// `heatrun replay` as validated: what to replay, where each output goes, and how.
+#[derive(Debug)]
+pub struct Replay {
+    /// The library's options, the same for every recording: the spec read, the sample time
+    /// and method resolved (the command line's, then the spec's, then 1 s and oe). Silent:
+    /// each replay gives its own progress.
+    pub options: ReplayOptions,
+    /// Also publish every channel at its full rate.
+    pub raw: bool,
+    /// Print no summary and draw no progress.
+    pub quiet: bool,
+    /// How the summary is printed.
+    pub summary: SummaryFormat,
+    /// One recording, or a fleet.
+    pub target: Target,
+}
+
+/// What is replayed: the outputs differ (named by the flags, or one of each per recording
+/// in a folder).
+#[derive(Debug)]
+pub enum Target {
+    /// One recording.
+    One(One),
+    /// Several recordings, or a folder of them.
+    Fleet(Fleet),
+}
+
+/// One recording and its outputs.
+#[derive(Debug)]
+pub struct One {
+    /// The recording.
+    pub file: PathBuf,
+    /// Where the rerun data go: the viewer flags', else `<stem>.rrd` here.
+    pub sink: RerunSink,
+    /// The JSON report, if asked for.
+    pub report: Option<PathBuf>,
+    /// The HTML report, if asked for.
+    pub html: Option<PathBuf>,
+}
+
+/// A fleet: every output in `out_dir`, named after its recording.
+#[derive(Debug)]
+pub struct Fleet {
+    /// The recordings: files as given, folders expanded to their `.mcap` files (sorted).
+    pub files: Vec<PathBuf>,
+    /// The folder of the outputs and the fleet summary.
+    pub out_dir: PathBuf,
+    /// Recordings replayed at once (at least 1).
+    pub jobs: usize,
+    /// Whether each recording also gets an HTML page.
+    pub html: bool,
+}
+
+impl TryFrom<ReplayArgs> for Replay {
+    type Error = anyhow::Error;
+
+    /// Finds the recordings, checks the flags against one or many, then reads the spec:
+    /// the command line's own faults are found before any file is read for the model.
+    fn try_from(args: ReplayArgs) -> anyhow::Result<Replay> {
+        let target = match named_recordings(&args.files)? {
+            Named::One(file) => Target::One(one(&args, file)?),
+            Named::Fleet(files) => Target::Fleet(fleet(&args, files)?),
+        };
+        Ok(Replay {
+            options: library_options(&args)?,
+            raw: args.raw,
+            quiet: args.quiet,
+            summary: args.summary,
+            target,
+        })
+    }
+}
+
+/// The recordings a replay names.
+enum Named {
+    /// One file (or the fixture, when none is named).
+    One(PathBuf),
+    /// Several files, or any folder (a fleet even if it holds one recording).
+    Fleet(Vec<PathBuf>),
+}
+
+/// The recordings named: files as given, folders expanded; the fixture if none.
+fn named_recordings(files: &[PathBuf]) -> anyhow::Result<Named> {
+    if files.is_empty() {
+        return Ok(Named::One(default_fixture()));
+    }
+    let mut found = Vec::new();
+    let mut from_folder = false;
+    for f in files {
+        if f.is_dir() {
+            from_folder = true;
+            found.extend(mcap_files_in(f)?);
+        } else {
+            found.push(f.clone());
+        }
+    }
+    if found.is_empty() {
+        return Err(Usage("no .mcap recordings in the folders given".into()).into());
+    }
+    if found.len() == 1 && !from_folder {
+        if let Some(file) = found.pop() {
+            return Ok(Named::One(file));
+        }
+    }
+    Ok(Named::Fleet(found))
+}
+
+/// The fixture beside the current folder, else in the source tree this binary was built
+/// from (so `cargo run -- replay` works from any folder of a clone).
+fn default_fixture() -> PathBuf {
+    let here = PathBuf::from(DEFAULT_FIXTURE);
+    if here.exists() {
+        return here;
+    }
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_FIXTURE)
+}
+
+/// The `.mcap` files of a folder, sorted by name.
+fn mcap_files_in(folder: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let mut found: Vec<PathBuf> = std::fs::read_dir(folder)
+        .map_err(|source| {
+            heatrun::Error::from(RecordingError::ReadInput {
+                path: folder.to_owned(),
+                source,
+            })
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .collect();
+    found.sort();
+    Ok(found)
+}
+
+/// A recording's name without its extension: what its outputs are named after.
+pub fn stem(file: &Path) -> String {
+    file.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "heatrun".into())
+}
+
+/// One recording's outputs: the flags', else `<stem>.rrd` here.
+fn one(args: &ReplayArgs, file: PathBuf) -> anyhow::Result<One> {
+    let html = html_path(args, &file)?;
+    let sink = args
+        .viewer
+        .sink()
+        .unwrap_or_else(|| RerunSink::Rrd(PathBuf::from(format!("{}.rrd", stem(&file)))));
+    Ok(One {
+        sink,
+        report: args.report.clone(),
+        html,
+        file,
+    })
+}
+
+/// The HTML report's path of a single replay: as given, or `<stem>.html` here for a bare
+/// `--html`. A path that names a recording is refused: `--html run.mcap` means the
+/// option took the recording as its value.
+fn html_path(args: &ReplayArgs, file: &Path) -> anyhow::Result<Option<PathBuf>> {
+    let Some(given) = &args.html else {
+        return Ok(None);
+    };
+    if given.is_empty() {
+        return Ok(Some(PathBuf::from(format!("{}.html", stem(file)))));
+    }
+    let path = PathBuf::from(given);
+    if path.extension().is_some_and(|x| x == "mcap") {
+        return Err(Usage(format!(
+            "--html would write the page over the recording {}; write --html=PAGE.html, \
+             or put --html after the recordings",
+            path.display()
+        ))
+        .into());
+    }
+    Ok(Some(path))
+}
+
+/// A fleet's outputs go to `--out-dir`: the options that name one output do not apply.
+fn fleet(args: &ReplayArgs, files: Vec<PathBuf>) -> anyhow::Result<Fleet> {
+    let html_named = args.html.as_ref().is_some_and(|h| !h.is_empty());
+    if args.viewer.is_given() || args.report.is_some() || html_named {
+        return Err(Usage(
+            "with several recordings, outputs go to --out-dir (one .rrd and report each, and \
+             an HTML page each with a bare --html); --rrd, --report, --html PATH, --spawn and \
+             --connect name one output"
+                .into(),
+        )
+        .into());
+    }
+    Ok(Fleet {
+        files,
+        out_dir: args.out_dir.clone(),
+        jobs: args
+            .jobs
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()))
+            .max(1),
+        html: args.html.is_some(),
+    })
+}
+
+/// The replay's library options: the command line first, then the spec's own sample time
+/// and method, then the defaults (1 s, `oe`).
+fn library_options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
+    let model = match &args.spec {
+        Some(path) => ModelDescription::from_toml_file(path).map_err(heatrun::Error::from)?,
+        None if args.field_state => ModelDescription::generator_with_field_state(),
+        None => ModelDescription::generator(),
+    };
+    let method = match (args.method, model.method.as_deref()) {
+        (Some(m), _) => m,
+        (None, Some(name)) => name.parse::<Method>().map_err(|_| {
+            anyhow::anyhow!(
+                "{}: method = \"{name}\" is not one of oe, rc, iv, rls, wls, ls",
+                args.spec.as_deref().unwrap_or(Path::new("spec")).display()
+            )
+        })?,
+        (None, None) => Method::Oe,
+    };
+    Ok(ReplayOptions {
+        ts_s: args.ts.or(model.sample_time_s).unwrap_or(1.0),
+        machine: args.machine.clone(),
+        method,
+        weights: args.weights.clone(),
+        forgetting: args.forgetting,
+        validation: match (&args.holdout, &args.split_at, &args.validate) {
+            (Some(f), _, _) => Some(ValidationSource::HoldOut(*f)),
+            (None, Some(t), _) => Some(ValidationSource::SplitAt(*t)),
+            (None, None, Some(file)) => Some(ValidationSource::Recording(file.clone())),
+            (None, None, None) => None,
+        },
+        model,
+        reference: match args.reference {
+            ReferenceArg::Auto => ReferencePolicy::Auto,
+            ReferenceArg::Initial => ReferencePolicy::Initial,
+            ReferenceArg::Inlet => ReferencePolicy::Inlet,
+        },
+        progress: Observer::silent(),
+    })
+}
