@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use crate::commands::Usage;
+use super::Usage;
 
 /// Arguments of `heatrun import`.
 #[derive(Debug, Args)]

@@ -4,7 +4,7 @@
 //!   what it can declare (types, required flags, flags that exclude or need each other)
 //!   and refuses the rest of the line itself (exit status 2).
 //! - **What is asked for**: a [`Request`], built once from them. Every check clap cannot
-//!   declare is made here, raising [`Usage`](crate::commands::Usage) (exit status 2):
+//!   declare is made here, raising [`Usage`] (exit status 2):
 //!   ranges, combinations that depend on values, the recordings a replay names (one or a
 //!   fleet). The values come out as the library takes them (its options, methods, sinks),
 //!   so the handlers in [`crate::commands`] only do the work.
@@ -33,6 +33,21 @@ pub use predict::{Predict, PredictArgs};
 pub use rating::{Rating, RatingArgs};
 pub use replay::{stem, Fleet, One, Replay, ReplayArgs, SummaryFormat, Target};
 pub use synth::{Synth, SynthArgs};
+
+/// A command line that cannot run as given: a value out of range, a flag that needs
+/// another (exit status 2, as the input's fault). Raised where the command line is
+/// validated (here), and by a fleet some of whose recordings failed; the library
+/// never raises it.
+#[derive(Debug)]
+pub struct Usage(pub String);
+
+impl std::fmt::Display for Usage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Usage {}
 
 /// Thermal system identification of hydro generators from MCAP heat-run recordings.
 #[derive(Debug, Parser)]
@@ -143,7 +158,7 @@ impl TryFrom<Command> for Request {
     type Error = anyhow::Error;
 
     /// Validates the command's flags once (a replay also finds its recordings and reads its
-    /// spec): a usage error is [`Usage`](crate::commands::Usage), a file that cannot be
+    /// spec): a usage error is [`Usage`], a file that cannot be
     /// read the library's error.
     fn try_from(command: Command) -> anyhow::Result<Request> {
         Ok(match command {

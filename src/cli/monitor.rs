@@ -9,7 +9,7 @@ use heatrun::monitor::{BandRule, MonitorOptions};
 use heatrun_rerun::RerunSink;
 
 use super::viewer::{Offer, ViewerArgs};
-use crate::commands::Usage;
+use super::Usage;
 
 /// `monitor`'s rerun outputs: an .rrd or a running viewer, not both.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

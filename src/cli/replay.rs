@@ -13,7 +13,7 @@ use heatrun::spec::ModelDescription;
 use heatrun_rerun::RerunSink;
 
 use super::viewer::{Offer, ViewerArgs};
-use crate::commands::Usage;
+use super::Usage;
 
 /// The fixture replayed when no file is named.
 pub const DEFAULT_FIXTURE: &str = "fixtures/paper_heat_run.mcap";

@@ -10,7 +10,7 @@ use heatrun::synth::{
 };
 use heatrun::writer::Storage;
 
-use crate::commands::Usage;
+use super::Usage;
 
 /// How the synthetic recording carries the field winding temperature.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

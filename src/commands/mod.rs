@@ -27,20 +27,7 @@ pub enum Outcome {
     Alarms,
 }
 
-/// A command line that cannot run as given: a value out of range, a flag that needs
-/// another (exit status 2, as the input's fault). Raised where the command line is
-/// validated ([`crate::cli`]), and by a fleet some of whose recordings failed; the library
-/// never raises it.
-#[derive(Debug)]
-pub struct Usage(pub String);
-
-impl std::fmt::Display for Usage {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for Usage {}
+pub use crate::cli::Usage;
 
 /// Whether a command's error is the input's fault (exit status 2) rather than the
 /// machine's (1): a usage error of the command line, or a library error that says so.
