@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::io::BufReader;
 
 use heatrun::pipeline::{replay, ReplayOptions};
-use heatrun::report::Report;
+use heatrun::model_file::Report;
 use heatrun::synth::{self, SynthOptions};
 // rerun's own decoder, through the SDK the build already has (no second build of
 // rerun's crates for the tests).

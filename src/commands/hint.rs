@@ -6,7 +6,7 @@ use heatrun::decimate::DecimateError;
 use heatrun::estimate::EstimationError;
 use heatrun::import::ImportError;
 use heatrun::model::ModelError;
-use heatrun::predict::UseError;
+use heatrun::model_file::UseError;
 use heatrun::recording::RecordingError;
 use heatrun::signals::SignalError;
 use heatrun::losses::LossError;

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use heatrun::monitor::{self, BandRule, MonitorOptions, Source, StreamOptions, Watchers};
-use heatrun::predict::ThermalModel;
+use heatrun::model_file::ThermalModel;
 use heatrun_rerun::monitor::LivePublisher;
 use heatrun_rerun::RerunSink;
 

@@ -3,7 +3,8 @@
 
 use std::path::Path;
 
-use heatrun::predict::{LoadSchedule, Prediction, ThermalModel};
+use heatrun::model_file::ThermalModel;
+use heatrun::predict::{LoadSchedule, Prediction};
 use heatrun::rating::{self, InsulationClass, RatingOptions};
 
 use super::Outcome;

@@ -11,7 +11,7 @@ use heatrun::atomic::write_atomically;
 use heatrun::pipeline::{self, Method, Replay, ReplayOptions, ValidationSource};
 use heatrun::progress::{Observer, Progress};
 use heatrun_rerun::{Publisher, RerunSink};
-use heatrun::report::Report;
+use heatrun::model_file::Report;
 use heatrun::spec::coolant::ReferencePolicy;
 use heatrun::spec::ModelDescription;
 use rayon::prelude::*;

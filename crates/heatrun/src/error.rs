@@ -17,7 +17,7 @@ use crate::estimate::EstimationError;
 use crate::import::ImportError;
 use crate::model::ModelError;
 use crate::network::NetworkError;
-use crate::predict::UseError;
+use crate::model_file::UseError;
 use crate::recording::RecordingError;
 use crate::signals::SignalError;
 use crate::spec::SpecFileError;

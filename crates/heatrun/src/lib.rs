@@ -11,7 +11,8 @@
 //! | signals | [`signals`] | decimated channels + [`spec::ModelDescription`] (+ the generator's [`losses`]) → [`signals::ModelSignals`] |
 //! | estimation | [`estimate`] | [`estimate::IdentificationData`] → [`estimate::Estimate`] (Φ, Γ) |
 //! | model analysis | [`model`] | estimate → [`model::ModelAnalysis`] (A_c, B_c, T_i, fit, …) |
-//! | report | [`report`] | everything → the profile's JSON report and a summary |
+//! | report | [`report`] | everything → the profile's JSON report ([`model_file::Report`]) and a summary |
+//! | use of the model | [`model_file`] | the report read back → [`model_file::ThermalModel`] for [`predict`], [`rating`] and [`monitor`] |
 //! | HTML report | [`html`] | the replay and its report → one self-contained page |
 //!
 //! [`pipeline`] runs the stages in order; [`synth`] writes synthetic heat runs,
@@ -25,7 +26,7 @@
 //!
 //! ```
 //! use heatrun::pipeline::{replay, ReplayOptions};
-//! use heatrun::report::Report;
+//! use heatrun::model_file::Report;
 //!
 //! let fixture = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/paper_heat_run.mcap");
 //! let replayed = replay(fixture.as_ref(), &ReplayOptions::default())?;
@@ -38,7 +39,7 @@
 //! # Ok::<(), heatrun::Error>(())
 //! ```
 //!
-//! [`report::Report::summary`] gives the whole paper-style table; the `heatrun-rerun`
+//! [`model_file::Report::summary`] gives the whole paper-style table; the `heatrun-rerun`
 //! package sends everything to a rerun viewer or an `.rrd` file.
 
 #![warn(missing_docs)]
@@ -54,6 +55,7 @@ pub mod html;
 pub mod import;
 pub mod losses;
 pub mod model;
+pub mod model_file;
 pub mod monitor;
 pub mod network;
 pub mod pipeline;

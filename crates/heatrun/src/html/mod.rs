@@ -28,7 +28,7 @@ pub use predict::{predict_page, PredictionView};
 pub use rating::rating_page;
 
 use crate::pipeline::{Replay, ReplayOptions};
-use crate::report::Report;
+use crate::model_file::Report;
 
 /// Why a page could not be made.
 #[derive(Debug, thiserror::Error)]

@@ -23,8 +23,9 @@ pub use expression::InputExpression;
 use crate::losses::HeatSource;
 use crate::recording::{Alignment, Quantity, Signal};
 
-/// What a state's value is measured from.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+/// What a state's value is measured from. In the report: `"initial"`, `"absolute"`,
+/// `{"channel": name}` or `{"initial_of": name}`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Reference {
     /// The rise above the state's own first known value (the paper's formulation).
@@ -42,7 +43,7 @@ pub enum Reference {
 }
 
 /// One state of the model: a temperature channel, as a rise above its reference.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StateDescription {
     /// The state's name (report, summary, rerun entity).
     pub name: String,
@@ -52,8 +53,15 @@ pub struct StateDescription {
     pub reference: Reference,
     /// The physical part it stands for, for people ("stator winding (copper)").
     pub part: String,
-    /// Unit of the measured value (°C for temperatures).
+    /// Unit of the measured value (°C for temperatures). Optional in the report's schema:
+    /// absent, °C, as in a spec.
+    #[serde(default = "degrees_celsius")]
     pub unit: String,
+}
+
+/// A state's unit where the spec or the report names none.
+fn degrees_celsius() -> String {
+    "degC".into()
 }
 
 /// Whether an input is a heat source (the network is defined) or another exogenous input.
@@ -71,8 +79,10 @@ pub enum InputKind {
     Boundary,
 }
 
-/// How an input's value at an instant is computed.
-#[derive(Debug, Clone, Serialize)]
+/// How an input's value at an instant is computed. In the report: `{"channel": name}`,
+/// `{"expression": text}`, `{"loss": heat source}`, `{"boundary_rise": name}` or
+/// `{"coolant_flow": {"flow", "outlet", "inlet"}}`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum InputSource {
     /// A channel's value as recorded.
@@ -102,9 +112,11 @@ pub enum InputSource {
     },
 }
 
-/// One input of the model (in the report, its shift as `delay_s` or `advance_s`).
-#[derive(Debug, Clone, Serialize)]
-#[serde(into = "InputReport")]
+/// One input of the model (in the report, its shift as `delay_s` or `advance_s`). Read
+/// from a report, its shift obeys a spec's rules ([`shift_s`]): a report with a negative
+/// shift, or with both, is not one a replay writes.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(into = "InputReport", try_from = "InputReport")]
 pub struct InputDescription {
     /// The input's name (report, summary, rerun entity).
     pub name: String,
@@ -124,17 +136,22 @@ pub struct InputDescription {
     pub delay_s: f64,
 }
 
-/// An input as the report writes it: its shift as a dead time or an advance.
-#[derive(Serialize)]
+/// An input as the report writes it: its shift as a dead time or an advance, never a
+/// negative delay (the schema's `minimum: 0`). Read leniently where today's writer is
+/// stricter than older ones: `unit`, `kind` and `from_initial` may be absent.
+#[derive(Serialize, Deserialize)]
 struct InputReport {
     name: String,
     source: InputSource,
+    #[serde(default)]
     unit: String,
+    #[serde(default)]
     kind: InputKind,
+    #[serde(default)]
     from_initial: bool,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     delay_s: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     advance_s: Option<f64>,
 }
 
@@ -152,8 +169,30 @@ impl From<InputDescription> for InputReport {
     }
 }
 
+impl TryFrom<InputReport> for InputDescription {
+    type Error = SpecError;
+
+    /// The report's two shifts back into one signed shift, refused as a spec refuses them.
+    fn try_from(i: InputReport) -> Result<InputDescription, SpecError> {
+        let delay_s = shift_s(
+            &i.name,
+            i.delay_s.unwrap_or(0.0),
+            i.advance_s.unwrap_or(0.0),
+            &i.source,
+        )?;
+        Ok(InputDescription {
+            name: i.name,
+            source: i.source,
+            unit: i.unit,
+            kind: i.kind,
+            from_initial: i.from_initial,
+            delay_s,
+        })
+    }
+}
+
 /// How the signals are scaled for estimation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Scaling {
     /// The profile's per-unit system: rises in pu of the nameplate's `temperature_base_k`,
@@ -164,7 +203,11 @@ pub enum Scaling {
 }
 
 /// The thermal system to identify: its states, its inputs and how they are scaled.
-#[derive(Debug, Clone, Serialize)]
+///
+/// Serialised both ways in the report's form, its `model` block, so that a report read
+/// back describes the model as the replay that wrote it did; a TOML spec has its own
+/// form ([`ModelDescription::from_toml`]).
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ModelDescription {
     /// Name for people ("hydro generator (heatrun-scada/1)").
     pub name: String,
