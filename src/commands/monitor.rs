@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
-use heatrun::monitor::{self, BandRule, MonitorOptions, Source, StreamOptions, Watchers};
 use heatrun::model_file::ThermalModel;
+use heatrun::monitor::{self, BandRule, MonitorOptions, Source, StreamOptions, Watchers};
 use heatrun_rerun::monitor::LivePublisher;
 use heatrun_rerun::RerunSink;
 

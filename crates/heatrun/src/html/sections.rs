@@ -8,9 +8,9 @@ use super::network::{diagram, short_name};
 use super::plot::{palette, Chart, Line, Panel, Thinning, TimeAxis, MEASURED, MODEL};
 use super::{HtmlError, Section};
 use crate::model::sensitivity::SensitivityModel;
-use crate::pipeline::{Replay, ReplayOptions, ValidationSource};
 use crate::model_file::document::{FitEntry, NetworkEntry};
 use crate::model_file::Report;
+use crate::pipeline::{Replay, ReplayOptions, ValidationSource};
 use crate::spec::Scaling;
 
 /// Buckets a time series is thinned to (up to four points each): enough for a page's width.

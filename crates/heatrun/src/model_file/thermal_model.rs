@@ -332,3 +332,140 @@ fn field_temperature_use(
         )),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    /// A report of the generator as an older heatrun wrote it: no references
+    /// (`initial_reference_c`), no field line (`field_temperature_from_stator`, the
+    /// paper's scale instead), no `from_initial`, and figures JSON could only write as
+    /// null (an infinite SNR) or in a form of their own.
+    fn older_report() -> serde_json::Value {
+        let state = |name: &str, part: &str| {
+            json!({"name": name, "channel": name, "reference": "initial", "part": part,
+                   "unit": "degC"})
+        };
+        let input = |name: &str| json!({"name": name, "source": {"loss": name}, "unit": "pu", "kind": "heat"});
+        json!({
+            "profile": "heatrun-scada/1",
+            "sample_time_s": 1.0,
+            "method": "oe",
+            "states": ["stator_winding_temp", "core_temp"],
+            "inputs": ["armature_copper_loss", "field_copper_loss"],
+            "phi": [[0.9, 0.05], [0.02, 0.95]],
+            "gamma": [[0.1, 0.02], [0.01, 0.03]],
+            "time_constants_s": [8.0, 25.0],
+            "fit": {"snr_db": [null, null], "rmse_k": [0.1, 0.2],
+                    "max_abs_error_k": [0.3, 0.6]},
+            "network": {"a shape": "of its own"},
+            "nameplate": null,
+            "model": {
+                "name": "two parts",
+                "states": [state("stator_winding_temp", "stator winding"),
+                           state("core_temp", "iron core")],
+                "inputs": [input("armature_copper_loss"), input("field_copper_loss")],
+                "scaling": "nameplate_per_unit"
+            },
+            "estimation": {
+                "initial_temperature_c": [30.0, 28.0],
+                "temperature_base_k": 80.0,
+                "power_base_mva": 100.0,
+                "condition_number": null,
+                "field_temperature": {"method": "scaled_armature_rise", "scale": 1.5,
+                                      "final_temp_c": 90.0}
+            }
+        })
+    }
+
+    fn read(report: &serde_json::Value) -> Result<ThermalModel, UseError> {
+        let path = Path::new("model.json");
+        ThermalModel::from_report(&Report::from_json(&report.to_string(), path)?, path)
+    }
+
+    #[test]
+    fn an_older_report_is_read_with_the_references_and_field_line_it_implies() {
+        let model = read(&older_report()).unwrap();
+        // The references of a report before them: the initial temperatures.
+        assert_eq!(model.initial_reference_c, [30.0, 28.0]);
+        assert_eq!(model.states[1].reference, Reference::Initial);
+        assert_eq!(model.state_of(Quantity::CoreTemp), Some(1));
+        // θ_f = θ_Cu0 + s·(θ_Cu − θ_Cu0) = θ_Cu0·(1 − s) + s·θ_Cu, θ_Cu0 = 30 °C, s = 1.5.
+        assert_eq!(
+            model.field_temperature,
+            FieldTemperatureUse::FromStator {
+                intercept_c: -15.0,
+                slope: 1.5
+            }
+        );
+        assert!(model.per_unit && model.power_base_w == 1e8);
+        assert_eq!(model.error.source, "fit on the estimation data");
+        assert_eq!(model.error.rmse_k, [0.1, 0.2]);
+        assert!(!model.uses_coolant_inlet());
+    }
+
+    #[test]
+    fn the_version_comes_first_then_the_blocks_then_their_sizes() {
+        let message = |edit: fn(&mut serde_json::Value)| {
+            let mut report = older_report();
+            edit(&mut report);
+            read(&report).unwrap_err().to_string()
+        };
+        assert_eq!(
+            message(|r| r["profile"] = "heatrun-scada/2".into()),
+            "model.json: a report of profile `heatrun-scada/2`; this heatrun reads `heatrun-scada/1`"
+        );
+        assert_eq!(
+            message(|r| r["profile"] = 2.into()),
+            "model.json: not a heatrun model report: no `profile` key"
+        );
+        assert_eq!(
+            message(|r| r["model"] = serde_json::Value::Null),
+            "model.json: the report has no `model`, which every use of the model needs"
+        );
+        assert_eq!(
+            message(|r| {
+                r.as_object_mut().unwrap().remove("estimation");
+            }),
+            "model.json: the report has no `estimation`, which every use of the model needs"
+        );
+        assert_eq!(
+            message(|r| r["phi"][1] = json!([0.9])),
+            "model.json: `phi` is 2 rows of [2, 1] entries; the model of 2 states and 2 inputs \
+             needs 2 × 2"
+        );
+        assert_eq!(
+            message(|r| r["estimation"]["initial_reference_c"] = json!([20.0])),
+            "model.json: `estimation.initial_reference_c` is 1 values; the model of 2 states \
+             and 2 inputs needs 2"
+        );
+        assert_eq!(
+            message(|r| r["model"]["inputs"][0]["from_initial"] = true.into()),
+            "model.json: input `armature_copper_loss` is taken from its value at the start of \
+             the model's recording, which a load schedule cannot give"
+        );
+        assert_eq!(
+            message(|r| r["model"]["inputs"][1]["advance_s"] = 1.0.into()),
+            "model.json: input `field_copper_loss` is `{\"loss\":\"field_copper_loss\"}` \
+             advanced 1 s (only a channel or an expression can be read ahead), which a load \
+             schedule cannot give"
+        );
+        assert_eq!(
+            message(|r| {
+                r["estimation"]
+                    .as_object_mut()
+                    .unwrap()
+                    .remove("field_temperature");
+            }),
+            "model.json: the report has no `estimation.field_temperature_from_stator`, which \
+             the field copper loss needs for R_f when the field winding is not a state"
+        );
+        // A description this version cannot read names the key where serde stopped.
+        let unknown = message(|r| r["model"]["inputs"][0]["source"] = json!({"fan": "x"}));
+        assert!(
+            unknown.starts_with("model.json: not a heatrun model report: unknown variant `fan`"),
+            "{unknown}"
+        );
+    }
+}
