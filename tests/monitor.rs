@@ -379,7 +379,7 @@ fn the_rrd_is_written_and_quiet_prints_only_the_alarms() {
     );
     // Drawn a stretch at a time as the alarms became known: exactly the instants the
     // whole-file monitor puts inside an alarm.
-    let model = heatrun::predict::ThermalModel::read(&d.join("model.json")).unwrap();
+    let model = heatrun::model_file::ThermalModel::read(&d.join("model.json")).unwrap();
     let options = heatrun::monitor::MonitorOptions::default();
     let whole =
         heatrun::monitor::batch::monitor_whole_file(&model, &d.join("fault.mcap"), &options)
@@ -562,7 +562,7 @@ fn streamed_as_whole(
     stretch_s: f64,
 ) -> (heatrun::monitor::MonitorResult, Vec<(i64, i64, u64)>) {
     use heatrun::monitor::{self, batch, MonitorOptions, Source, StreamOptions, Watchers};
-    let model = heatrun::predict::ThermalModel::read(model).unwrap();
+    let model = heatrun::model_file::ThermalModel::read(model).unwrap();
     let options = MonitorOptions::default();
     let whole = batch::monitor_whole_file(&model, recording, &options).unwrap();
     let mut seen = Seen::default();

@@ -238,7 +238,7 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
             "{sums:?}"
         );
         if seed == 1 {
-            let report = heatrun::report::Report::new(&o);
+            let report = heatrun::model_file::Report::new(&o);
             let json: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
             crate::outputs::ReportSchema::load()
                 .check(&json)
@@ -274,7 +274,7 @@ fn the_machines_network_from_rc_and_from_the_identified_model() {
         assert_eq!(beside.method, heatrun::estimate::Method::Oe);
         assert_eq!(beside.time_constants_s.len(), 3);
         if seed == 1 {
-            let report = heatrun::report::Report::new(&r);
+            let report = heatrun::model_file::Report::new(&r);
             let summary = report.summary();
             assert!(summary.contains("beside it, oe"), "{summary}");
             assert!(summary.contains("95 % interval"), "{summary}");
@@ -341,7 +341,7 @@ fn the_paper_fixtures_network_is_fitted_and_said_to_be_no_network() {
     let d = network.minimum_distance.as_ref().unwrap();
     assert_eq!(d.degrees_of_freedom, 3);
     assert!(d.p_value.is_some_and(|p| p < 1e-6), "{d:?}");
-    let summary = heatrun::report::Report::new(&r).summary();
+    let summary = heatrun::model_file::Report::new(&r).summary();
     assert!(
         summary.contains("The model is not a passive thermal network"),
         "{summary}"

@@ -6,8 +6,8 @@ use crate::common;
 use std::collections::BTreeMap;
 use std::io::BufReader;
 
+use heatrun::model_file::Report;
 use heatrun::pipeline::{replay, ReplayOptions};
-use heatrun::report::Report;
 use heatrun::synth::{self, SynthOptions};
 // rerun's own decoder, through the SDK the build already has (no second build of
 // rerun's crates for the tests).
@@ -207,6 +207,53 @@ fn fixture_report() -> Value {
     let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
     let replayed = replay(&fixture, &ReplayOptions::default()).unwrap();
     serde_json::from_str(&Report::new(&replayed).to_json()).unwrap()
+}
+
+/// The report a replay writes reads back as the one document type: every key a use of
+/// the model reads is written again as it was, and the model's description is the
+/// report's own.
+#[test]
+fn the_report_reads_back_as_it_was_written() {
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let replayed = replay(&fixture, &ReplayOptions::default()).unwrap();
+    let written = Report::new(&replayed);
+    let path = std::path::Path::new("model.json");
+    let read = Report::from_json(&written.to_json(), path).unwrap();
+    let (w, r): (Value, Value) = (
+        serde_json::from_str(&written.to_json()).unwrap(),
+        serde_json::to_value(&read).unwrap(),
+    );
+    for key in [
+        "profile",
+        "sample_time_s",
+        "states",
+        "inputs",
+        "phi",
+        "gamma",
+        "time_constants_s",
+        "nameplate",
+        "model",
+        "validation",
+    ] {
+        assert_eq!(r[key], w[key], "{key}");
+    }
+    for (block, key) in [
+        ("fit", "rmse_k"),
+        ("fit", "max_abs_error_k"),
+        ("estimation", "initial_temperature_c"),
+        ("estimation", "initial_reference_c"),
+        ("estimation", "temperature_base_k"),
+        ("estimation", "power_base_mva"),
+        ("estimation", "coolant_inlet_temp_c"),
+        ("estimation", "field_temperature"),
+    ] {
+        assert_eq!(r[block][key], w[block][key], "{block}.{key}");
+    }
+    let f = "field_temperature_from_stator";
+    assert_eq!(r["estimation"][f]["slope"], w["estimation"][f]["slope"]);
+    let model = heatrun::model_file::ThermalModel::from_report(&read, path).unwrap();
+    assert_eq!(model.states, replayed.model.states);
+    assert_eq!(model.initial_reference_c, replayed.signals.initial_references());
 }
 
 #[test]

@@ -7,7 +7,7 @@ use heatrun::estimate::EstimationError;
 use heatrun::import::ImportError;
 use heatrun::losses::LossError;
 use heatrun::model::ModelError;
-use heatrun::predict::UseError;
+use heatrun::model_file::UseError;
 use heatrun::recording::RecordingError;
 use heatrun::signals::SignalError;
 use heatrun::Error;

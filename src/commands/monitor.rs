@@ -3,7 +3,7 @@
 //! published to rerun as it is sealed.
 
 use heatrun::monitor::{self, MonitorOptions, MonitorResult, Source, Watchers};
-use heatrun::predict::ThermalModel;
+use heatrun::model_file::ThermalModel;
 use heatrun_rerun::monitor::LivePublisher;
 use heatrun_rerun::RerunSink;
 

@@ -1,6 +1,7 @@
 //! `heatrun predict`: a model report and a load schedule → predicted temperatures.
 
-use heatrun::predict::{self, Prediction, ThermalModel};
+use heatrun::model_file::ThermalModel;
+use heatrun::predict::{self, Prediction};
 use heatrun::rating;
 
 use super::Outcome;

@@ -1,6 +1,6 @@
 //! `heatrun rating`: a model report → the machine's thermal rating.
 
-use heatrun::predict::ThermalModel;
+use heatrun::model_file::ThermalModel;
 use heatrun::rating::{self, RatingOptions};
 
 use super::Outcome;

@@ -8,7 +8,7 @@ use std::time::Instant;
 use heatrun::atomic::write_atomically;
 use heatrun::pipeline::{self, ReplayOptions};
 use heatrun::progress::Observer;
-use heatrun::report::Report;
+use heatrun::model_file::Report;
 use heatrun_rerun::{Publisher, RerunSink};
 
 use super::bars::{self, Bars};

@@ -242,7 +242,7 @@ fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result
     analysis::log_residual_correlation(rec, replay)?;
     analysis::log_trajectory(rec, replay)?;
     network::log_network(rec, replay)?;
-    let figures = text::model_figures(&heatrun::report::Report::new(replay));
+    let figures = text::model_figures(&heatrun::model_file::Report::new(replay));
     rec.log_static(
         "model",
         &rerun::TextDocument::new(figures).with_media_type(rerun::MediaType::markdown()),

@@ -7,7 +7,8 @@ use super::layout::{Layout, Node, View};
 use super::traces::SERIES_SLICE;
 use super::{publish_err, style, Publisher, RerunSink};
 use crate::Result;
-use heatrun::predict::{LoadSchedule, Prediction, ThermalModel};
+use heatrun::model_file::ThermalModel;
+use heatrun::predict::{LoadSchedule, Prediction};
 use heatrun::spec::InputKind;
 
 /// The timeline: seconds from the schedule's start.

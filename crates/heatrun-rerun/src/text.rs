@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use heatrun::report::Report;
+use heatrun::model_file::Report;
 
 /// Markdown: the time constants (eq. 26) and their parts, and the fit (eq. 25) per part.
 pub fn model_figures(report: &Report) -> String {

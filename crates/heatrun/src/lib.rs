@@ -15,6 +15,7 @@
 //! | model analysis | [`model`] | estimate → [`ModelAnalysis`] (A_c, B_c, T_i, fit, …) |
 //! | network | [`network`] | continuous model + signals → [`NetworkAnalysis`] |
 //! | report | [`report`] | [`Replay`] → the profile's JSON [`Report`] and a summary |
+//! | model file | [`model_file`] | the report read back → [`model_file::ThermalModel`] for [`predict`], [`rating`], [`monitor`] and [`html`] |
 //!
 //! Below the stages, [`thermal`] holds what estimation and analysis share (the discrete
 //! and continuous model, ZOH, the passive network and its RC parametrisation, water).
@@ -30,7 +31,7 @@
 //!
 //! ```
 //! use heatrun::pipeline::{replay, ReplayOptions};
-//! use heatrun::report::Report;
+//! use heatrun::model_file::Report;
 //!
 //! let fixture = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/paper_heat_run.mcap");
 //! let replayed = replay(fixture.as_ref(), &ReplayOptions::default())?;
@@ -43,7 +44,7 @@
 //! # Ok::<(), heatrun::Error>(())
 //! ```
 //!
-//! [`report::Report::summary`] gives the whole paper-style table; the `heatrun-rerun`
+//! [`model_file::Report::summary`] gives the whole paper-style table; the `heatrun-rerun`
 //! package sends everything to a rerun viewer or an `.rrd` file.
 
 #![warn(missing_docs)]
@@ -59,6 +60,7 @@ pub mod html;
 pub mod import;
 pub mod losses;
 pub mod model;
+pub mod model_file;
 pub mod monitor;
 pub mod network;
 pub mod pipeline;
@@ -82,6 +84,6 @@ pub use model::ModelAnalysis;
 pub use network::NetworkAnalysis;
 pub use pipeline::{replay, Replay, ReplayOptions};
 pub use recording::{RecordingSummary, Sample};
-pub use report::Report;
+pub use model_file::{Report, ThermalModel};
 pub use signals::ModelSignals;
 pub use spec::ModelDescription;

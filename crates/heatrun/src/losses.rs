@@ -5,7 +5,7 @@
 //! Input: a [`DecimatedRecording`] and a [`Nameplate`]. Output: [`GeneratorLosses`],
 //! which the signal stage ([`crate::signals`]) reads for the generator's inputs.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::decimate::DecimatedRecording;
 /// Why the generator's losses cannot be computed from a recording.
@@ -45,8 +45,9 @@ use crate::series::Series;
 /// The inverse temperature coefficient of copper, 235 K: R(θ) ∝ 235 + θ.
 pub const COPPER_INFERRED_ZERO_C: f64 = 235.0;
 
-/// The thermal model's inputs (heat sources), in the profile's order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+/// The thermal model's inputs (heat sources), in the profile's order; by
+/// [`HeatSource::name`] in the report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum HeatSource {
     /// Armature copper loss 3·I_g²·R_a(θ_Cu) + ½·P_add·(I_g/I_n)².
@@ -76,7 +77,9 @@ impl HeatSource {
 }
 
 /// Where the field winding temperature θ_f comes from (the profile's order of preference).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// Read back from a report: one written before `field_temperature_from_stator` holds the
+/// paper's scale here.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "method", rename_all = "snake_case")]
 pub enum FieldTemperatureSource {
     /// Measured by a `field_winding_temp` channel.

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use std::borrow::Cow;
 
-use crate::decimate::{DecimatedRecording, Decimator};
+use crate::decimate::{DecimatedRecording, Decimator, Tee};
 use crate::error::{Error, Result};
 use crate::recording::RecordingError;
 use crate::signals::SignalError;
@@ -200,29 +200,6 @@ impl Prepared {
 /// Reads, decimates and computes the signals of one recording.
 pub fn prepare(path: &Path, options: &ReplayOptions) -> Result<Prepared> {
     prepare_with(path, options, None)
-}
-
-/// Gives every sample to the decimator and to a second sink (the full-rate publisher).
-pub(crate) struct Tee<'a> {
-    pub(crate) decimator: &'a mut Decimator,
-    pub(crate) also: &'a mut dyn SampleSink,
-}
-
-impl SampleSink for Tee<'_> {
-    fn channel(&mut self, channel: &recording::SensorChannel) {
-        self.decimator.channel(channel);
-        self.also.channel(channel);
-    }
-
-    fn sample(&mut self, sample: recording::Sample) {
-        self.decimator.sample(sample);
-        self.also.sample(sample);
-    }
-
-    fn retract(&mut self, sample: recording::Sample) {
-        self.decimator.retract(sample);
-        self.also.retract(sample);
-    }
 }
 
 /// [`prepare`], with every raw sample also given to `also` as the file streams by.

@@ -11,9 +11,9 @@
 use nalgebra::DVector;
 use serde::Serialize;
 
-use crate::predict::model::{FieldTemperatureUse, ThermalModel};
+use crate::model_file::{FieldTemperatureUse, ThermalModel, UseError};
 use crate::predict::phasor::PhasorMachine;
-use crate::predict::{OperatingPoint, Simulator, UseError};
+use crate::predict::{OperatingPoint, Simulator};
 use crate::recording::Quantity;
 
 /// Where the built-in limits come from.
@@ -345,7 +345,7 @@ pub fn parts(model: &ThermalModel, o: &RatingOptions) -> Result<Vec<LimitedPart>
         .iter()
         .enumerate()
         .filter_map(|(j, s)| {
-            let (limit_c, limit_from) = limit(&s.name, table_part(&s.channel))?;
+            let (limit_c, limit_from) = limit(&s.name, table_part(s.channel.name()))?;
             Some(LimitedPart {
                 name: s.name.clone(),
                 limit_c,

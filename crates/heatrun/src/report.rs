@@ -1,52 +1,24 @@
-//! Report stage: a [`Replay`] → the profile's JSON report and a summary table that
-//! reads like the paper's results section.
+//! Report stage: a [`Replay`] → the profile's JSON report ([`Report::new`]) and a summary
+//! table that reads like the paper's results section ([`Report::summary`]).
+//!
+//! The document itself, [`Report`] and its blocks, lives in [`crate::model_file`], below
+//! every stage, where the uses of the model read it back; this module builds it from a
+//! replay, and so sits above the pipeline.
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use nalgebra::DMatrix;
-use serde::Serialize;
 
 use crate::losses::FieldTemperatureSource;
+use crate::model_file::document::{
+    AssignmentEntry, BesideEntry, ChannelEntry, EstimationEntry, FieldFromStator, FitEntry,
+    InletSteadyState, NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry,
+    UncertaintyEntry, ValidationEntry,
+};
+use crate::model_file::{Report, PROFILE};
 use crate::pipeline::Replay;
 use crate::recording::format_time;
-use crate::spec::{ModelDescription, Scaling};
-
-/// The profile identifier written into every report.
-pub const PROFILE: &str = "heatrun-scada/1";
-
-/// One time constant's part, as in the profile.
-#[derive(Debug, Clone, Serialize)]
-pub struct AssignmentEntry {
-    /// T_i in s.
-    pub time_constant_s: f64,
-    /// The oscillation period 2π/|Im λ_c| of a complex mode, s (absent for a real one).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub oscillation_period_s: Option<f64>,
-    /// The state (profile name) it predominantly belongs to.
-    pub state: String,
-    /// ‖T_i ∂y/∂T_i‖ (RMS, pu) of that state.
-    pub sensitivity_norm: f64,
-    /// The physical part, for people.
-    pub part: String,
-}
-
-/// Fit block of the report.
-#[derive(Debug, Clone, Serialize)]
-pub struct FitEntry {
-    /// SNR in dB (eq. 25).
-    pub snr_db: Vec<f64>,
-    /// NRMSE fit in %.
-    pub nrmse_fit_percent: Vec<f64>,
-    /// RMSE in K.
-    pub rmse_k: Vec<f64>,
-    /// Largest absolute error in K.
-    pub max_abs_error_k: Vec<f64>,
-    /// Mean squared error in K².
-    pub mse_k2: Vec<f64>,
-    /// Instants compared.
-    pub samples: usize,
-}
+use crate::spec::Scaling;
 
 impl From<&crate::model::Fit> for FitEntry {
     fn from(f: &crate::model::Fit) -> Self {
@@ -61,361 +33,94 @@ impl From<&crate::model::Fit> for FitEntry {
     }
 }
 
-/// 95 % confidence intervals (half-widths), by the delta method.
-#[derive(Debug, Clone, Serialize)]
-pub struct UncertaintyEntry {
-    /// Of each time constant, s.
-    pub time_constants_ci95_s: Vec<f64>,
-    /// Of each steady-state rise (and temperature), K.
-    pub steady_state_ci95_k: Vec<f64>,
-    /// Standard errors of Θ = [Φ Γ], row-major.
-    pub theta_standard_error: Vec<Vec<f64>>,
-}
-
-/// Validation block: the fit on data not used for the estimate.
-#[derive(Debug, Clone, Serialize)]
-pub struct ValidationEntry {
-    /// What the data were.
-    pub source: String,
-    /// The fit there.
-    pub fit: FitEntry,
-}
-
-/// Residual analysis block.
-#[derive(Debug, Clone, Serialize)]
-pub struct ResidualEntry {
-    /// Largest lag, samples.
-    pub max_lag: usize,
-    /// 99 % band of a white sequence: ±this.
-    pub band99: f64,
-    /// `[state][lag]` autocorrelation of the simulation residuals, lags 0..max_lag.
-    pub autocorrelation: Vec<Vec<f64>>,
-    /// `[state][input][lag + max_lag]` cross-correlation residual × input, lags −max_lag..max_lag.
-    pub cross_correlation: Vec<Vec<Vec<f64>>>,
-    /// Per state: fraction of lags 1..max_lag outside the band.
-    pub autocorrelation_outside_band: Vec<f64>,
-    /// Per state × input: largest |cross-correlation| over the lags.
-    pub max_abs_cross_correlation: Vec<Vec<f64>>,
-}
-
-/// Steady-state block of the report (eqs. 30–35).
-#[derive(Debug, Clone, Serialize)]
-pub struct SteadyStateEntry {
-    /// The input u the steady state is for (the last measured one), pu.
-    pub input_pu: Vec<f64>,
-    /// Predicted final rises −θ_base·A_c⁻¹B_c u, K.
-    pub rise_k: Vec<f64>,
-    /// Predicted final temperatures θ_0 + rise, °C.
-    pub temperature_c: Vec<f64>,
-    /// Measured temperatures at the end of the recording, °C.
-    pub measured_final_temperature_c: Vec<f64>,
-    /// Measured rises at the end of the recording, K.
-    pub measured_final_rise_k: Vec<f64>,
-    /// Where the rises are measured from the coolant inlet: the steady state at the final
-    /// inlet temperature and at a stated reference inlet temperature.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub coolant_inlet: Option<InletSteadyState>,
-}
-
-/// The steady state against the coolant inlet (the network's reference node).
-#[derive(Debug, Clone, Serialize)]
-pub struct InletSteadyState {
-    /// θ_in,0: the inlet's initial level the rises are measured from, °C.
-    pub initial_inlet_c: f64,
-    /// The inlet temperature of the steady-state input (the last measured), °C.
-    pub final_inlet_c: f64,
-    /// Predicted rise above the final inlet temperature, K.
-    pub rise_above_inlet_k: Vec<f64>,
-    /// The stated reference inlet temperature, °C ([`REFERENCE_INLET_C`]).
-    pub reference_inlet_c: f64,
-    /// Predicted temperatures with the inlet at the reference, °C: θ_in,0 +
-    /// θ_base·(−A_c⁻¹B_c u) with the inlet's entry of u at the reference.
-    pub temperature_at_reference_inlet_c: Vec<f64>,
-}
-
 /// The inlet temperature the steady state is also stated at, °C: 25 °C, the water
 /// inlet temperature that temperature limits of water-cooled machines are commonly stated
 /// for.
 pub const REFERENCE_INLET_C: f64 = 25.0;
 
-impl InletSteadyState {
-    /// The block where the states are measured from the inlet's initial level
-    /// ([`crate::spec::Reference::InitialOf`]), else `None`.
-    fn new(r: &Replay) -> Option<InletSteadyState> {
-        use crate::spec::{InputSource, Reference};
-        if !r
-            .model
-            .states
-            .iter()
-            .any(|s| matches!(s.reference, Reference::InitialOf(_)))
-        {
-            return None;
-        }
-        let (a, s) = (&r.analysis, &r.signals);
-        let base = s.temperature_base_k;
-        let initial_inlet_c = *s.initial_references().first()?;
-        let inlet = r
-            .model
-            .inputs
-            .iter()
-            .position(|i| matches!(i.source, InputSource::BoundaryRise(_)));
-        let final_rise = inlet.map_or(0.0, |j| a.steady_state_input[j]);
-        let final_inlet_c = initial_inlet_c + final_rise * base;
-        let rise_above_inlet_k = a
-            .steady_state
-            .iter()
-            .map(|y| (y - final_rise) * base)
-            .collect::<Vec<f64>>();
-        let temperature_at_reference_inlet_c = match inlet {
-            Some(j) => {
-                let mut u = a.steady_state_input.clone();
-                u[j] = (REFERENCE_INLET_C - initial_inlet_c) / base;
-                a.continuous
-                    .steady_state(&u)
-                    .ok()?
-                    .iter()
-                    .map(|y| initial_inlet_c + y * base)
-                    .collect()
-            }
-            // A constant inlet: the machine's rises above it, at the reference.
-            None => rise_above_inlet_k
+/// The steady state against the coolant inlet where the states are measured from the
+/// inlet's initial level ([`crate::spec::Reference::InitialOf`]), else `None`.
+fn inlet_steady_state(r: &Replay) -> Option<InletSteadyState> {
+    use crate::spec::{InputSource, Reference};
+    if !r
+        .model
+        .states
+        .iter()
+        .any(|s| matches!(s.reference, Reference::InitialOf(_)))
+    {
+        return None;
+    }
+    let (a, s) = (&r.analysis, &r.signals);
+    let base = s.temperature_base_k;
+    let initial_inlet_c = *s.initial_references().first()?;
+    let inlet = r
+        .model
+        .inputs
+        .iter()
+        .position(|i| matches!(i.source, InputSource::BoundaryRise(_)));
+    let final_rise = inlet.map_or(0.0, |j| a.steady_state_input[j]);
+    let final_inlet_c = initial_inlet_c + final_rise * base;
+    let rise_above_inlet_k = a
+        .steady_state
+        .iter()
+        .map(|y| (y - final_rise) * base)
+        .collect::<Vec<f64>>();
+    let temperature_at_reference_inlet_c = match inlet {
+        Some(j) => {
+            let mut u = a.steady_state_input.clone();
+            u[j] = (REFERENCE_INLET_C - initial_inlet_c) / base;
+            a.continuous
+                .steady_state(&u)
+                .ok()?
                 .iter()
-                .map(|x| REFERENCE_INLET_C + x)
-                .collect(),
-        };
-        Some(InletSteadyState {
-            initial_inlet_c,
-            final_inlet_c,
-            rise_above_inlet_k,
-            reference_inlet_c: REFERENCE_INLET_C,
-            temperature_at_reference_inlet_c,
-        })
-    }
-}
-
-/// The recording block (an extension of the profile).
-#[derive(Debug, Clone, Serialize)]
-pub struct RecordingEntry {
-    /// The file replayed.
-    pub path: String,
-    /// Its size in bytes.
-    pub file_bytes: u64,
-    /// First and last sample time, RFC 3339.
-    pub start: Option<String>,
-    /// Last sample time, RFC 3339.
-    pub end: Option<String>,
-    /// Heat-run channels: topic, quantity, unit, samples, nominal period, gaps.
-    pub channels: Vec<ChannelEntry>,
-    /// Channels not read, with the reason.
-    pub ignored_channels: Vec<crate::recording::IgnoredChannel>,
-    /// Samples marked `bad` and dropped.
-    pub bad_quality_dropped: u64,
-    /// What was lost to damage in the file.
-    pub data_loss: Vec<String>,
-    /// Other metadata records of the file.
-    pub metadata: BTreeMap<String, BTreeMap<String, String>>,
-}
-
-/// One channel in the report.
-#[derive(Debug, Clone, Serialize)]
-pub struct ChannelEntry {
-    /// MCAP topic.
-    pub topic: String,
-    /// Quantity.
-    pub quantity: String,
-    /// Sensor tag.
-    pub sensor: Option<String>,
-    /// Unit as recorded.
-    pub unit: String,
-    /// Samples read.
-    pub samples: u64,
-    /// Median sample period, s.
-    pub nominal_period_s: f64,
-    /// Gaps found.
-    pub gaps: usize,
-}
-
-/// Estimation details (an extension of the profile).
-#[derive(Debug, Clone, Serialize)]
-pub struct EstimationEntry {
-    /// Grid instants.
-    pub instants: usize,
-    /// Equations used.
-    pub equations_used: usize,
-    /// Contiguous segments simulated (gaps split them).
-    pub segments: usize,
-    /// Condition number of the scaled regression matrix.
-    pub condition_number: f64,
-    /// Initial temperatures θ_0 the rises are measured from, °C.
-    pub initial_temperature_c: Vec<f64>,
-    /// Time of the initial temperatures, RFC 3339.
-    pub initial_time: String,
-    /// Source of the field winding temperature.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub field_temperature: Option<FieldTemperatureSource>,
-    /// Temperature base, K.
-    pub temperature_base_k: f64,
-    /// Power base, MVA.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub power_base_mva: Option<f64>,
-    /// Each state's reference θ_ref,j at the initial instant, °C: a state's temperature
-    /// there is this plus its initial rise (what `heatrun predict` starts from).
-    pub initial_reference_c: Vec<f64>,
-    /// The mean cooling-water inlet temperature over the recording, °C, where it is
-    /// recorded: the coolant temperature the model's rises belong to.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub coolant_inlet_temp_c: Option<f64>,
-    /// The field winding temperature as a straight line of the stator winding's
-    /// (least squares over the recording), where the loss model has a field temperature:
-    /// what `heatrun predict` uses for R_f when the field winding is not a state.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub field_temperature_from_stator: Option<FieldFromStator>,
-}
-
-/// θ_f ≈ intercept + slope · θ_Cu: the field winding temperature from the stator
-/// winding's, fitted over the recording.
-#[derive(Debug, Clone, Serialize)]
-pub struct FieldFromStator {
-    /// Intercept, °C.
-    pub intercept_c: f64,
-    /// Slope, K per K.
-    pub slope: f64,
-    /// RMS of the fit's residual, K.
-    pub rms_residual_k: f64,
-}
-
-impl FieldFromStator {
-    /// The least-squares line θ_f = a + b·θ_Cu over the instants where both are known;
-    /// `None` with fewer than two such instants or no spread in θ_Cu.
-    pub fn fit(stator_c: &crate::series::Series, field_c: &crate::series::Series) -> Option<Self> {
-        let pairs: Vec<(f64, f64)> = stator_c
-            .iter()
-            .zip(field_c.iter())
-            .filter_map(|(x, y)| x.zip(y))
-            .collect();
-        let n = pairs.len() as f64;
-        let mean_x = pairs.iter().map(|p| p.0).sum::<f64>() / n;
-        let mean_y = pairs.iter().map(|p| p.1).sum::<f64>() / n;
-        let sxx: f64 = pairs.iter().map(|p| (p.0 - mean_x).powi(2)).sum();
-        let sxy: f64 = pairs.iter().map(|p| (p.0 - mean_x) * (p.1 - mean_y)).sum();
-        if pairs.len() < 2 || !(sxx > 0.0) {
-            return None;
+                .map(|y| initial_inlet_c + y * base)
+                .collect()
         }
-        let slope = sxy / sxx;
-        let intercept_c = mean_y - slope * mean_x;
-        let sse: f64 = pairs
+        // A constant inlet: the machine's rises above it, at the reference.
+        None => rise_above_inlet_k
             .iter()
-            .map(|p| (p.1 - intercept_c - slope * p.0).powi(2))
-            .sum();
-        Some(FieldFromStator {
-            intercept_c,
-            slope,
-            rms_residual_k: (sse / n).sqrt(),
-        })
+            .map(|x| REFERENCE_INLET_C + x)
+            .collect(),
+    };
+    Some(InletSteadyState {
+        initial_inlet_c,
+        final_inlet_c,
+        rise_above_inlet_k,
+        reference_inlet_c: REFERENCE_INLET_C,
+        temperature_at_reference_inlet_c,
+    })
+}
+
+/// The least-squares line θ_f = a + b·θ_Cu over the instants where both are known;
+/// `None` with fewer than two such instants or no spread in θ_Cu.
+fn field_from_stator(
+    stator_c: &crate::series::Series,
+    field_c: &crate::series::Series,
+) -> Option<FieldFromStator> {
+    let pairs: Vec<(f64, f64)> = stator_c
+        .iter()
+        .zip(field_c.iter())
+        .filter_map(|(x, y)| x.zip(y))
+        .collect();
+    let n = pairs.len() as f64;
+    let mean_x = pairs.iter().map(|p| p.0).sum::<f64>() / n;
+    let mean_y = pairs.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = pairs.iter().map(|p| (p.0 - mean_x).powi(2)).sum();
+    let sxy: f64 = pairs.iter().map(|p| (p.0 - mean_x) * (p.1 - mean_y)).sum();
+    if pairs.len() < 2 || !(sxx > 0.0) {
+        return None;
     }
-}
-
-/// The report of `heatrun replay --report` (profile section "Report").
-#[derive(Debug, Clone, Serialize)]
-pub struct Report {
-    /// Always [`PROFILE`].
-    pub profile: String,
-    /// heatrun's version.
-    pub heatrun_version: String,
-    /// Ts in s.
-    pub sample_time_s: f64,
-    /// Identification method.
-    pub method: String,
-    /// State names in model order.
-    pub states: Vec<String>,
-    /// Input names in model order.
-    pub inputs: Vec<String>,
-    /// Φ, row-major.
-    pub phi: Vec<Vec<f64>>,
-    /// Γ, row-major.
-    pub gamma: Vec<Vec<f64>>,
-    /// A_c, row-major, 1/s.
-    pub a_c: Vec<Vec<f64>>,
-    /// B_c, row-major, 1/s.
-    pub b_c: Vec<Vec<f64>>,
-    /// Eigenvalues of Φ, ascending.
-    pub eigenvalues_discrete: Vec<f64>,
-    /// Eigenvalues of A_c, 1/s.
-    pub eigenvalues_continuous: Vec<f64>,
-    /// Time constants, ascending, s (−1/Re λ_c; a complex pair's twice).
-    pub time_constants_s: Vec<f64>,
-    /// Where A_c has complex-conjugate pairs (oscillating modes): the imaginary parts
-    /// of `eigenvalues_discrete`, absent where every eigenvalue is real.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub eigenvalues_discrete_imag: Option<Vec<f64>>,
-    /// Imaginary parts of `eigenvalues_continuous`, 1/s, absent where all are real.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub eigenvalues_continuous_imag: Option<Vec<f64>>,
-    /// Each mode's oscillation period 2π/|Im λ_c|, s (null for a real mode), absent
-    /// where all are real.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub oscillation_periods_s: Option<Vec<Option<f64>>>,
-    /// Time constant → state.
-    pub assignment: Vec<AssignmentEntry>,
-    /// `sensitivity_norms[k][i]` = ‖T_i ∂y_k/∂T_i‖ (RMS, pu): rows states, columns time constants.
-    pub sensitivity_norms: Vec<Vec<f64>>,
-    /// Fit quality.
-    pub fit: FitEntry,
-    /// Steady state.
-    pub steady_state: SteadyStateEntry,
-    /// The recording.
-    pub recording: RecordingEntry,
-    /// The nameplate used, where the model needs one (the generator's loss model).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub nameplate: Option<crate::recording::Nameplate>,
-    /// The model description: states (channel, reference, part), inputs (source, unit,
-    /// kind) and scaling — what later commands need to use the model.
-    pub model: ModelDescription,
-    /// Estimation details.
-    pub estimation: EstimationEntry,
-    /// 95 % intervals, where the method gives a covariance.
-    pub uncertainty: Option<UncertaintyEntry>,
-    /// Fit on held-out data or another recording.
-    pub validation: Option<ValidationEntry>,
-    /// Whiteness and input correlation of the residuals.
-    pub residuals: ResidualEntry,
-    /// The passive thermal network of the model (Fig. 9), or why it has none.
-    pub network: NetworkEntry,
-    /// The heat the cooling water carries away against the losses (eqs. 17-18), where
-    /// the flow is recorded.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub calorimetry: Option<crate::network::Calorimetry>,
-    /// Whether the recording reached thermal equilibrium (IEC 60034-1; five time constants).
-    pub equilibrium: crate::network::equilibrium::Equilibrium,
-    /// For `rc`: the black-box output-error model it started from, on the same instants.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub output_error_beside: Option<BesideEntry>,
-    /// Warnings.
-    pub warnings: Vec<String>,
-}
-
-/// Another method's figures beside the report's own (`rc` beside `oe`).
-#[derive(Debug, Clone, Serialize)]
-pub struct BesideEntry {
-    /// Its method.
-    pub method: String,
-    /// Its time constants, ascending, s.
-    pub time_constants_s: Vec<f64>,
-    /// Its fit on the estimation instants.
-    pub fit: FitEntry,
-}
-
-/// The report's `network` block: the network, or why the model has none.
-#[derive(Debug, Clone, Serialize)]
-#[serde(untagged)]
-pub enum NetworkEntry {
-    /// The network of the identified model.
-    Defined(Box<crate::network::Network>),
-    /// The model has no network.
-    NotDefined {
-        /// Why.
-        not_defined: String,
-    },
+    let slope = sxy / sxx;
+    let intercept_c = mean_y - slope * mean_x;
+    let sse: f64 = pairs
+        .iter()
+        .map(|p| (p.1 - intercept_c - slope * p.0).powi(2))
+        .sum();
+    Some(FieldFromStator {
+        intercept_c,
+        slope,
+        rms_residual_k: (sse / n).sqrt(),
+    })
 }
 
 fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
@@ -424,107 +129,103 @@ fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
         .collect()
 }
 
-impl SteadyStateEntry {
-    /// The steady state of eqs. 30-35: the rise −A_c⁻¹B_c·u (eq. 31) in K, and the
-    /// temperature it means over each state's reference at the end of the recording
-    /// (the initial temperature in the paper, eq. 34).
-    fn new(r: &Replay) -> SteadyStateEntry {
-        let a = &r.analysis;
-        let s = &r.signals;
-        let rise_k: Vec<f64> = a
-            .steady_state
+/// The steady state of eqs. 30-35: the rise −A_c⁻¹B_c·u (eq. 31) in K, and the
+/// temperature it means over each state's reference at the end of the recording (the
+/// initial temperature in the paper, eq. 34).
+fn steady_state_entry(r: &Replay) -> SteadyStateEntry {
+    let a = &r.analysis;
+    let s = &r.signals;
+    let rise_k: Vec<f64> = a
+        .steady_state
+        .iter()
+        .map(|y| y * s.temperature_base_k)
+        .collect();
+    let (last, measured_final) = s.last_measured().unwrap_or_default();
+    let reference_final: Vec<f64> = s
+        .states
+        .iter()
+        .map(|st| st.reference_at(last).unwrap_or(f64::NAN))
+        .collect();
+    SteadyStateEntry {
+        input_pu: a.steady_state_input.clone(),
+        temperature_c: rise_k
             .iter()
-            .map(|y| y * s.temperature_base_k)
-            .collect();
-        let (last, measured_final) = s.last_measured().unwrap_or_default();
-        let reference_final: Vec<f64> = s
+            .zip(&reference_final)
+            .map(|(r, t)| t + r)
+            .collect(),
+        rise_k,
+        measured_final_rise_k: measured_final
+            .iter()
+            .zip(&reference_final)
+            .map(|(m, t)| m - t)
+            .collect(),
+        measured_final_temperature_c: measured_final,
+        coolant_inlet: inlet_steady_state(r),
+    }
+}
+
+/// The recording block: the file, its channels and what was lost or ignored.
+fn recording_entry(r: &Replay) -> RecordingEntry {
+    RecordingEntry {
+        path: r.path.display().to_string(),
+        file_bytes: r.recording.file_bytes,
+        start: r.recording.time_span_ns.map(|(a, _)| format_time(a)),
+        end: r.recording.time_span_ns.map(|(_, b)| format_time(b)),
+        channels: r
+            .recording
+            .channels
+            .iter()
+            .zip(&r.decimated.channels)
+            .map(|(c, g)| ChannelEntry {
+                topic: c.topic.clone(),
+                quantity: c.signal.name().into(),
+                sensor: c.sensor.clone(),
+                unit: c.unit.clone(),
+                samples: r.recording.samples_per_channel[c.index],
+                nominal_period_s: g.nominal_period_s,
+                gaps: g.gaps,
+            })
+            .collect(),
+        ignored_channels: r.recording.ignored_channels.clone(),
+        bad_quality_dropped: r.recording.bad_quality_dropped,
+        data_loss: r.recording.data_loss.clone(),
+        metadata: r.recording.metadata.clone(),
+    }
+}
+
+/// The estimation block: the grid, the regression, and what a use of the model starts
+/// from (initial temperatures and references, bases, coolant, field winding).
+fn estimation_entry(r: &Replay) -> EstimationEntry {
+    let s = &r.signals;
+    let k0 = s.initial_index;
+    EstimationEntry {
+        instants: r.data.len(),
+        equations_used: r.estimate.rows_used,
+        segments: r.data.segments().len(),
+        condition_number: r.estimate.condition_number,
+        initial_temperature_c: s
             .states
             .iter()
-            .map(|st| st.reference_at(last).unwrap_or(f64::NAN))
-            .collect();
-        SteadyStateEntry {
-            input_pu: a.steady_state_input.clone(),
-            temperature_c: rise_k
-                .iter()
-                .zip(&reference_final)
-                .map(|(r, t)| t + r)
-                .collect(),
-            rise_k,
-            measured_final_rise_k: measured_final
-                .iter()
-                .zip(&reference_final)
-                .map(|(m, t)| m - t)
-                .collect(),
-            measured_final_temperature_c: measured_final,
-            coolant_inlet: InletSteadyState::new(r),
-        }
-    }
-}
-
-impl RecordingEntry {
-    fn new(r: &Replay) -> RecordingEntry {
-        RecordingEntry {
-            path: r.path.display().to_string(),
-            file_bytes: r.recording.file_bytes,
-            start: r.recording.time_span_ns.map(|(a, _)| format_time(a)),
-            end: r.recording.time_span_ns.map(|(_, b)| format_time(b)),
-            channels: r
-                .recording
-                .channels
-                .iter()
-                .zip(&r.decimated.channels)
-                .map(|(c, g)| ChannelEntry {
-                    topic: c.topic.clone(),
-                    quantity: c.signal.name().into(),
-                    sensor: c.sensor.clone(),
-                    unit: c.unit.clone(),
-                    samples: r.recording.samples_per_channel[c.index],
-                    nominal_period_s: g.nominal_period_s,
-                    gaps: g.gaps,
-                })
-                .collect(),
-            ignored_channels: r.recording.ignored_channels.clone(),
-            bad_quality_dropped: r.recording.bad_quality_dropped,
-            data_loss: r.recording.data_loss.clone(),
-            metadata: r.recording.metadata.clone(),
-        }
-    }
-}
-
-impl EstimationEntry {
-    fn new(r: &Replay) -> EstimationEntry {
-        let s = &r.signals;
-        let k0 = s.initial_index;
-        EstimationEntry {
-            instants: r.data.len(),
-            equations_used: r.estimate.rows_used,
-            segments: r.data.segments().len(),
-            condition_number: r.estimate.condition_number,
-            initial_temperature_c: s
-                .states
-                .iter()
-                .map(|st| st.measured.get(k0).unwrap_or(f64::NAN))
-                .collect(),
-            initial_time: format_time(s.time_ns[k0].max(0) as u64),
-            field_temperature: s.field_temperature.as_ref().map(|f| f.source.clone()),
-            temperature_base_k: s.temperature_base_k,
-            power_base_mva: (r.model.scaling == Scaling::NameplatePerUnit)
-                .then(|| s.power_base / 1e6),
-            initial_reference_c: s.initial_references(),
-            coolant_inlet_temp_c: r
-                .decimated
-                .get(crate::recording::Quantity::CoolingWaterInletTemp)
-                .and_then(|inlet| {
-                    let known: Vec<f64> = inlet.values.iter().flatten().collect();
-                    (!known.is_empty()).then(|| known.iter().sum::<f64>() / known.len() as f64)
-                }),
-            field_temperature_from_stator: s.field_temperature.as_ref().and_then(|f| {
-                let stator = r
-                    .decimated
-                    .get(crate::recording::Quantity::StatorWindingTemp)?;
-                FieldFromStator::fit(&stator.values, &f.values)
+            .map(|st| st.measured.get(k0).unwrap_or(f64::NAN))
+            .collect(),
+        initial_time: format_time(s.time_ns[k0].max(0) as u64),
+        field_temperature: s.field_temperature.as_ref().map(|f| f.source.clone()),
+        temperature_base_k: s.temperature_base_k,
+        power_base_mva: (r.model.scaling == Scaling::NameplatePerUnit).then(|| s.power_base / 1e6),
+        initial_reference_c: Some(s.initial_references()),
+        coolant_inlet_temp_c: r
+            .decimated
+            .get(crate::recording::Quantity::CoolingWaterInletTemp)
+            .and_then(|inlet| {
+                let known: Vec<f64> = inlet.values.iter().flatten().collect();
+                (!known.is_empty()).then(|| known.iter().sum::<f64>() / known.len() as f64)
             }),
-        }
+        field_temperature_from_stator: s.field_temperature.as_ref().and_then(|f| {
+            let stator = r
+                .decimated
+                .get(crate::recording::Quantity::StatorWindingTemp)?;
+            field_from_stator(&stator.values, &f.values)
+        }),
     }
 }
 
@@ -567,11 +268,11 @@ impl Report {
                 .collect(),
             sensitivity_norms: a.sensitivities.norms.clone(),
             fit: FitEntry::from(&a.fit),
-            steady_state: SteadyStateEntry::new(r),
-            recording: RecordingEntry::new(r),
+            steady_state: steady_state_entry(r),
+            recording: recording_entry(r),
             nameplate: r.nameplate.clone(),
             model: r.model.clone(),
-            estimation: EstimationEntry::new(r),
+            estimation: estimation_entry(r),
             uncertainty: a.uncertainty.as_ref().map(|u| {
                 let p = r.estimate.model.phi.nrows() + r.estimate.model.gamma.ncols();
                 UncertaintyEntry {
@@ -606,14 +307,14 @@ impl Report {
                     })
                     .collect(),
             },
-            network: match &r.network.network {
+            network: Some(match &r.network.network {
                 Ok(n) => NetworkEntry::Defined(Box::new(n.clone())),
                 Err(why) => NetworkEntry::NotDefined {
                     not_defined: why.clone(),
                 },
-            },
+            }),
             calorimetry: r.network.calorimetry.clone(),
-            equilibrium: r.network.equilibrium.clone(),
+            equilibrium: Some(r.network.equilibrium.clone()),
             output_error_beside: r.output_error_beside.as_ref().map(|b| BesideEntry {
                 method: b.method.to_string(),
                 time_constants_s: b.time_constants_s.clone(),
@@ -621,12 +322,6 @@ impl Report {
             }),
             warnings: r.warnings.clone(),
         }
-    }
-
-    /// The report as pretty-printed JSON.
-    pub fn to_json(&self) -> String {
-        // Serialising plain numbers, strings and maps cannot fail.
-        serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
     }
 
     /// A summary that reads like the paper's results section.
@@ -879,11 +574,14 @@ impl Report {
 
     fn summary_network(&self, s: &mut String) {
         let _ = writeln!(s);
+        // A report read back has no network or equilibrium (`Report`: not read); one a
+        // replay built always has both.
         match &self.network {
-            NetworkEntry::NotDefined { not_defined } => {
+            None => {}
+            Some(NetworkEntry::NotDefined { not_defined }) => {
                 let _ = writeln!(s, "thermal network (Fig. 9): none: {not_defined}");
             }
-            NetworkEntry::Defined(n) => {
+            Some(NetworkEntry::Defined(n)) => {
                 let scale = match n.scale_from {
                     crate::network::ScaleSource::Calorimetric => "calorimetric, c·ρ·Q",
                     crate::network::ScaleSource::EnergyConservation => {
@@ -964,7 +662,9 @@ impl Report {
                 );
             }
         }
-        let e = &self.equilibrium;
+        let Some(e) = &self.equilibrium else {
+            return;
+        };
         let rates: Vec<String> = e
             .rate_of_rise
             .iter()

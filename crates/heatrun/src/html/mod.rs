@@ -27,8 +27,8 @@ pub use monitor::monitor_page;
 pub use predict::{predict_page, PredictionView};
 pub use rating::rating_page;
 
+use crate::model_file::Report;
 use crate::pipeline::{Replay, ReplayOptions};
-use crate::report::Report;
 
 /// Why a page could not be made.
 #[derive(Debug, thiserror::Error)]

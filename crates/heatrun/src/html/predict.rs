@@ -7,9 +7,10 @@
 use super::markup::{fixed, sig, spoken};
 use super::plot::{palette, Chart, Line, Panel, TimeAxis};
 use super::{HtmlError, Markup, Page, Section, Table};
-use crate::predict::model::InputUse;
-use crate::predict::{LoadSchedule, Prediction, ThermalModel};
+use crate::model_file::ThermalModel;
+use crate::predict::{LoadSchedule, Prediction};
 use crate::rating::LimitedPart;
+use crate::spec::InputSource;
 
 /// Points per drawn line: enough for a day at 1 s to keep every peak.
 const BUCKETS: usize = 1500;
@@ -203,7 +204,7 @@ impl Section for LossesSection<'_> {
         let m = self.view.model;
         if m.inputs
             .iter()
-            .all(|i| matches!(i.source, InputUse::Loss(_)))
+            .all(|i| matches!(i.source, InputSource::Loss(_)))
         {
             "Losses".into()
         } else {
@@ -216,7 +217,7 @@ impl Section for LossesSection<'_> {
         let all_losses = m
             .inputs
             .iter()
-            .all(|i| matches!(i.source, InputUse::Loss(_)));
+            .all(|i| matches!(i.source, InputSource::Loss(_)));
         let (unit, scale) = if all_losses {
             ("kW", m.power_base_w / 1e3)
         } else {

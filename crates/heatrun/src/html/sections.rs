@@ -9,8 +9,9 @@ use super::plot::{palette, Chart, Line, Panel, Thinning, TimeAxis, MEASURED, MOD
 use super::{HtmlError, Section};
 use crate::model::sensitivity::SensitivityModel;
 use crate::estimate::Method;
+use crate::model_file::document::{FitEntry, NetworkEntry};
+use crate::model_file::Report;
 use crate::pipeline::{Replay, ReplayOptions, ValidationSource};
-use crate::report::{NetworkEntry, Report};
 use crate::spec::Scaling;
 
 /// Buckets a time series is thinned to (up to four points each): enough for a page's width.
@@ -684,7 +685,7 @@ impl Section for FitSection<'_> {
     }
 }
 
-fn fit_table(caption: &str, r: &Report, fit: &crate::report::FitEntry) -> Table {
+fn fit_table(caption: &str, r: &Report, fit: &FitEntry) -> Table {
     let mut columns = vec!["".to_owned()];
     columns.extend(state_labels(r));
     let mut t = Table::new(caption, columns);
@@ -776,7 +777,10 @@ impl Section for SteadyStateSection<'_> {
 }
 
 fn equilibrium(out: &mut Markup, r: &Report) {
-    let e = &r.equilibrium;
+    // A report a replay built always has one (a report read back has none).
+    let Some(e) = &r.equilibrium else {
+        return;
+    };
     let rates: Vec<String> = e
         .rate_of_rise
         .iter()
@@ -963,14 +967,16 @@ impl Section for NetworkSection<'_> {
 
     fn render(&self, out: &mut Markup) -> Result<(), HtmlError> {
         let n = match &self.report.network {
-            NetworkEntry::NotDefined { not_defined } => {
+            // A report a replay built always has one (a report read back has none).
+            None => return Ok(()),
+            Some(NetworkEntry::NotDefined { not_defined }) => {
                 out.note(
                     "note",
                     &format!("The model has no thermal network: {not_defined}."),
                 );
                 return Ok(());
             }
-            NetworkEntry::Defined(n) => n,
+            Some(NetworkEntry::Defined(n)) => n,
         };
         let scale = match n.scale_from {
             crate::network::ScaleSource::Calorimetric => {

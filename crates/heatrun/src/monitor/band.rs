@@ -11,7 +11,7 @@
 //! (a class-A PT100: ±0.15 K at 0 °C, ±0.35 K at 100 °C) can vouch for between two
 //! recordings made months apart.
 
-use crate::predict::model::ModelError;
+use crate::model_file::ModelError;
 
 /// The rule that sets the band from the model's error.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -13,8 +13,7 @@ use super::{
 };
 use crate::decimate::{DecimatedRecording, Decimator};
 use crate::error::{Error, Result};
-use crate::predict::model::StateReference;
-use crate::predict::ThermalModel;
+use crate::model_file::ThermalModel;
 use crate::recording::{self, Quantity, ReadOptions, SampleSink};
 use crate::series::Series;
 use crate::signals::{self, ModelSignals};
@@ -77,7 +76,7 @@ fn read(
     let summary = match also {
         Some(also) => recording::read_recording_with(
             path,
-            &mut crate::pipeline::Tee {
+            &mut crate::decimate::Tee {
                 decimator: &mut decimator,
                 also,
             },
@@ -111,15 +110,7 @@ fn references(
     signals: &ModelSignals,
     decimated: &DecimatedRecording,
 ) -> References {
-    let per_state = model
-        .states
-        .iter()
-        .map(|s| match s.reference {
-            StateReference::Initial(r) => StateRef::ModelInitial(r),
-            StateReference::Absolute => StateRef::ModelInitial(0.0),
-            _ => StateRef::FromSignals,
-        })
-        .collect();
+    let per_state = StateRef::per_state(model);
     let inlet = decimated.get(Quantity::CoolingWaterInletTemp);
     let shift = match (model.coolant_inlet_temp_c, inlet) {
         (Some(test), Some(inlet)) if !model.uses_coolant_inlet() => {
@@ -235,7 +226,7 @@ mod tests {
     /// the test's initial 20 °C; the model's validation RMSE 0.1 K.
     fn model() -> ThermalModel {
         let report = serde_json::json!({
-            "profile": crate::report::PROFILE,
+            "profile": crate::model_file::PROFILE,
             "sample_time_s": 1.0,
             "states": ["part"],
             "inputs": ["heater"],
@@ -253,7 +244,9 @@ mod tests {
             },
             "estimation": {"initial_temperature_c": [20.0], "temperature_base_k": 1.0}
         });
-        ThermalModel::from_json(&report.to_string(), Path::new("model.json")).unwrap()
+        let path = Path::new("model.json");
+        let report = crate::model_file::Report::from_json(&report.to_string(), path).unwrap();
+        ThermalModel::from_report(&report, path).unwrap()
     }
 
     /// The model by hand from rise x0 under u = 2 W: x(k) = 0.9^k x0 + (1 − 0.9^k).

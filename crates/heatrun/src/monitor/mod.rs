@@ -33,13 +33,10 @@ use std::path::{Path, PathBuf};
 
 use crate::decimate::DecimatedRecording;
 use crate::error::Result;
-use crate::predict::model::{InputUse, StateReference};
-use crate::predict::{ThermalModel, UseError};
+use crate::model_file::{ThermalModel, UseError};
 use crate::recording::{Alignment, Quantity, SampleSink, Signal};
 use crate::series::Series;
-use crate::spec::{
-    InputDescription, InputSource, ModelDescription, Reference, Scaling, StateDescription,
-};
+use crate::spec::{ModelDescription, Reference, Scaling, StateDescription};
 
 pub use alarm::{Alarm, Detector};
 pub use band::{Band, BandRule};
@@ -184,56 +181,27 @@ pub fn monitor(
     )
 }
 
-/// The model's description for the signal stage: its states as measured (their
-/// references are applied here, see the module), its inputs as identified.
+/// The model's description for the signal stage: the report's own, its states as
+/// measured (a rise from the model test's initial temperature is measured here, see the
+/// module), on the model's grid.
 pub fn description_of(model: &ThermalModel) -> Result<ModelDescription, UseError> {
     let states = model
         .states
         .iter()
         .map(|s| StateDescription {
-            name: s.name.clone(),
-            channel: Signal::from_name(&s.channel),
             reference: match &s.reference {
-                StateReference::Initial(_) | StateReference::Absolute => Reference::Absolute,
-                StateReference::Channel(c, _) => Reference::Channel(Signal::from_name(c)),
-                StateReference::InitialOf(c, _) => Reference::InitialOf(Signal::from_name(c)),
+                Reference::Initial => Reference::Absolute,
+                other => other.clone(),
             },
-            part: s.part.clone(),
-            unit: "degC".into(),
-        })
-        .collect();
-    let inputs = model
-        .inputs
-        .iter()
-        .map(|i| InputDescription {
-            name: i.name.clone(),
-            source: match &i.source {
-                InputUse::Loss(h) => InputSource::Loss(*h),
-                InputUse::Channel(c) => InputSource::Channel(Signal::from_name(c)),
-                InputUse::Expression(e) => InputSource::Expression(e.clone()),
-                InputUse::BoundaryRise(c) => InputSource::BoundaryRise(Signal::from_name(c)),
-                // A flow change in service is carried as in the test, from this
-                // recording's own initial flow.
-                InputUse::CoolantFlow {
-                    flow,
-                    outlet,
-                    inlet,
-                } => InputSource::CoolantFlow {
-                    flow: Signal::from_name(flow),
-                    outlet: Signal::from_name(outlet),
-                    inlet: Signal::from_name(inlet),
-                },
-            },
-            unit: String::new(),
-            kind: i.kind,
-            from_initial: false,
-            delay_s: i.delay_s,
+            ..s.clone()
         })
         .collect();
     let description = ModelDescription {
         name: model.name.clone(),
         states,
-        inputs,
+        // A flow change in service is carried as in the test, from this recording's own
+        // initial flow.
+        inputs: model.inputs.clone(),
         scaling: if model.per_unit {
             Scaling::NameplatePerUnit
         } else {
@@ -276,7 +244,7 @@ pub(crate) fn inlet_warning(
     let initial_states = model
         .states
         .iter()
-        .any(|s| matches!(s.reference, StateReference::Initial(_)));
+        .any(|s| matches!(s.reference, Reference::Initial));
     (inlet.varies() && initial_states && !model.uses_coolant_inlet()).then(|| {
         format!(
             "the coolant inlet varies by {:.2} K in this recording, and the model measures its \
@@ -295,6 +263,24 @@ pub(crate) enum StateRef {
     ModelInitial(f64),
     /// The signal stage's reference (a channel, or this recording's inlet level).
     FromSignals,
+}
+
+impl StateRef {
+    /// Each state's reference: a rise from the model test's initial temperature is
+    /// measured from the test's θ_ref,j, an absolute temperature from 0, the others by
+    /// the signal stage.
+    pub(crate) fn per_state(model: &ThermalModel) -> Vec<StateRef> {
+        model
+            .states
+            .iter()
+            .zip(&model.initial_reference_c)
+            .map(|(s, &r0)| match s.reference {
+                Reference::Initial => StateRef::ModelInitial(r0),
+                Reference::Absolute => StateRef::ModelInitial(0.0),
+                Reference::Channel(_) | Reference::InitialOf(_) => StateRef::FromSignals,
+            })
+            .collect()
+    }
 }
 
 /// Running sums of one part's residual.

@@ -43,8 +43,7 @@ use crate::decimate::{
 };
 use crate::error::{Error, Result};
 use crate::signals::SignalError;
-use crate::predict::model::StateReference;
-use crate::predict::ThermalModel;
+use crate::model_file::ThermalModel;
 use crate::progress::Observer;
 use crate::recording::{
     self, Alignment, Quantity, ReadOptions, Sample, SampleSink, SensorChannel, Signal, Storage,
@@ -661,15 +660,7 @@ impl Runner {
     fn new(model: &ThermalModel, band: &Band, hold_s: f64, stream: &StreamOptions) -> Runner {
         let n = model.state_count();
         let names = model.states.iter().map(|s| s.name.clone()).collect();
-        let per_state = model
-            .states
-            .iter()
-            .map(|s| match s.reference {
-                StateReference::Initial(r) => StateRef::ModelInitial(r),
-                StateReference::Absolute => StateRef::ModelInitial(0.0),
-                _ => StateRef::FromSignals,
-            })
-            .collect();
+        let per_state = StateRef::per_state(model);
         let shift = match model.coolant_inlet_temp_c {
             Some(test) if !model.uses_coolant_inlet() => Some((test, lag_weight(model))),
             _ => None,

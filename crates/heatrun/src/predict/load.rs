@@ -11,9 +11,9 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::error::UseError;
-use super::model::{InputUse, StateReference, ThermalModel};
 use super::phasor::PhasorMachine;
+use crate::model_file::{ThermalModel, UseError};
+use crate::spec::{InputSource, Reference};
 
 /// The load schedule's column of the coolant inlet temperature.
 pub const COOLANT_COLUMN: &str = "coolant_inlet_temp_c";
@@ -87,14 +87,14 @@ fn channel_columns(model: &ThermalModel) -> Vec<String> {
     };
     for i in &model.inputs {
         match &i.source {
-            InputUse::Channel(c) | InputUse::BoundaryRise(c) => add(c),
-            InputUse::Expression(e) => e.channels().iter().for_each(|c| add(c.name())),
-            InputUse::Loss(_) | InputUse::CoolantFlow { .. } => {}
+            InputSource::Channel(c) | InputSource::BoundaryRise(c) => add(c.name()),
+            InputSource::Expression(e) => e.channels().iter().for_each(|c| add(c.name())),
+            InputSource::Loss(_) | InputSource::CoolantFlow { .. } => {}
         }
     }
     for s in &model.states {
-        if let StateReference::Channel(c, _) | StateReference::InitialOf(c, _) = &s.reference {
-            add(c);
+        if let Reference::Channel(c) | Reference::InitialOf(c) = &s.reference {
+            add(c.name());
         }
     }
     names
@@ -145,7 +145,7 @@ fn header(
     let needs_electrical = model
         .inputs
         .iter()
-        .any(|i| matches!(i.source, InputUse::Loss(_)));
+        .any(|i| matches!(i.source, InputSource::Loss(_)));
     let direct = has("armature_current_a") || has("field_current_a");
     if needs_electrical {
         if direct {

@@ -1,17 +1,15 @@
 //! Prediction: an identified model (the report of `heatrun replay --report`) and a load
 //! schedule → every part's temperature on the model's sample time.
 //!
-//! Input: a [`ThermalModel`] ([`model`], read from the report: n states and m inputs
-//! by name) and a [`LoadSchedule`] ([`load`], a CSV). Output: a [`Prediction`]. The
+//! Input: a [`ThermalModel`] ([`crate::model_file`], read from the report: n states and
+//! m inputs by name) and a [`LoadSchedule`] ([`load`], a CSV). Output: a [`Prediction`]. The
 //! inputs follow the profile's loss model with the resistances at the predicted
 //! temperatures ([`simulate`]); an apparent-power schedule gets its field current from
 //! the salient-pole phasor diagram ([`phasor`]). Each schedule row holds until the
 //! next (as the model's inputs hold over a sample interval): x(k+1) = Φ x(k) + Γ u(k),
 //! u(k) from the row in force at t_k and the temperatures at t_k.
 
-pub mod error;
 pub mod load;
-pub mod model;
 pub mod phasor;
 pub mod simulate;
 
@@ -20,10 +18,11 @@ use std::path::Path;
 
 use nalgebra::DVector;
 
-pub use error::UseError;
 pub use load::{LoadSchedule, OperatingPoint};
-pub use model::ThermalModel;
 pub use simulate::{DelayLine, Simulator};
+
+use crate::model_file::{FieldTemperatureUse, ThermalModel, UseError};
+use crate::spec::{InputSource, Reference};
 
 /// Where the prediction starts.
 #[derive(Debug, Clone, PartialEq)]
@@ -78,7 +77,7 @@ pub fn predict(
     if let Some(q) = model
         .inputs
         .iter()
-        .find(|i| matches!(i.source, model::InputUse::CoolantFlow { .. }))
+        .find(|i| matches!(i.source, InputSource::CoolantFlow { .. }))
     {
         warnings.push(format!(
             "the model carries the cooling-water flow (input `{}`): the prediction holds the \
@@ -95,10 +94,10 @@ pub fn predict(
         InitialState::Measured => DVector::from_fn(n, |j, _| {
             let theta0 = model.initial_temperature_c[j];
             let r0 = match &model.states[j].reference {
-                model::StateReference::Initial(r)
-                | model::StateReference::Channel(_, r)
-                | model::StateReference::InitialOf(_, r) => *r,
-                model::StateReference::Absolute => 0.0,
+                Reference::Initial | Reference::Channel(_) | Reference::InitialOf(_) => {
+                    model.initial_reference_c[j]
+                }
+                Reference::Absolute => 0.0,
             };
             (theta0 - r0) / model.temperature_base_k
         }),
@@ -128,7 +127,7 @@ pub fn predict(
         field_temperature_c: Vec::with_capacity(steps + 1),
         field_derived: matches!(
             model.field_temperature,
-            model::FieldTemperatureUse::FromStator { .. }
+            FieldTemperatureUse::FromStator { .. }
         ),
         warnings,
     };

@@ -5,11 +5,11 @@ use std::collections::VecDeque;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::error::UseError;
 use super::load::OperatingPoint;
-use super::model::{FieldTemperatureUse, InputUse, StateReference, ThermalModel};
 use crate::losses::{self, HeatSource};
-use crate::recording::{Nameplate, Quantity};
+use crate::model_file::{FieldTemperatureUse, ThermalModel, UseError};
+use crate::recording::{Nameplate, Quantity, Signal};
+use crate::spec::{InputSource, Reference};
 
 /// The model ready to run: the checks that every input can be computed are done once.
 #[derive(Debug, Clone)]
@@ -29,7 +29,7 @@ impl<'a> Simulator<'a> {
         let losses = model
             .inputs
             .iter()
-            .any(|i| matches!(i.source, InputUse::Loss(_)));
+            .any(|i| matches!(i.source, InputSource::Loss(_)));
         if losses && model.nameplate.is_none() {
             return Err(model.missing("nameplate", "the loss model's inputs need"));
         }
@@ -37,7 +37,7 @@ impl<'a> Simulator<'a> {
         let copper = model.inputs.iter().any(|i| {
             matches!(
                 i.source,
-                InputUse::Loss(HeatSource::ArmatureCopperLoss | HeatSource::FieldCopperLoss)
+                InputSource::Loss(HeatSource::ArmatureCopperLoss | HeatSource::FieldCopperLoss)
             )
         });
         if copper && stator.is_none() {
@@ -85,17 +85,18 @@ impl<'a> Simulator<'a> {
 
     /// θ_ref,j + (shift for rises from the initial temperatures) at `p`, °C.
     fn offset(&self, j: usize, p: &OperatingPoint) -> f64 {
-        let inlet = Quantity::CoolingWaterInletTemp.name();
+        // The reference at the start of the model's recording.
+        let r0 = self.model.initial_reference_c[j];
         match &self.model.states[j].reference {
-            StateReference::Initial(theta0) => theta0 + self.coolant_shift(p),
-            StateReference::Absolute => 0.0,
-            StateReference::Channel(c, r0) if c == inlet => p
+            Reference::Initial => r0 + self.coolant_shift(p),
+            Reference::Absolute => 0.0,
+            Reference::Channel(Signal::Profile(Quantity::CoolingWaterInletTemp)) => p
                 .coolant_inlet_c
                 .or(self.model.coolant_inlet_temp_c)
-                .unwrap_or(*r0),
-            StateReference::Channel(c, r0) => p.channels.get(c).copied().unwrap_or(*r0),
+                .unwrap_or(r0),
+            Reference::Channel(c) => p.channels.get(c.name()).copied().unwrap_or(r0),
             // A constant: the inlet's drift from it is an input, not an offset.
-            StateReference::InitialOf(_, level) => *level,
+            Reference::InitialOf(_) => r0,
         }
     }
 
@@ -144,26 +145,26 @@ impl<'a> Simulator<'a> {
         let mut u = DVector::zeros(self.model.inputs.len());
         for (i, input) in self.model.inputs.iter().enumerate() {
             u[i] = match &input.source {
-                InputUse::Loss(h) => self.loss_w(*h, p, theta) / base,
-                InputUse::Channel(c) => channel(c) / base,
-                InputUse::Expression(e) => {
+                InputSource::Loss(h) => self.loss_w(*h, p, theta) / base,
+                InputSource::Channel(c) => channel(c.name()) / base,
+                InputSource::Expression(e) => {
                     let args: Vec<f64> = e.channels().iter().map(|c| channel(c.name())).collect();
                     e.eval(&args).unwrap_or(f64::NAN) / base
                 }
                 // (θ_in − θ_in,0) / θ_base: the schedule's inlet, else the model test's
                 // level (no drift).
-                InputUse::BoundaryRise(c) => {
+                InputSource::BoundaryRise(c) => {
                     let level = self.model.initial_level_of(c).unwrap_or(f64::NAN);
-                    let now = if c == inlet {
+                    let now = if c.name() == inlet {
                         p.coolant_inlet_c.unwrap_or(level)
                     } else {
-                        p.channels.get(c.as_str()).copied().unwrap_or(level)
+                        p.channels.get(c.name()).copied().unwrap_or(level)
                     };
                     (now - level) / self.model.temperature_base_k
                 }
                 // A schedule holds the cooling-water flow at the test's Q₀ (predict warns),
                 // where the flow change carries no heat of its own: u_Q = 0.
-                InputUse::CoolantFlow { .. } => 0.0,
+                InputSource::CoolantFlow { .. } => 0.0,
             };
             if !u[i].is_finite() {
                 return Err(UseError::Request(format!(

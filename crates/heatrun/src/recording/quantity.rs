@@ -4,7 +4,7 @@
 //! is converted to it on read, and a unit not in the quantity's row of the profile
 //! is an error, never a guess.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// How far below zero a reading of a non-negative quantity may be and still count as
 /// transducer noise, as a fraction of the quantity's rated value (or, without one, of the
@@ -108,6 +108,14 @@ impl std::fmt::Display for Signal {
 impl Serialize for Signal {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         serializer.serialize_str(self.name())
+    }
+}
+
+/// A signal reads back from its name ([`Signal::from_name`]), as a report names channels.
+impl<'de> Deserialize<'de> for Signal {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Signal, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        Ok(Signal::from_name(&name))
     }
 }
 

@@ -2,7 +2,7 @@
 //! or `3 * I^2 * R`, parsed and evaluated by the `exmex` crate.
 
 use exmex::prelude::*;
-use serde::{Serialize, Serializer};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::recording::Signal;
 
@@ -16,9 +16,19 @@ pub struct InputExpression {
     channels: Vec<Signal>,
 }
 
+/// An expression serialises as its text, as written in the spec.
 impl Serialize for InputExpression {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(&self.text)
+    }
+}
+
+/// An expression reads back from its text, parsed again: a text that does not parse is
+/// the report's error, with exmex's reason.
+impl<'de> Deserialize<'de> for InputExpression {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<InputExpression, D::Error> {
+        let text = String::deserialize(d)?;
+        InputExpression::parse(&text).map_err(serde::de::Error::custom)
     }
 }
 

@@ -23,8 +23,9 @@ pub use expression::InputExpression;
 use crate::losses::HeatSource;
 use crate::recording::{Alignment, Quantity, Signal};
 
-/// What a state's value is measured from.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+/// What a state's value is measured from. In the report: `"initial"`, `"absolute"`,
+/// `{"channel": name}` or `{"initial_of": name}`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Reference {
     /// The rise above the state's own first known value (the paper's formulation).
@@ -42,7 +43,7 @@ pub enum Reference {
 }
 
 /// One state of the model: a temperature channel, as a rise above its reference.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StateDescription {
     /// The state's name (report, summary, rerun entity).
     pub name: String,
@@ -52,8 +53,15 @@ pub struct StateDescription {
     pub reference: Reference,
     /// The physical part it stands for, for people ("stator winding (copper)").
     pub part: String,
-    /// Unit of the measured value (°C for temperatures).
+    /// Unit of the measured value (°C for temperatures). Optional in the report's schema:
+    /// absent, °C, as in a spec.
+    #[serde(default = "degrees_celsius")]
     pub unit: String,
+}
+
+/// A state's unit where the spec or the report names none.
+fn degrees_celsius() -> String {
+    "degC".into()
 }
 
 /// Whether an input is a heat source (the network is defined) or another exogenous input.
@@ -71,8 +79,10 @@ pub enum InputKind {
     Boundary,
 }
 
-/// How an input's value at an instant is computed.
-#[derive(Debug, Clone, Serialize)]
+/// How an input's value at an instant is computed. In the report: `{"channel": name}`,
+/// `{"expression": text}`, `{"loss": heat source}`, `{"boundary_rise": name}` or
+/// `{"coolant_flow": {"flow", "outlet", "inlet"}}`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum InputSource {
     /// A channel's value as recorded.
@@ -102,9 +112,12 @@ pub enum InputSource {
     },
 }
 
-/// One input of the model (in the report, its shift as `delay_s` or `advance_s`).
-#[derive(Debug, Clone, Serialize)]
-#[serde(into = "InputReport")]
+/// One input of the model (in the report, its shift as `delay_s` or `advance_s`). Read
+/// back from a report, its shift is held to a spec's rules: a negative shift, both
+/// shifts, or an advanced boundary input is no input a replay writes, and the report's
+/// error.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(into = "InputReport", try_from = "InputReport")]
 pub struct InputDescription {
     /// The input's name (report, summary, rerun entity).
     pub name: String,
@@ -124,17 +137,23 @@ pub struct InputDescription {
     pub delay_s: f64,
 }
 
-/// An input as the report writes it: its shift as a dead time or an advance.
-#[derive(Serialize)]
+/// An input as the report writes it: its shift as a dead time or an advance, never a
+/// negative delay (the schema's `minimum: 0`). `unit`, `kind` and `from_initial` may be
+/// absent when read (reports before `from_initial`, hand-written ones): no unit, heat,
+/// taken as it is.
+#[derive(Serialize, Deserialize)]
 struct InputReport {
     name: String,
     source: InputSource,
+    #[serde(default)]
     unit: String,
+    #[serde(default)]
     kind: InputKind,
+    #[serde(default)]
     from_initial: bool,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     delay_s: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     advance_s: Option<f64>,
 }
 
@@ -152,8 +171,30 @@ impl From<InputDescription> for InputReport {
     }
 }
 
+impl TryFrom<InputReport> for InputDescription {
+    type Error = SpecError;
+
+    /// The report's two shifts back into one signed shift, refused as a spec refuses them.
+    fn try_from(i: InputReport) -> Result<InputDescription, SpecError> {
+        let delay_s = shift_s(
+            &i.name,
+            i.delay_s.unwrap_or(0.0),
+            i.advance_s.unwrap_or(0.0),
+            &i.source,
+        )?;
+        Ok(InputDescription {
+            name: i.name,
+            source: i.source,
+            unit: i.unit,
+            kind: i.kind,
+            from_initial: i.from_initial,
+            delay_s,
+        })
+    }
+}
+
 /// How the signals are scaled for estimation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Scaling {
     /// The profile's per-unit system: rises in pu of the nameplate's `temperature_base_k`,
@@ -164,7 +205,11 @@ pub enum Scaling {
 }
 
 /// The thermal system to identify: its states, its inputs and how they are scaled.
-#[derive(Debug, Clone, Serialize)]
+///
+/// Serialised both ways in the report's form, its `model` block, so that a report read
+/// back describes the model as the replay that wrote it did; a TOML spec has its own
+/// form ([`ModelDescription::from_toml`]).
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ModelDescription {
     /// Name for people ("hydro generator (heatrun-scada/1)").
     pub name: String,
@@ -548,7 +593,7 @@ impl StateFile {
         };
         Ok(StateDescription {
             part: self.part.unwrap_or_else(|| self.name.clone()),
-            unit: self.unit.unwrap_or_else(|| "degC".into()),
+            unit: self.unit.unwrap_or_else(degrees_celsius),
             name: self.name,
             channel: Signal::from_name(&channel),
             reference,
@@ -791,6 +836,89 @@ mod tests {
             e.contains("input `inlet_rise`") && e.contains("cannot be advanced"),
             "{e}"
         );
+    }
+
+    /// Every form of reference, source and shift serialises to the report's `model` block
+    /// and reads back from it unchanged.
+    #[test]
+    fn the_description_is_the_reports_model_block_both_ways() {
+        let text = "name = \"every form\"\nsample_time_s = 2.0\n\
+                    [[state]]\nname=\"a\"\nreference={initial_of=\"inlet\"}\n\
+                    [[state]]\nname=\"b\"\nchannel=\"core_temp\"\nreference=\"ambient\"\nunit=\"K\"\n\
+                    [[state]]\nname=\"c\"\nreference=\"none\"\n\
+                    [[input]]\nname=\"p\"\nchannel=\"x\"\ndelay_s = 4.0\n\
+                    [[input]]\nname=\"q\"\nexpression=\"3 * x^2\"\nadvance_s = 2.0\n\
+                    [[input]]\nname=\"fan\"\nchannel=\"fan\"\nkind=\"exogenous\"\nreference=\"initial\"\n\
+                    [[input]]\nname=\"inlet_rise\"\nchannel=\"inlet\"\nkind=\"boundary\"";
+        let mut d = ModelDescription::from_toml(text).unwrap();
+        d.inputs.push(InputDescription {
+            name: "flow".into(),
+            source: InputSource::CoolantFlow {
+                flow: Signal::Profile(Quantity::CoolingWaterFlow),
+                outlet: Signal::Profile(Quantity::CoolingWaterOutletTemp),
+                inlet: Signal::Profile(Quantity::CoolingWaterInletTemp),
+            },
+            unit: "pu".into(),
+            kind: InputKind::Heat,
+            from_initial: false,
+            delay_s: 0.0,
+        });
+        for d in [d, ModelDescription::generator_with_field_state()] {
+            let written = serde_json::to_value(&d).unwrap();
+            let read: ModelDescription = serde_json::from_value(written.clone()).unwrap();
+            assert_eq!(serde_json::to_value(&read).unwrap(), written);
+            assert_eq!(read.states, d.states);
+            let shifts =
+                |d: &ModelDescription| d.inputs.iter().map(|i| i.delay_s).collect::<Vec<_>>();
+            assert_eq!(shifts(&read), shifts(&d));
+        }
+        // The forms as the schema states them.
+        let d = ModelDescription::from_toml(text).unwrap();
+        let json = serde_json::to_value(&d).unwrap();
+        assert_eq!(
+            json["states"][0]["reference"],
+            serde_json::json!({"initial_of": "inlet"})
+        );
+        assert_eq!(json["states"][2]["reference"], "absolute");
+        assert_eq!(
+            json["inputs"][1]["source"],
+            serde_json::json!({"expression": "3 * x^2"})
+        );
+        assert_eq!(
+            json["inputs"][3]["source"],
+            serde_json::json!({"boundary_rise": "inlet"})
+        );
+        let generator = serde_json::to_value(ModelDescription::generator()).unwrap();
+        assert_eq!(
+            generator["inputs"][2]["source"],
+            serde_json::json!({"loss": "iron_loss"})
+        );
+    }
+
+    /// A report's input whose shift no spec allows is the report's error, named as a
+    /// spec's would be; absent keys an older report lacks take their defaults.
+    #[test]
+    fn a_reports_input_is_held_to_a_specs_rules() {
+        let input = |extra: &str| {
+            serde_json::from_str::<InputDescription>(&format!(
+                r#"{{"name": "p", "source": {{"channel": "x"}}{extra}}}"#
+            ))
+        };
+        let read = input("").unwrap();
+        assert_eq!(
+            (read.kind, read.from_initial, read.delay_s),
+            (InputKind::Heat, false, 0.0)
+        );
+        assert_eq!(input(r#", "advance_s": 1.0"#).unwrap().delay_s, -1.0);
+        let bad = |extra: &str| input(extra).unwrap_err().to_string();
+        assert!(bad(r#", "delay_s": -3.0"#).starts_with("input `p`: delay_s = -3"));
+        assert!(bad(r#", "delay_s": 1.0, "advance_s": 1.0"#).contains("not both"));
+        let state: StateDescription = serde_json::from_str(
+            r#"{"name": "a", "channel": "core_temp", "reference": "initial", "part": "core"}"#,
+        )
+        .unwrap();
+        assert_eq!(state.unit, "degC");
+        assert_eq!(state.channel, Signal::Profile(Quantity::CoreTemp));
     }
 
     #[test]

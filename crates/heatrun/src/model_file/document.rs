@@ -1,0 +1,435 @@
+//! The report document: every block of the profile's JSON report, serialised as a replay
+//! writes it and read back as the uses of the model read it. Building one from a replay
+//! is [`crate::report`]'s (above the pipeline); this module knows no stage.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::de::IgnoredAny;
+use serde::{Deserialize, Serialize};
+
+use super::error::UseError;
+use crate::losses::FieldTemperatureSource;
+use crate::spec::ModelDescription;
+
+/// The profile identifier written into every report, and the one report version this
+/// heatrun reads back.
+pub const PROFILE: &str = "heatrun-scada/1";
+
+/// One time constant's part, as in the profile.
+#[derive(Debug, Clone, Serialize)]
+pub struct AssignmentEntry {
+    /// T_i in s.
+    pub time_constant_s: f64,
+    /// The oscillation period 2π/|Im λ_c| of a complex mode, s (absent for a real one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub oscillation_period_s: Option<f64>,
+    /// The state (profile name) it predominantly belongs to.
+    pub state: String,
+    /// ‖T_i ∂y/∂T_i‖ (RMS, pu) of that state.
+    pub sensitivity_norm: f64,
+    /// The physical part, for people.
+    pub part: String,
+}
+
+/// Fit block of the report. Read back: the errors a use of the model needs (RMSE and
+/// largest error; an SNR of a perfect fit is infinite, which JSON writes as null).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FitEntry {
+    /// SNR in dB (eq. 25).
+    #[serde(skip_deserializing)]
+    pub snr_db: Vec<f64>,
+    /// NRMSE fit in %.
+    #[serde(skip_deserializing)]
+    pub nrmse_fit_percent: Vec<f64>,
+    /// RMSE in K.
+    pub rmse_k: Vec<f64>,
+    /// Largest absolute error in K.
+    pub max_abs_error_k: Vec<f64>,
+    /// Mean squared error in K².
+    #[serde(skip_deserializing)]
+    pub mse_k2: Vec<f64>,
+    /// Instants compared.
+    #[serde(skip_deserializing)]
+    pub samples: usize,
+}
+
+/// 95 % confidence intervals (half-widths), by the delta method.
+#[derive(Debug, Clone, Serialize)]
+pub struct UncertaintyEntry {
+    /// Of each time constant, s.
+    pub time_constants_ci95_s: Vec<f64>,
+    /// Of each steady-state rise (and temperature), K.
+    pub steady_state_ci95_k: Vec<f64>,
+    /// Standard errors of Θ = [Φ Γ], row-major.
+    pub theta_standard_error: Vec<Vec<f64>>,
+}
+
+/// Validation block: the fit on data not used for the estimate (the band `monitor` draws
+/// and the error `predict` states).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ValidationEntry {
+    /// What the data were.
+    pub source: String,
+    /// The fit there.
+    pub fit: FitEntry,
+}
+
+/// Residual analysis block.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ResidualEntry {
+    /// Largest lag, samples.
+    pub max_lag: usize,
+    /// 99 % band of a white sequence: ±this.
+    pub band99: f64,
+    /// `[state][lag]` autocorrelation of the simulation residuals, lags 0..max_lag.
+    pub autocorrelation: Vec<Vec<f64>>,
+    /// `[state][input][lag + max_lag]` cross-correlation residual × input, lags −max_lag..max_lag.
+    pub cross_correlation: Vec<Vec<Vec<f64>>>,
+    /// Per state: fraction of lags 1..max_lag outside the band.
+    pub autocorrelation_outside_band: Vec<f64>,
+    /// Per state × input: largest |cross-correlation| over the lags.
+    pub max_abs_cross_correlation: Vec<Vec<f64>>,
+}
+
+/// Steady-state block of the report (eqs. 30–35).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct SteadyStateEntry {
+    /// The input u the steady state is for (the last measured one), pu.
+    pub input_pu: Vec<f64>,
+    /// Predicted final rises −θ_base·A_c⁻¹B_c u, K.
+    pub rise_k: Vec<f64>,
+    /// Predicted final temperatures θ_0 + rise, °C.
+    pub temperature_c: Vec<f64>,
+    /// Measured temperatures at the end of the recording, °C.
+    pub measured_final_temperature_c: Vec<f64>,
+    /// Measured rises at the end of the recording, K.
+    pub measured_final_rise_k: Vec<f64>,
+    /// Where the rises are measured from the coolant inlet: the steady state at the final
+    /// inlet temperature and at a stated reference inlet temperature.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coolant_inlet: Option<InletSteadyState>,
+}
+
+/// The steady state against the coolant inlet (the network's reference node).
+#[derive(Debug, Clone, Serialize)]
+pub struct InletSteadyState {
+    /// θ_in,0: the inlet's initial level the rises are measured from, °C.
+    pub initial_inlet_c: f64,
+    /// The inlet temperature of the steady-state input (the last measured), °C.
+    pub final_inlet_c: f64,
+    /// Predicted rise above the final inlet temperature, K.
+    pub rise_above_inlet_k: Vec<f64>,
+    /// The stated reference inlet temperature, °C ([`crate::report::REFERENCE_INLET_C`]).
+    pub reference_inlet_c: f64,
+    /// Predicted temperatures with the inlet at the reference, °C: θ_in,0 +
+    /// θ_base·(−A_c⁻¹B_c u) with the inlet's entry of u at the reference.
+    pub temperature_at_reference_inlet_c: Vec<f64>,
+}
+
+/// The recording block (an extension of the profile).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RecordingEntry {
+    /// The file replayed.
+    pub path: String,
+    /// Its size in bytes.
+    pub file_bytes: u64,
+    /// First and last sample time, RFC 3339.
+    pub start: Option<String>,
+    /// Last sample time, RFC 3339.
+    pub end: Option<String>,
+    /// Heat-run channels: topic, quantity, unit, samples, nominal period, gaps.
+    pub channels: Vec<ChannelEntry>,
+    /// Channels not read, with the reason.
+    pub ignored_channels: Vec<crate::recording::IgnoredChannel>,
+    /// Samples marked `bad` and dropped.
+    pub bad_quality_dropped: u64,
+    /// What was lost to damage in the file.
+    pub data_loss: Vec<String>,
+    /// Other metadata records of the file.
+    pub metadata: BTreeMap<String, BTreeMap<String, String>>,
+}
+
+/// One channel in the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelEntry {
+    /// MCAP topic.
+    pub topic: String,
+    /// Quantity.
+    pub quantity: String,
+    /// Sensor tag.
+    pub sensor: Option<String>,
+    /// Unit as recorded.
+    pub unit: String,
+    /// Samples read.
+    pub samples: u64,
+    /// Median sample period, s.
+    pub nominal_period_s: f64,
+    /// Gaps found.
+    pub gaps: usize,
+}
+
+/// Estimation details (an extension of the profile). Read back: the initial temperatures
+/// and references, the bases, the coolant and the field winding's temperature, which a
+/// use of the model starts from.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct EstimationEntry {
+    /// Grid instants.
+    #[serde(skip_deserializing)]
+    pub instants: usize,
+    /// Equations used.
+    #[serde(skip_deserializing)]
+    pub equations_used: usize,
+    /// Contiguous segments simulated (gaps split them).
+    #[serde(skip_deserializing)]
+    pub segments: usize,
+    /// Condition number of the scaled regression matrix.
+    #[serde(skip_deserializing)]
+    pub condition_number: f64,
+    /// Initial temperatures θ_0 the rises are measured from, °C.
+    pub initial_temperature_c: Vec<f64>,
+    /// Time of the initial temperatures, RFC 3339.
+    #[serde(skip_deserializing)]
+    pub initial_time: String,
+    /// Source of the field winding temperature.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field_temperature: Option<FieldTemperatureSource>,
+    /// Temperature base, K.
+    pub temperature_base_k: f64,
+    /// Power base, MVA.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub power_base_mva: Option<f64>,
+    /// Each state's reference θ_ref,j at the initial instant, °C: a state's temperature
+    /// there is this plus its initial rise (what `heatrun predict` starts from). Always
+    /// written; absent in reports before it, whose references were the initial
+    /// temperatures themselves.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial_reference_c: Option<Vec<f64>>,
+    /// The mean cooling-water inlet temperature over the recording, °C, where it is
+    /// recorded: the coolant temperature the model's rises belong to.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coolant_inlet_temp_c: Option<f64>,
+    /// The field winding temperature as a straight line of the stator winding's
+    /// (least squares over the recording), where the loss model has a field temperature:
+    /// what `heatrun predict` uses for R_f when the field winding is not a state.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field_temperature_from_stator: Option<FieldFromStator>,
+}
+
+/// θ_f ≈ intercept + slope · θ_Cu: the field winding temperature from the stator
+/// winding's, fitted over the recording.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FieldFromStator {
+    /// Intercept, °C.
+    pub intercept_c: f64,
+    /// Slope, K per K.
+    pub slope: f64,
+    /// RMS of the fit's residual, K.
+    #[serde(skip_deserializing)]
+    pub rms_residual_k: f64,
+}
+
+/// The report of `heatrun replay --report` (profile section "Report"): what a replay
+/// writes, and the model file `predict`, `rating` and `monitor` read back.
+///
+/// Read back ([`Report::from_json`]), a report holds what the uses of the model need: the
+/// fields marked `skip_deserializing` are the replay's account for people and other
+/// tools (the analysis, the network, the recording, the warnings); they are not read, so
+/// they keep their defaults (empty, zero, `None`). That keeps a model usable from a
+/// report of an older heatrun, which lacks some of them, and from one whose figures JSON
+/// could not hold (a NaN or an infinity is written as null).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Report {
+    /// Always [`PROFILE`].
+    pub profile: String,
+    /// heatrun's version.
+    #[serde(skip_deserializing)]
+    pub heatrun_version: String,
+    /// Ts in s.
+    pub sample_time_s: f64,
+    /// Identification method.
+    #[serde(skip_deserializing)]
+    pub method: String,
+    /// State names in model order.
+    pub states: Vec<String>,
+    /// Input names in model order.
+    pub inputs: Vec<String>,
+    /// Φ, row-major.
+    pub phi: Vec<Vec<f64>>,
+    /// Γ, row-major.
+    pub gamma: Vec<Vec<f64>>,
+    /// A_c, row-major, 1/s.
+    #[serde(skip_deserializing)]
+    pub a_c: Vec<Vec<f64>>,
+    /// B_c, row-major, 1/s.
+    #[serde(skip_deserializing)]
+    pub b_c: Vec<Vec<f64>>,
+    /// Eigenvalues of Φ, ascending.
+    #[serde(skip_deserializing)]
+    pub eigenvalues_discrete: Vec<f64>,
+    /// Eigenvalues of A_c, 1/s.
+    #[serde(skip_deserializing)]
+    pub eigenvalues_continuous: Vec<f64>,
+    /// Time constants, ascending, s (−1/Re λ_c; a complex pair's twice).
+    pub time_constants_s: Vec<f64>,
+    /// Where A_c has complex-conjugate pairs (oscillating modes): the imaginary parts
+    /// of `eigenvalues_discrete`, absent where every eigenvalue is real.
+    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub eigenvalues_discrete_imag: Option<Vec<f64>>,
+    /// Imaginary parts of `eigenvalues_continuous`, 1/s, absent where all are real.
+    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub eigenvalues_continuous_imag: Option<Vec<f64>>,
+    /// Each mode's oscillation period 2π/|Im λ_c|, s (null for a real mode), absent
+    /// where all are real.
+    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub oscillation_periods_s: Option<Vec<Option<f64>>>,
+    /// Time constant → state.
+    #[serde(skip_deserializing)]
+    pub assignment: Vec<AssignmentEntry>,
+    /// `sensitivity_norms[k][i]` = ‖T_i ∂y_k/∂T_i‖ (RMS, pu): rows states, columns time constants.
+    #[serde(skip_deserializing)]
+    pub sensitivity_norms: Vec<Vec<f64>>,
+    /// Fit quality.
+    pub fit: FitEntry,
+    /// Steady state.
+    #[serde(skip_deserializing)]
+    pub steady_state: SteadyStateEntry,
+    /// The recording.
+    #[serde(skip_deserializing)]
+    pub recording: RecordingEntry,
+    /// The nameplate used, where the model needs one (the generator's loss model).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nameplate: Option<crate::recording::Nameplate>,
+    /// The model description: states (channel, reference, part), inputs (source, unit,
+    /// kind, shift) and scaling — what later commands need to use the model.
+    pub model: ModelDescription,
+    /// Estimation details.
+    pub estimation: EstimationEntry,
+    /// 95 % intervals, where the method gives a covariance.
+    #[serde(skip_deserializing)]
+    pub uncertainty: Option<UncertaintyEntry>,
+    /// Fit on held-out data or another recording.
+    pub validation: Option<ValidationEntry>,
+    /// Whiteness and input correlation of the residuals.
+    #[serde(skip_deserializing)]
+    pub residuals: ResidualEntry,
+    /// The passive thermal network of the model (Fig. 9), or why it has none: always
+    /// written by a replay, `None` in a report read back.
+    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub network: Option<NetworkEntry>,
+    /// The heat the cooling water carries away against the losses (eqs. 17-18), where
+    /// the flow is recorded.
+    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub calorimetry: Option<crate::network::Calorimetry>,
+    /// Whether the recording reached thermal equilibrium (IEC 60034-1; five time
+    /// constants): always written by a replay, `None` in a report read back.
+    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub equilibrium: Option<crate::network::equilibrium::Equilibrium>,
+    /// For `rc`: the black-box output-error model it started from, on the same instants.
+    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub output_error_beside: Option<BesideEntry>,
+    /// Warnings.
+    #[serde(skip_deserializing)]
+    pub warnings: Vec<String>,
+}
+
+/// Another method's figures beside the report's own (`rc` beside `oe`).
+#[derive(Debug, Clone, Serialize)]
+pub struct BesideEntry {
+    /// Its method.
+    pub method: String,
+    /// Its time constants, ascending, s.
+    pub time_constants_s: Vec<f64>,
+    /// Its fit on the estimation instants.
+    pub fit: FitEntry,
+}
+
+/// The report's `network` block: the network, or why the model has none.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum NetworkEntry {
+    /// The network of the identified model.
+    Defined(Box<crate::network::Network>),
+    /// The model has no network.
+    NotDefined {
+        /// Why.
+        not_defined: String,
+    },
+}
+
+/// The keys looked at before the report is read whole: its version, and the blocks every
+/// use of the model needs, so that a report of another version or an older one is named
+/// as such rather than by the first key it lacks.
+#[derive(Deserialize)]
+#[serde(expecting = "a JSON object")]
+struct Head {
+    profile: Option<Tag>,
+    model: Option<IgnoredAny>,
+    estimation: Option<IgnoredAny>,
+}
+
+/// A `profile` key: the version's name, or something that is none.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum Tag {
+    Name(String),
+    Other(IgnoredAny),
+}
+
+impl Report {
+    /// Reads a report (`heatrun replay --report`).
+    pub fn read(path: &Path) -> Result<Report, UseError> {
+        let text = std::fs::read_to_string(path).map_err(|source| UseError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+        Report::from_json(&text, path)
+    }
+
+    /// Parses a report's text; `path` names it in messages. The profile is checked first
+    /// (a report of another version may not parse as this one), then the presence of the
+    /// `model` and `estimation` blocks (reports before them cannot be used), then the
+    /// whole.
+    pub fn from_json(text: &str, path: &Path) -> Result<Report, UseError> {
+        let not_a_report = |e: serde_json::Error| UseError::NotAReport {
+            path: path.to_owned(),
+            message: e.to_string(),
+        };
+        let head: Head = serde_json::from_str(text).map_err(not_a_report)?;
+        match head.profile {
+            Some(Tag::Name(p)) if p == PROFILE => {}
+            Some(Tag::Name(found)) => {
+                return Err(UseError::ProfileVersion {
+                    path: path.to_owned(),
+                    found,
+                    expected: PROFILE,
+                })
+            }
+            Some(Tag::Other(_)) | None => {
+                return Err(UseError::NotAReport {
+                    path: path.to_owned(),
+                    message: "no `profile` key".into(),
+                })
+            }
+        }
+        for (key, present) in [
+            ("model", head.model.is_some()),
+            ("estimation", head.estimation.is_some()),
+        ] {
+            if !present {
+                return Err(UseError::MissingBlock {
+                    path: path.to_owned(),
+                    key: key.into(),
+                    needed_for: "every use of the model needs".into(),
+                });
+            }
+        }
+        serde_json::from_str(text).map_err(not_a_report)
+    }
+
+    /// The report as pretty-printed JSON.
+    pub fn to_json(&self) -> String {
+        // Serialising plain numbers, strings and maps cannot fail.
+        serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+    }
+}

@@ -1,0 +1,471 @@
+//! The report of `heatrun replay --report` read back as a model to use: Φ, Γ, the
+//! states and inputs as the report's `model` block describes them (n states, m inputs),
+//! the references the rises are measured from, the nameplate of the loss model, and the
+//! model's own fit and validation error.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::DMatrix;
+
+use super::document::{EstimationEntry, Report};
+use super::error::UseError;
+use crate::losses::{FieldTemperatureSource, HeatSource};
+use crate::recording::{Nameplate, Quantity, Signal};
+use crate::spec::{InputDescription, InputSource, Reference, Scaling, StateDescription};
+
+/// How the field winding temperature (for R_f in the field copper loss) is predicted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FieldTemperatureUse {
+    /// A state of the model (index).
+    State(usize),
+    /// θ_f = intercept + slope · θ_Cu, fitted on the model's recording.
+    FromStator {
+        /// °C.
+        intercept_c: f64,
+        /// K per K.
+        slope: f64,
+    },
+    /// The model has no field copper loss input.
+    NotNeeded,
+}
+
+/// The model's error on data it was fitted to, and on data it was not (validation).
+#[derive(Debug, Clone)]
+pub struct ModelError {
+    /// What the figures are from: `validation on …` or `fit on the estimation data`.
+    pub source: String,
+    /// RMSE per state, K.
+    pub rmse_k: Vec<f64>,
+    /// Largest absolute error per state, K.
+    pub max_abs_error_k: Vec<f64>,
+}
+
+/// An identified model, as its report describes it.
+#[derive(Debug, Clone)]
+pub struct ThermalModel {
+    /// The report it was read from.
+    pub path: PathBuf,
+    /// The system's name for people.
+    pub name: String,
+    /// Sample time Ts, s.
+    pub ts_s: f64,
+    /// Φ (n × n).
+    pub phi: DMatrix<f64>,
+    /// Γ (n × m).
+    pub gamma: DMatrix<f64>,
+    /// Time constants, ascending, s.
+    pub time_constants_s: Vec<f64>,
+    /// The states in model order, as the report's description has them.
+    pub states: Vec<StateDescription>,
+    /// The inputs in model order, as the report's description has them (none taken from
+    /// its initial value: [`ThermalModel::from_report`] refuses those).
+    pub inputs: Vec<InputDescription>,
+    /// Each state's reference θ_ref,j at the start of the model's recording, °C: the
+    /// state's own initial temperature ([`Reference::Initial`]), the reference channel's
+    /// value then ([`Reference::Channel`], for a schedule that lacks the channel), or the
+    /// channel's initial level ([`Reference::InitialOf`], the constant the rises are
+    /// measured from).
+    pub initial_reference_c: Vec<f64>,
+    /// Kelvin per unit of a state.
+    pub temperature_base_k: f64,
+    /// Watts (or the input's unit) per unit of a heat input.
+    pub power_base_w: f64,
+    /// Whether states and inputs are per unit of the nameplate's bases (the profile's
+    /// scaling), not as recorded.
+    pub per_unit: bool,
+    /// The nameplate of the loss model, where the report has one.
+    pub nameplate: Option<Nameplate>,
+    /// Measured temperatures at the start of the model's recording, °C.
+    pub initial_temperature_c: Vec<f64>,
+    /// Mean coolant inlet temperature of the model's recording, °C, where recorded.
+    pub coolant_inlet_temp_c: Option<f64>,
+    /// How θ_f is predicted.
+    pub field_temperature: FieldTemperatureUse,
+    /// The model's own error (validation where the report has it, else the fit).
+    pub error: ModelError,
+}
+
+impl ThermalModel {
+    /// Reads a model report (`heatrun replay --report`).
+    pub fn read(path: &Path) -> Result<ThermalModel, UseError> {
+        ThermalModel::from_report(&Report::read(path)?, path)
+    }
+
+    /// The model a report describes; `path` names the report in messages. Refuses a
+    /// report whose matrices and names disagree in size, and inputs a load schedule
+    /// cannot give.
+    pub fn from_report(report: &Report, path: &Path) -> Result<ThermalModel, UseError> {
+        let (n, m) = (report.states.len(), report.inputs.len());
+        let phi = matrix(&report.phi, (n, n), "phi", path, (n, m))?;
+        let gamma = matrix(&report.gamma, (n, m), "gamma", path, (n, m))?;
+        let (description, estimation) = (&report.model, &report.estimation);
+        if description.states.len() != n || description.inputs.len() != m {
+            return Err(UseError::Shape {
+                path: path.to_owned(),
+                key: "model",
+                found: format!(
+                    "{} states and {} inputs",
+                    description.states.len(),
+                    description.inputs.len()
+                ),
+                expected: format!("{n} and {m}"),
+                states: n,
+                inputs: m,
+            });
+        }
+        let per_state = |v: &[f64], key: &'static str| {
+            if v.len() == n {
+                Ok(())
+            } else {
+                Err(UseError::Shape {
+                    path: path.to_owned(),
+                    key,
+                    found: format!("{} values", v.len()),
+                    expected: format!("{n}"),
+                    states: n,
+                    inputs: m,
+                })
+            }
+        };
+        per_state(
+            &estimation.initial_temperature_c,
+            "estimation.initial_temperature_c",
+        )?;
+        let initial_reference_c = match &estimation.initial_reference_c {
+            Some(r) => {
+                per_state(r, "estimation.initial_reference_c")?;
+                r.clone()
+            }
+            // Reports before `initial_reference_c`: the paper's references are the initial
+            // temperatures themselves.
+            None => estimation.initial_temperature_c.clone(),
+        };
+        for input in &description.inputs {
+            usable(input, path)?;
+        }
+        let error = match &report.validation {
+            Some(v) => ModelError {
+                source: format!("validation on {}", v.source),
+                rmse_k: v.fit.rmse_k.clone(),
+                max_abs_error_k: v.fit.max_abs_error_k.clone(),
+            },
+            None => ModelError {
+                source: "fit on the estimation data".into(),
+                rmse_k: report.fit.rmse_k.clone(),
+                max_abs_error_k: report.fit.max_abs_error_k.clone(),
+            },
+        };
+        per_state(&error.rmse_k, "fit.rmse_k")?;
+        per_state(&error.max_abs_error_k, "fit.max_abs_error_k")?;
+        let mut model = ThermalModel {
+            path: path.to_owned(),
+            name: description.name.clone(),
+            ts_s: report.sample_time_s,
+            phi,
+            gamma,
+            time_constants_s: report.time_constants_s.clone(),
+            states: description.states.clone(),
+            inputs: description.inputs.clone(),
+            initial_reference_c,
+            temperature_base_k: estimation.temperature_base_k,
+            power_base_w: estimation.power_base_mva.map_or(1.0, |p| p * 1e6),
+            per_unit: description.scaling == Scaling::NameplatePerUnit,
+            nameplate: report.nameplate.clone(),
+            initial_temperature_c: estimation.initial_temperature_c.clone(),
+            coolant_inlet_temp_c: estimation.coolant_inlet_temp_c,
+            field_temperature: FieldTemperatureUse::NotNeeded,
+            error,
+        };
+        model.field_temperature = field_temperature_use(&model, estimation)?;
+        if !(model.ts_s > 0.0) {
+            return Err(model.missing("sample_time_s", "the simulation needs (a positive number)"));
+        }
+        Ok(model)
+    }
+
+    /// n.
+    pub fn state_count(&self) -> usize {
+        self.states.len()
+    }
+
+    /// The index of the state measured by `quantity`'s channel.
+    pub fn state_of(&self, quantity: Quantity) -> Option<usize> {
+        self.states
+            .iter()
+            .position(|s| s.channel == Signal::Profile(quantity))
+    }
+
+    /// Whether an input or a state reference reads the coolant inlet itself (the model
+    /// then carries the coolant; no shift is added).
+    pub fn uses_coolant_inlet(&self) -> bool {
+        let inlet = &Signal::Profile(Quantity::CoolingWaterInletTemp);
+        self.inputs.iter().any(|i| match &i.source {
+            InputSource::Channel(c) | InputSource::BoundaryRise(c) => c == inlet,
+            InputSource::Expression(e) => e.channels().contains(inlet),
+            // Zero at the test's flow, which a prediction holds (the heat it carries is
+            // then the model's own).
+            InputSource::Loss(_) | InputSource::CoolantFlow { .. } => false,
+        }) || self.states.iter().any(|s| match &s.reference {
+            Reference::Channel(c) | Reference::InitialOf(c) => c == inlet,
+            Reference::Initial | Reference::Absolute => false,
+        })
+    }
+
+    /// The initial level of a boundary channel the states are measured from (their
+    /// [`Reference::InitialOf`]), °C.
+    pub fn initial_level_of(&self, channel: &Signal) -> Option<f64> {
+        self.states
+            .iter()
+            .zip(&self.initial_reference_c)
+            .find_map(|(s, level)| match &s.reference {
+                Reference::InitialOf(c) if c == channel => Some(*level),
+                _ => None,
+            })
+    }
+
+    /// The report needs `key` for `needed_for`.
+    pub(crate) fn missing(&self, key: &str, needed_for: &str) -> UseError {
+        UseError::MissingBlock {
+            path: self.path.clone(),
+            key: key.into(),
+            needed_for: needed_for.into(),
+        }
+    }
+}
+
+fn matrix(
+    rows: &[Vec<f64>],
+    (nrows, ncols): (usize, usize),
+    key: &'static str,
+    path: &Path,
+    (n, m): (usize, usize),
+) -> Result<DMatrix<f64>, UseError> {
+    if rows.len() != nrows || rows.iter().any(|r| r.len() != ncols) {
+        return Err(UseError::Shape {
+            path: path.to_owned(),
+            key,
+            found: format!(
+                "{} rows of [{}] entries",
+                rows.len(),
+                rows.iter()
+                    .map(|r| r.len().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            expected: format!("{nrows} × {ncols}"),
+            states: n,
+            inputs: m,
+        });
+    }
+    Ok(DMatrix::from_fn(nrows, ncols, |i, j| rows[i][j]))
+}
+
+/// Refuses an input a load schedule cannot give: one taken as its change from its value
+/// at the start of the model's recording (that value is not in the report), and one read
+/// ahead that the schedule does not hold (computed from the predicted temperatures).
+fn usable(i: &InputDescription, path: &Path) -> Result<(), UseError> {
+    let unsupported = |kind: String| UseError::Unsupported {
+        path: path.to_owned(),
+        what: "input",
+        name: i.name.clone(),
+        source_kind: kind,
+    };
+    if i.from_initial {
+        return Err(unsupported(
+            "taken from its value at the start of the model's recording".into(),
+        ));
+    }
+    let advance_s = -i.delay_s;
+    if advance_s > 0.0
+        && !matches!(
+            i.source,
+            InputSource::Channel(_) | InputSource::Expression(_)
+        )
+    {
+        // The source as the report writes it.
+        let source = serde_json::to_string(&i.source).unwrap_or_default();
+        return Err(unsupported(format!(
+            "`{source}` advanced {advance_s} s (only a channel or an expression can be read ahead)"
+        )));
+    }
+    Ok(())
+}
+
+fn field_temperature_use(
+    model: &ThermalModel,
+    estimation: &EstimationEntry,
+) -> Result<FieldTemperatureUse, UseError> {
+    let needs = model
+        .inputs
+        .iter()
+        .any(|i| matches!(i.source, InputSource::Loss(HeatSource::FieldCopperLoss)));
+    if !needs {
+        return Ok(FieldTemperatureUse::NotNeeded);
+    }
+    if let Some(j) = model.state_of(Quantity::FieldWindingTemp) {
+        return Ok(FieldTemperatureUse::State(j));
+    }
+    if let Some(line) = &estimation.field_temperature_from_stator {
+        return Ok(FieldTemperatureUse::FromStator {
+            intercept_c: line.intercept_c,
+            slope: line.slope,
+        });
+    }
+    // Reports before `field_temperature_from_stator`: the paper's scaling is such a line,
+    // θ_f = θ_Cu0 + s·(θ_Cu − θ_Cu0).
+    let scaled = match estimation.field_temperature {
+        Some(FieldTemperatureSource::ScaledArmatureRise { scale, .. }) => Some(scale),
+        _ => None,
+    };
+    let stator = model.state_of(Quantity::StatorWindingTemp);
+    match (scaled, stator) {
+        (Some(s), Some(j)) => {
+            let theta0 = model.initial_temperature_c[j];
+            Ok(FieldTemperatureUse::FromStator {
+                intercept_c: theta0 * (1.0 - s),
+                slope: s,
+            })
+        }
+        _ => Err(model.missing(
+            "estimation.field_temperature_from_stator",
+            "the field copper loss needs for R_f when the field winding is not a state",
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    /// A report of the generator as an older heatrun wrote it: no references
+    /// (`initial_reference_c`), no field line (`field_temperature_from_stator`, the
+    /// paper's scale instead), no `from_initial`, and figures JSON could only write as
+    /// null (an infinite SNR) or in a form of their own.
+    fn older_report() -> serde_json::Value {
+        let state = |name: &str, part: &str| {
+            json!({"name": name, "channel": name, "reference": "initial", "part": part,
+                   "unit": "degC"})
+        };
+        let input = |name: &str| json!({"name": name, "source": {"loss": name}, "unit": "pu", "kind": "heat"});
+        json!({
+            "profile": "heatrun-scada/1",
+            "sample_time_s": 1.0,
+            "method": "oe",
+            "states": ["stator_winding_temp", "core_temp"],
+            "inputs": ["armature_copper_loss", "field_copper_loss"],
+            "phi": [[0.9, 0.05], [0.02, 0.95]],
+            "gamma": [[0.1, 0.02], [0.01, 0.03]],
+            "time_constants_s": [8.0, 25.0],
+            "fit": {"snr_db": [null, null], "rmse_k": [0.1, 0.2],
+                    "max_abs_error_k": [0.3, 0.6]},
+            "network": {"a shape": "of its own"},
+            "nameplate": null,
+            "model": {
+                "name": "two parts",
+                "states": [state("stator_winding_temp", "stator winding"),
+                           state("core_temp", "iron core")],
+                "inputs": [input("armature_copper_loss"), input("field_copper_loss")],
+                "scaling": "nameplate_per_unit"
+            },
+            "estimation": {
+                "initial_temperature_c": [30.0, 28.0],
+                "temperature_base_k": 80.0,
+                "power_base_mva": 100.0,
+                "condition_number": null,
+                "field_temperature": {"method": "scaled_armature_rise", "scale": 1.5,
+                                      "final_temp_c": 90.0}
+            }
+        })
+    }
+
+    fn read(report: &serde_json::Value) -> Result<ThermalModel, UseError> {
+        let path = Path::new("model.json");
+        ThermalModel::from_report(&Report::from_json(&report.to_string(), path)?, path)
+    }
+
+    #[test]
+    fn an_older_report_is_read_with_the_references_and_field_line_it_implies() {
+        let model = read(&older_report()).unwrap();
+        // The references of a report before them: the initial temperatures.
+        assert_eq!(model.initial_reference_c, [30.0, 28.0]);
+        assert_eq!(model.states[1].reference, Reference::Initial);
+        assert_eq!(model.state_of(Quantity::CoreTemp), Some(1));
+        // θ_f = θ_Cu0 + s·(θ_Cu − θ_Cu0) = θ_Cu0·(1 − s) + s·θ_Cu, θ_Cu0 = 30 °C, s = 1.5.
+        assert_eq!(
+            model.field_temperature,
+            FieldTemperatureUse::FromStator {
+                intercept_c: -15.0,
+                slope: 1.5
+            }
+        );
+        assert!(model.per_unit && model.power_base_w == 1e8);
+        assert_eq!(model.error.source, "fit on the estimation data");
+        assert_eq!(model.error.rmse_k, [0.1, 0.2]);
+        assert!(!model.uses_coolant_inlet());
+    }
+
+    #[test]
+    fn the_version_comes_first_then_the_blocks_then_their_sizes() {
+        let message = |edit: fn(&mut serde_json::Value)| {
+            let mut report = older_report();
+            edit(&mut report);
+            read(&report).unwrap_err().to_string()
+        };
+        assert_eq!(
+            message(|r| r["profile"] = "heatrun-scada/2".into()),
+            "model.json: a report of profile `heatrun-scada/2`; this heatrun reads `heatrun-scada/1`"
+        );
+        assert_eq!(
+            message(|r| r["profile"] = 2.into()),
+            "model.json: not a heatrun model report: no `profile` key"
+        );
+        assert_eq!(
+            message(|r| r["model"] = serde_json::Value::Null),
+            "model.json: the report has no `model`, which every use of the model needs"
+        );
+        assert_eq!(
+            message(|r| {
+                r.as_object_mut().unwrap().remove("estimation");
+            }),
+            "model.json: the report has no `estimation`, which every use of the model needs"
+        );
+        assert_eq!(
+            message(|r| r["phi"][1] = json!([0.9])),
+            "model.json: `phi` is 2 rows of [2, 1] entries; the model of 2 states and 2 inputs \
+             needs 2 × 2"
+        );
+        assert_eq!(
+            message(|r| r["estimation"]["initial_reference_c"] = json!([20.0])),
+            "model.json: `estimation.initial_reference_c` is 1 values; the model of 2 states \
+             and 2 inputs needs 2"
+        );
+        assert_eq!(
+            message(|r| r["model"]["inputs"][0]["from_initial"] = true.into()),
+            "model.json: input `armature_copper_loss` is taken from its value at the start of \
+             the model's recording, which a load schedule cannot give"
+        );
+        assert_eq!(
+            message(|r| r["model"]["inputs"][1]["advance_s"] = 1.0.into()),
+            "model.json: input `field_copper_loss` is `{\"loss\":\"field_copper_loss\"}` \
+             advanced 1 s (only a channel or an expression can be read ahead), which a load \
+             schedule cannot give"
+        );
+        assert_eq!(
+            message(|r| {
+                r["estimation"]
+                    .as_object_mut()
+                    .unwrap()
+                    .remove("field_temperature");
+            }),
+            "model.json: the report has no `estimation.field_temperature_from_stator`, which \
+             the field copper loss needs for R_f when the field winding is not a state"
+        );
+        // A description this version cannot read names the key where serde stopped.
+        let unknown = message(|r| r["model"]["inputs"][0]["source"] = json!({"fan": "x"}));
+        assert!(
+            unknown.starts_with("model.json: not a heatrun model report: unknown variant `fan`"),
+            "{unknown}"
+        );
+    }
+}
