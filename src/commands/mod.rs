@@ -14,7 +14,7 @@ mod rating;
 mod replay;
 mod synth;
 
-use crate::cli::Request;
+use crate::cli::{Request, Target};
 
 /// How a command ended, when it did not fail.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -41,7 +41,10 @@ pub fn is_bad_input(err: &anyhow::Error) -> bool {
 /// Runs a validated command.
 pub fn dispatch(request: Request) -> anyhow::Result<Outcome> {
     match request {
-        Request::Replay(replay) => replay::run(&replay),
+        Request::Replay(replay) => match &replay.target {
+            Target::One(one) => replay::run(&replay, one),
+            Target::Fleet(fleet) => fleet::run(&replay, fleet),
+        },
         Request::Synth(synth) => synth::run(&synth),
         Request::Info(args) => info::run(&args),
         Request::Import(import) => import::run(&import),

@@ -13,14 +13,12 @@ use heatrun_rerun::{Publisher, RerunSink};
 
 use super::bars::{self, Bars};
 use super::Outcome;
-use crate::cli::{One, Replay, SummaryFormat, Target};
+use crate::cli::{One, Replay, SummaryFormat};
 
-/// Runs `heatrun replay`: one recording, or a fleet.
-pub fn run(replay: &Replay) -> anyhow::Result<Outcome> {
-    match &replay.target {
-        Target::One(one) => single(replay, one),
-        Target::Fleet(fleet) => super::fleet::run(replay, fleet),
-    }
+/// Runs `heatrun replay` on one recording (a fleet is [`super::fleet::run`]'s, which
+/// replays each recording through [`replay_one`]).
+pub fn run(replay: &Replay, one: &One) -> anyhow::Result<Outcome> {
+    single(replay, one)
 }
 
 /// One recording replayed, with its report and the summary printed from it.
