@@ -382,7 +382,7 @@ fn the_rrd_is_written_and_quiet_prints_only_the_alarms() {
     let model = heatrun::model_file::ThermalModel::read(&d.join("model.json")).unwrap();
     let options = heatrun::monitor::MonitorOptions::default();
     let whole =
-        heatrun::monitor::batch::monitor_whole_file(&model, &d.join("fault.mcap"), &options)
+        common::oracle::monitor_whole_file(&model, &d.join("fault.mcap"), &options)
             .unwrap();
     for (j, state) in whole.states.iter().enumerate() {
         let t = &whole.traces;
@@ -561,7 +561,8 @@ fn streamed_as_whole(
     recording: &Path,
     stretch_s: f64,
 ) -> (heatrun::monitor::MonitorResult, Vec<(i64, i64, u64)>) {
-    use heatrun::monitor::{self, batch, MonitorOptions, Source, StreamOptions, Watchers};
+    use crate::common::oracle as batch;
+    use heatrun::monitor::{self, MonitorOptions, Source, StreamOptions, Watchers};
     let model = heatrun::model_file::ThermalModel::read(model).unwrap();
     let options = MonitorOptions::default();
     let whole = batch::monitor_whole_file(&model, recording, &options).unwrap();

@@ -490,7 +490,8 @@ fn an_input_stamped_at_its_intervals_end_is_advanced_and_predicted_one_sample_ah
 
     // monitor, streamed in stretches of 7 s, reads heater 2 one sample ahead across every
     // stretch's end as the whole-file monitor does, and the exact model stays on the data.
-    use heatrun::monitor::{self, batch, MonitorOptions, Source, StreamOptions, Watchers};
+    use crate::common::oracle as batch;
+    use heatrun::monitor::{self, MonitorOptions, Source, StreamOptions, Watchers};
     let model = heatrun::model_file::ThermalModel::read(&dir.path().join("r.json")).unwrap();
     let recording = dir.path().join("stamped.mcap");
     let options = MonitorOptions::default();

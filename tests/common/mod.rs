@@ -8,6 +8,8 @@ use std::process::{Command, Output};
 
 use heatrun::recording::Nameplate;
 
+pub mod oracle;
+
 /// The package root, read when the test runs: a test binary built from another
 /// clone sharing the target directory must not look in that clone's folder.
 pub fn package_root() -> PathBuf {

@@ -774,33 +774,6 @@ impl Decimator {
     }
 }
 
-/// Gives every sample to the decimator and to a second sink (the full-rate publisher),
-/// so that one pass over a file feeds both; here, beside the decimator, so that the
-/// replay and the monitor share it without one reaching into the other.
-pub(crate) struct Tee<'a> {
-    /// The decimator.
-    pub(crate) decimator: &'a mut Decimator,
-    /// The second sink.
-    pub(crate) also: &'a mut dyn SampleSink,
-}
-
-impl SampleSink for Tee<'_> {
-    fn channel(&mut self, channel: &SensorChannel) {
-        self.decimator.channel(channel);
-        self.also.channel(channel);
-    }
-
-    fn sample(&mut self, sample: Sample) {
-        self.decimator.sample(sample);
-        self.also.sample(sample);
-    }
-
-    fn retract(&mut self, sample: Sample) {
-        self.decimator.retract(sample);
-        self.also.retract(sample);
-    }
-}
-
 impl SampleSink for Decimator {
     fn channel(&mut self, channel: &SensorChannel) {
         while self.channels.len() <= channel.index {

@@ -56,6 +56,7 @@ pub mod atomic;
 pub mod decimate;
 pub mod error;
 pub mod estimate;
+pub mod grid;
 pub mod html;
 pub mod import;
 pub mod losses;

@@ -10,7 +10,8 @@ use std::path::{Path, PathBuf};
 
 use std::borrow::Cow;
 
-use crate::decimate::{DecimatedRecording, Decimator, Tee};
+use crate::decimate::DecimatedRecording;
+use crate::grid::GridBuilder;
 use crate::error::{Error, Result};
 use crate::recording::RecordingError;
 use crate::signals::SignalError;
@@ -209,7 +210,7 @@ pub fn prepare_with(
     also: Option<&mut dyn SampleSink>,
 ) -> Result<Prepared> {
     let model = &options.model;
-    let mut decimator = Decimator::new(options.ts_s, model.alignments())?;
+    let mut grid = GridBuilder::whole(options.ts_s, model.alignments())?;
     let read = ReadOptions {
         free_channels: model.free_channels(),
         progress: options.progress.clone(),
@@ -217,13 +218,13 @@ pub fn prepare_with(
     let summary = match also {
         Some(also) => recording::read_recording_with(
             path,
-            &mut Tee {
-                decimator: &mut decimator,
+            &mut crate::recording::Tee {
+                first: &mut grid,
                 also,
             },
             &read,
         )?,
-        None => recording::read_recording_with(path, &mut decimator, &read)?,
+        None => recording::read_recording_with(path, &mut grid, &read)?,
     };
     if summary.channels.is_empty() {
         return Err(no_heat_run_data(path, &summary));
@@ -233,7 +234,7 @@ pub fn prepare_with(
     } else {
         None
     };
-    let decimated = decimator
+    let decimated = grid
         .finish(&summary.channels)
         .map_err(|e| Error::from(e).in_recording(path))?;
     let model = coolant::resolve(

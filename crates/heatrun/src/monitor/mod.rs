@@ -24,7 +24,6 @@
 
 pub mod alarm;
 pub mod band;
-pub mod batch;
 pub mod output;
 pub mod stream;
 
@@ -219,7 +218,7 @@ pub fn description_of(model: &ThermalModel) -> Result<ModelDescription, UseError
 /// Where each signal's samples sit on the model's grid: the description's alignments,
 /// and the coolant inlet at the instant where the model test recorded one (for the
 /// shift of initial references).
-pub(crate) fn grid_alignments(
+pub fn grid_alignments(
     model: &ThermalModel,
     description: &ModelDescription,
 ) -> BTreeMap<Signal, Alignment> {
@@ -236,7 +235,7 @@ pub(crate) fn grid_alignments(
 /// measured from their initial values: such a model has no input for the inlet, so its
 /// prediction follows the inlet only as the lagged shift, which the slow parts do not
 /// follow; the model identified with the coolant inlet as its reference does.
-pub(crate) fn inlet_warning(
+pub fn inlet_warning(
     model: &ThermalModel,
     decimated: &DecimatedRecording,
 ) -> Option<String> {
@@ -258,7 +257,7 @@ pub(crate) fn inlet_warning(
 }
 
 /// θ_ref,j(k) per state (see the module on references).
-pub(crate) enum StateRef {
+pub enum StateRef {
     /// The model test's reference plus the lagged coolant shift.
     ModelInitial(f64),
     /// The signal stage's reference (a channel, or this recording's inlet level).
@@ -269,7 +268,7 @@ impl StateRef {
     /// Each state's reference: a rise from the model test's initial temperature is
     /// measured from the test's θ_ref,j, an absolute temperature from 0, the others by
     /// the signal stage.
-    pub(crate) fn per_state(model: &ThermalModel) -> Vec<StateRef> {
+    pub fn per_state(model: &ThermalModel) -> Vec<StateRef> {
         model
             .states
             .iter()
@@ -285,7 +284,7 @@ impl StateRef {
 
 /// Running sums of one part's residual.
 #[derive(Debug, Clone, Default)]
-pub(crate) struct Accumulator {
+pub struct Accumulator {
     n: usize,
     sum: f64,
     sum_sq: f64,
@@ -295,7 +294,8 @@ pub(crate) struct Accumulator {
 }
 
 impl Accumulator {
-    pub(crate) fn add(&mut self, r: f64, t_s: f64, band_k: f64) {
+    /// Adds residual `r` (K) at `t_s` seconds from the start, against a band of `band_k`.
+    pub fn add(&mut self, r: f64, t_s: f64, band_k: f64) {
         self.n += 1;
         self.sum += r;
         self.sum_sq += r * r;
@@ -306,7 +306,8 @@ impl Accumulator {
         self.outside += usize::from(r.abs() > band_k);
     }
 
-    pub(crate) fn finish(&self, state: &str, part: &str, band_k: f64) -> PartStats {
+    /// The part's statistics: mean, RMS, largest deviation and the share outside the band.
+    pub fn finish(&self, state: &str, part: &str, band_k: f64) -> PartStats {
         let n = self.n.max(1) as f64;
         PartStats {
             state: state.into(),

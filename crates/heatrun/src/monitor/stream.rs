@@ -3,27 +3,20 @@
 //! printout follow a recording of any length (or one still being written, read from a
 //! pipe) while memory holds the raw samples of about one stretch, not of the file.
 //!
-//! The driver is the reader's [`SampleSink`]. It keeps the raw samples not yet sealed and
-//! a watermark W: the oldest of the channels' settled times, each channel's latest sample
-//! time less [`SETTLE_PERIODS`] of its own mean spacing (a channel slower than the grid
-//! has then delivered the samples after every instant before W, so its interpolation
-//! there is final, and enough of them for the decimator to judge its spacing as it
-//! would on the whole file), but never more than [`StreamOptions::max_lateness_s`]
-//! behind the newest sample (a channel that fell silent does not hold the monitor
-//! back; its silence is a gap). Once W passes the end of the next stretch plus the
-//! signal stage's look-ahead (the ±30 s smoothing of the flow input), the stretch is
-//! sealed: its samples, with an overlap before it (the look-back of the smoothing and of
-//! the inputs' dead times) and after it (the look-ahead), are laid on the grid by a
-//! [`Decimator`] of their own and windowed onto the one grid of the whole recording
-//! ([`DecimatedRecording::window`]); the signal stage computes the stretch measured
-//! from the origins taken once on the first stretch ([`Anchors`]: the initial
-//! references and levels, the flow's Q₀); then the model steps through its instants,
-//! carrying x̂, the alarm detector, the residual statistics and the lagged inlet shift
-//! across stretches. An observer ([`StretchObserver`]: the rerun publisher) receives
-//! each stretch as it is sealed.
+//! The driver is the reader's [`SampleSink`]: it hands every sample to a
+//! [`GridBuilder`] in stretched mode (the replay's one way from recording to grid),
+//! whose watermark says when a stretch of the grid has all its samples in, and which
+//! lays each such stretch on the one grid of the whole recording with an overlap before
+//! it (the look-back of the flow input's ±30 s smoothing and of the inputs' dead times)
+//! and after it (the look-ahead). The signal stage computes the stretch measured from the
+//! origins taken once on the first stretch ([`Anchors`]: the initial references and
+//! levels, the flow's Q₀); then the model steps through its instants, carrying x̂, the
+//! alarm detector, the residual statistics and the lagged inlet shift across stretches.
+//! An observer ([`StretchObserver`]: the rerun publisher) receives each stretch as it is
+//! sealed.
 //!
-//! On a complete file this gives what the whole-file monitor gave ([`super::batch`], kept
-//! as the test oracle): the same instants and values (to rounding), alarms, statistics
+//! On a complete file this gives what the whole-file monitor gave (kept as the tests'
+//! oracle): the same instants and values (to rounding), alarms, statistics
 //! and restarts. Samples that arrive for an instant already sealed (a file's order is not
 //! strictly time order), and samples the reader takes back at the end of the file after
 //! their instant was sealed, are counted and reported as data loss, never fatal.
@@ -38,16 +31,13 @@ use super::{
     description_of, grid_alignments, inlet_warning, Accumulator, Band, Detector, MonitorOptions,
     MonitorResult, MonitorTraces, StateRef,
 };
-use crate::decimate::{
-    self, DecimateError, DecimatedRecording, DecimatedSeries, Decimator, GAP_FACTOR,
-};
+use crate::decimate::{DecimateError, DecimatedRecording, DecimatedSeries};
+use crate::grid::{GridBuilder, Ready, StretchPlan, MARGIN};
 use crate::error::{Error, Result};
 use crate::signals::SignalError;
 use crate::model_file::ThermalModel;
 use crate::progress::Observer;
-use crate::recording::{
-    self, Alignment, Quantity, ReadOptions, Sample, SampleSink, SensorChannel, Signal, Storage,
-};
+use crate::recording::{self, Quantity, ReadOptions, Sample, SampleSink, SensorChannel, Signal};
 use crate::series::Series;
 use crate::signals::{self, Anchors, ModelSignals, FLOW_RISE_SMOOTHING_S};
 use crate::spec::{delay, InputSource, ModelDescription};
@@ -58,11 +48,6 @@ pub const DEFAULT_STRETCH_S: f64 = 600.0;
 
 /// The default longest wait for a silent channel, s: fifteen minutes.
 pub const DEFAULT_MAX_LATENESS_S: f64 = 900.0;
-
-/// Grid instants of margin on either side of a stretch beyond what the signal stage
-/// looks at (the interval a sample of an interval-aligned channel is averaged over, the
-/// neighbour an interpolation needs).
-const MARGIN: i64 = 2;
 
 /// How the recording is streamed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -178,48 +163,27 @@ pub fn monitor_stream(
     if let Some(e) = live.error.take() {
         return Err(e.in_recording(&name));
     }
-    if live.sealed.is_none() {
+    if !live.grid.has_sealed() {
         return Err(Error::from(DecimateError::NoSamples).in_recording(&name));
     }
     let mut data_loss = summary.data_loss;
-    data_loss.extend(live.late_lines());
+    data_loss.extend(live.grid.late_lines());
     Ok(live
         .run
         .finish(model, &band, options.hold_s, &name, data_loss))
 }
 
-/// The sample sink that seals stretches as the watermark passes them.
+/// The sample sink that drives the grid builder and runs the model over each stretch
+/// it seals.
 struct Live<'m, 'w> {
     model: &'m ThermalModel,
     description: ModelDescription,
-    alignments: BTreeMap<Signal, Alignment>,
-    ts_ns: i64,
-    /// Instants per stretch, of look-back and of look-ahead.
+    grid: GridBuilder,
+    /// Instants per stretch (the origins are tried again a stretch later).
     stretch: i64,
-    lookback: i64,
-    lookahead: i64,
-    lateness_ns: u64,
-    /// The channels announced, in index order.
-    channel_list: Vec<SensorChannel>,
-    /// Per channel index: where its samples are windowed on the grid.
-    windowing: Vec<Option<Alignment>>,
-    /// Per channel index: when its samples came.
-    arrivals: Vec<Option<Arrivals>>,
-    newest: u64,
-    /// The raw samples not yet sealed (and the overlap the next stretch needs).
-    buffer: Vec<(Sample, i64)>,
-    /// The earliest and latest grid window holding a sample.
-    window_range: Option<(i64, i64)>,
-    samples: u64,
-    /// The first instant not yet sealed (`None` before the first stretch).
-    sealed: Option<i64>,
-    next_check_ns: u64,
     anchors: Option<Anchors>,
     /// The first instant not yet sealable at which to try taking the origins again.
     anchor_retry: i64,
-    /// Per channel index: samples that arrived, and were taken back, after their
-    /// instant was sealed.
-    late: BTreeMap<usize, (u64, u64)>,
     error: Option<Error>,
     also: Option<&'w mut dyn SampleSink>,
     observer: Option<&'w mut dyn StretchObserver>,
@@ -234,9 +198,6 @@ impl<'m, 'w> Live<'m, 'w> {
         hold_s: f64,
         stream: &StreamOptions,
     ) -> Result<Live<'m, 'w>> {
-        // The decimator's own check of the sample time, before any sample.
-        Decimator::new(model.ts_s, BTreeMap::new())?;
-        let ts_ns = (model.ts_s * 1e9).round() as i64;
         let instants = |s: f64| (s / model.ts_s).ceil() as i64;
         let flow = description
             .inputs
@@ -255,27 +216,21 @@ impl<'m, 'w> Live<'m, 'w> {
             .collect();
         let dead_time = shifts.iter().copied().max().unwrap_or(0).max(0) as i64;
         let advance = -(shifts.iter().copied().min().unwrap_or(0).min(0)) as i64;
-        Ok(Live {
-            model,
-            description: description.clone(),
-            alignments: grid_alignments(model, &description),
-            ts_ns,
+        let plan = StretchPlan {
             stretch: instants(stream.stretch_s).max(1),
             lookback: smoothing + dead_time + MARGIN,
             lookahead: smoothing + advance + MARGIN,
             lateness_ns: (stream.max_lateness_s.max(0.0) * 1e9) as u64,
-            channel_list: Vec::new(),
-            windowing: Vec::new(),
-            arrivals: Vec::new(),
-            newest: 0,
-            buffer: Vec::new(),
-            window_range: None,
-            samples: 0,
-            sealed: None,
-            next_check_ns: 0,
+        };
+        let alignments = grid_alignments(model, &description);
+        let grid = GridBuilder::in_stretches(model.ts_s, alignments, plan)?;
+        Ok(Live {
+            model,
+            description,
+            grid,
+            stretch: plan.stretch,
             anchors: None,
             anchor_retry: i64::MIN,
-            late: BTreeMap::new(),
             error: None,
             also: None,
             observer: None,
@@ -283,50 +238,13 @@ impl<'m, 'w> Live<'m, 'w> {
         })
     }
 
-    fn channel_of(&self, index: usize) -> Option<&SensorChannel> {
-        match self.channel_list.get(index) {
-            Some(c) if c.index == index => Some(c),
-            _ => self.channel_list.iter().find(|c| c.index == index),
-        }
-    }
-
-    fn window(&self, sample: &Sample) -> Option<i64> {
-        let alignment = (*self.windowing.get(sample.channel)?)?;
-        Some(decimate::window_index(
-            self.ts_ns,
-            alignment,
-            sample.log_time_ns,
-        ))
-    }
-
-    /// The first instant not yet sealable: every instant before it has its samples in.
-    fn sealable_end(&self, last: bool) -> Option<i64> {
-        let (_, hi) = self.window_range?;
-        if last {
-            return Some(hi + 1);
-        }
-        let slowest = self
-            .arrivals
-            .iter()
-            .flatten()
-            .map(Arrivals::settled)
-            .min()?;
-        let watermark = slowest.max(self.newest.saturating_sub(self.lateness_ns));
-        Some((watermark as i64).div_euclid(self.ts_ns) - self.lookahead - MARGIN)
-    }
-
-    /// Seals every stretch the watermark has passed (all of them at the end).
+    /// Seals every stretch the grid builder offers (all of them at the end).
     fn advance(&mut self, last: bool) {
         while self.error.is_none() {
-            let (Some(end), Some((lo, _))) = (self.sealable_end(last), self.window_range) else {
+            let Some(ready) = self.grid.ready(last) else {
                 return;
             };
-            let start = self.sealed.unwrap_or(lo);
-            if end <= start || (!last && end - start < self.stretch) {
-                return;
-            }
-            let upto = if last { end } else { start + self.stretch };
-            match self.seal(start, upto, end, last) {
+            match self.seal(ready, last) {
                 Ok(true) => {}
                 Ok(false) => return,
                 Err(e) => self.error = Some(e),
@@ -334,80 +252,19 @@ impl<'m, 'w> Live<'m, 'w> {
         }
     }
 
-    /// A decimator with every channel announced.
-    fn decimator(&self) -> Result<Decimator> {
-        let mut decimator = Decimator::new(self.model.ts_s, self.alignments.clone())?;
-        for c in &self.channel_list {
-            decimator.channel(c);
-        }
-        Ok(decimator)
-    }
-
-    /// Refuses a channel whose clock jumped back over its own samples within instants
-    /// `a..b`, judged, as a replay judges the whole recording, on their samples alone
-    /// (the neighbour kept from before a gap would make the stretch look dense).
-    fn check_clock(&self, a: i64, b: i64) -> Result<()> {
-        let mut decimator = self.decimator()?;
-        for (s, w) in &self.buffer {
-            if (a..b).contains(w) {
-                decimator.sample(*s);
-            }
-        }
-        match decimator.finish(&self.channel_list) {
-            Err(e @ DecimateError::ClockJump { .. }) => Err(e.into()),
-            _ => Ok(()),
-        }
-    }
-
-    /// The buffered samples laid on the grid from instant `lo` for `len` instants.
-    fn decimate(&self, lo: i64, len: usize) -> Result<DecimatedRecording> {
-        let mut decimator = self.decimator()?;
-        for (s, _) in &self.buffer {
-            decimator.sample(*s);
-        }
-        match decimator.inspect(&self.channel_list) {
-            Ok(d) => Ok(d.window(lo, len)),
-            Err(DecimateError::NoSamples) => Ok(self.unknown(lo, len)),
-            Err(e) => Err(e.into()),
-        }
-    }
-
-    /// Every announced channel's signal, unknown throughout.
-    fn unknown(&self, lo: i64, len: usize) -> DecimatedRecording {
-        let series = self
-            .channel_list
-            .iter()
-            .map(|c| {
-                let s = DecimatedSeries {
-                    signal: c.signal.clone(),
-                    unit: c.canonical_unit().to_owned(),
-                    values: Series::unknown(len),
-                    sensors: 1,
-                    observed: None,
-                };
-                (c.signal.clone(), s)
-            })
-            .collect();
-        DecimatedRecording {
-            ts_ns: self.ts_ns,
-            first_index: lo,
-            len,
-            series,
-            channels: Vec::new(),
-        }
-    }
-
-    /// Seals instants `a..b` (`end`: the first instant not yet sealable). `false` where
-    /// the origins cannot be taken yet (the first stretch waits for more).
-    fn seal(&mut self, a: i64, b: i64, end: i64, last: bool) -> Result<bool> {
+    /// Seals `ready` and runs the model over it. `false` where the origins cannot be
+    /// taken yet (the first stretch waits for more).
+    fn seal(&mut self, ready: Ready, last: bool) -> Result<bool> {
         if self.anchors.is_none() {
             // Tried again a stretch later, not at every sample: until the origins can be
-            // taken, the buffer holds the recording from its start.
-            if !last && end < self.anchor_retry {
+            // taken, the builder holds the recording from its start.
+            if !last && ready.end < self.anchor_retry {
                 return Ok(false);
             }
-            self.anchor_retry = end + self.stretch;
-            let whole = self.decimate(a, (end - a) as usize)?;
+            self.anchor_retry = ready.end + self.stretch;
+            let whole = self
+                .grid
+                .lay_out(ready.start, (ready.end - ready.start) as usize)?;
             let np = self.model.nameplate.as_ref();
             match Anchors::find(&self.description, &whole, np) {
                 Ok(anchors) if anchors.complete || last => self.anchors = Some(anchors),
@@ -416,81 +273,19 @@ impl<'m, 'w> Live<'m, 'w> {
                 Err(e) => return Err(e.into()),
             }
         }
-        self.check_clock(a, b)?;
-        let lo = a - self.lookback;
-        let hi = if last { b } else { b + self.lookahead };
-        let decimated = self.decimate(lo, (hi - lo) as usize)?;
+        let sealed = self.grid.seal(ready, last)?;
         let anchors = self.anchors.as_mut().expect("anchored above");
         let np = self.model.nameplate.as_ref();
-        let signals = signals::compute_anchored(&self.description, &decimated, np, anchors)?;
-        let offset = (a - lo) as usize;
-        let count = (b - a) as usize;
+        let signals =
+            signals::compute_anchored(&self.description, &sealed.decimated, np, anchors)?;
         self.run
-            .stretch(self.model, &signals, &decimated, offset..offset + count);
-        self.sealed = Some(b);
-        self.prune(b - self.lookback - 1);
+            .stretch(self.model, &signals, &sealed.decimated, sealed.instants);
         if let Some(observer) = self.observer.as_deref_mut() {
             observer
-                .stretch(&self.run.last_stretch(self.samples).borrow())
+                .stretch(&self.run.last_stretch(self.grid.samples()).borrow())
                 .map_err(crate::Error::Observer)?;
         }
         Ok(true)
-    }
-
-    /// Drops the samples before grid window `cut`, but each channel's last occupied window
-    /// before it (the neighbour an interpolation after the cut needs).
-    fn prune(&mut self, cut: i64) {
-        let mut last_before = vec![i64::MIN; self.windowing.len()];
-        for (s, w) in &self.buffer {
-            if *w < cut {
-                last_before[s.channel] = last_before[s.channel].max(*w);
-            }
-        }
-        // A neighbour further back than any interpolation reaches is not kept: laid out
-        // beside the first samples after a gap, it would make the gap look like the
-        // channel's spacing.
-        let reach = |c: usize, w: i64| {
-            let reach_s = match (self.channel_of(c).map(|c| c.storage), &self.arrivals.get(c)) {
-                (Some(Storage::Exception { max_interval_s, .. }), _) => {
-                    max_interval_s.map_or(f64::INFINITY, |m| GAP_FACTOR * m)
-                }
-                (_, Some(Some(a))) => 2.0 * GAP_FACTOR * a.period_s(),
-                _ => 0.0,
-            };
-            ((cut - w) as f64 - 2.0) * self.model.ts_s <= reach_s
-        };
-        let reaches: Vec<bool> = last_before
-            .iter()
-            .enumerate()
-            .map(|(c, &w)| w > i64::MIN && reach(c, w))
-            .collect();
-        self.buffer
-            .retain(|(s, w)| *w >= cut || (last_before[s.channel] == *w && reaches[s.channel]));
-    }
-
-    /// The data-loss lines of samples that came too late.
-    fn late_lines(&self) -> Vec<String> {
-        let topic = |c: usize| {
-            self.channel_of(c)
-                .map_or_else(|| format!("#{c}"), |c| c.topic.clone())
-        };
-        let mut lines = Vec::new();
-        for (&c, &(arrived, retracted)) in &self.late {
-            if arrived > 0 {
-                lines.push(format!(
-                    "{arrived} samples of channel {} arrived after their instant was monitored",
-                    topic(c)
-                ));
-            }
-            if retracted > 0 {
-                lines.push(format!(
-                    "{retracted} samples of channel {} were found faulty at the end of the \
-                     file after their instant was monitored",
-                    topic(c)
-                ));
-            }
-        }
-        lines
     }
 }
 
@@ -499,52 +294,18 @@ impl SampleSink for Live<'_, '_> {
         if let Some(also) = self.also.as_deref_mut() {
             also.channel(channel);
         }
-        if self.windowing.len() <= channel.index {
-            self.windowing.resize(channel.index + 1, None);
-        }
-        self.windowing[channel.index] =
-            Some(decimate::channel_alignment(&self.alignments, channel));
-        self.channel_list.retain(|c| c.index != channel.index);
-        self.channel_list.push(channel.clone());
-        self.channel_list.sort_by_key(|c| c.index);
+        self.grid.channel(channel);
     }
 
     fn sample(&mut self, sample: Sample) {
         if let Some(also) = self.also.as_deref_mut() {
             also.sample(sample);
         }
-        if self.error.is_some() || !sample.value.is_finite() {
+        if self.error.is_some() {
             return;
         }
-        let Some(w) = self.window(&sample) else {
-            return;
-        };
-        self.samples += 1;
-        if self.sealed.is_some_and(|s| w < s) {
-            self.late.entry(sample.channel).or_default().0 += 1;
-        }
-        self.window_range = Some(match self.window_range {
-            Some((lo, hi)) => (lo.min(w), hi.max(w)),
-            None => (w, w),
-        });
-        if self.arrivals.len() <= sample.channel {
-            self.arrivals.resize(sample.channel + 1, None);
-        }
-        let t = sample.log_time_ns;
-        match &mut self.arrivals[sample.channel] {
-            Some(a) => a.add(t),
-            slot @ None => {
-                *slot = Some(Arrivals {
-                    first: t,
-                    latest: t,
-                    count: 1,
-                })
-            }
-        }
-        self.newest = self.newest.max(t);
-        self.buffer.push((sample, w));
-        if t >= self.next_check_ns {
-            self.next_check_ns = t + self.ts_ns as u64;
+        self.grid.sample(sample);
+        if self.grid.take_due() {
             self.advance(false);
         }
     }
@@ -553,51 +314,7 @@ impl SampleSink for Live<'_, '_> {
         if let Some(also) = self.also.as_deref_mut() {
             also.retract(sample);
         }
-        if !sample.value.is_finite() {
-            return;
-        }
-        match (self.window(&sample), self.sealed) {
-            (Some(w), Some(s)) if w < s => self.late.entry(sample.channel).or_default().1 += 1,
-            _ => {
-                if let Some(i) = self.buffer.iter().position(|(s, _)| *s == sample) {
-                    self.buffer.remove(i);
-                }
-            }
-        }
-    }
-}
-
-/// When one channel's samples came: enough to say how far behind its latest sample its
-/// data are complete.
-#[derive(Debug, Clone, Copy)]
-struct Arrivals {
-    first: u64,
-    latest: u64,
-    count: u64,
-}
-
-/// Sample periods a channel's data are taken as complete behind its latest sample: the
-/// decimator judges a channel's spacing (a sample in every window, or slower and
-/// interpolated) from the samples it is given, so a stretch is laid out only once
-/// this many samples after it have come.
-const SETTLE_PERIODS: f64 = 20.0;
-
-impl Arrivals {
-    fn add(&mut self, t: u64) {
-        self.first = self.first.min(t);
-        self.latest = self.latest.max(t);
-        self.count += 1;
-    }
-
-    /// Its mean spacing so far, s (gaps make it longer, never shorter).
-    fn period_s(&self) -> f64 {
-        (self.latest - self.first) as f64 * 1e-9 / (self.count.max(2) - 1) as f64
-    }
-
-    /// The time up to which its data are complete, ns.
-    fn settled(&self) -> u64 {
-        let behind = (SETTLE_PERIODS * self.period_s() * 1e9) as u64;
-        self.latest.saturating_sub(behind)
+        self.grid.retract(sample);
     }
 }
 

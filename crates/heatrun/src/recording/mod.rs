@@ -17,6 +17,6 @@ pub use nameplate::{Nameplate, NameplateEntries, NAMEPLATE_RECORD};
 pub use quantity::{Alignment, Quantity, Signal};
 pub use reader::{
     format_time, read_recording, read_recording_with, read_stream, read_stream_with,
-    IgnoredChannel, ReadOptions, RecordingSummary, Sample, SampleSink, SensorChannel,
+    IgnoredChannel, ReadOptions, RecordingSummary, Sample, SampleSink, SensorChannel, Tee,
     SAMPLE_MESSAGE_ENCODING, SAMPLE_SCHEMA_ENCODING, SAMPLE_SCHEMA_NAME,
 };

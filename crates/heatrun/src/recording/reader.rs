@@ -65,6 +65,32 @@ pub trait SampleSink {
     fn retract(&mut self, sample: Sample);
 }
 
+/// Gives every sample to two sinks (the grid builder and the full-rate publisher), so
+/// that one pass over a file feeds both.
+pub struct Tee<'a> {
+    /// The first sink.
+    pub first: &'a mut dyn SampleSink,
+    /// The second sink.
+    pub also: &'a mut dyn SampleSink,
+}
+
+impl SampleSink for Tee<'_> {
+    fn channel(&mut self, channel: &SensorChannel) {
+        self.first.channel(channel);
+        self.also.channel(channel);
+    }
+
+    fn sample(&mut self, sample: Sample) {
+        self.first.sample(sample);
+        self.also.sample(sample);
+    }
+
+    fn retract(&mut self, sample: Sample) {
+        self.first.retract(sample);
+        self.also.retract(sample);
+    }
+}
+
 /// Quality flag of a sample (absent means good).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]

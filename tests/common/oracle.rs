@@ -1,5 +1,5 @@
-//! The whole-file monitor the streamed one ([`super::stream`]) replaced, kept as the
-//! test oracle it is checked against: the recording read and decimated whole, the
+//! The whole-file monitor the streamed one (`heatrun::monitor::monitor_stream`) replaced,
+//! kept here as the oracle the tests check it against: the recording read and decimated whole, the
 //! signals computed on the whole grid, then the model run beside it instant by instant.
 //! Memory grows with the recording; nothing is shown until the file is read.
 
@@ -7,27 +7,27 @@ use std::path::Path;
 
 use nalgebra::DVector;
 
-use super::{
-    description_of, inlet_warning, Accumulator, Alarm, Band, Detector, MonitorOptions,
-    MonitorResult, MonitorTraces, StateRef,
+use heatrun::monitor::{
+    description_of, grid_alignments, inlet_warning, Accumulator, Alarm, Band, Detector,
+    MonitorOptions, MonitorResult, MonitorTraces, StateRef,
 };
-use crate::decimate::{DecimatedRecording, Decimator};
-use crate::error::{Error, Result};
-use crate::model_file::ThermalModel;
-use crate::recording::{self, Quantity, ReadOptions, SampleSink};
-use crate::series::Series;
-use crate::signals::{self, ModelSignals};
-use crate::spec::ModelDescription;
+use heatrun::decimate::DecimatedRecording;
+use heatrun::grid::GridBuilder;
+use heatrun::{Error, Result};
+use heatrun::model_file::ThermalModel;
+use heatrun::recording::{self, Quantity, ReadOptions, SampleSink};
+use heatrun::series::Series;
+use heatrun::signals::{self, ModelSignals};
+use heatrun::spec::ModelDescription;
 
 /// Monitors `recording` with `model` from the whole file at once (the test oracle).
-#[doc(hidden)]
 pub fn monitor_whole_file(
     model: &ThermalModel,
     recording: &Path,
     options: &MonitorOptions,
 ) -> Result<MonitorResult> {
     let description = description_of(model)?;
-    let in_file = |e: crate::signals::SignalError| Error::from(e).in_recording(recording);
+    let in_file = |e: heatrun::signals::SignalError| Error::from(e).in_recording(recording);
     let (summary, decimated) = read(recording, model, &description, None)?;
     let signals =
         signals::compute(&description, &decimated, model.nameplate.as_ref()).map_err(in_file)?;
@@ -67,8 +67,8 @@ fn read(
     description: &ModelDescription,
     also: Option<&mut dyn SampleSink>,
 ) -> Result<(recording::RecordingSummary, DecimatedRecording)> {
-    let alignments = super::grid_alignments(model, description);
-    let mut decimator = Decimator::new(model.ts_s, alignments)?;
+    let alignments = grid_alignments(model, description);
+    let mut grid = GridBuilder::whole(model.ts_s, alignments)?;
     let options = ReadOptions {
         free_channels: description.free_channels(),
         ..ReadOptions::default()
@@ -76,15 +76,15 @@ fn read(
     let summary = match also {
         Some(also) => recording::read_recording_with(
             path,
-            &mut crate::decimate::Tee {
-                decimator: &mut decimator,
+            &mut heatrun::recording::Tee {
+                first: &mut grid,
                 also,
             },
             &options,
         )?,
-        None => recording::read_recording_with(path, &mut decimator, &options)?,
+        None => recording::read_recording_with(path, &mut grid, &options)?,
     };
-    let decimated = decimator
+    let decimated = grid
         .finish(&summary.channels)
         .map_err(|e| Error::from(e).in_recording(path))?;
     Ok((summary, decimated))
@@ -218,15 +218,15 @@ fn run_beside(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::monitor::BandRule;
-    use crate::signals::{InputSignal, ReferenceValues, StateSignal};
-    use crate::spec::InputKind;
+    use heatrun::monitor::BandRule;
+    use heatrun::signals::{InputSignal, ReferenceValues, StateSignal};
+    use heatrun::spec::InputKind;
 
     /// One state, one input, as recorded: x(k+1) = 0.9 x(k) + 0.05 u(k), rises above
     /// the test's initial 20 °C; the model's validation RMSE 0.1 K.
     fn model() -> ThermalModel {
         let report = serde_json::json!({
-            "profile": crate::model_file::PROFILE,
+            "profile": heatrun::model_file::PROFILE,
             "sample_time_s": 1.0,
             "states": ["part"],
             "inputs": ["heater"],
@@ -245,7 +245,7 @@ mod tests {
             "estimation": {"initial_temperature_c": [20.0], "temperature_base_k": 1.0}
         });
         let path = Path::new("model.json");
-        let report = crate::model_file::Report::from_json(&report.to_string(), path).unwrap();
+        let report = heatrun::model_file::Report::from_json(&report.to_string(), path).unwrap();
         ThermalModel::from_report(&report, path).unwrap()
     }
 
