@@ -2,7 +2,8 @@
 
 use std::path::Path;
 
-use heatrun::decimate::{ChannelGrid, DecimatedRecording, Decimator};
+use heatrun::decimate::{ChannelGrid, DecimatedRecording};
+use heatrun::grid::GridBuilder;
 use heatrun::recording::{self, format_time, RecordingSummary, SensorChannel, Storage};
 use heatrun::spec::ModelDescription;
 
@@ -14,15 +15,15 @@ use crate::cli::InfoArgs;
 pub fn run(args: &InfoArgs) -> anyhow::Result<Outcome> {
     // The generator's placement of each profile quantity on the grid; channels it does not
     // name are averaged over intervals.
-    let mut decimator = Decimator::new(1.0, ModelDescription::generator().alignments())
+    let mut grid = GridBuilder::whole(1.0, ModelDescription::generator().alignments())
         .map_err(heatrun::Error::from)?;
     let summary =
-        recording::read_recording(&args.file, &mut decimator).map_err(heatrun::Error::from)?;
+        recording::read_recording(&args.file, &mut grid).map_err(heatrun::Error::from)?;
     // `inspect`, not `finish`: a channel whose clock jumped is shown, not refused.
     let grid = if summary.channels.is_empty() {
         None
     } else {
-        decimator.inspect(&summary.channels).ok()
+        grid.inspect(&summary.channels).ok()
     };
     if args.json {
         let value = serde_json::json!({

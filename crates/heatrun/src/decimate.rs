@@ -229,7 +229,7 @@ fn window_of(ts_ns: i64, alignment: Alignment, t: i64) -> i64 {
 
 /// Streams samples into per-channel grid windows.
 #[derive(Debug)]
-pub struct Decimator {
+pub(crate) struct Decimator {
     ts_ns: i64,
     alignments: BTreeMap<Signal, Alignment>,
     /// Per channel index: its windows, signal and storage (`None` until announced).

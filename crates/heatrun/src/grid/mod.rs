@@ -185,6 +185,16 @@ impl GridBuilder {
         }
     }
 
+    /// The whole recording on the grid as it is, a channel whose clock jumped back laid
+    /// out rather than refused (what `heatrun info` shows); in stretched mode, every
+    /// sample still held.
+    pub fn inspect(self, channels: &[SensorChannel]) -> Result<DecimatedRecording, DecimateError> {
+        match self.mode {
+            Mode::Whole(decimator) => decimator.inspect(channels),
+            Mode::Stretches(_) => self.finish(channels),
+        }
+    }
+
     /// Whether a sample since the last call makes a ready stretch worth looking for (at
     /// most once per instant of the grid, by the samples' own times).
     pub fn take_due(&mut self) -> bool {
