@@ -132,7 +132,7 @@ fn early_stops(p: &Prepared<'_>, out: &mut Vec<String>) {
 /// median is named with its time, and the note says whether the model carries the flow
 /// (an [`InputSource::CoolantFlow`] input) or assumes it constant.
 pub fn flow_change(p: &Prepared<'_>) -> Option<String> {
-    let flow = coolant::flow_behaviour(&p.decimated)?;
+    let flow = coolant::flow_behaviour(p.decimated)?;
     let (k, changed) = flow.first_change?;
     let carried = p
         .model
