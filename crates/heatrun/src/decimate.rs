@@ -351,7 +351,7 @@ impl DecimatedRecording {
     }
 }
 
-/// Where a [`Decimator`] with the signals' `alignments` windows `channel`'s samples: a
+/// Where a `Decimator` with the signals' `alignments` windows `channel`'s samples: a
 /// channel stored by exception at the nearest instant, a sampled one as its signal says.
 pub fn channel_alignment(
     alignments: &BTreeMap<Signal, Alignment>,

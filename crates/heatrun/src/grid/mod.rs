@@ -6,7 +6,7 @@
 //! is ready, and does the rest (signals, estimation, the model beside the recording).
 //!
 //! **The whole recording** ([`GridBuilder::whole`]): every sample goes straight to one
-//! [`Decimator`]; [`GridBuilder::finish`] lays it on the grid. Nothing raw is held.
+//! `Decimator`; [`GridBuilder::finish`] lays it on the grid. Nothing raw is held.
 //!
 //! **Sealed stretches** ([`GridBuilder::in_stretches`]): the raw samples not yet sealed
 //! are held with a watermark W, the oldest of the channels' settled times (each channel's
@@ -18,7 +18,7 @@
 //! gap). Once W passes the end of the next stretch plus the driver's look-ahead,
 //! [`GridBuilder::ready`] offers it; [`GridBuilder::seal`] lays its samples, with an
 //! overlap before it (the look-back) and after it (the look-ahead), on the grid by a
-//! [`Decimator`] of their own, windowed onto the one grid of the whole recording
+//! `Decimator` of their own, windowed onto the one grid of the whole recording
 //! ([`DecimatedRecording::window`]), and drops the samples no later stretch needs. Samples
 //! that arrive for an instant already sealed, and samples the reader takes back after
 //! their instant was sealed, are counted ([`GridBuilder::late_lines`]), never fatal.

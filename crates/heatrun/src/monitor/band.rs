@@ -32,7 +32,7 @@ impl Default for BandRule {
     }
 }
 
-/// The band per state: |θ − θ̂| ≤ half_width_k[j] is inside.
+/// The band per state: |θ − θ̂| ≤ `half_width_k[j]` is inside.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Band {
     /// Half-width per state, K.

@@ -4,9 +4,9 @@
 //! equilibrium check.
 //!
 //! [`calorimetry`] gives the heat the cooling water carries away (and the outlet's
-//! conductance to the coolant, c·ρ·Q, that fixes the network's scale); [`equilibrium`]
-//! checks whether the recording reached its thermal equilibrium; [`fit`] finds the passive
-//! network nearest an identified model; [`stage`] runs them for a replay.
+//! conductance to the coolant, c·ρ·Q, that fixes the network's scale); `equilibrium`
+//! checks whether the recording reached its thermal equilibrium; `fit` finds the passive
+//! network nearest an identified model; `stage` runs them for a replay.
 
 pub mod calorimetry;
 pub(crate) mod equilibrium;

@@ -204,7 +204,7 @@ impl Quantity {
     /// transducer or export fault (10⁹ °C, an RMS current of minus most of its rating)
     /// and is dropped. For a quantity that cannot be negative ([`Quantity::is_non_negative`])
     /// a reading slightly below zero is transducer noise, not a fault: see
-    /// [`ZERO_NOISE_FRACTION`].
+    /// `ZERO_NOISE_FRACTION`.
     pub fn plausible_range(self) -> (f64, f64) {
         match self {
             // RMS quantities and flows are not negative; a generator's are below 1 MA, 1 MV.

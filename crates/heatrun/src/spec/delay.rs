@@ -28,7 +28,7 @@
 //! and is ≈ 0 at lag −1). In prediction terms the model is non-causal in the recorded
 //! series: a prediction needs each advanced input one sample ahead (a schedule gives
 //! it; an input computed from the predicted temperatures cannot, and is refused). It is
-//! carried as a negative shift, [`InputDescription::delay_s`] = −`advance_s`.
+//! carried as a negative shift, [`super::InputDescription::delay_s`] = −`advance_s`.
 
 use crate::series::Series;
 

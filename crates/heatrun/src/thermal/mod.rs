@@ -3,11 +3,11 @@
 //!
 //! | module | owns |
 //! |---|---|
-//! | [`discrete`] | the discrete model x(k) = Φ x(k−1) + Γ u(k−1) (eq. 1) |
-//! | [`continuous`] | its continuous equivalent A_c = ln(Φ)/Ts, B_c (eqs. 9, 22-23), the spectrum and time constants (eqs. 21, 24, 26) |
+//! | `discrete` | the discrete model x(k) = Φ x(k−1) + Γ u(k−1) (eq. 1) |
+//! | `continuous` | its continuous equivalent A_c = ln(Φ)/Ts, B_c (eqs. 9, 22-23), the spectrum and time constants (eqs. 21, 24, 26) |
 //! | [`matrix`] | the matrix logarithm and exponential, ZOH discretisation, eigenvectors |
 //! | [`network`] | the passive network C·dθ/dt = −L·θ + K·P (Fig. 9): parts, scaling, passivity, reciprocity |
-//! | [`rc`] | the network's own parameters (C, G, K in logarithms) and their discrete model |
+//! | `rc` | the network's own parameters (C, G, K in logarithms) and their discrete model |
 //! | [`water`] | liquid water's c_p and ρ (IAPWS-IF97) |
 
 pub(crate) mod continuous;

@@ -86,12 +86,12 @@ impl OutputError {
     }
 
     /// Θ re-estimated from `start` with a constant output offset d per output (ŷ = x + d,
-    /// [`Problem::with_output_offset`]): rises measured from one noisy first sample carry
+    /// `Problem::with_output_offset`): rises measured from one noisy first sample carry
     /// that sample's error for the whole run, which the free Φ, Γ otherwise take up. Where
-    /// the data start at that sample ([`starts_at_reference`]) the state there is zero and
+    /// the data start at that sample (`starts_at_reference`) the state there is zero and
     /// d is the sample's error (negated); the estimate carries d in
     /// [`Estimate::output_offset`]. The thermal network is fitted to this Θ
-    /// ([`crate::network::stage`]).
+    /// (`network::stage`).
     pub fn refit_with_output_offset(
         &self,
         data: &IdentificationData,
