@@ -5,36 +5,26 @@
 use rerun::RecordingStream;
 
 use crate::Result;
-use heatrun::model::sensitivity::SensitivityModel;
 use heatrun::pipeline::Replay;
 
 use super::style;
 use super::traces::{on_grid, send_by_lag, send_series, short_part, SERIES_SLICE};
 
-/// The sensitivity responses T_i ∂ŷ/∂T_i behind the assignment, regenerated from the
-/// model over the instants it was estimated on, one state at a time, each in its part's
-/// colour.
+/// The sensitivity responses T_i ∂ŷ/∂T_i behind the assignment, as the analysis kept
+/// them (over the instants the model was estimated on), one state at a time, each in its
+/// part's colour.
 pub(super) fn log_sensitivities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
     let analysis = &replay.analysis;
-    let tcs = &analysis.spectrum.time_constants_s;
-    let recursion = SensitivityModel::new(&analysis.continuous, tcs, replay.signals.ts_s)?;
-    let end = replay.estimation_range.end;
-    let segments: Vec<_> = replay
-        .data
-        .segments()
-        .into_iter()
-        .map(|s| s.start..s.end.min(end))
-        .filter(|s| s.len() >= 2)
-        .collect();
+    let responses = &analysis.sensitivities.responses;
     let t = &replay.signals.time_ns;
-    for i in 0..tcs.len() {
+    for i in 0..analysis.spectrum.time_constants_s.len() {
         for (k, state) in replay.signals.states.iter().enumerate() {
             let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
             let name = format!("{}, pu", short_part(&state.part));
             style::series(rec, &entity, &name, style::part(k), style::LINE_WIDTH)?;
             let mut points = Vec::with_capacity(SERIES_SLICE);
             let mut failed = None;
-            recursion.for_each_response(i, &replay.data, &segments, |instant, rel| {
+            responses.for_each(i, |instant, rel| {
                 points.push((t[instant], rel[k]));
                 if points.len() == SERIES_SLICE && failed.is_none() {
                     failed = send_series(rec, &entity, points.drain(..)).err();

@@ -59,9 +59,6 @@ pub enum PublishError {
     /// The .rrd file could not be renamed into place.
     #[error(transparent)]
     Output(#[from] WriteError),
-    /// The model's sensitivities cannot be computed for their plots.
-    #[error(transparent)]
-    Model(#[from] heatrun::model::ModelError),
 }
 
 /// The publisher's result.

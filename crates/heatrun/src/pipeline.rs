@@ -357,21 +357,20 @@ pub fn replay_with(
     let mut prepared = prepare_with(path, options, also)?;
     let estimation_range = estimation_range(prepared.data.len(), options)?;
     let in_file = |e: Error| e.in_recording(path);
-    let (estimate, network_source) = {
-        // Borrowed unless a part is held out: a week's data are not copied for nothing.
-        let estimation_data = if estimation_range.len() == prepared.data.len() {
-            Cow::Borrowed(&prepared.data)
-        } else {
-            Cow::Owned(prepared.data.slice(estimation_range.clone()))
-        };
-        let scaling = network::Scaling {
-            theta_base_k: prepared.signals.temperature_base_k,
-            p_base_w: prepared.signals.power_base,
-        };
-        let estimate = estimate_in(&estimation_data, options, scaling).map_err(in_file)?;
-        let network_source = with_output_offset(&estimation_data, options, &estimate);
-        (estimate, network_source)
+    // The estimator's data: the recording's own unless a part is held out (a week's data
+    // are not copied for nothing); kept for the network's refit below.
+    let held_back = (estimation_range.len() != prepared.data.len())
+        .then(|| prepared.data.slice(estimation_range.clone()));
+    let scaling = network::Scaling {
+        theta_base_k: prepared.signals.temperature_base_k,
+        p_base_w: prepared.signals.power_base,
     };
+    let estimate = estimate_in(
+        held_back.as_ref().unwrap_or(&prepared.data),
+        options,
+        scaling,
+    )
+    .map_err(in_file)?;
     // Where the estimator found the rises offset by the error of the first sample they are
     // measured from, the references become the initial temperatures it estimated: from
     // here on ŷ = x (the analysis, validation, steady state, network and report).
@@ -386,9 +385,10 @@ pub fn replay_with(
         }
         None => Cow::Borrowed(&estimate),
     };
+    // The continuous model, made once: the steady state's input and the analysis use it.
+    let continuous = crate::model::ContinuousModel::from_discrete(&estimate.model).ok();
     // The steady state's input: the last one, with an input fed by the outlet's rise
     // (a changed flow's heat) made consistent with the steady state it leads to.
-    let continuous = crate::model::ContinuousModel::from_discrete(&estimate.model).ok();
     let steady_input = match &continuous {
         Some(c) => prepared.signals.steady_state_input(&c.a_c, &c.b_c),
         None => prepared.signals.last_inputs().map(|(_, u)| u),
@@ -399,29 +399,41 @@ pub fn replay_with(
         }))
     })?;
     options.progress.stage("analysing the model");
-    let analysis = model::analyse(
-        &analysed,
-        &prepared.data,
-        estimation_range.clone(),
-        prepared.signals.temperature_base_k,
-        &steady_input,
-    )
-    .map_err(|e| in_file(e.into()))?;
-    let validation = validate(&prepared, &analysed, &estimation_range, options)?;
+    let estimation_data = held_back.as_ref().unwrap_or(&prepared.data);
+    let (analysis, validation, output_error_beside, network_source) =
+        std::thread::scope(|scope| -> Result<_> {
+            // `oe`'s re-estimation for the network is as long as a fit and needs nothing
+            // of the analysis: it runs on a thread of its own beside it.
+            let refit = scope.spawn(|| with_output_offset(estimation_data, options, &estimate));
+            let analysis = model::analyse(
+                &analysed,
+                continuous,
+                &prepared.data,
+                estimation_range.clone(),
+                prepared.signals.temperature_base_k,
+                &steady_input,
+            )
+            .map_err(|e| in_file(e.into()))?;
+            let validation = validate(&prepared, &analysed, &estimation_range, options)?;
+            let output_error_beside = estimate.network.as_deref().and_then(|n| {
+                Beside::of(
+                    &n.output_error.method,
+                    &n.output_error.model,
+                    &prepared.data,
+                    estimation_range.clone(),
+                    prepared.signals.temperature_base_k,
+                )
+            });
+            let network_source = refit
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            Ok((analysis, validation, output_error_beside, network_source))
+        })?;
     drop(analysed);
-    let grey_box = estimate.network.as_deref();
-    let output_error_beside = grey_box.and_then(|n| {
-        Beside::of(
-            &n.output_error.method,
-            &n.output_error.model,
-            &prepared.data,
-            estimation_range.clone(),
-            prepared.signals.temperature_base_k,
-        )
-    });
+    drop(held_back);
     let network = network::stage::analyse(
         &prepared.model,
-        grey_box,
+        estimate.network.as_deref(),
         network_source.as_ref().unwrap_or(&estimate),
         &analysis.continuous,
         &analysis.spectrum.time_constants_s,
@@ -453,13 +465,15 @@ pub fn replay_with(
 /// not stored by exception. The free Φ, Γ take that offset up, which biases the passive
 /// network nearest them (its conductances to the coolant most); the reported model stays
 /// `oe`'s own. `None` where the refit does not apply or fails (the network is then
-/// fitted to `oe`'s Θ).
+/// fitted to `oe`'s Θ). `oe`'s estimate carries no offset of its own, so `data` are the
+/// estimator's, not shifted to an offset.
 fn with_output_offset(
     data: &IdentificationData,
     options: &ReplayOptions,
     estimate: &Estimate,
 ) -> Option<Estimate> {
     let applies = options.method == Method::Oe
+        && estimate.output_offset.is_none()
         && crate::estimate::oe::starts_at_reference(data)
         && !crate::estimate::censored::applies(data);
     if !applies {
