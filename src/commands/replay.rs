@@ -179,18 +179,20 @@ fn replay_one(
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let publisher = Publisher::open(sink, &name)?;
+    // The publisher sends each stage's series while the next stage runs.
     let replay = if args.raw {
         let mut full_rate = publisher.full_rate();
-        let replay = pipeline::replay_with(file, &options, Some(&mut full_rate))?;
+        let replay =
+            pipeline::replay_observed(file, &options, Some(&mut full_rate), &publisher)?;
         full_rate.flush()?;
         replay
     } else {
-        pipeline::replay(file, &options)?
+        pipeline::replay_observed(file, &options, None, &publisher)?
     };
     options.progress.stage("writing the outputs");
     let report = Report::new(&replay);
     let summary = report.summary();
-    publisher.finish(&replay, &summary)?;
+    publisher.finish(&replay, &report, &summary)?;
     if let Some(path) = outputs.report {
         write_atomically(path, report.to_json().as_bytes())?;
     }

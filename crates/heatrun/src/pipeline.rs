@@ -354,6 +354,42 @@ pub fn replay_with(
     options: &ReplayOptions,
     also: Option<&mut dyn SampleSink>,
 ) -> Result<Replay> {
+    replay_observed(path, options, also, &Unobserved)
+}
+
+/// Told each stage's output as a replay goes, to work on it beside the stages after it:
+/// the rerun publisher sends the measured series while the model is estimated, and the
+/// model's while the network is fitted, rather than all of them after the replay.
+///
+/// Each call runs on a thread of its own while the pipeline goes on; the pipeline waits
+/// for it before it changes what the call was given, and before it returns.
+pub trait StageObserver: Sync {
+    /// The recording is read, decimated and its signals computed; the estimator runs.
+    fn prepared(&self, prepared: &Prepared) {
+        let _ = prepared;
+    }
+
+    /// The model is analysed (`prepared`'s references moved to the initial temperatures
+    /// the estimator found, where it estimated an output offset); the network stage runs.
+    fn analysed(&self, prepared: &Prepared, analysis: &ModelAnalysis) {
+        let _ = (prepared, analysis);
+    }
+}
+
+/// The observer that does nothing with the stages.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Unobserved;
+
+impl StageObserver for Unobserved {}
+
+/// [`replay_with`], with `observer` told each stage's output as it is done, to work on
+/// it beside the next stage.
+pub fn replay_observed(
+    path: &Path,
+    options: &ReplayOptions,
+    also: Option<&mut dyn SampleSink>,
+    observer: &dyn StageObserver,
+) -> Result<Replay> {
     let mut prepared = prepare_with(path, options, also)?;
     let estimation_range = estimation_range(prepared.data.len(), options)?;
     let in_file = |e: Error| e.in_recording(path);
@@ -365,11 +401,14 @@ pub fn replay_with(
         theta_base_k: prepared.signals.temperature_base_k,
         p_base_w: prepared.signals.power_base,
     };
-    let estimate = estimate_in(
-        held_back.as_ref().unwrap_or(&prepared.data),
-        options,
-        scaling,
-    )
+    let estimate = std::thread::scope(|scope| {
+        scope.spawn(|| observer.prepared(&prepared));
+        estimate_in(
+            held_back.as_ref().unwrap_or(&prepared.data),
+            options,
+            scaling,
+        )
+    })
     .map_err(in_file)?;
     // Where the estimator found the rises offset by the error of the first sample they are
     // measured from, the references become the initial temperatures it estimated: from
@@ -400,7 +439,7 @@ pub fn replay_with(
     })?;
     options.progress.stage("analysing the model");
     let estimation_data = held_back.as_ref().unwrap_or(&prepared.data);
-    let (analysis, validation, output_error_beside, network_source) =
+    let (analysis, validation, output_error_beside, network) =
         std::thread::scope(|scope| -> Result<_> {
             // `oe`'s re-estimation for the network is as long as a fit and needs nothing
             // of the analysis: it runs on a thread of its own beside it.
@@ -414,32 +453,40 @@ pub fn replay_with(
                 &steady_input,
             )
             .map_err(|e| in_file(e.into()))?;
-            let validation = validate(&prepared, &analysed, &estimation_range, options)?;
-            let output_error_beside = estimate.network.as_deref().and_then(|n| {
-                Beside::of(
-                    &n.output_error.method,
-                    &n.output_error.model,
-                    &prepared.data,
-                    estimation_range.clone(),
-                    prepared.signals.temperature_base_k,
-                )
-            });
-            let network_source = refit
-                .join()
-                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-            Ok((analysis, validation, output_error_beside, network_source))
+            let (validation, output_error_beside, network) = std::thread::scope(|inner| {
+                inner.spawn(|| observer.analysed(&prepared, &analysis));
+                let validation = validate(&prepared, &analysed, &estimation_range, options)?;
+                let output_error_beside = estimate.network.as_deref().and_then(|n| {
+                    Beside::of(
+                        &n.output_error.method,
+                        &n.output_error.model,
+                        &prepared.data,
+                        estimation_range.clone(),
+                        prepared.signals.temperature_base_k,
+                    )
+                });
+                let balance = network::stage::Balance::of(
+                    &prepared.model,
+                    &prepared.signals,
+                    &prepared.decimated,
+                    &analysis.spectrum.time_constants_s,
+                );
+                let network_source = refit
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                let network = balance.with_network(
+                    &prepared.model,
+                    estimate.network.as_deref(),
+                    network_source.as_ref().unwrap_or(&estimate),
+                    &analysis.continuous,
+                    &prepared.signals,
+                );
+                Ok::<_, Error>((validation, output_error_beside, network))
+            })?;
+            Ok((analysis, validation, output_error_beside, network))
         })?;
     drop(analysed);
     drop(held_back);
-    let network = network::stage::analyse(
-        &prepared.model,
-        estimate.network.as_deref(),
-        network_source.as_ref().unwrap_or(&estimate),
-        &analysis.continuous,
-        &analysis.spectrum.time_constants_s,
-        &prepared.signals,
-        &prepared.decimated,
-    );
     let warnings = warnings::collect(&prepared, &analysis, &network);
     Ok(Replay {
         path: path.to_owned(),
