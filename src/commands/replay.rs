@@ -182,8 +182,7 @@ fn replay_one(
     // The publisher sends each stage's series while the next stage runs.
     let replay = if args.raw {
         let mut full_rate = publisher.full_rate();
-        let replay =
-            pipeline::replay_observed(file, &options, Some(&mut full_rate), &publisher)?;
+        let replay = pipeline::replay_observed(file, &options, Some(&mut full_rate), &publisher)?;
         full_rate.flush()?;
         replay
     } else {

@@ -94,19 +94,6 @@ struct Early {
     failed: Option<PublishError>,
 }
 
-impl Publisher {
-    /// Notes a part sent early, or its failure (the first is reported by `finish`).
-    fn sent(&self, result: Result<()>, part: impl FnOnce(&mut Early) -> &mut bool) {
-        let mut early = self.early.lock().unwrap_or_else(|e| e.into_inner());
-        match result {
-            Ok(()) => *part(&mut early) = true,
-            Err(e) => {
-                early.failed.get_or_insert(e);
-            }
-        }
-    }
-}
-
 impl StageObserver for Publisher {
     fn prepared(&self, prepared: &Prepared) {
         let result = traces::log_measured(&self.rec, prepared.into());
@@ -189,6 +176,17 @@ impl Publisher {
         match self.pending {
             Some(pending) => Ok(pending.commit()?),
             None => Ok(()),
+        }
+    }
+
+    /// Notes a part sent early, or its failure (the first is reported by `finish`).
+    fn sent(&self, result: Result<()>, part: impl FnOnce(&mut Early) -> &mut bool) {
+        let mut early = self.early.lock().unwrap_or_else(|e| e.into_inner());
+        match result {
+            Ok(()) => *part(&mut early) = true,
+            Err(e) => {
+                early.failed.get_or_insert(e);
+            }
         }
     }
 }
@@ -296,7 +294,11 @@ pub const LAG_TIMELINE: &str = "lag";
 
 /// What the model and its analysis determine: the model temperatures and residuals, the
 /// sensitivity responses and the residuals' correlations.
-fn log_model(rec: &RecordingStream, stages: traces::Stages<'_>, analysis: &ModelAnalysis) -> Result<()> {
+fn log_model(
+    rec: &RecordingStream,
+    stages: traces::Stages<'_>,
+    analysis: &ModelAnalysis,
+) -> Result<()> {
     traces::log_model_temperatures(rec, stages, analysis)?;
     analysis::log_sensitivities(rec, stages.signals, analysis)?;
     analysis::log_residual_correlation(rec, stages.signals, analysis)

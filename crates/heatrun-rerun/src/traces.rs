@@ -273,7 +273,11 @@ pub(super) fn log_model_temperatures(
             ),
         )?;
         let residual = format!("residual/{}", state.name);
-        let label = format!("{}, {}", short_part(&state.part), rise_unit(stages.model, j));
+        let label = format!(
+            "{}, {}",
+            short_part(&state.part),
+            rise_unit(stages.model, j)
+        );
         style::series(rec, &residual, &label, colour, style::LINE_WIDTH)?;
         send_series(
             rec,

@@ -1,7 +1,10 @@
 //! The replay pipeline: recording → decimation → signals → estimation → analysis.
 //!
 //! This is the one place that knows the order of the stages; each stage returns what it
-//! owns, and publishing and the report read their outputs, gathered in a [`Replay`].
+//! owns, and publishing and the report read their outputs, gathered in a [`Replay`]
+//! (publishing may start on a stage's output while the next stage runs:
+//! [`StageObserver`]). Work that needs nothing of the stage beside it runs on a thread of
+//! its own: `oe`'s re-estimation for the network beside the model's analysis.
 //! What the model is — states, inputs, alignment, scaling — comes from the
 //! [`ModelDescription`] in the options (the generator by default).
 

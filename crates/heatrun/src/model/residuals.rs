@@ -191,7 +191,10 @@ impl Sums {
             for k in start..end {
                 let at = k as i64;
                 // τ with k − τ inside the recording.
-                let (auto_lags, cross_lags) = (0..=lag.min(at), (-lag).max(at + 1 - len as i64)..=lag.min(at));
+                let (auto_lags, cross_lags) = (
+                    0..=lag.min(at),
+                    (-lag).max(at + 1 - len as i64)..=lag.min(at),
+                );
                 for (i, e) in residuals.iter().enumerate() {
                     let Some(a) = e.get(k) else {
                         continue;

@@ -66,9 +66,8 @@ pub fn analyse(
     signals: &ModelSignals,
     decimated: &DecimatedRecording,
 ) -> NetworkAnalysis {
-    Balance::of(model, signals, decimated, time_constants_s).with_network(
-        model, grey_box, identified, continuous, signals,
-    )
+    Balance::of(model, signals, decimated, time_constants_s)
+        .with_network(model, grey_box, identified, continuous, signals)
 }
 
 /// What the network stage finds without the network: the calorimetric balance and the
@@ -109,7 +108,13 @@ impl Balance {
     ) -> NetworkAnalysis {
         let network = match grey_box {
             Some(estimate) => estimated_network(model, estimate, self.calorimetry.as_ref()),
-            None => network(model, identified, continuous, signals, self.calorimetry.as_ref()),
+            None => network(
+                model,
+                identified,
+                continuous,
+                signals,
+                self.calorimetry.as_ref(),
+            ),
         };
         NetworkAnalysis {
             network,
