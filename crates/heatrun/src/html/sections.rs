@@ -509,7 +509,7 @@ impl Section for ModelSection<'_> {
 /// Time constants with their intervals and parts, the sensitivity norms and responses
 /// (eqs. 26–29, the paper's Figs. 6–8).
 pub struct TimeConstantsSection<'a> {
-    /// The replay (the sensitivity responses are regenerated from it).
+    /// The replay (its analysis keeps the sensitivity responses drawn here).
     pub replay: &'a Replay,
     /// Its report.
     pub report: &'a Report,

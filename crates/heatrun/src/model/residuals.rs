@@ -210,31 +210,36 @@ impl Sums {
     }
 }
 
-/// One centred series over a stretch of instants: its values and where they are known.
+/// One centred series over a stretch of instants, latest first (so that the lags τ,
+/// ascending, read it forwards, k − τ descending), with where it is known.
 #[derive(Debug, Clone, Default)]
 struct Window {
-    first: usize,
+    /// The last instant held.
+    last: usize,
+    /// The values, from `last` back.
     values: Vec<f64>,
-    known: Vec<bool>,
+    /// Per value: all bits set where it is known, none where not (a mask the products
+    /// are selected by without a branch).
+    known: Vec<u64>,
 }
 
 impl Window {
-    /// Holds `series` over `instants`.
+    /// Holds `series` over `instants` (not empty).
     fn fill(&mut self, instants: Range<usize>, series: impl Fn(usize) -> Option<f64>) {
-        self.first = instants.start;
+        self.last = instants.end - 1;
         self.values.clear();
         self.known.clear();
-        for k in instants {
+        for k in instants.rev() {
             let v = series(k);
             self.values.push(v.unwrap_or(0.0));
-            self.known.push(v.is_some());
+            self.known.push(if v.is_some() { u64::MAX } else { 0 });
         }
     }
 
     /// The value at instant `k`, where known.
     fn get(&self, k: usize) -> Option<f64> {
-        let x = k - self.first;
-        self.known[x].then(|| self.values[x])
+        let x = self.last - k;
+        (self.known[x] != 0).then(|| self.values[x])
     }
 
     /// `sums[τ + offset] += a · b(k − τ)` for every τ of `lags`, where b(k − τ) is known.
@@ -250,16 +255,18 @@ impl Window {
         if first > last {
             return;
         }
-        // τ ascending is k − τ descending.
-        let from = (k as i64 - last) as usize - self.first;
-        let to = (k as i64 - first) as usize - self.first;
+        let base = (self.last - k) as i64;
+        let held = (base + first) as usize..=(base + last) as usize;
         let sums = &mut sums[(first + offset) as usize..=(last + offset) as usize];
-        let values = self.values[from..=to].iter().rev();
-        let known = self.known[from..=to].iter().rev();
-        for (sum, (b, known)) in sums.iter_mut().zip(values.zip(known)) {
+        let negative_zero = (-0.0f64).to_bits();
+        for (sum, (b, known)) in sums
+            .iter_mut()
+            .zip(self.values[held.clone()].iter().zip(&self.known[held]))
+        {
             // −0 is the exact identity of +: adding it where b is unknown leaves the sum
             // as skipping the product does, bit for bit, and the loop without a branch.
-            *sum += if *known { a * b } else { -0.0 };
+            let product = (a * b).to_bits();
+            *sum += f64::from_bits((product & known) | (negative_zero & !known));
         }
     }
 }
