@@ -159,9 +159,6 @@ impl ImportError {
     /// Whether the error is the input's fault (a bad table or map) rather than the
     /// machine's (the output could not be written).
     pub fn is_bad_input(&self) -> bool {
-        match self {
-            ImportError::Write(_) => false,
-            _ => true,
-        }
+        !matches!(self, ImportError::Write(_))
     }
 }
