@@ -131,6 +131,51 @@ fn rrd_holds_the_expected_entities_and_rows() {
     assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
 }
 
+#[test]
+fn publishing_stage_by_stage_writes_what_publishing_the_whole_replay_writes() {
+    // The command line's publisher sends each stage's series beside the next stage
+    // (`replay_observed`); `publish` sends them all from the finished replay.
+    let dir = common::tempdir();
+    let mcap = dir.path().join("run.mcap");
+    synth::write(
+        &mcap,
+        &SynthOptions {
+            duration_s: 2000.0,
+            ..SynthOptions::default()
+        },
+    )
+    .unwrap();
+    let options = ReplayOptions::default();
+    let staged = dir.path().join("staged.rrd");
+    let publisher =
+        heatrun_rerun::Publisher::open(&heatrun_rerun::RerunSink::Rrd(staged.clone()), "run")
+            .unwrap();
+    let replayed = heatrun::pipeline::replay_observed(&mcap, &options, None, &publisher).unwrap();
+    let report = Report::new(&replayed);
+    let summary = report.summary();
+    publisher.finish(&replayed, &report, &summary).unwrap();
+    let whole = dir.path().join("whole.rrd");
+    let replayed = replay(&mcap, &options).unwrap();
+    heatrun_rerun::publish(
+        &replayed,
+        &report,
+        &summary,
+        &heatrun_rerun::RerunSink::Rrd(whole.clone()),
+    )
+    .unwrap();
+    let (staged_rows, staged_blueprint) = rows_and_blueprint(&staged);
+    let staged_statics = STATICS.with(|s| std::mem::take(&mut *s.borrow_mut()));
+    let (whole_rows, whole_blueprint) = rows_and_blueprint(&whole);
+    let whole_statics = STATICS.with(|s| s.borrow().clone());
+    assert_eq!(staged_rows, whole_rows);
+    assert!(
+        staged_rows.contains_key("/sensitivity/T1/core_temp"),
+        "{staged_rows:?}"
+    );
+    assert_eq!(staged_statics, whole_statics);
+    assert_eq!(staged_blueprint, whole_blueprint);
+}
+
 /// `schemas/report.schema.json`, compiled by a JSON Schema (draft 2020-12) validator.
 pub(crate) struct ReportSchema {
     schemas: boon::Schemas,

@@ -109,18 +109,20 @@ pub fn replay_one(
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let publisher = Publisher::open(sink, &name)?;
+    // The publisher sends each stage's series while the next stage runs.
     let found = if replay.raw {
         let mut full_rate = publisher.full_rate();
-        let found = pipeline::replay_with(file, &options, Some(&mut full_rate))?;
+        let found =
+            pipeline::replay_observed(file, &options, Some(&mut full_rate), &publisher)?;
         full_rate.flush()?;
         found
     } else {
-        pipeline::replay(file, &options)?
+        pipeline::replay_observed(file, &options, None, &publisher)?
     };
     options.progress.stage("writing the outputs");
     let report = Report::new(&found);
     let summary = report.summary();
-    publisher.finish(&found, &summary)?;
+    publisher.finish(&found, &report, &summary)?;
     if let Some(path) = outputs.report {
         write_atomically(path, report.to_json().as_bytes())?;
     }

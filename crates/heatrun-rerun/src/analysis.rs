@@ -5,36 +5,31 @@
 use rerun::RecordingStream;
 
 use crate::Result;
-use heatrun::model::sensitivity::SensitivityModel;
+use heatrun::model::ModelAnalysis;
 use heatrun::pipeline::Replay;
+use heatrun::signals::ModelSignals;
 
 use super::style;
 use super::traces::{on_grid, send_by_lag, send_series, short_part, SERIES_SLICE};
 
-/// The sensitivity responses T_i ∂ŷ/∂T_i behind the assignment, regenerated from the
-/// model over the instants it was estimated on, one state at a time, each in its part's
-/// colour.
-pub(super) fn log_sensitivities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
-    let analysis = &replay.analysis;
-    let tcs = &analysis.spectrum.time_constants_s;
-    let recursion = SensitivityModel::new(&analysis.continuous, tcs, replay.signals.ts_s)?;
-    let end = replay.estimation_range.end;
-    let segments: Vec<_> = replay
-        .data
-        .segments()
-        .into_iter()
-        .map(|s| s.start..s.end.min(end))
-        .filter(|s| s.len() >= 2)
-        .collect();
-    let t = &replay.signals.time_ns;
-    for i in 0..tcs.len() {
-        for (k, state) in replay.signals.states.iter().enumerate() {
+/// The sensitivity responses T_i ∂ŷ/∂T_i behind the assignment, as the analysis kept
+/// them (over the instants the model was estimated on), one state at a time, each in its
+/// part's colour.
+pub(super) fn log_sensitivities(
+    rec: &RecordingStream,
+    signals: &ModelSignals,
+    analysis: &ModelAnalysis,
+) -> Result<()> {
+    let responses = &analysis.sensitivities.responses;
+    let t = &signals.time_ns;
+    for i in 0..analysis.spectrum.time_constants_s.len() {
+        for (k, state) in signals.states.iter().enumerate() {
             let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
             let name = format!("{}, pu", short_part(&state.part));
             style::series(rec, &entity, &name, style::part(k), style::LINE_WIDTH)?;
             let mut points = Vec::with_capacity(SERIES_SLICE);
             let mut failed = None;
-            recursion.for_each_response(i, &replay.data, &segments, |instant, rel| {
+            responses.for_each(i, |instant, rel| {
                 points.push((t[instant], rel[k]));
                 if points.len() == SERIES_SLICE && failed.is_none() {
                     failed = send_series(rec, &entity, points.drain(..)).err();
@@ -51,10 +46,14 @@ pub(super) fn log_sensitivities(rec: &RecordingStream, replay: &Replay) -> Resul
 
 /// Per state: the residual's autocorrelation with its 99 % band, and its
 /// cross-correlation with each input, against the lag.
-pub(super) fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -> Result<()> {
-    let res = &replay.analysis.residuals;
+pub(super) fn log_residual_correlation(
+    rec: &RecordingStream,
+    signals: &ModelSignals,
+    analysis: &ModelAnalysis,
+) -> Result<()> {
+    let res = &analysis.residuals;
     let lag = res.max_lag as i64;
-    for (i, state) in replay.signals.states.iter().enumerate() {
+    for (i, state) in signals.states.iter().enumerate() {
         let root = format!("residual_correlation/{}", state.name);
         let auto = format!("{root}/autocorrelation");
         style::series(
@@ -75,7 +74,7 @@ pub(super) fn log_residual_correlation(rec: &RecordingStream, replay: &Replay) -
             style::series(rec, &entity, "99 % band", style::REFERENCE, 1.0)?;
             send_by_lag(rec, &entity, vec![-lag, lag], vec![sign * res.band99; 2])?;
         }
-        for (j, input) in replay.signals.inputs.iter().enumerate() {
+        for (j, input) in signals.inputs.iter().enumerate() {
             let entity = format!("{root}/cross_{}", input.name);
             let name = format!("× {}", input.name.replace('_', " "));
             style::series(rec, &entity, &name, style::input(j), style::LINE_WIDTH)?;

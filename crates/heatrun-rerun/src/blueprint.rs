@@ -78,14 +78,14 @@ fn overview(replay: &Replay) -> Node {
                 format!(
                     "{}: measured and model, {}",
                     short_part(&s.part),
-                    state_unit(replay, j)
+                    state_unit(&replay.model, j)
                 ),
                 temperature_entity(&s.name),
             )
             .into()
         })
         .collect();
-    let residual_unit = rise_unit(replay, 0);
+    let residual_unit = rise_unit(&replay.model, 0);
     let bottom = Node::horizontal(
         "residuals, inputs, model",
         vec![

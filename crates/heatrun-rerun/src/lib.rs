@@ -12,6 +12,8 @@
 //! writer with view properties), `blueprint` (the layout of a replay).
 
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 
 use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
 
@@ -32,7 +34,9 @@ pub use traces::temperature_entity;
 use heatrun::recording::SampleSink as _;
 
 use heatrun::atomic::{PendingOutput, WriteError};
-use heatrun::pipeline::Replay;
+use heatrun::model::ModelAnalysis;
+use heatrun::pipeline::{Prepared, Replay, StageObserver};
+use heatrun::model_file::Report;
 
 /// Name of the timeline: the recording's own clock (log_time).
 pub const TIMELINE: &str = "time";
@@ -59,9 +63,6 @@ pub enum PublishError {
     /// The .rrd file could not be renamed into place.
     #[error(transparent)]
     Output(#[from] WriteError),
-    /// The model's sensitivities cannot be computed for their plots.
-    #[error(transparent)]
-    Model(#[from] heatrun::model::ModelError),
 }
 
 /// The publisher's result.
@@ -73,10 +74,36 @@ fn publish_err(e: impl std::fmt::Display) -> PublishError {
 
 /// An open rerun recording: created before the replay (so full-rate samples can stream
 /// into it), finished with the replay's traces and the blueprint.
+///
+/// As the replay's [`StageObserver`] it sends the series each stage determines while
+/// the next one runs ([`heatrun::pipeline::replay_observed`]): the measured ones while
+/// the model is estimated, the model's while the network is fitted; [`Publisher::finish`]
+/// then sends the rest, and whatever no stage sent.
 pub struct Publisher {
     rec: RecordingStream,
     pending: Option<PendingOutput>,
-    full_rate: std::cell::Cell<bool>,
+    full_rate: AtomicBool,
+    early: Mutex<Early>,
+}
+
+/// What the publisher sent as the stages ended, and the first failure if any.
+#[derive(Default)]
+struct Early {
+    measured: bool,
+    model: bool,
+    failed: Option<PublishError>,
+}
+
+impl StageObserver for Publisher {
+    fn prepared(&self, prepared: &Prepared) {
+        let result = traces::log_measured(&self.rec, prepared.into());
+        self.sent(result, |e| &mut e.measured);
+    }
+
+    fn analysed(&self, prepared: &Prepared, analysis: &ModelAnalysis) {
+        let result = log_model(&self.rec, prepared.into(), analysis);
+        self.sent(result, |e| &mut e.model);
+    }
 }
 
 impl Publisher {
@@ -91,6 +118,7 @@ impl Publisher {
                     rec,
                     pending: Some(pending),
                     full_rate: Default::default(),
+                    early: Default::default(),
                 }
             }
             RerunSink::Connect(url) => {
@@ -103,19 +131,21 @@ impl Publisher {
                     rec,
                     pending: None,
                     full_rate: Default::default(),
+                    early: Default::default(),
                 }
             }
             RerunSink::Spawn => Publisher {
                 rec: builder.spawn().map_err(publish_err)?,
                 pending: None,
                 full_rate: Default::default(),
+                early: Default::default(),
             },
         })
     }
 
     /// A sink that publishes every raw sample at full rate under `full_rate/<topic>`.
     pub fn full_rate(&self) -> FullRatePublisher {
-        self.full_rate.set(true);
+        self.full_rate.store(true, Ordering::Relaxed);
         FullRatePublisher {
             rec: self.rec.clone(),
             channels: Vec::new(),
@@ -123,11 +153,22 @@ impl Publisher {
         }
     }
 
-    /// Logs the replay's traces, sends the blueprint, and completes the output (an .rrd
-    /// is renamed into place only now).
-    pub fn finish(self, replay: &Replay, summary_text: &str) -> Result<()> {
-        log_all(&self.rec, replay, summary_text)?;
-        blueprint(replay, self.full_rate.get())
+    /// Logs the replay's traces (those no stage sent already), its figures from `report`
+    /// and `summary_text`, sends the blueprint, and completes the output (an .rrd is
+    /// renamed into place only now).
+    pub fn finish(self, replay: &Replay, report: &Report, summary_text: &str) -> Result<()> {
+        let early = self.early.into_inner().unwrap_or_else(|e| e.into_inner());
+        if let Some(e) = early.failed {
+            return Err(e);
+        }
+        if !early.measured {
+            traces::log_measured(&self.rec, replay.into())?;
+        }
+        if !early.model {
+            log_model(&self.rec, replay.into(), &replay.analysis)?;
+        }
+        log_rest(&self.rec, replay, report, summary_text)?;
+        blueprint(replay, self.full_rate.load(Ordering::Relaxed))
             .send(&self.rec)
             .map_err(publish_err)?;
         self.rec.flush_blocking().map_err(publish_err)?;
@@ -137,17 +178,34 @@ impl Publisher {
             None => Ok(()),
         }
     }
+
+    /// Notes a part sent early, or its failure (the first is reported by `finish`).
+    fn sent(&self, result: Result<()>, part: impl FnOnce(&mut Early) -> &mut bool) {
+        let mut early = self.early.lock().unwrap_or_else(|e| e.into_inner());
+        match result {
+            Ok(()) => *part(&mut early) = true,
+            Err(e) => {
+                early.failed.get_or_insert(e);
+            }
+        }
+    }
 }
 
-/// Sends a replay's traces to `sink`. For an .rrd the file is written under a
-/// temporary name and renamed when complete.
-pub fn publish(replay: &Replay, summary_text: &str, sink: &RerunSink) -> Result<()> {
+/// Sends a replay's traces to `sink`, with the figures of its `report` and
+/// `summary_text`. For an .rrd the file is written under a temporary name and renamed
+/// when complete.
+pub fn publish(
+    replay: &Replay,
+    report: &Report,
+    summary_text: &str,
+    sink: &RerunSink,
+) -> Result<()> {
     let name = replay
         .path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    Publisher::open(sink, &name)?.finish(replay, summary_text)
+    Publisher::open(sink, &name)?.finish(replay, report, summary_text)
 }
 
 /// Samples buffered per channel before they go out as one column chunk.
@@ -234,15 +292,30 @@ impl heatrun::recording::SampleSink for FullRatePublisher {
 /// Name of the timeline of the correlation plots (lag in samples).
 pub const LAG_TIMELINE: &str = "lag";
 
-fn log_all(rec: &RecordingStream, replay: &Replay, summary_text: &str) -> Result<()> {
-    traces::log_temperatures(rec, replay)?;
-    traces::log_inputs_and_quantities(rec, replay)?;
+/// What the model and its analysis determine: the model temperatures and residuals, the
+/// sensitivity responses and the residuals' correlations.
+fn log_model(
+    rec: &RecordingStream,
+    stages: traces::Stages<'_>,
+    analysis: &ModelAnalysis,
+) -> Result<()> {
+    traces::log_model_temperatures(rec, stages, analysis)?;
+    analysis::log_sensitivities(rec, stages.signals, analysis)?;
+    analysis::log_residual_correlation(rec, stages.signals, analysis)
+}
+
+/// What only the whole replay determines: the calorimetric balance, the recursive
+/// estimate, the network, the figures and the summary.
+fn log_rest(
+    rec: &RecordingStream,
+    replay: &Replay,
+    report: &Report,
+    summary_text: &str,
+) -> Result<()> {
     traces::log_calorimetry(rec, replay)?;
-    analysis::log_sensitivities(rec, replay)?;
-    analysis::log_residual_correlation(rec, replay)?;
     analysis::log_trajectory(rec, replay)?;
     network::log_network(rec, replay)?;
-    let figures = text::model_figures(&heatrun::model_file::Report::new(replay));
+    let figures = text::model_figures(report);
     rec.log_static(
         "model",
         &rerun::TextDocument::new(figures).with_media_type(rerun::MediaType::markdown()),

@@ -5,8 +5,43 @@
 use rerun::{RecordingStream, Scalars, TimeColumn};
 
 use crate::Result;
-use heatrun::pipeline::Replay;
-use heatrun::spec::{InputKind, Scaling};
+use heatrun::decimate::DecimatedRecording;
+use heatrun::model::ModelAnalysis;
+use heatrun::pipeline::{Prepared, Replay};
+use heatrun::signals::ModelSignals;
+use heatrun::spec::{InputKind, ModelDescription, Scaling};
+
+/// The stages' outputs the series are drawn from: a whole replay's, or the prepared
+/// stages' as they end ([`heatrun::pipeline::StageObserver`]).
+#[derive(Clone, Copy)]
+pub(super) struct Stages<'a> {
+    /// The model description (names, units, scaling).
+    pub model: &'a ModelDescription,
+    /// The states and inputs on the grid.
+    pub signals: &'a ModelSignals,
+    /// The decimated quantities.
+    pub decimated: &'a DecimatedRecording,
+}
+
+impl<'a> From<&'a Replay> for Stages<'a> {
+    fn from(r: &'a Replay) -> Stages<'a> {
+        Stages {
+            model: &r.model,
+            signals: &r.signals,
+            decimated: &r.decimated,
+        }
+    }
+}
+
+impl<'a> From<&'a Prepared> for Stages<'a> {
+    fn from(p: &'a Prepared) -> Stages<'a> {
+        Stages {
+            model: &p.model,
+            signals: &p.signals,
+            decimated: &p.decimated,
+        }
+    }
+}
 
 use super::{publish_err, style, LAG_TIMELINE, TIMELINE};
 
@@ -93,7 +128,7 @@ pub(super) fn log_calorimetry(rec: &RecordingStream, replay: &Replay) -> Result<
         style::input(1),
         style::LINE_WIDTH,
     )?;
-    let scale = input_plot_scale(replay);
+    let scale = input_plot_scale(&replay.model, s);
     let sum = (0..s.len()).map(|k| {
         s.inputs
             .iter()
@@ -118,16 +153,16 @@ pub(super) fn on_grid<'a>(
 }
 
 /// The unit of state `j`'s values as the plots show them (°C for the generator).
-pub(super) fn state_unit(replay: &Replay, j: usize) -> String {
-    match replay.model.states.get(j).map(|s| s.unit.as_str()) {
+pub(super) fn state_unit(model: &ModelDescription, j: usize) -> String {
+    match model.states.get(j).map(|s| s.unit.as_str()) {
         Some("degC") | Some("°C") | None => "°C".into(),
         Some(u) => u.into(),
     }
 }
 
 /// The unit of a rise or residual of state `j` (K for temperatures).
-pub(super) fn rise_unit(replay: &Replay, j: usize) -> String {
-    match state_unit(replay, j).as_str() {
+pub(super) fn rise_unit(model: &ModelDescription, j: usize) -> String {
+    match state_unit(model, j).as_str() {
         "°C" | "K" => "K".into(),
         u => u.into(),
     }
@@ -151,32 +186,77 @@ pub(super) fn input_title(replay: &Replay) -> String {
 }
 
 /// Factor from an input in the model's scaling to the plotted unit (kW for pu of S_n).
-fn input_plot_scale(replay: &Replay) -> f64 {
-    match replay.model.scaling {
-        Scaling::NameplatePerUnit => replay.signals.power_base / 1e3,
-        Scaling::AsRecorded => replay.signals.power_base,
+fn input_plot_scale(model: &ModelDescription, signals: &ModelSignals) -> f64 {
+    match model.scaling {
+        Scaling::NameplatePerUnit => signals.power_base / 1e3,
+        Scaling::AsRecorded => signals.power_base,
     }
 }
 
-/// Measured and model temperature per part, in the part's colour (measured wide and
-/// light, the model thin on top), and the residual y − ŷ in the same colour.
-pub(super) fn log_temperatures(rec: &RecordingStream, replay: &Replay) -> Result<()> {
-    let s = &replay.signals;
+/// The series of a temperature plot's entities: measured (wide and light) and model (thin
+/// on top), each in its part's colour.
+fn temperature_entities(state: &str) -> (String, String) {
+    let root = temperature_entity(state);
+    (format!("{root}/measured"), format!("{root}/model"))
+}
+
+/// What the recording alone gives, sent as soon as it is prepared: the measured
+/// temperature per part, the inputs (the generator's losses in kW) and the decimated
+/// quantities with units.
+pub(super) fn log_measured(rec: &RecordingStream, stages: Stages<'_>) -> Result<()> {
+    let s = stages.signals;
     let t = &s.time_ns;
-    let base = s.temperature_base_k;
-    let sim = &replay.analysis.simulated;
     for (j, state) in s.states.iter().enumerate() {
-        let root = temperature_entity(&state.name);
-        let (unit, colour) = (state_unit(replay, j), style::part(j));
-        let measured = format!("{root}/measured");
-        let model = format!("{root}/model");
+        let (measured, _) = temperature_entities(&state.name);
+        let unit = state_unit(stages.model, j);
         style::series(
             rec,
             &measured,
             &format!("measured, {unit}"),
-            style::lightened(colour, 0.55),
+            style::lightened(style::part(j), 0.55),
             style::MEASURED_WIDTH,
         )?;
+        send_series(rec, &measured, on_grid(t, state.measured.iter()))?;
+    }
+    let scale = input_plot_scale(stages.model, s);
+    let per_unit = stages.model.scaling == Scaling::NameplatePerUnit;
+    // The losses; a coolant inlet's rise is a temperature, published with the
+    // decimated quantities (its channel), not among the heat sources.
+    let heat = s.inputs.iter().filter(|i| i.kind == InputKind::Heat);
+    for (j, input) in heat.enumerate() {
+        let entity = format!("loss/{}", input.name);
+        let unit = if per_unit { "kW" } else { input.unit.as_str() };
+        let name = format!("{}, {unit}", input.name.replace('_', " "));
+        style::series(rec, &entity, &name, style::input(j), style::LINE_WIDTH)?;
+        send_series(
+            rec,
+            &entity,
+            on_grid(t, input.values.iter().map(|v| v.map(|v| v * scale))),
+        )?;
+    }
+    for (i, series) in stages.decimated.series.values().enumerate() {
+        let entity = format!("decimated/{}", series.signal.name());
+        let name = format!("{}, {}", series.signal.name(), series.unit);
+        style::series(rec, &entity, &name, style::input(i), style::LINE_WIDTH)?;
+        send_series(rec, &entity, on_grid(t, series.values.iter()))?;
+    }
+    Ok(())
+}
+
+/// The model temperature per part beside the measured one, and the residual y − ŷ in
+/// the part's colour.
+pub(super) fn log_model_temperatures(
+    rec: &RecordingStream,
+    stages: Stages<'_>,
+    analysis: &ModelAnalysis,
+) -> Result<()> {
+    let s = stages.signals;
+    let t = &s.time_ns;
+    let base = s.temperature_base_k;
+    let sim = &analysis.simulated;
+    for (j, state) in s.states.iter().enumerate() {
+        let (_, model) = temperature_entities(&state.name);
+        let (unit, colour) = (state_unit(stages.model, j), style::part(j));
         style::series(
             rec,
             &model,
@@ -184,7 +264,6 @@ pub(super) fn log_temperatures(rec: &RecordingStream, replay: &Replay) -> Result
             colour,
             style::LINE_WIDTH,
         )?;
-        send_series(rec, &measured, on_grid(t, state.measured.iter()))?;
         send_series(
             rec,
             &model,
@@ -194,7 +273,11 @@ pub(super) fn log_temperatures(rec: &RecordingStream, replay: &Replay) -> Result
             ),
         )?;
         let residual = format!("residual/{}", state.name);
-        let label = format!("{}, {}", short_part(&state.part), rise_unit(replay, j));
+        let label = format!(
+            "{}, {}",
+            short_part(&state.part),
+            rise_unit(stages.model, j)
+        );
         style::series(rec, &residual, &label, colour, style::LINE_WIDTH)?;
         send_series(
             rec,
@@ -211,35 +294,6 @@ pub(super) fn log_temperatures(rec: &RecordingStream, replay: &Replay) -> Result
 /// A part's name up to its parenthesis ("stator winding (copper)" → "stator winding").
 pub(super) fn short_part(part: &str) -> &str {
     part.split(" (").next().unwrap_or(part)
-}
-
-/// The inputs (the generator's losses in kW) and the decimated quantities with units.
-pub(super) fn log_inputs_and_quantities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
-    let s = &replay.signals;
-    let t = &s.time_ns;
-    let scale = input_plot_scale(replay);
-    let per_unit = replay.model.scaling == Scaling::NameplatePerUnit;
-    // The losses; a coolant inlet's rise is a temperature, published with the
-    // decimated quantities (its channel), not among the heat sources.
-    let heat = s.inputs.iter().filter(|i| i.kind == InputKind::Heat);
-    for (j, input) in heat.enumerate() {
-        let entity = format!("loss/{}", input.name);
-        let unit = if per_unit { "kW" } else { input.unit.as_str() };
-        let name = format!("{}, {unit}", input.name.replace('_', " "));
-        style::series(rec, &entity, &name, style::input(j), style::LINE_WIDTH)?;
-        send_series(
-            rec,
-            &entity,
-            on_grid(t, input.values.iter().map(|v| v.map(|v| v * scale))),
-        )?;
-    }
-    for (i, series) in replay.decimated.series.values().enumerate() {
-        let entity = format!("decimated/{}", series.signal.name());
-        let name = format!("{}, {}", series.signal.name(), series.unit);
-        style::series(rec, &entity, &name, style::input(i), style::LINE_WIDTH)?;
-        send_series(rec, &entity, on_grid(t, series.values.iter()))?;
-    }
-    Ok(())
 }
 
 #[cfg(test)]

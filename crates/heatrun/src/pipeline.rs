@@ -1,7 +1,10 @@
 //! The replay pipeline: recording → decimation → signals → estimation → analysis.
 //!
 //! This is the one place that knows the order of the stages; each stage returns what it
-//! owns, and publishing and the report read their outputs, gathered in a [`Replay`].
+//! owns, and publishing and the report read their outputs, gathered in a [`Replay`]
+//! (publishing may start on a stage's output while the next stage runs:
+//! [`StageObserver`]). Work that needs nothing of the stage beside it runs on a thread of
+//! its own: `oe`'s re-estimation for the network beside the model's analysis.
 //! What the model is — states, inputs, alignment, scaling — comes from the
 //! [`ModelDescription`] in the options (the generator by default).
 
@@ -309,24 +312,62 @@ pub fn replay_with(
     options: &ReplayOptions,
     also: Option<&mut dyn SampleSink>,
 ) -> Result<Replay> {
+    replay_observed(path, options, also, &Unobserved)
+}
+
+/// Told each stage's output as a replay goes, to work on it beside the stages after it:
+/// the rerun publisher sends the measured series while the model is estimated, and the
+/// model's while the network is fitted, rather than all of them after the replay.
+///
+/// Each call runs on a thread of its own while the pipeline goes on; the pipeline waits
+/// for it before it changes what the call was given, and before it returns.
+pub trait StageObserver: Sync {
+    /// The recording is read, decimated and its signals computed; the estimator runs.
+    fn prepared(&self, prepared: &Prepared) {
+        let _ = prepared;
+    }
+
+    /// The model is analysed (`prepared`'s references moved to the initial temperatures
+    /// the estimator found, where it estimated an output offset); the network stage runs.
+    fn analysed(&self, prepared: &Prepared, analysis: &ModelAnalysis) {
+        let _ = (prepared, analysis);
+    }
+}
+
+/// The observer that does nothing with the stages.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Unobserved;
+
+impl StageObserver for Unobserved {}
+
+/// [`replay_with`], with `observer` told each stage's output as it is done, to work on
+/// it beside the next stage.
+pub fn replay_observed(
+    path: &Path,
+    options: &ReplayOptions,
+    also: Option<&mut dyn SampleSink>,
+    observer: &dyn StageObserver,
+) -> Result<Replay> {
     let mut prepared = prepare_with(path, options, also)?;
     let estimation_range = estimation_range(prepared.data.len(), options)?;
     let in_file = |e: Error| e.in_recording(path);
-    let (estimate, network_source) = {
-        // Borrowed unless a part is held out: a week's data are not copied for nothing.
-        let estimation_data = if estimation_range.len() == prepared.data.len() {
-            Cow::Borrowed(&prepared.data)
-        } else {
-            Cow::Owned(prepared.data.slice(estimation_range.clone()))
-        };
-        let scaling = network::Scaling {
-            theta_base_k: prepared.signals.temperature_base_k,
-            p_base_w: prepared.signals.power_base,
-        };
-        let estimate = estimate_in(&estimation_data, options, scaling).map_err(in_file)?;
-        let network_source = with_output_offset(&estimation_data, options, &estimate);
-        (estimate, network_source)
+    // The estimator's data: the recording's own unless a part is held out (a week's data
+    // are not copied for nothing); kept for the network's refit below.
+    let held_back = (estimation_range.len() != prepared.data.len())
+        .then(|| prepared.data.slice(estimation_range.clone()));
+    let scaling = network::Scaling {
+        theta_base_k: prepared.signals.temperature_base_k,
+        p_base_w: prepared.signals.power_base,
     };
+    let estimate = std::thread::scope(|scope| {
+        scope.spawn(|| observer.prepared(&prepared));
+        estimate_in(
+            held_back.as_ref().unwrap_or(&prepared.data),
+            options,
+            scaling,
+        )
+    })
+    .map_err(in_file)?;
     // Where the estimator found the rises offset by the error of the first sample they are
     // measured from, the references become the initial temperatures it estimated: from
     // here on ŷ = x (the analysis, validation, steady state, network and report).
@@ -341,9 +382,10 @@ pub fn replay_with(
         }
         None => Cow::Borrowed(&estimate),
     };
+    // The continuous model, made once: the steady state's input and the analysis use it.
+    let continuous = crate::model::ContinuousModel::from_discrete(&estimate.model).ok();
     // The steady state's input: the last one, with an input fed by the outlet's rise
     // (a changed flow's heat) made consistent with the steady state it leads to.
-    let continuous = crate::model::ContinuousModel::from_discrete(&estimate.model).ok();
     let steady_input = match &continuous {
         Some(c) => prepared.signals.steady_state_input(&c.a_c, &c.b_c),
         None => prepared.signals.last_inputs().map(|(_, u)| u),
@@ -354,35 +396,55 @@ pub fn replay_with(
         }))
     })?;
     options.progress.stage("analysing the model");
-    let analysis = model::analyse(
-        &analysed,
-        &prepared.data,
-        estimation_range.clone(),
-        prepared.signals.temperature_base_k,
-        &steady_input,
-    )
-    .map_err(|e| in_file(e.into()))?;
-    let validation = validate(&prepared, &analysed, &estimation_range, options)?;
+    let estimation_data = held_back.as_ref().unwrap_or(&prepared.data);
+    let (analysis, validation, output_error_beside, network) =
+        std::thread::scope(|scope| -> Result<_> {
+            // `oe`'s re-estimation for the network is as long as a fit and needs nothing
+            // of the analysis: it runs on a thread of its own beside it.
+            let refit = scope.spawn(|| with_output_offset(estimation_data, options, &estimate));
+            let analysis = model::analyse(
+                &analysed,
+                continuous,
+                &prepared.data,
+                estimation_range.clone(),
+                prepared.signals.temperature_base_k,
+                &steady_input,
+            )
+            .map_err(|e| in_file(e.into()))?;
+            let (validation, output_error_beside, network) = std::thread::scope(|inner| {
+                inner.spawn(|| observer.analysed(&prepared, &analysis));
+                let validation = validate(&prepared, &analysed, &estimation_range, options)?;
+                let output_error_beside = estimate.network.as_deref().and_then(|n| {
+                    Beside::of(
+                        n.output_error.method,
+                        &n.output_error.model,
+                        &prepared.data,
+                        estimation_range.clone(),
+                        prepared.signals.temperature_base_k,
+                    )
+                });
+                let balance = network::stage::Balance::of(
+                    &prepared.model,
+                    &prepared.signals,
+                    &prepared.decimated,
+                    &analysis.spectrum.time_constants_s,
+                );
+                let network_source = refit
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                let network = balance.with_network(
+                    &prepared.model,
+                    estimate.network.as_deref(),
+                    network_source.as_ref().unwrap_or(&estimate),
+                    &analysis.continuous,
+                    &prepared.signals,
+                );
+                Ok::<_, Error>((validation, output_error_beside, network))
+            })?;
+            Ok((analysis, validation, output_error_beside, network))
+        })?;
     drop(analysed);
-    let grey_box = estimate.network.as_deref();
-    let output_error_beside = grey_box.and_then(|n| {
-        Beside::of(
-            n.output_error.method,
-            &n.output_error.model,
-            &prepared.data,
-            estimation_range.clone(),
-            prepared.signals.temperature_base_k,
-        )
-    });
-    let network = network::stage::analyse(
-        &prepared.model,
-        grey_box,
-        network_source.as_ref().unwrap_or(&estimate),
-        &analysis.continuous,
-        &analysis.spectrum.time_constants_s,
-        &prepared.signals,
-        &prepared.decimated,
-    );
+    drop(held_back);
     let warnings = warnings::collect(&prepared.for_warnings(), &analysis, &network);
     Ok(Replay {
         path: path.to_owned(),
@@ -408,13 +470,15 @@ pub fn replay_with(
 /// not stored by exception. The free Φ, Γ take that offset up, which biases the passive
 /// network nearest them (its conductances to the coolant most); the reported model stays
 /// `oe`'s own. `None` where the refit does not apply or fails (the network is then
-/// fitted to `oe`'s Θ).
+/// fitted to `oe`'s Θ). `oe`'s estimate carries no offset of its own, so `data` are the
+/// estimator's, not shifted to an offset.
 fn with_output_offset(
     data: &IdentificationData,
     options: &ReplayOptions,
     estimate: &Estimate,
 ) -> Option<Estimate> {
     let applies = options.method == Method::Oe
+        && estimate.output_offset.is_none()
         && crate::estimate::oe::starts_at_reference(data)
         && !crate::estimate::oe::censored::applies(data);
     if !applies {

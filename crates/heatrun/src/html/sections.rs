@@ -7,7 +7,6 @@ use super::markup::{fixed, si, sig, Markup, Table};
 use super::network::{diagram, short_name};
 use super::plot::{palette, Chart, Line, Panel, Thinning, TimeAxis, MEASURED, MODEL};
 use super::{HtmlError, Section};
-use crate::model::sensitivity::SensitivityModel;
 use crate::estimate::Method;
 use crate::model_file::document::{FitEntry, NetworkEntry};
 use crate::model_file::Report;
@@ -512,7 +511,7 @@ impl Section for ModelSection<'_> {
 /// Time constants with their intervals and parts, the sensitivity norms and responses
 /// (eqs. 26–29, the paper's Figs. 6–8).
 pub struct TimeConstantsSection<'a> {
-    /// The replay (the sensitivity responses are regenerated from it).
+    /// The replay (its analysis keeps the sensitivity responses drawn here).
     pub replay: &'a Replay,
     /// Its report.
     pub report: &'a Report,
@@ -567,20 +566,10 @@ impl TimeConstantsSection<'_> {
     }
 
     /// One chart per time constant: T_i ∂ŷ_k/∂T_i of every state over time.
-    fn charts(&self) -> Result<Vec<Chart>, HtmlError> {
+    fn charts(&self) -> Vec<Chart> {
         let r = self.replay;
         let a = &r.analysis;
         let tcs = &a.spectrum.time_constants_s;
-        let recursion = SensitivityModel::new(&a.continuous, tcs, r.signals.ts_s)
-            .map_err(|e| HtmlError::Figure(e.to_string()))?;
-        let end = r.estimation_range.end;
-        let segments: Vec<_> = r
-            .data
-            .segments()
-            .into_iter()
-            .map(|s| s.start..s.end.min(end))
-            .filter(|s| s.len() >= 2)
-            .collect();
         let t = &r.signals.time_ns;
         let axis = TimeAxis::of_ns(t);
         let unit = match r.model.scaling {
@@ -595,7 +584,7 @@ impl TimeConstantsSection<'_> {
                 .iter()
                 .map(|_| Thinning::new(t.len(), BUCKETS))
                 .collect();
-            recursion.for_each_response(i, &r.data, &segments, |k, rel| {
+            a.sensitivities.responses.for_each(i, |k, rel| {
                 for (state, th) in thin.iter_mut().enumerate() {
                     th.push(k, axis.x_ns(t[k]), Some(rel[state]));
                 }
@@ -615,7 +604,7 @@ impl TimeConstantsSection<'_> {
             );
             charts.push(Chart::new(&axis.label, vec![Panel::new(y, lines)]));
         }
-        Ok(charts)
+        charts
     }
 }
 
@@ -630,7 +619,7 @@ impl Section for TimeConstantsSection<'_> {
 
     fn render(&self, out: &mut Markup) -> Result<(), HtmlError> {
         self.tables(out);
-        let charts = self.charts()?;
+        let charts = self.charts();
         let first = out.next_figure();
         out.paragraph(&format!(
             "Figures {first}–{} show the sensitivity responses T_i ∂ŷ/∂T_i of every state to each \

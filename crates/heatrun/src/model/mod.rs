@@ -20,7 +20,7 @@ pub use crate::thermal::matrix;
 pub use crate::thermal::{ContinuousModel, ModelError, Spectrum};
 pub use fit::Fit;
 pub use residuals::ResidualAnalysis;
-pub use sensitivity::{Assignment, Sensitivities};
+pub use sensitivity::{Assignment, Sensitivities, SensitivityResponses};
 pub use uncertainty::{propagate, Uncertainty};
 
 use crate::estimate::{Estimate, IdentificationData};
@@ -38,7 +38,8 @@ pub struct ModelAnalysis {
     pub simulated: DMatrix<f64>,
     /// Fit of ŷ to y.
     pub fit: Fit,
-    /// Sensitivities of ŷ to the time constants.
+    /// Sensitivities of ŷ to the time constants: their norms, and the responses over
+    /// the estimation range (instants of `data`) that the plots draw.
     pub sensitivities: Sensitivities,
     /// Each time constant's state.
     pub assignment: Vec<Assignment>,
@@ -60,8 +61,11 @@ pub const RESIDUAL_MAX_LAG: usize = 60;
 /// estimate came from (the fit, sensitivities and residuals describe it), while the
 /// simulated output covers all of `data`, held-out instants included. `steady_state_input`
 /// is the input (normally the last measured one, eq. 30) whose steady state is wanted.
+/// `continuous` is the model's continuous form where the caller has already made it
+/// (for that input): it is made here otherwise.
 pub fn analyse(
     estimate: &Estimate,
+    continuous: Option<ContinuousModel>,
     data: &IdentificationData,
     estimation_range: Range<usize>,
     temperature_base_k: f64,
@@ -69,7 +73,10 @@ pub fn analyse(
 ) -> Result<ModelAnalysis, ModelError> {
     let model = &estimate.model;
     let spectrum = Spectrum::of(model)?;
-    let continuous = ContinuousModel::from_discrete(model)?;
+    let continuous = match continuous {
+        Some(c) => c,
+        None => ContinuousModel::from_discrete(model)?,
+    };
     let mut simulated = fit::simulate(model, data, &data.segments());
     // ŷ = x + d where the method estimated an output offset d (rc: the error of the
     // first samples the rises are measured from); NaN rows stay NaN.
@@ -94,13 +101,14 @@ pub fn analyse(
         )
     };
     let fit = fit::fit(&estimation, &estimation_sim, temperature_base_k);
-    let sensitivities = sensitivity::sensitivities(
+    let mut sensitivities = sensitivity::sensitivities(
         &continuous,
         &spectrum.time_constants_s,
         model.ts_s,
         &estimation,
         &estimation.segments(),
     )?;
+    sensitivities.responses.shift(estimation_range.start);
     let assignment = sensitivity::assign(&sensitivities);
     let steady_state = continuous.steady_state(steady_state_input)?;
     let uncertainty = uncertainty::propagate(estimate, steady_state_input);

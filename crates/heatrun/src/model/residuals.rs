@@ -1,6 +1,8 @@
 //! Residual analysis: whiteness of the simulation residuals and their independence
 //! of the inputs, with the 99 % band ±2.576/√N of a white sequence.
 
+use std::ops::{Range, RangeInclusive};
+
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -45,25 +47,27 @@ pub fn analyse(
     let input_energy: Vec<f64> = (0..m)
         .map(|j| energy(len, &|k| centred.input(j, k)))
         .collect();
-    let autocorrelation: Vec<Vec<f64>> = (0..n)
-        .map(|i| {
-            let e = |k: usize| centred.residual(i, k);
-            let energies = residual_energy[i] * residual_energy[i];
-            (0..=max_lag)
-                .map(|lag| correlate(len, &e, &e, energies, lag as i64))
-                .collect()
+    let sums = Sums::of(&centred, len, max_lag);
+    let autocorrelation: Vec<Vec<f64>> = sums
+        .auto
+        .iter()
+        .zip(&residual_energy)
+        .map(|(row, energy)| {
+            let energies = energy * energy;
+            row.iter().map(|sab| normalised(*sab, energies)).collect()
         })
         .collect();
-    let cross_correlation = (0..n)
-        .map(|i| {
-            let e = |k: usize| centred.residual(i, k);
-            (0..m)
-                .map(|j| {
-                    let u = |k: usize| centred.input(j, k);
-                    let energies = residual_energy[i] * input_energy[j];
-                    (-(max_lag as i64)..=max_lag as i64)
-                        .map(|lag| correlate(len, &e, &u, energies, lag))
-                        .collect()
+    let cross_correlation = sums
+        .cross
+        .iter()
+        .zip(&residual_energy)
+        .map(|(per_input, e_energy)| {
+            per_input
+                .iter()
+                .zip(&input_energy)
+                .map(|(row, u_energy)| {
+                    let energies = e_energy * u_energy;
+                    row.iter().map(|sab| normalised(*sab, energies)).collect()
                 })
                 .collect()
         })
@@ -83,8 +87,9 @@ pub fn analyse(
     }
 }
 
-/// The residuals and inputs with their means removed, read on the fly rather than
-/// stored: a week at Ts = 1 s would otherwise hold n + m more series of 604,800 instants.
+/// The residuals and inputs with their means removed, read where they are used (the
+/// correlations hold a block of instants at a time) rather than stored: a week at
+/// Ts = 1 s would otherwise hold n + m more series of 604,800 instants.
 struct Centred<'a> {
     data: &'a IdentificationData,
     simulated: &'a DMatrix<f64>,
@@ -141,21 +146,129 @@ fn energy(len: usize, f: &dyn Fn(usize) -> Option<f64>) -> f64 {
     (0..len).filter_map(f).map(|x| x * x).sum::<f64>()
 }
 
-/// r_ab(lag) = Σ_k a(k) b(k − lag) / √(Σ a² Σ b²) over the instants where both are
-/// known; `energies` is Σ a² Σ b².
-fn correlate(
-    len: usize,
-    a: &dyn Fn(usize) -> Option<f64>,
-    b: &dyn Fn(usize) -> Option<f64>,
-    energies: f64,
-    lag: i64,
-) -> f64 {
-    let from = lag.max(0) as usize;
-    let to = (len as i64 + lag.min(0)).max(0) as usize;
-    let sab: f64 = (from..to)
-        .filter_map(|k| Some(a(k)? * b((k as i64 - lag) as usize)?))
-        .sum();
+/// r_ab(lag) = Σ_k a(k) b(k − lag) / √(Σ a² Σ b²), from the sum `sab` and
+/// `energies` = Σ a² Σ b².
+fn normalised(sab: f64, energies: f64) -> f64 {
     sab / energies.sqrt().max(1e-300)
+}
+
+/// Instants of the series held at a time: the correlations are summed a block at a
+/// time, from the block's centred values and `max_lag` either side of it.
+const BLOCK: usize = 4096;
+
+/// The sums Σ_k a(k) b(k − τ) over the instants where both factors are known: of each
+/// residual with itself at τ = 0..max_lag (`auto[i][τ]`), and with each input at
+/// τ = −max_lag..max_lag (`cross[i][j][τ + max_lag]`).
+///
+/// Each sum is taken in ascending k from the neutral element `Sum` starts from, so it
+/// is the one `(from..to).filter_map(…).sum()` gives, bit for bit; the loops run over
+/// k once, each instant's residual multiplied into every lag's sum, instead of once per
+/// lag through the series' closures (≈ 26 million products for three states, three
+/// inputs and 60 lags over a 5.8 h run at 1 s).
+struct Sums {
+    auto: Vec<Vec<f64>>,
+    cross: Vec<Vec<Vec<f64>>>,
+}
+
+impl Sums {
+    fn of(centred: &Centred, len: usize, max_lag: usize) -> Sums {
+        let (n, m) = (centred.residual_means.len(), centred.input_means.len());
+        let zero: f64 = std::iter::empty::<f64>().sum();
+        let mut auto = vec![vec![zero; max_lag + 1]; n];
+        let mut cross = vec![vec![vec![zero; 2 * max_lag + 1]; m]; n];
+        let mut residuals = vec![Window::default(); n];
+        let mut inputs = vec![Window::default(); m];
+        let lag = max_lag as i64;
+        for start in (0..len).step_by(BLOCK) {
+            let end = (start + BLOCK).min(len);
+            let held = start.saturating_sub(max_lag)..(end + max_lag).min(len);
+            for (i, w) in residuals.iter_mut().enumerate() {
+                w.fill(held.clone(), |k| centred.residual(i, k));
+            }
+            for (j, w) in inputs.iter_mut().enumerate() {
+                w.fill(held.clone(), |k| centred.input(j, k));
+            }
+            for k in start..end {
+                let at = k as i64;
+                // τ with k − τ inside the recording.
+                let (auto_lags, cross_lags) = (
+                    0..=lag.min(at),
+                    (-lag).max(at + 1 - len as i64)..=lag.min(at),
+                );
+                for (i, e) in residuals.iter().enumerate() {
+                    let Some(a) = e.get(k) else {
+                        continue;
+                    };
+                    e.multiply_into(a, k, auto_lags.clone(), &mut auto[i], 0);
+                    for (u, sums) in inputs.iter().zip(cross[i].iter_mut()) {
+                        u.multiply_into(a, k, cross_lags.clone(), sums, lag);
+                    }
+                }
+            }
+        }
+        Sums { auto, cross }
+    }
+}
+
+/// One centred series over a stretch of instants, latest first (so that the lags τ,
+/// ascending, read it forwards, k − τ descending), with where it is known.
+#[derive(Debug, Clone, Default)]
+struct Window {
+    /// The last instant held.
+    last: usize,
+    /// The values, from `last` back.
+    values: Vec<f64>,
+    /// Per value: all bits set where it is known, none where not (a mask the products
+    /// are selected by without a branch).
+    known: Vec<u64>,
+}
+
+impl Window {
+    /// Holds `series` over `instants` (not empty).
+    fn fill(&mut self, instants: Range<usize>, series: impl Fn(usize) -> Option<f64>) {
+        self.last = instants.end - 1;
+        self.values.clear();
+        self.known.clear();
+        for k in instants.rev() {
+            let v = series(k);
+            self.values.push(v.unwrap_or(0.0));
+            self.known.push(if v.is_some() { u64::MAX } else { 0 });
+        }
+    }
+
+    /// The value at instant `k`, where known.
+    fn get(&self, k: usize) -> Option<f64> {
+        let x = self.last - k;
+        (self.known[x] != 0).then(|| self.values[x])
+    }
+
+    /// `sums[τ + offset] += a · b(k − τ)` for every τ of `lags`, where b(k − τ) is known.
+    fn multiply_into(
+        &self,
+        a: f64,
+        k: usize,
+        lags: RangeInclusive<i64>,
+        sums: &mut [f64],
+        offset: i64,
+    ) {
+        let (first, last) = (*lags.start(), *lags.end());
+        if first > last {
+            return;
+        }
+        let base = (self.last - k) as i64;
+        let held = (base + first) as usize..=(base + last) as usize;
+        let sums = &mut sums[(first + offset) as usize..=(last + offset) as usize];
+        let negative_zero = (-0.0f64).to_bits();
+        for (sum, (b, known)) in sums
+            .iter_mut()
+            .zip(self.values[held.clone()].iter().zip(&self.known[held]))
+        {
+            // −0 is the exact identity of +: adding it where b is unknown leaves the sum
+            // as skipping the product does, bit for bit, and the loop without a branch.
+            let product = (a * b).to_bits();
+            *sum += f64::from_bits((product & known) | (negative_zero & !known));
+        }
+    }
 }
 
 #[cfg(test)]
@@ -186,6 +299,75 @@ mod tests {
         );
         assert_eq!(a.autocorrelation_outside_band[1], 1.0);
         assert!((a.band99 - 2.5758 / (n as f64).sqrt()).abs() < 1e-4);
+    }
+
+    /// The definition the blocked sums must give bit for bit: r_ab(τ) summed over the
+    /// instants where both factors are known, one lag at a time.
+    fn correlate(
+        len: usize,
+        a: &dyn Fn(usize) -> Option<f64>,
+        b: &dyn Fn(usize) -> Option<f64>,
+        energies: f64,
+        lag: i64,
+    ) -> f64 {
+        let from = lag.max(0) as usize;
+        let to = (len as i64 + lag.min(0)).max(0) as usize;
+        let sab: f64 = (from..to)
+            .filter_map(|k| Some(a(k)? * b((k as i64 - lag) as usize)?))
+            .sum();
+        sab / energies.sqrt().max(1e-300)
+    }
+
+    #[test]
+    fn blocked_sums_are_the_definition_bit_for_bit() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let normal = Normal::new(0.0, 1.0).unwrap();
+        // Across a block boundary, shorter than the lags, and a single instant; with
+        // unknown outputs, unknown inputs, a mask, and a simulation that stops.
+        let cases = [(2 * BLOCK + 77, 60), (40, 60), (1, 3), (BLOCK, 5)];
+        for ((len, max_lag), masked) in cases.into_iter().flat_map(|c| [(c, true), (c, false)]) {
+            let outputs = DMatrix::from_fn(len, 2, |_, _| normal.sample(&mut rng));
+            let inputs = DMatrix::from_fn(len, 3, |_, _| normal.sample(&mut rng));
+            let mut data = IdentificationData::complete(1.0, outputs, inputs);
+            for k in (0..len).filter(|k| k % 7 == 3) {
+                data.inputs_known[k] = false;
+            }
+            if masked {
+                data = data.with_output_observed(DMatrix::from_fn(len, 2, |k, j| (k + j) % 5 != 0));
+            } else {
+                for k in (0..len).filter(|k| k % 11 == 2) {
+                    data.outputs_known[k] = false;
+                }
+            }
+            let mut simulated = DMatrix::from_fn(len, 2, |_, _| 0.1 * normal.sample(&mut rng));
+            for k in (len * 9 / 10)..len {
+                simulated[(k, 0)] = f64::NAN;
+            }
+            let got = analyse(&data, &simulated, max_lag);
+            let centred = Centred::new(&data, &simulated);
+            let energy_of = |f: &dyn Fn(usize) -> Option<f64>| energy(len, f);
+            for i in 0..2 {
+                let e = |k: usize| centred.residual(i, k);
+                let ee = energy_of(&e);
+                for lag in 0..=max_lag {
+                    let want = correlate(len, &e, &e, ee * ee, lag as i64);
+                    assert_eq!(got.autocorrelation[i][lag].to_bits(), want.to_bits());
+                }
+                for j in 0..3 {
+                    let u = |k: usize| centred.input(j, k);
+                    let energies = ee * energy_of(&u);
+                    for lag in -(max_lag as i64)..=max_lag as i64 {
+                        let want = correlate(len, &e, &u, energies, lag);
+                        let at = (lag + max_lag as i64) as usize;
+                        assert_eq!(
+                            got.cross_correlation[i][j][at].to_bits(),
+                            want.to_bits(),
+                            "len {len}, i {i}, j {j}, lag {lag}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -24,10 +24,7 @@ use crate::estimate::{DiscreteModel, IdentificationData};
 
 type Result<T, E = ModelError> = std::result::Result<T, E>;
 
-/// The norms of the relative sensitivity responses T_i ∂y_k/∂T_i.
-///
-/// The responses themselves are not kept (a week at Ts = 1 s would be n² series of
-/// 604,800 instants); [`SensitivityModel::for_each_response`] regenerates them.
+/// The norms of the relative sensitivity responses T_i ∂y_k/∂T_i, and the responses.
 #[derive(Debug, Clone, Serialize)]
 pub struct Sensitivities {
     /// Time constants T_i, ascending, in s (a complex pair's decay constant twice).
@@ -41,6 +38,57 @@ pub struct Sensitivities {
     /// For each entry of a complex pair, the index of its conjugate partner.
     #[serde(skip)]
     pub partners: Vec<Option<usize>>,
+    /// The responses the norms are taken of, kept for the plots (rerun's and the HTML
+    /// report's), which would otherwise run the recursion again each.
+    #[serde(skip)]
+    pub responses: SensitivityResponses,
+}
+
+/// The relative sensitivity responses T_i ∂ŷ(k)/∂T_i over the simulated instants,
+/// computed once ([`sensitivities`]) for the norms and every plot of them.
+///
+/// n² series of the analysed length, 8 bytes a value: 72 bytes an instant for three
+/// states (a complex pair's two entries share one response, stored once).
+#[derive(Debug, Clone, Default)]
+pub struct SensitivityResponses {
+    /// The instants, in order: the simulation segments.
+    segments: Vec<Range<usize>>,
+    /// n, the values per instant.
+    states: usize,
+    /// Per time constant, its response in `values` (a complex pair's entries share one).
+    response_of: Vec<usize>,
+    /// Per response, its n values at each instant of `segments`, instant after instant.
+    values: Vec<Vec<f64>>,
+}
+
+impl SensitivityResponses {
+    /// The instants the responses cover: runs of the data, in order.
+    pub fn segments(&self) -> &[Range<usize>] {
+        &self.segments
+    }
+
+    /// Calls `visit(k, T_i ∂ŷ(k)/∂T_i)` (n values, one per state) for every instant k
+    /// of [`Self::segments`], in order; nothing for a time constant out of range.
+    pub fn for_each(&self, i: usize, mut visit: impl FnMut(usize, &[f64])) {
+        let Some(values) = self.response_of.get(i).map(|&r| &self.values[r]) else {
+            return;
+        };
+        let mut rows = values.chunks_exact(self.states.max(1));
+        for k in self.segments.iter().flat_map(|s| s.clone()) {
+            match rows.next() {
+                Some(rel) => visit(k, rel),
+                None => return,
+            }
+        }
+    }
+
+    /// Moves the instants `by` later: the data they were computed on start at instant
+    /// `by` of the recording.
+    pub(crate) fn shift(&mut self, by: usize) {
+        for s in &mut self.segments {
+            *s = s.start + by..s.end + by;
+        }
+    }
 }
 
 /// One time constant's assignment to a state.
@@ -213,7 +261,8 @@ impl SensitivityModel {
     }
 }
 
-/// Computes the sensitivity norms over the simulation segments of `data`.
+/// Computes the sensitivity responses over the simulation segments of `data` and their
+/// norms, ‖T_i ∂y_k/∂T_i‖ / √N (eq. 11 over the N simulated instants).
 pub fn sensitivities(
     model: &ContinuousModel,
     time_constants_s: &[f64],
@@ -225,29 +274,42 @@ pub fn sensitivities(
     let recursion = SensitivityModel::new(model, time_constants_s, ts_s)?;
     let simulated: usize = segments.iter().map(|s| s.len()).sum();
     let mut norms = vec![vec![0.0; n]; n];
+    let mut response_of: Vec<usize> = Vec::with_capacity(n);
+    let mut values: Vec<Vec<f64>> = Vec::new();
     for i in 0..n {
         // A pair's second entry has its first's response (one decay parameter).
         if let Some(p) = recursion.partners[i].filter(|&p| p < i) {
             for row in norms.iter_mut() {
                 row[i] = row[p];
             }
+            response_of.push(response_of[p]);
             continue;
         }
         let mut sum_sq = vec![0.0; n];
+        let mut response = Vec::with_capacity(simulated * n);
         recursion.for_each_response(i, data, segments, |_, rel| {
             for (kk, acc) in sum_sq.iter_mut().enumerate() {
                 *acc += rel[kk] * rel[kk];
             }
+            response.extend(rel.iter());
         });
         for (row, sum) in norms.iter_mut().zip(&sum_sq) {
             row[i] = (sum / simulated.max(1) as f64).sqrt();
         }
+        response_of.push(values.len());
+        values.push(response);
     }
     Ok(Sensitivities {
         time_constants_s: time_constants_s.to_vec(),
         norms,
         oscillation_periods_s: recursion.periods_s,
         partners: recursion.partners,
+        responses: SensitivityResponses {
+            segments: segments.to_vec(),
+            states: n,
+            response_of,
+            values,
+        },
     })
 }
 
@@ -372,6 +434,7 @@ mod tests {
             norms: vec![vec![0.9, 0.6], vec![0.1, 0.4]],
             oscillation_periods_s: vec![None, None],
             partners: vec![None, None],
+            responses: SensitivityResponses::default(),
         };
         let a = assign(&s);
         assert_eq!(a[0].state, 0);
@@ -443,6 +506,20 @@ mod tests {
             });
         }
         assert!(largest > 1e-2, "the pair moves the outputs: {largest}");
+        // The kept responses are the recursion's, bit for bit, the pair's entries one.
+        let kept = sensitivities(&model, &spectrum_t, ts, &data, &whole).unwrap();
+        assert_eq!(kept.responses.values.len(), 2);
+        for i in 0..3 {
+            let mut fresh = Vec::new();
+            recursion.for_each_response(i, &data, &whole, |k, rel| {
+                fresh.push((k, rel.iter().map(|v| v.to_bits()).collect::<Vec<_>>()));
+            });
+            let mut stored = Vec::new();
+            kept.responses.for_each(i, |k, rel| {
+                stored.push((k, rel.iter().map(|v| v.to_bits()).collect::<Vec<_>>()));
+            });
+            assert_eq!(fresh, stored, "T{}", i + 1);
+        }
         // The modal Φ is the model's own.
         let (phi, _) = crate::thermal::matrix::discretize(&model.a_c, &model.b_c, ts);
         assert!((&recursion.discrete.phi - phi).norm() < 1e-12);
@@ -461,6 +538,7 @@ mod tests {
             norms,
             oscillation_periods_s: vec![None, Some(200.0), Some(200.0)],
             partners: vec![None, Some(2), Some(1)],
+            responses: SensitivityResponses::default(),
         };
         let a = assign(&s);
         assert_eq!(a.iter().map(|x| x.state).collect::<Vec<_>>(), vec![2, 0, 1]);

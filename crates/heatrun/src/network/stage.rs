@@ -54,27 +54,57 @@ pub struct NetworkAnalysis {
     pub equilibrium: Equilibrium,
 }
 
-/// The network stage (see the module's documentation): the passive network nearest the
-/// `identified` model (minimum distance, [`fit`]), or where `grey_box` is given (`rc`),
-/// the network it estimated.
-pub fn analyse(
-    model: &ModelDescription,
-    grey_box: Option<&NetworkEstimate>,
-    identified: &Estimate,
-    continuous: &ContinuousModel,
-    time_constants_s: &[f64],
-    signals: &ModelSignals,
-    decimated: &DecimatedRecording,
-) -> NetworkAnalysis {
-    let calorimetry = calorimetry(model, signals, decimated);
-    let network = match grey_box {
-        Some(estimate) => estimated_network(model, estimate, calorimetry.as_ref()),
-        None => network(model, identified, continuous, signals, calorimetry.as_ref()),
-    };
-    NetworkAnalysis {
-        network,
-        calorimetry,
-        equilibrium: equilibrium_checks(model, signals, time_constants_s),
+/// What the network stage finds without the network: the calorimetric balance and the
+/// equilibrium checks. A replay makes them while `oe`'s re-estimation for the network
+/// runs ([`crate::pipeline`]), then adds the network ([`Balance::with_network`]).
+#[derive(Debug, Clone)]
+pub struct Balance {
+    /// The calorimetric balance, where the flow is recorded.
+    pub calorimetry: Option<Calorimetry>,
+    /// The equilibrium checks.
+    pub equilibrium: Equilibrium,
+}
+
+impl Balance {
+    /// The balance of eqs. 17-18 and the equilibrium checks against the model's time
+    /// constants (ascending, s).
+    pub fn of(
+        model: &ModelDescription,
+        signals: &ModelSignals,
+        decimated: &DecimatedRecording,
+        time_constants_s: &[f64],
+    ) -> Balance {
+        Balance {
+            calorimetry: calorimetry(model, signals, decimated),
+            equilibrium: equilibrium_checks(model, signals, time_constants_s),
+        }
+    }
+
+    /// The stage's whole finding: the passive network nearest the `identified` model, or
+    /// `grey_box`'s (`rc`'s estimate), scaled by this balance's c·ρ·Q where it has one.
+    pub fn with_network(
+        self,
+        model: &ModelDescription,
+        grey_box: Option<&NetworkEstimate>,
+        identified: &Estimate,
+        continuous: &ContinuousModel,
+        signals: &ModelSignals,
+    ) -> NetworkAnalysis {
+        let network = match grey_box {
+            Some(estimate) => estimated_network(model, estimate, self.calorimetry.as_ref()),
+            None => network(
+                model,
+                identified,
+                continuous,
+                signals,
+                self.calorimetry.as_ref(),
+            ),
+        };
+        NetworkAnalysis {
+            network,
+            calorimetry: self.calorimetry,
+            equilibrium: self.equilibrium,
+        }
     }
 }
 
