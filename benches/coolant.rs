@@ -14,13 +14,13 @@
 //! (`spec::coolant::a_c_at_flow`; the paper's model has one A_c), and a second table
 //! compares A_c itself with the truth at the initial flow.
 
-use heatrun::thermal::matrix::eigenvalues;
 use heatrun::pipeline::{replay, Replay, ReplayOptions};
 use heatrun::spec::coolant::{a_c_at_flow, ReferencePolicy};
 use heatrun::spec::InputSource;
 use heatrun::synth::{
     self, Disturbances, Machine, NetworkMachine, PumpSwitch, SynthOptions, Truth,
 };
+use heatrun::thermal::matrix::eigenvalues;
 
 fn sorted(v: &[f64]) -> Vec<f64> {
     let mut v = v.to_vec();

@@ -12,13 +12,13 @@
 use std::time::Instant;
 
 use heatrun::estimate::{DiscreteModel, Estimate, Estimator, OutputError};
-use heatrun::thermal::matrix::discretize;
 use heatrun::model::{propagate, Spectrum};
-use heatrun::synth::example::{generator_like, rich_heat_run};
 use heatrun::network::{Interval, Labels, Network, NetworkIntervals, Parts, ScaleSource, Scaling};
 use heatrun::pipeline::{prepare, replay, Method, ReplayOptions};
 use heatrun::recording::Nameplate;
+use heatrun::synth::example::{generator_like, rich_heat_run};
 use heatrun::synth::{self, SynthOptions};
+use heatrun::thermal::matrix::discretize;
 
 /// One parameter: its name, unit factor for printing, truth, and whether its error is
 /// relative.

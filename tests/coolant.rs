@@ -8,12 +8,12 @@ use serde_json::Value;
 
 use crate::common::{self, heatrun, heatrun_ok};
 use crate::outputs::ReportSchema;
-use heatrun::thermal::matrix::eigenvalues;
 use heatrun::pipeline::{replay, Replay, ReplayOptions};
 use heatrun::spec::coolant::a_c_at_flow;
 use heatrun::spec::coolant::ReferencePolicy;
 use heatrun::spec::{InputKind, InputSource, Reference};
 use heatrun::synth::{self, Disturbances, Machine, NetworkMachine, SynthOptions, Truth};
+use heatrun::thermal::matrix::eigenvalues;
 
 /// The rc unit (true constants 70.8 s, 710 s, 4504 s) at PT100-like noise. Every test
 /// uses seed 1: the same noise with and without each disturbance (the spread over seeds
@@ -222,7 +222,10 @@ fn a_pump_switch_is_named_and_the_inlet_reference_needs_the_inlet() {
     let constant = dir.path().join("constant.mcap");
     rc_run(&constant, Disturbances::default(), 1);
     let prepared = heatrun::pipeline::prepare(&constant, &ReplayOptions::default()).unwrap();
-    assert_eq!(heatrun::warnings::flow_change(&prepared.for_warnings()), None);
+    assert_eq!(
+        heatrun::warnings::flow_change(&prepared.for_warnings()),
+        None
+    );
     // `--reference inlet` on a recording without the inlet: exit 2 naming the channel.
     let bare = dir.path().join("bare.mcap");
     synth::write(

@@ -382,8 +382,7 @@ fn the_rrd_is_written_and_quiet_prints_only_the_alarms() {
     let model = heatrun::model_file::ThermalModel::read(&d.join("model.json")).unwrap();
     let options = heatrun::monitor::MonitorOptions::default();
     let whole =
-        common::oracle::monitor_whole_file(&model, &d.join("fault.mcap"), &options)
-            .unwrap();
+        common::oracle::monitor_whole_file(&model, &d.join("fault.mcap"), &options).unwrap();
     for (j, state) in whole.states.iter().enumerate() {
         let t = &whole.traces;
         let in_alarm = (0..t.time_ns.len())

@@ -4,14 +4,14 @@
 use crate::common;
 
 use heatrun::estimate::{DiscreteModel, EstimationError, IdentificationData};
-use heatrun::thermal::matrix::discretize;
 use heatrun::model::ContinuousModel;
-use heatrun::synth::example::rich_heat_run;
 use heatrun::network::{Interval, Labels, Network, NetworkIntervals, Parts, ScaleSource, Scaling};
 use heatrun::pipeline::{self, replay, Method, Replay, ReplayOptions};
 use heatrun::recording::Nameplate;
 use heatrun::spec::ModelDescription;
+use heatrun::synth::example::rich_heat_run;
 use heatrun::synth::{self, SynthOptions};
+use heatrun::thermal::matrix::discretize;
 use heatrun::Error;
 use nalgebra::DMatrix;
 

@@ -298,7 +298,10 @@ fn the_report_reads_back_as_it_was_written() {
     assert_eq!(r["estimation"][f]["slope"], w["estimation"][f]["slope"]);
     let model = heatrun::model_file::ThermalModel::from_report(&read, path).unwrap();
     assert_eq!(model.states, replayed.model.states);
-    assert_eq!(model.initial_reference_c, replayed.signals.initial_references());
+    assert_eq!(
+        model.initial_reference_c,
+        replayed.signals.initial_references()
+    );
 }
 
 #[test]

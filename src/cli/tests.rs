@@ -443,8 +443,7 @@ fn request(args: &[&str]) -> anyhow::Result<Request> {
 fn usage(args: &[&str]) -> String {
     let err = request(args).expect_err("must be refused");
     assert!(
-        crate::commands::is_bad_input(&err)
-            && err.downcast_ref::<crate::cli::Usage>().is_some(),
+        crate::commands::is_bad_input(&err) && err.downcast_ref::<crate::cli::Usage>().is_some(),
         "{args:?}: not a usage error: {err:#}"
     );
     err.to_string()

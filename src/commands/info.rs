@@ -17,8 +17,7 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<Outcome> {
     // name are averaged over intervals.
     let mut grid = GridBuilder::whole(1.0, ModelDescription::generator().alignments())
         .map_err(heatrun::Error::from)?;
-    let summary =
-        recording::read_recording(&args.file, &mut grid).map_err(heatrun::Error::from)?;
+    let summary = recording::read_recording(&args.file, &mut grid).map_err(heatrun::Error::from)?;
     // `inspect`, not `finish`: a channel whose clock jumped is shown, not refused.
     let grid = if summary.channels.is_empty() {
         None

@@ -2,8 +2,8 @@
 //! recording is read (from a file, or from standard input for `-`), each stretch
 //! published to rerun as it is sealed.
 
-use heatrun::monitor::{self, MonitorOptions, MonitorResult, Source, Watchers};
 use heatrun::model_file::ThermalModel;
+use heatrun::monitor::{self, MonitorOptions, MonitorResult, Source, Watchers};
 use heatrun_rerun::monitor::LivePublisher;
 use heatrun_rerun::RerunSink;
 

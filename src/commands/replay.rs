@@ -6,9 +6,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use heatrun::atomic::write_atomically;
+use heatrun::model_file::Report;
 use heatrun::pipeline::{self, ReplayOptions};
 use heatrun::progress::Observer;
-use heatrun::model_file::Report;
 use heatrun_rerun::{Publisher, RerunSink};
 
 use super::bars::{self, Bars};
@@ -112,8 +112,7 @@ pub fn replay_one(
     // The publisher sends each stage's series while the next stage runs.
     let found = if replay.raw {
         let mut full_rate = publisher.full_rate();
-        let found =
-            pipeline::replay_observed(file, &options, Some(&mut full_rate), &publisher)?;
+        let found = pipeline::replay_observed(file, &options, Some(&mut full_rate), &publisher)?;
         full_rate.flush()?;
         found
     } else {

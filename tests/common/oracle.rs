@@ -7,18 +7,18 @@ use std::path::Path;
 
 use nalgebra::DVector;
 
+use heatrun::decimate::DecimatedRecording;
+use heatrun::grid::GridBuilder;
+use heatrun::model_file::ThermalModel;
 use heatrun::monitor::{
     description_of, grid_alignments, inlet_warning, Accumulator, Alarm, Band, Detector,
     MonitorOptions, MonitorResult, MonitorTraces, StateRef,
 };
-use heatrun::decimate::DecimatedRecording;
-use heatrun::grid::GridBuilder;
-use heatrun::{Error, Result};
-use heatrun::model_file::ThermalModel;
 use heatrun::recording::{self, Quantity, ReadOptions, SampleSink};
 use heatrun::series::Series;
 use heatrun::signals::{self, ModelSignals};
 use heatrun::spec::ModelDescription;
+use heatrun::{Error, Result};
 
 /// Monitors `recording` with `model` from the whole file at once (the test oracle).
 pub fn monitor_whole_file(

@@ -169,10 +169,11 @@ mod tests {
 
     #[test]
     fn every_time_series_view_of_the_fixture_layout_shows_the_whole_recording() {
-        let fixture =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/paper_heat_run.mcap");
+        let fixture = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../fixtures/paper_heat_run.mcap");
         let replay =
-            heatrun::pipeline::replay(&fixture, &heatrun::pipeline::ReplayOptions::default()).unwrap();
+            heatrun::pipeline::replay(&fixture, &heatrun::pipeline::ReplayOptions::default())
+                .unwrap();
         let layout = blueprint(&replay, true);
         let views = layout.root.views();
         let series: Vec<_> = views

@@ -35,8 +35,8 @@ use heatrun::recording::SampleSink as _;
 
 use heatrun::atomic::{PendingOutput, WriteError};
 use heatrun::model::ModelAnalysis;
-use heatrun::pipeline::{Prepared, Replay, StageObserver};
 use heatrun::model_file::Report;
+use heatrun::pipeline::{Prepared, Replay, StageObserver};
 
 /// Name of the timeline: the recording's own clock (log_time).
 pub const TIMELINE: &str = "time";

@@ -1198,10 +1198,7 @@ mod tests {
         );
         let chans = [channel(0, Quantity::CoreTemp)];
         let d = decimator(&chans);
-        assert!(matches!(
-            d.finish(&chans),
-            Err(DecimateError::NoSamples)
-        ));
+        assert!(matches!(d.finish(&chans), Err(DecimateError::NoSamples)));
         // A stray sample decades away from the rest.
         let mut d = decimator(&chans);
         for t in 0..100u64 {

@@ -14,20 +14,20 @@ use std::path::{Path, PathBuf};
 use std::borrow::Cow;
 
 use crate::decimate::DecimatedRecording;
-use crate::grid::GridBuilder;
 use crate::error::{Error, Result};
-use crate::recording::RecordingError;
-use crate::signals::SignalError;
 use crate::estimate::{
     Estimate, EstimationError, Estimator, IdentificationData, InstrumentalVariables, OutputError,
     RecursiveLeastSquares, ResistanceCapacitance, WeightedLeastSquares,
 };
+use crate::grid::GridBuilder;
 use crate::model::{self, ModelAnalysis};
 use crate::network::{self, NetworkAnalysis};
 use crate::progress::Observer;
+use crate::recording::RecordingError;
 use crate::recording::{
     self, Nameplate, NameplateEntries, ReadOptions, RecordingSummary, SampleSink,
 };
+use crate::signals::SignalError;
 use crate::signals::{self, ModelSignals};
 use crate::spec::coolant::{self, ReferencePolicy};
 use crate::spec::ModelDescription;

@@ -66,13 +66,13 @@ impl SignalError {
 pub type Result<T, E = SignalError> = std::result::Result<T, E>;
 use crate::estimate::{ExceptionStorage, IdentificationData};
 use crate::losses::{self, FieldTemperatureSource, GeneratorLosses};
-use crate::thermal::water::{Water, WaterError};
 use crate::recording::{Nameplate, Quantity, Signal, Storage};
 use crate::series::Series;
 use crate::spec::{
     coolant, delay, InputDescription, InputKind, InputSource, ModelDescription, Reference, Scaling,
     StateDescription,
 };
+use crate::thermal::water::{Water, WaterError};
 
 /// What a state's rise is measured from, on the grid.
 #[derive(Debug, Clone)]
@@ -854,11 +854,12 @@ fn delay_inputs(
         if description.delay_s == 0.0 {
             continue;
         }
-        let d = delay::shift_samples(description.delay_s, ts_s).ok_or_else(|| delay::DelayError {
-            input: description.name.clone(),
-            delay_s: description.delay_s,
-            ts_s,
-        })?;
+        let d =
+            delay::shift_samples(description.delay_s, ts_s).ok_or_else(|| delay::DelayError {
+                input: description.name.clone(),
+                delay_s: description.delay_s,
+                ts_s,
+            })?;
         signal.values = match usize::try_from(d) {
             Ok(later) => delay::shift(&signal.values, later),
             Err(_) => delay::advance(&signal.values, d.unsigned_abs()),
@@ -866,7 +867,6 @@ fn delay_inputs(
     }
     Ok(())
 }
-
 
 #[cfg(test)]
 mod tests {

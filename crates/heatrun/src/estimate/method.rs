@@ -107,6 +107,9 @@ mod tests {
     #[test]
     fn it_serialises_as_its_name() {
         assert_eq!(serde_json::to_string(&Method::Rc).unwrap(), "\"rc\"");
-        assert_eq!(serde_json::from_str::<Method>("\"wls\"").unwrap(), Method::Wls);
+        assert_eq!(
+            serde_json::from_str::<Method>("\"wls\"").unwrap(),
+            Method::Wls
+        );
     }
 }

@@ -87,7 +87,11 @@ impl Estimator for ResistanceCapacitance {
             progress: self.progress.clone(),
         }
         .estimate(data)?;
-        let map = Parametrisation::of_shape(data.ts_s, self.scaling, &start_parts(&oe.model, self.scaling));
+        let map = Parametrisation::of_shape(
+            data.ts_s,
+            self.scaling,
+            &start_parts(&oe.model, self.scaling),
+        );
         let start = map.start.clone();
         let mut estimate = self.fit_from(data, map, &start)?;
         if let Some(network) = estimate.network.as_mut() {

@@ -440,8 +440,7 @@ impl SampleSink for GridBuilder {
                 if s.windowing.len() <= channel.index {
                     s.windowing.resize(channel.index + 1, None);
                 }
-                s.windowing[channel.index] =
-                    Some(decimate::channel_alignment(alignments, channel));
+                s.windowing[channel.index] = Some(decimate::channel_alignment(alignments, channel));
                 s.channel_list.retain(|c| c.index != channel.index);
                 s.channel_list.push(channel.clone());
                 s.channel_list.sort_by_key(|c| c.index);

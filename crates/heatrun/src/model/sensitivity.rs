@@ -18,9 +18,9 @@ use std::ops::Range;
 use nalgebra::{Complex, DMatrix, DVector};
 use serde::Serialize;
 
+use crate::estimate::{DiscreteModel, IdentificationData};
 use crate::thermal::matrix::{complex_eigenvector, eigenvalues, eigenvector};
 use crate::thermal::{ContinuousModel, ModelError};
-use crate::estimate::{DiscreteModel, IdentificationData};
 
 type Result<T, E = ModelError> = std::result::Result<T, E>;
 

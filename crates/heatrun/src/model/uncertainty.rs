@@ -6,8 +6,8 @@
 use nalgebra::DVector;
 use serde::Serialize;
 
-use crate::thermal::{ContinuousModel, Spectrum};
 use crate::estimate::Estimate;
+use crate::thermal::{ContinuousModel, Spectrum};
 
 pub use crate::thermal::Z95;
 

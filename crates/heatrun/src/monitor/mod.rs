@@ -235,10 +235,7 @@ pub fn grid_alignments(
 /// measured from their initial values: such a model has no input for the inlet, so its
 /// prediction follows the inlet only as the lagged shift, which the slow parts do not
 /// follow; the model identified with the coolant inlet as its reference does.
-pub fn inlet_warning(
-    model: &ThermalModel,
-    decimated: &DecimatedRecording,
-) -> Option<String> {
+pub fn inlet_warning(model: &ThermalModel, decimated: &DecimatedRecording) -> Option<String> {
     let inlet = crate::spec::coolant::inlet_behaviour(decimated)?;
     let initial_states = model
         .states

@@ -32,13 +32,13 @@ use super::{
     MonitorResult, MonitorTraces, StateRef,
 };
 use crate::decimate::{DecimateError, DecimatedRecording, DecimatedSeries};
-use crate::grid::{GridBuilder, Ready, StretchPlan, MARGIN};
 use crate::error::{Error, Result};
-use crate::signals::SignalError;
+use crate::grid::{GridBuilder, Ready, StretchPlan, MARGIN};
 use crate::model_file::ThermalModel;
 use crate::progress::Observer;
 use crate::recording::{self, Quantity, ReadOptions, Sample, SampleSink, SensorChannel, Signal};
 use crate::series::Series;
+use crate::signals::SignalError;
 use crate::signals::{self, Anchors, ModelSignals, FLOW_RISE_SMOOTHING_S};
 use crate::spec::{delay, InputSource, ModelDescription};
 
@@ -276,8 +276,7 @@ impl<'m, 'w> Live<'m, 'w> {
         let sealed = self.grid.seal(ready, last)?;
         let anchors = self.anchors.as_mut().expect("anchored above");
         let np = self.model.nameplate.as_ref();
-        let signals =
-            signals::compute_anchored(&self.description, &sealed.decimated, np, anchors)?;
+        let signals = signals::compute_anchored(&self.description, &sealed.decimated, np, anchors)?;
         self.run
             .stretch(self.model, &signals, &sealed.decimated, sealed.instants);
         if let Some(observer) = self.observer.as_deref_mut() {

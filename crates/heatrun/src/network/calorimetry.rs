@@ -5,8 +5,8 @@
 use serde::Serialize;
 
 use super::NetworkError;
-pub use crate::thermal::water::{Water, WaterError, STANDARD_PRESSURE_PA};
 use crate::series::Series;
+pub use crate::thermal::water::{Water, WaterError, STANDARD_PRESSURE_PA};
 
 /// The heat carried away by water of `heat_per_litre_j_per_k` = c·ρ (J/(l·K)) rising
 /// `delta_k` at `flow_l_per_s`: dW_cw/dt = c·ρ·Δθ·Q in W (eq. 17).

@@ -218,10 +218,11 @@ impl NameplateEntries {
     }
 
     fn required(&self, key: &str, recording: &str) -> Result<f64> {
-        self.number(key)?.ok_or_else(|| RecordingError::MissingNameplateKey {
-            path: recording.into(),
-            key: key.to_owned(),
-        })
+        self.number(key)?
+            .ok_or_else(|| RecordingError::MissingNameplateKey {
+                path: recording.into(),
+                key: key.to_owned(),
+            })
     }
 
     fn positive(&self, key: &str, recording: &str) -> Result<f64> {

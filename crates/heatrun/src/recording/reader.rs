@@ -24,9 +24,9 @@ pub use super::channel::{
     SAMPLE_SCHEMA_NAME,
 };
 use super::chunk::ChunkError;
+use super::error::{RecordingError, Result};
 use super::nameplate::{NameplateEntries, NAMEPLATE_RECORD};
 use super::quantity::ZERO_NOISE_FRACTION;
-use super::error::{RecordingError, Result};
 use crate::progress::{Observer, Throttle};
 
 /// How to read a recording.

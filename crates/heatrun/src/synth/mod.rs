@@ -52,8 +52,8 @@ impl SynthError {
 /// The synthesiser's result.
 pub type Result<T, E = SynthError> = std::result::Result<T, E>;
 use crate::losses::copper_resistance;
-use crate::thermal::matrix::discretize;
 use crate::recording::{Nameplate, Quantity};
+use crate::thermal::matrix::discretize;
 use crate::writer::{
     ChannelId, ChannelSpec, ExceptionFilter, RecordingWriter, Storage, WriterOptions,
 };
@@ -587,8 +587,9 @@ struct SampleSource<'a> {
 
 impl<'a> SampleSource<'a> {
     fn new(o: &'a SynthOptions, traj: &'a Trajectory) -> Result<SampleSource<'a>> {
-        let noise =
-            |sigma: f64| Normal::new(0.0, sigma.max(0.0)).map_err(|e| SynthError::Options(e.to_string()));
+        let noise = |sigma: f64| {
+            Normal::new(0.0, sigma.max(0.0)).map_err(|e| SynthError::Options(e.to_string()))
+        };
         Ok(SampleSource {
             o,
             traj,

@@ -21,11 +21,11 @@ use super::machines::{Machine, NetworkMachine};
 use super::{FieldChannel, OperatingPoint, SynthOptions};
 use super::{Result, SynthError};
 use crate::losses;
-use crate::thermal::matrix::discretize;
 use crate::model::ContinuousModel;
 use crate::network::calorimetry::WaterModel;
 use crate::network::{Labels, Network, Parts, ScaleSource, Scaling};
 use crate::recording::Quantity;
+use crate::thermal::matrix::discretize;
 
 /// The period of the inlet's daily swing, s.
 const DAY_S: f64 = 86_400.0;

@@ -6,11 +6,11 @@ use serde::Serialize;
 
 use super::machines::Machine;
 use super::plant::{self, ChangeCause, Piece, Trajectory};
-use super::{Disturbances, OperatingPoint, SynthOptions};
 use super::Result;
+use super::{Disturbances, OperatingPoint, SynthOptions};
 use crate::estimate::DiscreteModel;
-use crate::thermal::matrix::rows;
 use crate::model::{ContinuousModel, Spectrum};
+use crate::thermal::matrix::rows;
 
 /// What a synthetic run was made from. States are in the machine's order (`states`);
 /// Φ, Γ, A_c, B_c act on the rises in units of θ_base and the losses in pu of S_n.

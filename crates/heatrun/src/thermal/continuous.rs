@@ -4,8 +4,8 @@ use nalgebra::DMatrix;
 use serde::Serialize;
 
 use super::matrix::{eigenvalues, logm};
-use super::ModelError;
 use super::DiscreteModel;
+use super::ModelError;
 
 type Result<T, E = ModelError> = std::result::Result<T, E>;
 

@@ -316,4 +316,3 @@ fn laplacian(g: &DMatrix<f64>) -> DMatrix<f64> {
         }
     })
 }
-

@@ -130,7 +130,6 @@ fn region1(p_pa: f64, t_k: f64) -> Water {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

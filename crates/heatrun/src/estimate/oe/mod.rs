@@ -19,8 +19,8 @@ mod fit;
 
 pub use fit::*;
 
-use crate::estimate::Method;
 use super::{Estimate, Estimator, IdentificationData, Result};
+use crate::estimate::Method;
 
 impl Estimator for OutputError {
     fn method(&self) -> Method {

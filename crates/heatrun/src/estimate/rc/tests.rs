@@ -3,8 +3,8 @@
 use nalgebra::DMatrix;
 
 use super::*;
-use crate::thermal::network::Interval;
 use crate::estimate::testing::{simulate, step_inputs, with_noise};
+use crate::thermal::network::Interval;
 
 /// Three parts in physical units (inputs in units of 20 W): C = [200, 1000, 100] J/K,
 /// G_10 = 1, G_20 = 2, G_30 = 5, G_12 = 3, G_13 = 0.5, G_23 = 4 W/K, every share positive.
