@@ -186,6 +186,10 @@ fn a_spec_naming_an_absent_channel_or_a_bad_key_stops_with_one_line() {
             SPEC.replace("0.01 * Q1 * 3.0", "0.01 * (Q1"),
             "heater_1_power",
         ),
+        (
+            SPEC.replace("sample_time_s = 1.0", "sample_time_s = 1.0\nmethod = \"pem\""),
+            "method = \"pem\" is not one of oe, rc, iv, rls, wls, ls",
+        ),
     ] {
         let path = dir.path().join("bad.toml");
         std::fs::write(&path, spec).unwrap();

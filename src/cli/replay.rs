@@ -343,11 +343,12 @@ fn library_options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
     };
     let method = match (args.method, model.method.as_deref()) {
         (Some(m), _) => m,
+        // A spec's bad key is the input's fault (exit status 2), as every other is.
         (None, Some(name)) => name.parse::<Method>().map_err(|_| {
-            anyhow::anyhow!(
+            Usage(format!(
                 "{}: method = \"{name}\" is not one of oe, rc, iv, rls, wls, ls",
                 args.spec.as_deref().unwrap_or(Path::new("spec")).display()
-            )
+            ))
         })?,
         (None, None) => Method::Oe,
     };
