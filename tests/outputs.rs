@@ -8,6 +8,7 @@ use std::io::BufReader;
 
 use heatrun::model_file::Report;
 use heatrun::pipeline::{replay, ReplayOptions};
+use heatrun::report::Replayed;
 use heatrun::synth::{self, SynthOptions};
 // rerun's own decoder, through the SDK the build already has (no second build of
 // rerun's crates for the tests).
@@ -151,18 +152,10 @@ fn publishing_stage_by_stage_writes_what_publishing_the_whole_replay_writes() {
         heatrun_rerun::Publisher::open(&heatrun_rerun::RerunSink::Rrd(staged.clone()), "run")
             .unwrap();
     let replayed = heatrun::pipeline::replay_observed(&mcap, &options, None, &publisher).unwrap();
-    let report = Report::new(&replayed);
-    let summary = report.summary();
-    publisher.finish(&replayed, &report, &summary).unwrap();
+    publisher.finish(&Replayed::new(replayed)).unwrap();
     let whole = dir.path().join("whole.rrd");
-    let replayed = replay(&mcap, &options).unwrap();
-    heatrun_rerun::publish(
-        &replayed,
-        &report,
-        &summary,
-        &heatrun_rerun::RerunSink::Rrd(whole.clone()),
-    )
-    .unwrap();
+    let replayed = Replayed::new(replay(&mcap, &options).unwrap());
+    heatrun_rerun::publish(&replayed, &heatrun_rerun::RerunSink::Rrd(whole.clone())).unwrap();
     let (staged_rows, staged_blueprint) = rows_and_blueprint(&staged);
     let staged_statics = STATICS.with(|s| std::mem::take(&mut *s.borrow_mut()));
     let (whole_rows, whole_blueprint) = rows_and_blueprint(&whole);

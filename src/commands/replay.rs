@@ -6,7 +6,6 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use heatrun::atomic::write_atomically;
-use heatrun::model_file::Report;
 use heatrun::pipeline::{self, ReplayOptions};
 use heatrun::progress::Observer;
 use heatrun_rerun::{Publisher, RerunSink};
@@ -21,15 +20,7 @@ pub fn run(replay: &Replay, one: &One) -> anyhow::Result<Outcome> {
     single(replay, one)
 }
 
-/// One recording replayed, with its report and the summary printed from it.
-pub struct Replayed {
-    /// What the pipeline found.
-    pub replay: pipeline::Replay,
-    /// Its report.
-    pub report: Report,
-    /// The report's summary, as printed and published.
-    pub summary: String,
-}
+pub use heatrun::report::Replayed;
 
 /// Where one recording's outputs besides the rerun recording go.
 pub struct Outputs<'a> {
@@ -119,18 +110,13 @@ pub fn replay_one(
         pipeline::replay_observed(file, &options, None, &publisher)?
     };
     options.progress.stage("writing the outputs");
-    let report = Report::new(&found);
-    let summary = report.summary();
-    publisher.finish(&found, &report, &summary)?;
+    let replayed = Replayed::new(found);
+    publisher.finish(&replayed)?;
     if let Some(path) = outputs.report {
-        write_atomically(path, report.to_json().as_bytes())?;
+        write_atomically(path, replayed.report.to_json().as_bytes())?;
     }
     if let Some(path) = outputs.html {
-        heatrun::html::replay_page(&found, &report, &options).write(path)?;
+        heatrun::html::replay_page(&replayed, &options).write(path)?;
     }
-    Ok(Replayed {
-        replay: found,
-        report,
-        summary,
-    })
+    Ok(replayed)
 }

@@ -37,6 +37,7 @@ use heatrun::atomic::{PendingOutput, WriteError};
 use heatrun::model::ModelAnalysis;
 use heatrun::model_file::Report;
 use heatrun::pipeline::{Prepared, Replay, StageObserver};
+use heatrun::report::Replayed;
 
 /// Name of the timeline: the recording's own clock (log_time).
 pub const TIMELINE: &str = "time";
@@ -156,7 +157,9 @@ impl Publisher {
     /// Logs the replay's traces (those no stage sent already), its figures from `report`
     /// and `summary_text`, sends the blueprint, and completes the output (an .rrd is
     /// renamed into place only now).
-    pub fn finish(self, replay: &Replay, report: &Report, summary_text: &str) -> Result<()> {
+    pub fn finish(self, replayed: &Replayed) -> Result<()> {
+        let (replay, report, summary_text) =
+            (&replayed.replay, &replayed.report, replayed.summary.as_str());
         let early = self.early.into_inner().unwrap_or_else(|e| e.into_inner());
         if let Some(e) = early.failed {
             return Err(e);
@@ -191,21 +194,16 @@ impl Publisher {
     }
 }
 
-/// Sends a replay's traces to `sink`, with the figures of its `report` and
-/// `summary_text`. For an .rrd the file is written under a temporary name and renamed
-/// when complete.
-pub fn publish(
-    replay: &Replay,
-    report: &Report,
-    summary_text: &str,
-    sink: &RerunSink,
-) -> Result<()> {
-    let name = replay
+/// Sends a replay's traces to `sink`, with the figures of its report and summary. For an
+/// .rrd the file is written under a temporary name and renamed when complete.
+pub fn publish(replayed: &Replayed, sink: &RerunSink) -> Result<()> {
+    let name = replayed
+        .replay
         .path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    Publisher::open(sink, &name)?.finish(replay, report, summary_text)
+    Publisher::open(sink, &name)?.finish(replayed)
 }
 
 /// Samples buffered per channel before they go out as one column chunk.

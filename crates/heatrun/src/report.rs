@@ -38,6 +38,31 @@ impl From<&crate::model::Fit> for FitEntry {
 /// for.
 pub const REFERENCE_INLET_C: f64 = 25.0;
 
+/// A replay with its report and the report's summary: the one result view that the text
+/// summary, the JSON, the HTML page and the rerun recording all read, made once.
+#[derive(Debug, Clone)]
+pub struct Replayed {
+    /// What the pipeline found (the series on the grid, the estimate's details).
+    pub replay: Replay,
+    /// Its report (the figures, as written to JSON).
+    pub report: Report,
+    /// The report's paper-style summary, as printed and published.
+    pub summary: String,
+}
+
+impl Replayed {
+    /// The report and the summary of `replay`, made once.
+    pub fn new(replay: Replay) -> Replayed {
+        let report = Report::new(&replay);
+        let summary = report.summary();
+        Replayed {
+            replay,
+            report,
+            summary,
+        }
+    }
+}
+
 /// The steady state against the coolant inlet where the states are measured from the
 /// inlet's initial level ([`crate::spec::Reference::InitialOf`]), else `None`.
 fn inlet_steady_state(r: &Replay) -> Option<InletSteadyState> {

@@ -27,8 +27,8 @@ pub use monitor::monitor_page;
 pub use predict::{predict_page, PredictionView};
 pub use rating::rating_page;
 
-use crate::model_file::Report;
-use crate::pipeline::{Replay, ReplayOptions};
+use crate::pipeline::ReplayOptions;
+use crate::report::Replayed;
 
 /// Why a page could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -148,12 +148,9 @@ impl<'a> Page<'a> {
 /// sensitivities, the fit, the steady state, the residuals, the recursive estimate where
 /// used, the thermal network and the calorimetric balance where present, validation, and
 /// the estimator's settings.
-pub fn replay_page<'a>(
-    replay: &'a Replay,
-    report: &'a Report,
-    options: &'a ReplayOptions,
-) -> Page<'a> {
+pub fn replay_page<'a>(replayed: &'a Replayed, options: &'a ReplayOptions) -> Page<'a> {
     use sections::*;
+    let (replay, report) = (&replayed.replay, &replayed.report);
     let mut page = Page::new(
         format!("{}: thermal model", sections::recording_title(report)),
         format!(
