@@ -187,7 +187,10 @@ fn a_spec_naming_an_absent_channel_or_a_bad_key_stops_with_one_line() {
             "heater_1_power",
         ),
         (
-            SPEC.replace("sample_time_s = 1.0", "sample_time_s = 1.0\nmethod = \"pem\""),
+            SPEC.replace(
+                "sample_time_s = 1.0",
+                "sample_time_s = 1.0\nmethod = \"pem\"",
+            ),
             "method = \"pem\" is not one of oe, rc, iv, rls, wls, ls",
         ),
     ] {

@@ -158,8 +158,11 @@ impl Publisher {
     /// and `summary_text`, sends the blueprint, and completes the output (an .rrd is
     /// renamed into place only now).
     pub fn finish(self, replayed: &Replayed) -> Result<()> {
-        let (replay, report, summary_text) =
-            (&replayed.replay, &replayed.report, replayed.summary.as_str());
+        let (replay, report, summary_text) = (
+            &replayed.replay,
+            &replayed.report,
+            replayed.summary.as_str(),
+        );
         let early = self.early.into_inner().unwrap_or_else(|e| e.into_inner());
         if let Some(e) = early.failed {
             return Err(e);

@@ -245,27 +245,27 @@ impl GridBuilder {
     /// Seals `ready` (checks the channels' clocks over it, lays it on the grid with its
     /// overlap, drops the samples no later stretch needs).
     pub fn seal(&mut self, ready: Ready, last: bool) -> Result<Sealed, DecimateError> {
-        let Mode::Stretches(s) = &self.mode else {
-            return Err(DecimateError::NoSamples);
-        };
         let (a, b) = (ready.start, ready.upto);
-        self.check_clock(s, a, b)?;
-        let lo = a - s.plan.lookback;
-        let hi = if last { b } else { b + s.plan.lookahead };
-        let decimated = self.decimate(s, lo, (hi - lo) as usize)?;
-        let offset = (a - lo) as usize;
-        let instants = offset..offset + (b - a) as usize;
-        let ts_s = self.ts_s;
-        let Mode::Stretches(s) = &mut self.mode else {
-            unreachable!("matched above");
+        let sealed = {
+            let Mode::Stretches(s) = &self.mode else {
+                return Err(DecimateError::NoSamples);
+            };
+            self.check_clock(s, a, b)?;
+            let lo = a - s.plan.lookback;
+            let hi = if last { b } else { b + s.plan.lookahead };
+            let offset = (a - lo) as usize;
+            Sealed {
+                decimated: self.decimate(s, lo, (hi - lo) as usize)?,
+                instants: offset..offset + (b - a) as usize,
+            }
         };
-        s.sealed = Some(b);
-        let cut = b - s.plan.lookback - 1;
-        s.prune(cut, ts_s);
-        Ok(Sealed {
-            decimated,
-            instants,
-        })
+        let ts_s = self.ts_s;
+        if let Mode::Stretches(s) = &mut self.mode {
+            s.sealed = Some(b);
+            let cut = b - s.plan.lookback - 1;
+            s.prune(cut, ts_s);
+        }
+        Ok(sealed)
     }
 
     /// The data-loss lines of samples that came too late for their stretch.

@@ -26,7 +26,12 @@ pub fn generator_like() -> (Parts, Labels) {
             &[0.85, 0.05, 0.05, 0.10, 0.25, 0.85, 0.05, 0.70, 0.10],
         ),
     };
-    let labels = Labels {
+    (parts, generator_labels())
+}
+
+/// The generator's three parts and three losses, in the model's order.
+pub fn generator_labels() -> Labels {
+    Labels {
         states: vec![
             "stator winding".into(),
             "iron core".into(),
@@ -37,8 +42,7 @@ pub fn generator_like() -> (Parts, Labels) {
             "field copper loss".into(),
             "iron loss".into(),
         ],
-    };
-    (parts, labels)
+    }
 }
 
 /// A heat run that moves all three losses independently and holds each point long enough

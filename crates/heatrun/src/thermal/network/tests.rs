@@ -320,18 +320,7 @@ fn json_block_has_the_report_keys() {
 fn paper_network() -> Network {
     let a = DMatrix::from_fn(3, 3, |i, j| crate::synth::PAPER_A_C[i][j]);
     let b = DMatrix::from_fn(3, 3, |i, j| crate::synth::PAPER_B_C[i][j]);
-    let labels = Labels {
-        states: vec![
-            "stator winding".into(),
-            "iron core".into(),
-            "cooling water".into(),
-        ],
-        inputs: vec![
-            "armature copper loss".into(),
-            "field copper loss".into(),
-            "iron loss".into(),
-        ],
-    };
+    let labels = crate::synth::example::generator_labels();
     let scaling = Scaling {
         theta_base_k: 80.0,
         p_base_w: 100e6,
