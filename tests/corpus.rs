@@ -513,9 +513,24 @@ fn local_disorder_changes_nothing() {
     );
 }
 
+/// The time constants of a report, ascending.
+fn time_constants(report: &Value) -> Vec<f64> {
+    let mut t: Vec<f64> = report["time_constants_s"]
+        .as_array()
+        .expect("time constants")
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t
+}
+
 #[test]
-fn a_gap_splits_the_regression() {
+fn an_output_gap_is_simulated_through_not_cut() {
     let dir = common::tempdir();
+    let clean = RecordingBuilder::from_synth(6000.0);
+    clean.write(&dir.path().join("clean.mcap"));
+    let reference = replay_ok(dir.path(), "clean.mcap");
     // Five minutes of the core temperature missing.
     let mut r = RecordingBuilder::from_synth(6000.0);
     let core = r.channel_of("core_temp");
@@ -526,13 +541,75 @@ fn a_gap_splits_the_regression() {
     let out = replay(dir.path(), "gap.mcap");
     assert_eq!(out.code, 0, "{}", out.stderr);
     assert!(
-        out.stdout.contains("/scada/core_temp has 1 gap(s)") && out.stdout.contains("2 segment(s)"),
+        out.stdout.contains("/scada/core_temp has 1 gap(s)")
+            && out.stdout.contains("1 segment(s)")
+            && out
+                .stdout
+                .contains("core_temp 300 instant(s) unobserved (simulated through)")
+            && !out.stdout.contains("no equation bridges"),
         "{}",
         out.stdout
     );
-    // 6000 instants, 300 without the core temperature; 301 equations touch them.
     let report = out.report.expect("a report");
-    assert_eq!(report["estimation"]["equations_used"], 6000 - 1 - 301);
+    let gaps = &report["estimation"]["gaps"];
+    assert_eq!(gaps["unobserved"][0]["state"], "core_temp");
+    assert_eq!(gaps["unobserved"][0]["instants"], 300);
+    // The other states keep every instant: the noise-free model comes back as without
+    // the gap.
+    for (got, want) in time_constants(&report)
+        .iter()
+        .zip(time_constants(&reference))
+    {
+        assert!((got / want - 1.0).abs() < 1e-3, "{got} against {want}");
+    }
+}
+
+#[test]
+fn a_short_input_gap_is_bridged_and_a_long_one_cuts() {
+    let dir = common::tempdir();
+    let clean = RecordingBuilder::from_synth(6000.0);
+    clean.write(&dir.path().join("clean.mcap"));
+    let reference = replay_ok(dir.path(), "clean.mcap");
+    // Twenty single armature-current samples lost ("I/O Timeout" cells) and one 5-minute
+    // outage of the link.
+    let mut r = RecordingBuilder::from_synth(6000.0);
+    let current = r.channel_of("armature_current");
+    let second = 1_000_000_000u64;
+    r.channels[current].2.retain(|(t, _)| {
+        let s = (t - T0) / second;
+        let timeout = s % 250 == 17 && s < 5000;
+        let outage = (4000..4300).contains(&s);
+        !(timeout || outage)
+    });
+    r.write(&dir.path().join("gaps.mcap"));
+    let out = replay(dir.path(), "gaps.mcap");
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    let report = out.report.expect("a report");
+    let inputs = report["estimation"]["gaps"]["inputs"]
+        .as_array()
+        .expect("the inputs' gaps")
+        .clone();
+    // The loss computed from the current: its single losses bridged, the outage cut.
+    let copper = inputs
+        .iter()
+        .find(|i| i["input"] == "armature_copper_loss")
+        .unwrap_or_else(|| panic!("{inputs:?}"));
+    assert_eq!(copper["bridge"], "hold");
+    assert_eq!(copper["cut"], 1, "{copper}");
+    assert!(copper["bridged"].as_u64().unwrap() >= 18, "{copper}");
+    assert!(
+        out.stdout.contains("2 segment(s)")
+            && out.stdout.contains("cut the data")
+            && out.stdout.contains("bridged (its last value held"),
+        "{}",
+        out.stdout
+    );
+    for (got, want) in time_constants(&report)
+        .iter()
+        .zip(time_constants(&reference))
+    {
+        assert!((got / want - 1.0).abs() < 5e-3, "{got} against {want}");
+    }
 }
 
 #[test]

@@ -287,6 +287,7 @@ mod tests {
                 kind: InputKind::Heat,
                 values: heater,
                 outlet_feedback: None,
+                gaps: signals::InputGaps::none(signals::Bridge::Hold),
             }],
             initial_index: 0,
             temperature_base_k: 1.0,

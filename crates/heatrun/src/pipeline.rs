@@ -197,6 +197,7 @@ impl Prepared {
             model: &self.model,
             recording: &self.recording,
             decimated: &self.decimated,
+            signals: &self.signals,
         }
     }
 }

@@ -12,8 +12,8 @@ use nalgebra::DMatrix;
 use crate::losses::FieldTemperatureSource;
 use crate::model_file::document::{
     AssignmentEntry, BesideEntry, ChannelEntry, EstimationEntry, FieldFromStator, FitEntry,
-    InletSteadyState, NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry,
-    UncertaintyEntry, ValidationEntry,
+    GapsEntry, InletSteadyState, InputGapsEntry, NetworkEntry, RecordingEntry, ResidualEntry,
+    SteadyStateEntry, UncertaintyEntry, UnobservedEntry, ValidationEntry,
 };
 use crate::model_file::{Report, PROFILE};
 use crate::pipeline::Replay;
@@ -251,7 +251,74 @@ fn estimation_entry(r: &Replay) -> EstimationEntry {
                 .get(crate::recording::Quantity::StatorWindingTemp)?;
             field_from_stator(&stator.values, &f.values)
         }),
+        gaps: gaps_entry(s),
     }
+}
+
+/// What the replay did with missing samples, in a line: each input's gaps bridged or
+/// cut, each state's unobserved instants.
+fn gaps_line(gaps: &GapsEntry) -> String {
+    let mut parts: Vec<String> = gaps
+        .unobserved
+        .iter()
+        .map(|u| {
+            format!(
+                "{} {} instant(s) unobserved (simulated through)",
+                u.state, u.instants
+            )
+        })
+        .collect();
+    for i in &gaps.inputs {
+        let g = &i.gaps;
+        let how = match g.bridge {
+            crate::signals::Bridge::Hold => "held",
+            crate::signals::Bridge::Interpolate => "interpolated",
+        };
+        if g.bridged > 0 {
+            parts.push(format!(
+                "input {} {} gap(s) bridged ({how}, longest {} s)",
+                i.input, g.bridged, g.longest_bridged_s
+            ));
+        }
+        if g.cut > 0 {
+            parts.push(format!(
+                "input {} {} gap(s) longer than {} s cut the data ({} instants; each next segment's initial state estimated)",
+                i.input, g.cut, gaps.bridge_limit_s, g.cut_instants
+            ));
+        }
+    }
+    parts.join("; ")
+}
+
+/// The inputs' gaps and the states' unobserved instants, where there are any.
+fn gaps_entry(s: &crate::signals::ModelSignals) -> Option<GapsEntry> {
+    let inputs: Vec<InputGapsEntry> = s
+        .inputs
+        .iter()
+        .filter(|i| i.gaps.any())
+        .map(|i| InputGapsEntry {
+            input: i.name.clone(),
+            gaps: i.gaps.clone(),
+        })
+        .collect();
+    let unobserved: Vec<UnobservedEntry> = s
+        .states
+        .iter()
+        .enumerate()
+        .filter(|(_, st)| st.observed.is_none())
+        .map(|(j, st)| UnobservedEntry {
+            state: st.name.clone(),
+            instants: (s.initial_index..s.len())
+                .filter(|&k| s.rise_pu(j, k).is_none())
+                .count(),
+        })
+        .filter(|u| u.instants > 0)
+        .collect();
+    (!inputs.is_empty() || !unobserved.is_empty()).then(|| GapsEntry {
+        bridge_limit_s: crate::signals::INPUT_GAP_BRIDGED_S,
+        inputs,
+        unobserved,
+    })
 }
 
 impl Report {
@@ -396,6 +463,9 @@ impl Report {
             self.estimation.equations_used,
             self.estimation.segments
         );
+        if let Some(gaps) = &self.estimation.gaps {
+            let _ = writeln!(s, "  missing samples: {}", gaps_line(gaps));
+        }
         let field = match &self.estimation.field_temperature {
             None => String::new(),
             Some(FieldTemperatureSource::Measured) => "; field temperature: measured".to_owned(),

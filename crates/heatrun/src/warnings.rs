@@ -7,6 +7,7 @@ use crate::decimate::DecimatedRecording;
 use crate::model::ModelAnalysis;
 use crate::network::NetworkAnalysis;
 use crate::recording::{format_time, RecordingSummary};
+use crate::signals::{Bridge, ModelSignals, INPUT_GAP_BRIDGED_S};
 use crate::spec::{coolant, InputSource, ModelDescription};
 
 /// What the stages before the estimator found, as the warnings read it (the pipeline's
@@ -19,6 +20,8 @@ pub struct Prepared<'a> {
     pub recording: &'a RecordingSummary,
     /// The decimated quantities.
     pub decimated: &'a DecimatedRecording,
+    /// The model's states and inputs (their gaps: bridged, cut or unobserved).
+    pub signals: &'a ModelSignals,
 }
 
 /// A channel that stops this long before the recording ends gets a warning, s.
@@ -64,12 +67,46 @@ fn data_loss(p: &Prepared<'_>, out: &mut Vec<String>) {
     );
 }
 
+/// Each channel's gaps, then what the model made of them: a state's missing instants are
+/// unobserved (the model is simulated through them), an input's short gaps bridged, its
+/// long ones cuts of the data.
 fn gaps(p: &Prepared<'_>, out: &mut Vec<String>) {
     for ch in p.decimated.channels.iter().filter(|c| c.gaps > 0) {
         out.push(format!(
-            "channel {} has {} gap(s) ({} instants without data); no equation bridges them",
+            "channel {} has {} gap(s) ({} instants without data)",
             ch.topic, ch.gaps, ch.gap_instants
         ));
+    }
+    let s = p.signals;
+    for (j, state) in s.states.iter().enumerate() {
+        let missing = (s.initial_index..s.len())
+            .filter(|&k| state.observed.is_none() && s.rise_pu(j, k).is_none())
+            .count();
+        if missing > 0 {
+            out.push(format!(
+                "state {}: {missing} instant(s) without a value are unobserved; the model is simulated through them",
+                state.name
+            ));
+        }
+    }
+    for input in &s.inputs {
+        let g = &input.gaps;
+        if g.bridged > 0 {
+            let how = match g.bridge {
+                Bridge::Hold => "its last value held",
+                Bridge::Interpolate => "interpolated",
+            };
+            out.push(format!(
+                "input {}: {} gap(s) of at most {INPUT_GAP_BRIDGED_S} s bridged ({how}; the longest {} s)",
+                input.name, g.bridged, g.longest_bridged_s
+            ));
+        }
+        if g.cut > 0 {
+            out.push(format!(
+                "input {}: {} gap(s) longer than {INPUT_GAP_BRIDGED_S} s ({} instants) cut the data; each following segment's initial state is estimated",
+                input.name, g.cut, g.cut_instants
+            ));
+        }
     }
 }
 

@@ -214,6 +214,44 @@ pub struct EstimationEntry {
     /// what `heatrun predict` uses for R_f when the field winding is not a state.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub field_temperature_from_stator: Option<FieldFromStator>,
+    /// What was done with missing samples, where there were any: the inputs' gaps
+    /// bridged or cut, the states' unobserved instants.
+    #[serde(default, skip_deserializing, skip_serializing_if = "Option::is_none")]
+    pub gaps: Option<GapsEntry>,
+}
+
+/// Missing samples and what the replay did with them: an input's gap of at most
+/// `bridge_limit_s` is bridged (held, or interpolated for a slow quantity), a longer one
+/// cuts the data (the next segment's initial state is estimated); a state's missing
+/// sample is an unobserved instant the model is simulated through.
+#[derive(Debug, Clone, Serialize)]
+pub struct GapsEntry {
+    /// The longest input gap bridged, s.
+    pub bridge_limit_s: f64,
+    /// Per input with a gap.
+    pub inputs: Vec<InputGapsEntry>,
+    /// Per state with unobserved instants after the initial one.
+    pub unobserved: Vec<UnobservedEntry>,
+}
+
+/// One input's gaps.
+#[derive(Debug, Clone, Serialize)]
+pub struct InputGapsEntry {
+    /// The input's name.
+    pub input: String,
+    /// What was done with them.
+    #[serde(flatten)]
+    pub gaps: crate::signals::InputGaps,
+}
+
+/// One state's unobserved instants.
+#[derive(Debug, Clone, Serialize)]
+pub struct UnobservedEntry {
+    /// The state's name.
+    pub state: String,
+    /// Instants after the initial one without a value (not counting the instants a
+    /// historian storing by exception kept no value at).
+    pub instants: usize,
 }
 
 /// θ_f ≈ intercept + slope · θ_Cu: the field winding temperature from the stator

@@ -378,6 +378,7 @@ mod tests {
                         }
                     }),
                     outlet_feedback: None,
+                    gaps: crate::signals::InputGaps::none(crate::signals::Bridge::Hold),
                 })
                 .collect(),
             initial_index: 0,

@@ -9,6 +9,8 @@
 //! reference; an input is u_i(k) = P_i(k) / P_base, P_i a channel, an expression of
 //! channels, or a heat source of the profile's loss model.
 
+mod gaps;
+
 use std::collections::BTreeMap;
 
 use nalgebra::DMatrix;
@@ -74,6 +76,8 @@ use crate::spec::{
 };
 use crate::thermal::water::{Water, WaterError};
 
+pub use gaps::{bridged_instants_limit, Bridge, InputGaps, INPUT_GAP_BRIDGED_S};
+
 /// What a state's rise is measured from, on the grid.
 #[derive(Debug, Clone)]
 pub enum ReferenceValues {
@@ -132,6 +136,8 @@ pub struct InputSignal {
     /// For an input that is a multiple of the coolant outlet's rise above the inlet (the
     /// heat a flow change carries): that multiple, for the steady state.
     pub outlet_feedback: Option<OutletFeedback>,
+    /// Its gaps: the short ones bridged in `values`, the long ones left as cuts.
+    pub gaps: InputGaps,
 }
 
 /// An input proportional to the outlet state's rise above the inlet,
@@ -275,7 +281,9 @@ impl ModelSignals {
     }
 
     /// The estimator's input: the rises as outputs y (N × n), the inputs as u (N × m).
-    /// Entries of states stored by exception count as known only where a sample was stored.
+    /// Entries of states stored by exception count as known only where a sample was
+    /// stored; any output missing after the initial instant makes the data masked
+    /// ([`IdentificationData::with_output_observed`]): each entry known where its value is.
     pub fn identification_data(&self) -> IdentificationData {
         let (len, n, m) = (self.len(), self.states.len(), self.inputs.len());
         let mut outputs = DMatrix::zeros(len, n);
@@ -302,7 +310,12 @@ impl ModelSignals {
             }
         }
         let data = IdentificationData::new(self.ts_s, outputs, inputs, outputs_known, inputs_known);
-        if !self.states.iter().any(|s| s.observed.is_some()) {
+        // A missing output sample (a dropout, a value dropped as bad or out of range) is an
+        // unobserved entry the simulation runs through, never a cut: with a mask the data
+        // are split only where an input is unknown. Before the first instant every state
+        // is known nothing is observed that the rises could be measured from.
+        let partial = (self.initial_index..len).any(|k| !data.outputs_known[k]);
+        if !partial && !self.states.iter().any(|s| s.observed.is_some()) {
             return data;
         }
         // The estimator treats the instants between stored samples as "within the
@@ -617,6 +630,10 @@ fn finish(
     }
     // Dead times: each delayed input shifted on the grid, once, for every later stage.
     delay_inputs(&description.inputs, decimated.ts_s(), &mut inputs)?;
+    // Short gaps bridged as the model assumes between samples; long ones cut the data.
+    for (signal, d) in inputs.iter_mut().zip(&description.inputs) {
+        signal.gaps = gaps::bridge_gaps(&mut signal.values, bridge_of(d), decimated.ts_s());
+    }
     Ok(ModelSignals {
         ts_s: decimated.ts_s(),
         time_ns: (0..n).map(|i| decimated.time_ns(i)).collect(),
@@ -777,7 +794,19 @@ fn input_signal<'a>(
         kind: i.kind,
         values,
         outlet_feedback: None,
+        gaps: InputGaps::none(bridge_of(i)),
     })
+}
+
+/// How an input's short gaps are bridged: a slow quantity (the coolant inlet's rise, the
+/// heat a flow change carries) along the straight line between its neighbours, every
+/// other input held, as the model holds it between samples.
+fn bridge_of(input: &InputDescription) -> Bridge {
+    match (&input.source, input.kind) {
+        (InputSource::BoundaryRise(_) | InputSource::CoolantFlow { .. }, _)
+        | (_, InputKind::Boundary) => Bridge::Interpolate,
+        _ => Bridge::Hold,
+    }
 }
 
 /// The half-width of the local quadratic through which the outlet's rise above the inlet
@@ -885,6 +914,7 @@ mod tests {
             kind: InputKind::Heat,
             values,
             outlet_feedback: feedback,
+            gaps: InputGaps::none(Bridge::Hold),
         };
         let signals = ModelSignals {
             ts_s: 1.0,
