@@ -39,8 +39,10 @@ use crate::progress::Observer;
 use crate::recording::{self, Quantity, ReadOptions, Sample, SampleSink, SensorChannel, Signal};
 use crate::series::Series;
 use crate::signals::SignalError;
-use crate::signals::{self, Anchors, ModelSignals, FLOW_RISE_SMOOTHING_S};
-use crate::spec::{delay, InputSource, ModelDescription};
+use crate::signals::{
+    self, Anchors, ModelSignals, FLOW_RISE_SMOOTHING_S, INLET_SMOOTHING_S, INPUT_GAP_BRIDGED_S,
+};
+use crate::spec::{delay, InputSource, ModelDescription, Reference};
 
 /// The default stretch, s: ten minutes of grid, short against a fouling's hours and
 /// long against the look-back and look-ahead each stretch decimates again.
@@ -203,11 +205,27 @@ impl<'m, 'w> Live<'m, 'w> {
             .inputs
             .iter()
             .any(|i| matches!(i.source, InputSource::CoolantFlow { .. }));
-        let smoothing = if flow {
-            instants(FLOW_RISE_SMOOTHING_S)
-        } else {
-            0
-        };
+        // The inlet's course and the flow's heat are local fits around each instant, and
+        // an input's short gap is bridged from its neighbours: a stretch needs them all.
+        let inlet = Signal::Profile(Quantity::CoolingWaterInletTemp);
+        let reads_inlet = description
+            .inputs
+            .iter()
+            .any(|i| matches!(&i.source, InputSource::BoundaryRise(c) if *c == inlet))
+            || description
+                .states
+                .iter()
+                .any(|s| matches!(&s.reference, Reference::Channel(c) if *c == inlet));
+        let smoothing = [
+            (flow, FLOW_RISE_SMOOTHING_S),
+            (reads_inlet, INLET_SMOOTHING_S),
+            (true, INPUT_GAP_BRIDGED_S),
+        ]
+        .iter()
+        .filter(|(applies, _)| *applies)
+        .map(|(_, s)| instants(*s))
+        .max()
+        .unwrap_or(0);
         // A dead time looks back d instants, an advance (a negative shift) ahead a.
         let shifts: Vec<isize> = description
             .inputs
