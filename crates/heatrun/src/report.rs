@@ -314,7 +314,7 @@ fn gaps_entry(s: &crate::signals::ModelSignals) -> Option<GapsEntry> {
         })
         .filter(|u| u.instants > 0)
         .collect();
-    (!inputs.is_empty() || !unobserved.is_empty()).then(|| GapsEntry {
+    (!inputs.is_empty() || !unobserved.is_empty()).then_some(GapsEntry {
         bridge_limit_s: crate::signals::INPUT_GAP_BRIDGED_S,
         inputs,
         unobserved,
