@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 use heatrun::synth::{
-    self, Coolant, CoolerFault, Disturbances, FieldChannel, Machine, NetworkMachine,
-    OperatingPoint, PumpSwitch, SynthOptions,
+    self, Coolant, CoolerFault, Disturbances, FieldChannel, Flaws, Freeze, Machine,
+    NetworkMachine, OperatingPoint, PumpSwitch, SynthOptions,
 };
 use heatrun::writer::Storage;
 
@@ -110,6 +110,41 @@ pub struct SynthArgs {
     /// With --deadband: the heartbeat, the longest time between stored samples, s.
     #[arg(long, value_name = "S", default_value_t = 600.0, requires = "deadband")]
     pub heartbeat: f64,
+    /// Flaw: every N-th sample of the stator winding and core temperatures written
+    /// missing, alternately {"value":null} and {"value":NaN}.
+    #[arg(long, value_name = "N")]
+    pub dropout_every: Option<usize>,
+    /// Flaw: N single missing samples ("I/O Timeout") of the armature current, spread
+    /// over the run.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub input_timeouts: usize,
+    /// Flaw: N unflagged glitches of the core temperature at spread, seeded times, half
+    /// the reading + 15 K, half the fault code -3276.8.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub glitches: usize,
+    /// Flaw: the stator winding temperature frozen at its reading at T0 until T1
+    /// (seconds after the start), as a SCADA link holding the last good value.
+    #[arg(long, value_name = "T0:T1", value_parser = parse_freeze)]
+    pub freeze: Option<(f64, f64)>,
+}
+
+/// `T0:T1`, two numbers of seconds with T0 < T1.
+fn parse_freeze(s: &str) -> Result<(f64, f64), String> {
+    let (t0, t1) = s
+        .split_once(':')
+        .ok_or_else(|| format!("`{s}` is not T0:T1 (e.g. 9000:12600)"))?;
+    let num = |v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() && *v >= 0.0)
+            .ok_or_else(|| format!("`{v}` in `{s}` is not a number of seconds"))
+    };
+    let (t0, t1) = (num(t0)?, num(t1)?);
+    if t0 >= t1 {
+        return Err(format!("`{s}`: the freeze must end after it starts"));
+    }
+    Ok((t0, t1))
 }
 
 /// `T:FACTOR`, two numbers.
@@ -178,6 +213,13 @@ impl TryFrom<SynthArgs> for Synth {
                     max_interval_s: Some(args.heartbeat),
                 },
                 None => Storage::Sampled,
+            },
+            flaws: Flaws {
+                dropout_every: args.dropout_every,
+                input_timeouts: args.input_timeouts,
+                glitches: args.glitches,
+                freeze: args.freeze.map(|(from_s, to_s)| Freeze { from_s, to_s }),
+                ..Flaws::default()
             },
             ..SynthOptions::default()
         };

@@ -686,6 +686,47 @@ fn synth_refuses_disturbances_the_machine_cannot_take() {
 }
 
 #[test]
+fn synth_flaws_become_the_librarys_flaws_and_bad_freezes_are_refused() {
+    let Ok(Request::Synth(s)) = request(&[
+        "synth",
+        "o.mcap",
+        "--dropout-every",
+        "97",
+        "--input-timeouts",
+        "20",
+        "--glitches",
+        "10",
+        "--freeze",
+        "9000:12600",
+    ]) else {
+        panic!("not synth");
+    };
+    let f = &s.options.flaws;
+    assert_eq!(
+        (f.dropout_every, f.input_timeouts, f.glitches),
+        (Some(97), 20, 10)
+    );
+    assert_eq!(
+        f.freeze,
+        Some(heatrun::synth::Freeze {
+            from_s: 9000.0,
+            to_s: 12600.0
+        })
+    );
+    let Ok(Request::Synth(clean)) = request(&["synth", "o.mcap"]) else {
+        panic!("not synth");
+    };
+    assert!(!clean.options.flaws.any());
+    for freeze in ["9000", "9000:x", "12600:9000", "-1:5"] {
+        assert_eq!(
+            error(&["synth", "o.mcap", &format!("--freeze={freeze}")]),
+            ErrorKind::ValueValidation,
+            "{freeze}"
+        );
+    }
+}
+
+#[test]
 fn predict_rating_and_import_requests_are_in_the_librarys_terms() {
     use heatrun::predict::InitialState;
     use heatrun::rating::InsulationClass;

@@ -238,6 +238,14 @@ impl RecordingWriter {
         self.write_flagged(channel, log_time_ns, None, Quality::Good)
     }
 
+    /// Writes a dropout as a bare `{"value":NaN}`, as recorders and historians write
+    /// one (not JSON, but the profile reads it as `null`).
+    pub fn write_nan_dropout(&mut self, channel: ChannelId, log_time_ns: u64) -> Result<()> {
+        self.message.clear();
+        self.message.push_str("{\"value\":NaN}");
+        self.write_message(channel, log_time_ns)
+    }
+
     /// Writes a sample with a quality flag; `None` (or a value that is not finite)
     /// is a dropout.
     pub fn write_flagged(
@@ -257,6 +265,11 @@ impl RecordingWriter {
             write!(self.message, ",\"quality\":\"{}\"", quality.name()).unwrap_or(());
         }
         self.message.push('}');
+        self.write_message(channel, log_time_ns)
+    }
+
+    /// Writes the message text built in `self.message` at `log_time_ns`.
+    fn write_message(&mut self, channel: ChannelId, log_time_ns: u64) -> Result<()> {
         self.mcap
             .write_to_known_channel(
                 &mcap::records::MessageHeader {

@@ -11,9 +11,12 @@
 //! ([`Disturbances`]): an inlet drifting as river water over a day, a warm start, a pump
 //! switch and a fouled cooler. Every channel is sampled at its own rate with optional
 //! Gaussian noise and resolution, and the temperatures are optionally stored by
-//! exception as a SCADA historian does (deadband and heartbeat).
+//! exception as a SCADA historian does (deadband and heartbeat). The ordinary flaws of
+//! plant data ([`Flaws`]: dropouts, input timeouts, unflagged glitches, a frozen sensor)
+//! are laid on the written samples, the noise unchanged.
 
 pub mod example;
+pub mod flaws;
 mod machines;
 pub mod plant;
 mod truth;
@@ -65,6 +68,7 @@ pub use machines::{
     PAPER_COOLING_WATER_FLOW_L_PER_S, PAPER_COOLING_WATER_INLET_C, PAPER_GAMMA,
     PAPER_INITIAL_TEMPERATURES_C, PAPER_PHI,
 };
+pub use flaws::{FlawRecord, Flaws, Freeze};
 pub use plant::ChangeCause;
 pub use truth::{truth_path, NetworkChange, Truth, TruthCoolant, TruthNetwork};
 
@@ -243,6 +247,8 @@ pub struct SynthOptions {
     pub compress: bool,
     /// Target size of a chunk, bytes.
     pub chunk_size: u64,
+    /// The flaws laid on the written samples (none by default).
+    pub flaws: Flaws,
 }
 
 impl Default for SynthOptions {
@@ -266,6 +272,7 @@ impl Default for SynthOptions {
             start_time_ns: 1_559_541_600_000_000_000,
             compress: true,
             chunk_size: 1 << 20,
+            flaws: Flaws::default(),
         }
     }
 }
@@ -288,7 +295,7 @@ impl SynthOptions {
 pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
     check_options(o)?;
     let traj = plant::simulate(o)?;
-    let truth = truth::truth_of(o, &traj)?;
+    let mut truth = truth::truth_of(o, &traj)?;
 
     let mut writer = RecordingWriter::create(
         out,
@@ -300,8 +307,9 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
     let mut channels = add_channels(&mut writer, o)?;
     write_records(&mut writer, o)?;
     let mut source = SampleSource::new(o, &traj)?;
-    write_samples(&mut writer, &mut channels, &mut source, o)?;
+    let flaws = write_samples(&mut writer, &mut channels, &mut source, o)?;
     writer.finish()?;
+    truth.flaws = flaws.asked.is_some().then_some(flaws);
 
     crate::atomic::write_atomically(
         &truth_path(out),
@@ -331,6 +339,7 @@ fn check_options(o: &SynthOptions) -> Result<()> {
         ));
     }
     check_machine(o)?;
+    o.flaws.check(o.duration_s)?;
     if let Storage::Exception {
         deadband,
         max_interval_s,
@@ -521,13 +530,14 @@ fn sample_times(rate_hz: f64, centred_on_instants: bool, ts_ns: u64, duration_ns
 }
 
 /// Writes every channel's samples in time order: the electrical and the temperature
-/// sample times merged, each instant's channels in the recording's order.
+/// sample times merged, each instant's channels in the recording's order, the flaws laid
+/// on them; returns the flaws as laid.
 fn write_samples(
     writer: &mut RecordingWriter,
     channels: &mut [SynthChannel],
     source: &mut SampleSource,
     o: &SynthOptions,
-) -> Result<()> {
+) -> Result<FlawRecord> {
     let ts = o.machine.ts_s();
     let (ts_ns, steps) = (source.ts_ns, source.steps);
     let duration_ns = steps as u64 * ts_ns;
@@ -538,6 +548,7 @@ fn write_samples(
         ts_ns,
         duration_ns,
     );
+    let mut plan = flaws::FlawPlan::new(&o.flaws, elec_times.len(), temp_times.len(), o.seed);
     let (mut ie, mut it) = (0, 0);
     while ie < elec_times.len() || it < temp_times.len() {
         let take_elec =
@@ -555,8 +566,16 @@ fn write_samples(
             // The noise is drawn for every sample, stored or not, so a run stored by
             // exception holds a subset of the same run's samples.
             let value = source.value(c.quantity, t_rel);
-            if c.exception.as_mut().is_none_or(|f| f.keep(log_time, value)) {
-                writer.write_sample(c.id, log_time, value)?;
+            // A missing sample is written whatever the storage: it was due and did not
+            // come (the historian's filter never sees it).
+            match plan.apply(c.quantity, t_rel as f64 * 1e-9, value) {
+                flaws::Written::Value(v) => {
+                    if c.exception.as_mut().is_none_or(|f| f.keep(log_time, v)) {
+                        writer.write_sample(c.id, log_time, v)?;
+                    }
+                }
+                flaws::Written::Null => writer.write_dropout(c.id, log_time)?,
+                flaws::Written::NaN => writer.write_nan_dropout(c.id, log_time)?,
             }
         }
         if take_elec {
@@ -565,7 +584,7 @@ fn write_samples(
             it += 1;
         }
     }
-    Ok(())
+    Ok(plan.finish())
 }
 
 /// The measured value of each channel at any time: the simulated trajectory seen

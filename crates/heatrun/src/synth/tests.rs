@@ -496,3 +496,225 @@ fn a_warm_start_decays_and_the_field_winding_ends_at_the_nameplates_temperature(
     assert!(refused.to_string().contains("warm start"), "{refused}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The raw JSON value of each message on `topic` (null, a number, or `NaN` as written).
+fn raw_values(ms: &[(String, u64, String)], topic: &str) -> Vec<(u64, String)> {
+    ms.iter()
+        .filter(|m| m.0 == topic)
+        .map(|m| (m.1, m.2.clone()))
+        .collect()
+}
+
+/// A recording's messages: (topic, log time, JSON text).
+type Messages = Vec<(String, u64, String)>;
+
+/// A noisy 2,000 s rc-unit run, clean and with `flaws`: (clean messages, flawed
+/// messages, the flawed run's truth).
+fn clean_and_flawed(
+    name: &str,
+    flaws: Flaws,
+) -> (Messages, Messages, Truth) {
+    let dir = temp_dir(name);
+    let clean = SynthOptions {
+        machine: Machine::Network(NetworkMachine::rc_unit()),
+        duration_s: 2000.0,
+        ..SynthOptions::default().with_noise_level(1.0)
+    };
+    let flawed = SynthOptions {
+        flaws,
+        ..clean.clone()
+    };
+    let clean_truth = write(&dir.join("clean.mcap"), &clean).unwrap();
+    let truth = write(&dir.join("flawed.mcap"), &flawed).unwrap();
+    let out = (
+        messages(&dir.join("clean.mcap")),
+        messages(&dir.join("flawed.mcap")),
+        truth,
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(clean_truth.flaws.is_none());
+    out
+}
+
+const STATOR: &str = "/scada/stator_winding_temp";
+const CORE: &str = "/scada/core_temp";
+const CURRENT: &str = "/scada/armature_current";
+
+#[test]
+fn dropouts_are_every_nth_sample_alternately_null_and_nan_the_rest_unchanged() {
+    let flaws = Flaws {
+        dropout_every: Some(97),
+        ..Flaws::default()
+    };
+    let (clean, flawed, truth) = clean_and_flawed("dropouts", flaws);
+    assert_eq!(clean.len(), flawed.len(), "a dropout is a message");
+    for topic in [STATOR, CORE] {
+        let (c, f) = (raw_values(&clean, topic), raw_values(&flawed, topic));
+        assert_eq!(c.len(), f.len());
+        let mut missing = Vec::new();
+        for (i, (a, b)) in c.iter().zip(&f).enumerate() {
+            assert_eq!(a.0, b.0);
+            if (i + 1) % 97 == 0 {
+                missing.push(b.1.as_str());
+            } else {
+                assert_eq!(a.1, b.1, "{topic} sample {i}");
+            }
+        }
+        assert_eq!(missing.len(), 2000 / 97);
+        for (j, text) in missing.iter().enumerate() {
+            let want = if j % 2 == 0 {
+                r#"{"value":null}"#
+            } else {
+                r#"{"value":NaN}"#
+            };
+            assert_eq!(*text, want);
+        }
+    }
+    for topic in [CURRENT, "/scada/cooling_water_outlet_temp"] {
+        assert_eq!(raw_values(&clean, topic), raw_values(&flawed, topic));
+    }
+    let record = truth.flaws.unwrap();
+    assert!(record.dropouts.iter().all(|d| d.count == 2000 / 97));
+}
+
+#[test]
+fn the_reader_counts_both_dropout_forms_as_the_channels_dropouts() {
+    let dir = temp_dir("dropouts-read");
+    let o = SynthOptions {
+        duration_s: 1000.0,
+        flaws: Flaws {
+            dropout_every: Some(10),
+            ..Flaws::default()
+        },
+        ..SynthOptions::default()
+    };
+    write(&dir.join("d.mcap"), &o).unwrap();
+    struct Discard;
+    impl crate::recording::SampleSink for Discard {
+        fn channel(&mut self, _: &crate::recording::SensorChannel) {}
+        fn sample(&mut self, _: crate::recording::Sample) {}
+        fn retract(&mut self, _: crate::recording::Sample) {}
+    }
+    let summary = crate::recording::read_recording(&dir.join("d.mcap"), &mut Discard).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    for (i, c) in summary.channels.iter().enumerate() {
+        let want = match c.quantity() {
+            Some(Quantity::StatorWindingTemp | Quantity::CoreTemp) => 100,
+            _ => 0,
+        };
+        assert_eq!(summary.dropouts_per_channel[i], want, "{:?}", c.quantity());
+    }
+}
+
+#[test]
+fn input_timeouts_are_single_spread_missing_samples_of_the_current() {
+    let flaws = Flaws {
+        input_timeouts: 20,
+        ..Flaws::default()
+    };
+    let (clean, flawed, truth) = clean_and_flawed("timeouts", flaws);
+    let (c, f) = (raw_values(&clean, CURRENT), raw_values(&flawed, CURRENT));
+    let missing: Vec<usize> = (0..f.len())
+        .filter(|&i| f[i].1 == r#"{"value":null}"#)
+        .collect();
+    assert_eq!(missing.len(), 20);
+    for (i, (a, b)) in c.iter().zip(&f).enumerate() {
+        assert!(missing.contains(&i) || a == b, "sample {i}");
+    }
+    // One in each twentieth of the run, none adjacent.
+    for (j, i) in missing.iter().enumerate() {
+        assert_eq!(i * 20 / c.len(), j, "timeout {j} at sample {i}");
+    }
+    let record = truth.flaws.unwrap();
+    assert_eq!(record.input_timeouts_s.len(), 20);
+    assert_eq!(raw_values(&clean, STATOR), raw_values(&flawed, STATOR));
+}
+
+#[test]
+fn glitches_replace_spread_core_samples_half_by_fifteen_kelvin_half_by_the_fault_code() {
+    let flaws = Flaws {
+        glitches: 10,
+        ..Flaws::default()
+    };
+    let (clean, flawed, truth) = clean_and_flawed("glitches", flaws);
+    let (c, f) = (values(&clean, CORE), values(&flawed, CORE));
+    let changed: Vec<(usize, f64)> = (0..f.len())
+        .filter(|&i| c[i] != f[i])
+        .map(|i| (i, f[i].1 - c[i].1))
+        .collect();
+    assert_eq!(changed.len(), 10);
+    let plus = changed
+        .iter()
+        .filter(|(_, d)| (d - flaws::GLITCH_OFFSET_K).abs() < 1e-9)
+        .count();
+    let codes = changed
+        .iter()
+        .filter(|(i, _)| f[*i].1 == flaws::FAULT_CODE)
+        .count();
+    assert_eq!((plus, codes), (5, 5));
+    let record = truth.flaws.unwrap();
+    let times: Vec<f64> = changed
+        .iter()
+        .map(|(i, _)| (f[*i].0 - SynthOptions::default().start_time_ns) as f64 * 1e-9)
+        .collect();
+    let recorded: Vec<f64> = record.glitches.iter().map(|g| g.time_s).collect();
+    assert_eq!(times, recorded);
+    assert_eq!(values(&clean, STATOR), values(&flawed, STATOR));
+}
+
+#[test]
+fn a_freeze_holds_the_stator_reading_at_its_start_until_its_end() {
+    let flaws = Flaws {
+        freeze: Some(Freeze {
+            from_s: 600.0,
+            to_s: 1200.0,
+        }),
+        ..Flaws::default()
+    };
+    let (clean, flawed, truth) = clean_and_flawed("freeze", flaws);
+    let (c, f) = (values(&clean, STATOR), values(&flawed, STATOR));
+    let start = SynthOptions::default().start_time_ns;
+    let inside = |t: u64| (600e9..1200e9).contains(&((t - start) as f64));
+    let first = c.iter().find(|s| inside(s.0)).unwrap().1;
+    let mut frozen = 0;
+    for (a, b) in c.iter().zip(&f) {
+        if inside(a.0) {
+            assert_eq!(b.1, first);
+            frozen += 1;
+        } else {
+            assert_eq!(a, b);
+        }
+    }
+    assert_eq!(frozen, 600);
+    // The clean channel moved inside the freeze (noise of 0.05 K at 0.01 K).
+    assert!(c.iter().filter(|s| inside(s.0) && s.1 != first).count() > 500);
+    let stretch = truth.flaws.unwrap().freeze.unwrap();
+    assert_eq!((stretch.value, stretch.to_s - stretch.from_s), (first, 599.0));
+}
+
+#[test]
+fn flaws_that_cannot_be_laid_are_refused() {
+    let dir = temp_dir("flaws-refused");
+    for flaws in [
+        Flaws {
+            dropout_every: Some(1),
+            ..Flaws::default()
+        },
+        Flaws {
+            freeze: Some(Freeze {
+                from_s: 5000.0,
+                to_s: 6000.0,
+            }),
+            ..Flaws::default()
+        },
+    ] {
+        let o = SynthOptions {
+            duration_s: 1000.0,
+            flaws,
+            ..SynthOptions::default()
+        };
+        let e = write(&dir.join("x.mcap"), &o).unwrap_err();
+        assert!(e.is_bad_input(), "{e}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -53,6 +53,9 @@ pub struct Truth {
     /// Where the network changes during the run (a pump switch, a fault).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub changes: Vec<NetworkChange>,
+    /// The flaws laid on the written samples, if any were asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flaws: Option<super::FlawRecord>,
 }
 
 /// The coolant of the run.
@@ -173,6 +176,7 @@ pub fn truth_of(o: &SynthOptions, traj: &Trajectory) -> Result<Truth> {
         },
         network,
         changes,
+        flaws: None,
     })
 }
 
