@@ -10,6 +10,7 @@
 //! | [`bad_input`] | every bad-input path: exit 2, one line, no output, input untouched |
 //! | [`corpus`] | generated damaged and odd recordings, each with its documented outcome |
 //! | [`import`] | `heatrun import`: every table format, bad cells and rows, the fixture round trip |
+//! | [`historian`] | a historian's `;`/decimal-comma export (storage by exception, timeouts, Bad flags, a drifting inlet) and an on-change export imported as sampled, beside the run they came from |
 //! | [`datasets`] | measured data: the TCLab validation fit, as its example runs it |
 //! | [`field_state`] | `replay --field-state`: a four-node machine whose field winding is seen through U_f/I_f |
 //! | [`network_rc`] | a known RC machine's C, G and K from the identified model and from `--method rc` |
@@ -31,6 +32,7 @@ mod corpus;
 mod datasets;
 mod estimators;
 mod field_state;
+mod historian;
 mod html;
 mod import;
 mod layouts;

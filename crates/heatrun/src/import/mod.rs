@@ -417,6 +417,12 @@ impl Rows {
                 pattern,
             } => {
                 let text = cell(record, *index).to_owned();
+                // A table written with decimal commas writes its seconds so too.
+                let text = if self.decimal_comma && !text.contains('.') {
+                    text.replacen(',', ".", 1)
+                } else {
+                    text
+                };
                 if *format == TimeFormat::Auto {
                     *format = if time::looks_like_seconds(&text) {
                         TimeFormat::Seconds
