@@ -834,13 +834,22 @@ pub const INLET_SMOOTHING_S: f64 = 60.0;
 /// resolution under 0.05 K of noise repeats a value for about 1.1 instants on average.
 const HELD_RUN_INSTANTS: f64 = 5.0;
 
+/// The fewest changes of a held channel from which its usual change is judged.
+const MIN_CHANGES: usize = 4;
+
 fn reconstructed(series: &DecimatedSeries, ts_s: f64) -> Series {
-    if series.signal != Signal::Profile(Quantity::CoolingWaterInletTemp) {
-        return series.values.clone();
-    }
+    let smoothed = match series.signal {
+        Signal::Profile(Quantity::CoolingWaterInletTemp) => true,
+        // The flow steps where a pump switches: taken through its changes, not smoothed.
+        Signal::Profile(Quantity::CoolingWaterFlow) => false,
+        _ => return series.values.clone(),
+    };
     let mut values: Vec<Option<f64>> = series.values.iter().collect();
     if series.observed.is_none() {
         through_changes(&mut values);
+    }
+    if !smoothed {
+        return values.into_iter().collect();
     }
     let half = (INLET_SMOOTHING_S / ts_s).round() as usize;
     local_quadratic(&values, half).into_iter().collect()
@@ -849,8 +858,10 @@ fn reconstructed(series: &DecimatedSeries, ts_s: f64) -> Series {
 /// Where `values` hold each value for [`HELD_RUN_INSTANTS`] or more on average, the value
 /// between the instants it changed at, linearly: a value stored by exception is exact
 /// where it was kept (the first instant of each run) and the signal moved on from there,
-/// so the staircase of held values lags its course by up to the deadband. Unknown
-/// instants stay unknown; the last run is held.
+/// so the staircase of held values lags its course by up to the deadband. A change far
+/// larger than the usual one (over twice the median: a step, a pump switched) happened
+/// at its own instant and is not spread back over the run before it. Unknown instants
+/// stay unknown; the last run is held.
 fn through_changes(values: &mut [Option<f64>]) {
     let changes: Vec<usize> = (0..values.len())
         .filter(|&k| values[k].is_some() && (k == 0 || values[k - 1] != values[k]))
@@ -859,13 +870,23 @@ fn through_changes(values: &mut [Option<f64>]) {
     if changes.is_empty() || (known as f64) < HELD_RUN_INSTANTS * changes.len() as f64 {
         return;
     }
+    let mut jumps: Vec<f64> = changes
+        .windows(2)
+        .filter_map(|p| Some((values[p[1]]? - values[p[0]]?).abs()))
+        .collect();
+    // A few changes say nothing of a usual one (a constant flow and one pump switch).
+    if jumps.len() < MIN_CHANGES {
+        return;
+    }
+    jumps.sort_by(f64::total_cmp);
+    let usual = jumps[jumps.len() / 2];
     for pair in changes.windows(2) {
         let (a, b) = (pair[0], pair[1]);
         let (Some(va), Some(vb)) = (values[a], values[b]) else {
             continue;
         };
-        // Only across a run of held values (not across a gap).
-        if values[a..b].iter().any(Option::is_none) {
+        // Only across a run of held values (not across a gap), and not a step.
+        if values[a..b].iter().any(Option::is_none) || (vb - va).abs() > 2.0 * usual {
             continue;
         }
         for (i, v) in values.iter_mut().enumerate().take(b).skip(a + 1) {
@@ -896,13 +917,14 @@ fn coolant_flow_heat(
     ts_s: f64,
 ) -> Result<Series> {
     let c_rho = Water::at(inlet_c)?.heat_per_litre_j_per_k();
-    let rise: Vec<Option<f64>> = (0..flow.values.len())
+    let flow = &reconstructed(flow, ts_s);
+    let rise: Vec<Option<f64>> = (0..flow.len())
         .map(|k| Some(outlet.values.get(k)? - inlet.values.get(k)?))
         .collect();
     let half = (FLOW_RISE_SMOOTHING_S / ts_s).round() as usize;
     let smooth = local_quadratic(&rise, half);
-    Ok((0..flow.values.len())
-        .map(|k| Some(-c_rho * (flow.values.get(k)? - flow_0) * smooth[k]? / power_base))
+    Ok((0..flow.len())
+        .map(|k| Some(-c_rho * (flow.get(k)? - flow_0) * smooth[k]? / power_base))
         .collect())
 }
 
@@ -1028,6 +1050,29 @@ mod tests {
             staircase > 0.02 && before < 0.002 && after <= 0.05,
             "{staircase} {before} {after}"
         );
+        // A flow held between changes: a slow drift taken through its changes, a pump's
+        // step kept at its own instant (not spread back over the run before it).
+        let flow_course =
+            |k: usize| 48.0 + 0.5 * k as f64 / n as f64 - if k >= 9000 { 10.0 } else { 0.0 };
+        let mut kept = flow_course(0);
+        let held: Vec<f64> = (0..n)
+            .map(|k| {
+                if (flow_course(k) - kept).abs() > 0.05 {
+                    kept = flow_course(k);
+                }
+                kept
+            })
+            .collect();
+        let flow = Signal::Profile(Quantity::CoolingWaterFlow);
+        let taken = reconstructed(&decimated(flow, held.iter().copied()), 1.0);
+        assert!((taken.get(8999).unwrap() - flow_course(8999)).abs() <= 0.05 + 1e-9);
+        assert_eq!(taken.get(9000), Some(held[9000]));
+        // Between the drift's changes (every 1,800 s) up to the last one before the step;
+        // after that one the value is held until the step, within the deadband.
+        let worst = (100..7200)
+            .map(|k| (taken.get(k).unwrap() - flow_course(k)).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 0.002, "{worst}");
         // Any other channel is the model's as recorded.
         let stator = Signal::Profile(Quantity::StatorWindingTemp);
         let as_recorded = reconstructed(&decimated(stator, (0..n).map(noisy)), 1.0);
