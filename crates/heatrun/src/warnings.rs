@@ -7,6 +7,7 @@ use crate::decimate::DecimatedRecording;
 use crate::model::ModelAnalysis;
 use crate::network::NetworkAnalysis;
 use crate::recording::{format_time, RecordingSummary};
+use crate::screen::{LeftOut, Why};
 use crate::spec::{coolant, InputSource, ModelDescription};
 
 /// What the stages before the estimator found, as the warnings read it (the pipeline's
@@ -159,4 +160,51 @@ pub fn flow_change(p: &Prepared<'_>) -> Option<String> {
         flow.range_l_per_s.0,
         flow.range_l_per_s.1,
     ))
+}
+
+/// Stretches left out that are named one by one; more are counted in one line.
+const LEFT_OUT_NAMED: usize = 20;
+
+/// One warning per stretch the screen left out of the estimation (channel, from, to,
+/// value, why), the first [`LEFT_OUT_NAMED`] of them by time, the rest counted.
+pub fn left_out(stretches: &[LeftOut]) -> Vec<String> {
+    let mut by_time: Vec<&LeftOut> = stretches.iter().collect();
+    by_time.sort_by_key(|l| (l.from_ns, l.state));
+    let mut out: Vec<String> = by_time
+        .iter()
+        .take(LEFT_OUT_NAMED)
+        .map(|l| left_out_line(l))
+        .collect();
+    if by_time.len() > LEFT_OUT_NAMED {
+        out.push(format!(
+            "{} more stretch(es) were left out as glitches or frozen values (the report's `left_out` lists them all)",
+            by_time.len() - LEFT_OUT_NAMED
+        ));
+    }
+    out
+}
+
+fn left_out_line(l: &LeftOut) -> String {
+    let at = |ns: i64| format_time(ns.max(0) as u64);
+    let span = if l.from_ns == l.to_ns {
+        format!("at {}", at(l.from_ns))
+    } else {
+        format!("from {} to {}", at(l.from_ns), at(l.to_ns))
+    };
+    match l.why {
+        Why::Glitch => format!(
+            "{}: {} sample(s) {span} left out of the estimation as a glitch: {} against the model's prediction, {:.2} K apart, far outside the measurement noise",
+            l.channel,
+            l.instants(),
+            l.value,
+            l.deviation_k
+        ),
+        Why::Frozen => format!(
+            "{}: {} sample(s) {span} left out of the estimation as frozen: every one reads {} while the model predicts a change of {:.2} K (a sensor or link that stopped moving)",
+            l.channel,
+            l.instants(),
+            l.value,
+            l.deviation_k
+        ),
+    }
 }
