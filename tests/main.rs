@@ -11,6 +11,7 @@
 //! | [`corpus`] | generated damaged and odd recordings, each with its documented outcome |
 //! | [`import`] | `heatrun import`: every table format, bad cells and rows, the fixture round trip |
 //! | [`datasets`] | measured data: the TCLab validation fit, as its example runs it |
+//! | [`flaws`] | unflagged glitches and a frozen sensor left out, named, the time constants unmoved; nothing left out of clean runs |
 //! | [`field_state`] | `replay --field-state`: a four-node machine whose field winding is seen through U_f/I_f |
 //! | [`network_rc`] | a known RC machine's C, G and K from the identified model and from `--method rc` |
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
@@ -31,6 +32,7 @@ mod corpus;
 mod datasets;
 mod estimators;
 mod field_state;
+mod flaws;
 mod html;
 mod import;
 mod layouts;

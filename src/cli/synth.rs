@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 use heatrun::synth::{
-    self, Coolant, CoolerFault, Disturbances, FieldChannel, Flaws, Freeze, Machine,
-    NetworkMachine, OperatingPoint, PumpSwitch, SynthOptions,
+    self, Coolant, CoolerFault, Disturbances, FieldChannel, Flaws, Freeze, Machine, NetworkMachine,
+    OperatingPoint, PumpSwitch, SynthOptions,
 };
 use heatrun::writer::Storage;
 

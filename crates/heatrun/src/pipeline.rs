@@ -25,10 +25,10 @@ use crate::model::{self, ModelAnalysis};
 use crate::network::{self, NetworkAnalysis};
 use crate::progress::Observer;
 use crate::recording::RecordingError;
-use crate::screen::{self, LeftOut};
 use crate::recording::{
     self, Nameplate, NameplateEntries, ReadOptions, RecordingSummary, SampleSink,
 };
+use crate::screen::{self, LeftOut};
 use crate::signals::SignalError;
 use crate::signals::{self, ModelSignals};
 use crate::spec::coolant::{self, ReferencePolicy};

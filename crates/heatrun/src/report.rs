@@ -12,8 +12,8 @@ use nalgebra::DMatrix;
 use crate::losses::FieldTemperatureSource;
 use crate::model_file::document::{
     AssignmentEntry, BesideEntry, ChannelEntry, EstimationEntry, FieldFromStator, FitEntry,
-    InletSteadyState, LeftOutEntry, NetworkEntry, RecordingEntry, ResidualEntry,
-    SteadyStateEntry, UncertaintyEntry, ValidationEntry,
+    InletSteadyState, LeftOutEntry, NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry,
+    UncertaintyEntry, ValidationEntry,
 };
 use crate::model_file::{Report, PROFILE};
 use crate::pipeline::Replay;

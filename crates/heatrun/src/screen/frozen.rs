@@ -86,7 +86,9 @@ pub fn find(input: &ScreenInput<'_>, j: usize, noise_k: f64, resolution_k: f64) 
                 value: run[0].1,
                 why: Why::Frozen,
                 deviation_k: change,
-                predicted: (first..=last).map(|k| predicted_reading(input, j, k)).collect(),
+                predicted: (first..=last)
+                    .map(|k| predicted_reading(input, j, k))
+                    .collect(),
             });
         }
     }
@@ -100,7 +102,9 @@ fn predicted_change_k(input: &ScreenInput<'_>, j: usize, run: &[(usize, f64)]) -
         .iter()
         .map(|&(k, _)| predicted_reading(input, j, k))
         .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
     if hi >= lo {
         hi - lo
     } else {

@@ -41,9 +41,7 @@ pub fn noise_scale_k(residuals: &[Option<f64>], resolution_k: f64) -> f64 {
     } else {
         sigma_mad(&steps) / std::f64::consts::SQRT_2
     };
-    sigma
-        .max(NOISE_FLOOR_K)
-        .max(resolution_k / 12f64.sqrt())
+    sigma.max(NOISE_FLOOR_K).max(resolution_k / 12f64.sqrt())
 }
 
 /// The departure d(k) of residual k from both sides (module doc), `None` where the

@@ -211,9 +211,7 @@ fn check_shapes(input: &ScreenInput<'_>) -> Result<()> {
     if input.channels.len() != n {
         return mismatch("the channel list", format!("{} long", input.channels.len()));
     }
-    if input.time_ns.len() != n_rows
-        || input.channels.iter().any(|c| c.measured.len() != n_rows)
-    {
+    if input.time_ns.len() != n_rows || input.channels.iter().any(|c| c.measured.len() != n_rows) {
         return mismatch("a channel's grid or the times", "of another length".into());
     }
     Ok(())

@@ -59,7 +59,9 @@ fn screen_of(outputs: &DMatrix<f64>, inputs: &DMatrix<f64>) -> Screening {
             stored_by_exception: false,
         })
         .collect();
-    let time_ns: Vec<i64> = (0..outputs.nrows() as i64).map(|k| k * 1_000_000_000).collect();
+    let time_ns: Vec<i64> = (0..outputs.nrows() as i64)
+        .map(|k| k * 1_000_000_000)
+        .collect();
     screen(&ScreenInput {
         data: &data,
         simulated: &sim,
@@ -76,8 +78,16 @@ fn clean_noisy_runs_leave_nothing_out_over_many_seeds() {
     for seed in 0..40 {
         for (sigma, r) in [(0.05, 0.01), (0.2, 0.1), (0.01, 0.0)] {
             let s = screen_of(&measured(&y, sigma, r, seed), &u);
-            assert!(s.is_empty(), "seed {seed}, σ {sigma}, r {r}: {:?}", s.left_out);
-            assert!((s.noise_k[0] - sigma.max(r / 12f64.sqrt())).abs() < 0.2 * sigma, "{:?}", s.noise_k);
+            assert!(
+                s.is_empty(),
+                "seed {seed}, σ {sigma}, r {r}: {:?}",
+                s.left_out
+            );
+            assert!(
+                (s.noise_k[0] - sigma.max(r / 12f64.sqrt())).abs() < 0.2 * sigma,
+                "{:?}",
+                s.noise_k
+            );
         }
     }
 }
@@ -94,7 +104,13 @@ fn glitches_are_found_at_their_instants_and_nowhere_else() {
     let (y, u) = truth(6000);
     let mut outputs = measured(&y, 0.05, 0.01, 3);
     // Single glitches, a pair, one at a load step (instant 1800 is the input's step).
-    let glitches = [(1, 500, 15.0), (1, 1801, -2.0), (0, 2500, 1.0), (0, 2501, 1.2), (1, 4000, 0.6)];
+    let glitches = [
+        (1, 500, 15.0),
+        (1, 1801, -2.0),
+        (0, 2500, 1.0),
+        (0, 2501, 1.2),
+        (1, 4000, 0.6),
+    ];
     for &(j, k, d) in &glitches {
         outputs[(k, j)] += d;
     }
@@ -104,7 +120,15 @@ fn glitches_are_found_at_their_instants_and_nowhere_else() {
         .iter()
         .map(|l| (l.state, l.from_index, l.to_index))
         .collect();
-    assert_eq!(found, vec![(0, 2500, 2501), (1, 500, 500), (1, 1801, 1801), (1, 4000, 4000)]);
+    assert_eq!(
+        found,
+        vec![
+            (0, 2500, 2501),
+            (1, 500, 500),
+            (1, 1801, 1801),
+            (1, 4000, 4000)
+        ]
+    );
     assert!(s.left_out.iter().all(|l| l.why == Why::Glitch));
     assert_eq!(s.left_out[1].value, outputs[(500, 1)] + 40.0);
     // 0.2 K (4 σ) is noise-like enough to stay.
@@ -123,7 +147,10 @@ fn a_frozen_stretch_is_found_whole_and_a_true_steady_value_is_not() {
     let s = screen_of(&outputs, &u);
     assert_eq!(s.left_out.len(), 1, "{:?}", s.left_out);
     let l = &s.left_out[0];
-    assert_eq!((l.state, l.from_index, l.to_index, l.why), (0, 2000, 2599, Why::Frozen));
+    assert_eq!(
+        (l.state, l.from_index, l.to_index, l.why),
+        (0, 2000, 2599, Why::Frozen)
+    );
     assert_eq!(l.value, held + 40.0);
     assert!(l.deviation_k > 1.0, "the model's change {}", l.deviation_k);
 
@@ -153,7 +180,10 @@ fn the_probability_of_equal_readings_matches_a_count_of_simulated_ones() {
         }
         let counted = equal as f64 / trials as f64;
         let p = frozen::probability_equal(sigma, r);
-        assert!((p - counted).abs() < 0.005, "σ {sigma}, r {r}: {p} against {counted}");
+        assert!(
+            (p - counted).abs() < 0.005,
+            "σ {sigma}, r {r}: {p} against {counted}"
+        );
     }
     assert_eq!(frozen::shortest_implausible_run(21_000, 0.0), 2);
     assert_eq!(frozen::shortest_implausible_run(21_000, 1.0), usize::MAX);
@@ -185,4 +215,3 @@ fn entries_left_out_become_unobserved_and_the_rest_stay() {
     // The simulation runs through them: one segment.
     assert_eq!(marked.segments(), vec![0..100]);
 }
-

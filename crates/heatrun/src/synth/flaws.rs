@@ -237,8 +237,15 @@ impl FlawPlan {
             self.record.input_timeouts_s.push(t_s);
             return Written::Null;
         }
-        let dropout = f.dropout_every.is_some_and(|n| (index + 1).is_multiple_of(n));
-        if let Some(d) = self.record.dropouts.iter_mut().find(|d| d.channel == quantity) {
+        let dropout = f
+            .dropout_every
+            .is_some_and(|n| (index + 1).is_multiple_of(n));
+        if let Some(d) = self
+            .record
+            .dropouts
+            .iter_mut()
+            .find(|d| d.channel == quantity)
+        {
             if dropout {
                 d.count += 1;
                 return if d.count % 2 == 1 {

@@ -63,12 +63,12 @@ use crate::writer::{
 use plant::Trajectory;
 
 pub use crate::writer::SAMPLE_SCHEMA;
+pub use flaws::{FlawRecord, Flaws, Freeze};
 pub use machines::{
     paper_model, second_machine_model, Machine, NetworkMachine, PAPER_A_C, PAPER_B_C,
     PAPER_COOLING_WATER_FLOW_L_PER_S, PAPER_COOLING_WATER_INLET_C, PAPER_GAMMA,
     PAPER_INITIAL_TEMPERATURES_C, PAPER_PHI,
 };
-pub use flaws::{FlawRecord, Flaws, Freeze};
 pub use plant::ChangeCause;
 pub use truth::{truth_path, NetworkChange, Truth, TruthCoolant, TruthNetwork};
 

@@ -510,10 +510,7 @@ type Messages = Vec<(String, u64, String)>;
 
 /// A noisy 2,000 s rc-unit run, clean and with `flaws`: (clean messages, flawed
 /// messages, the flawed run's truth).
-fn clean_and_flawed(
-    name: &str,
-    flaws: Flaws,
-) -> (Messages, Messages, Truth) {
+fn clean_and_flawed(name: &str, flaws: Flaws) -> (Messages, Messages, Truth) {
     let dir = temp_dir(name);
     let clean = SynthOptions {
         machine: Machine::Network(NetworkMachine::rc_unit()),
@@ -689,7 +686,10 @@ fn a_freeze_holds_the_stator_reading_at_its_start_until_its_end() {
     // The clean channel moved inside the freeze (noise of 0.05 K at 0.01 K).
     assert!(c.iter().filter(|s| inside(s.0) && s.1 != first).count() > 500);
     let stretch = truth.flaws.unwrap().freeze.unwrap();
-    assert_eq!((stretch.value, stretch.to_s - stretch.from_s), (first, 599.0));
+    assert_eq!(
+        (stretch.value, stretch.to_s - stretch.from_s),
+        (first, 599.0)
+    );
 }
 
 #[test]
