@@ -9,6 +9,12 @@
 //! departure d(k) = the smaller of the two (0 if they differ in sign) is compared with
 //! [`THRESHOLD`] times its noise scale σ_d = σ·√(1 + π/(2·WINDOW)) (a residual minus
 //! the median of WINDOW others), σ the residuals' noise.
+//!
+//! The reading itself must spike as well (depart from both sides by as much): a thermal
+//! mass does not let a temperature jump and come back, whereas a model that is wrong
+//! for a few samples (a dead time it lacks, a transient it misses) leaves a bump in the
+//! residual under a reading that moves smoothly, and that is the model's error to show,
+//! not the data's to hide.
 
 use super::robust::{median, sigma_mad};
 use super::{predicted_reading, LeftOut, ScreenInput, Why};
@@ -60,12 +66,13 @@ pub fn departure(residuals: &[Option<f64>], k: usize) -> Option<f64> {
     Some(before.signum() * before.abs().min(after.abs()))
 }
 
-/// Output j's glitches: runs of neighbouring instants whose departure exceeds
-/// [`THRESHOLD`]·σ_d, each a stretch; `residuals` in K.
+/// Output j's glitches: runs of neighbouring instants whose residual departs by more
+/// than [`THRESHOLD`]·σ_d and whose reading departs in the same direction by as much,
+/// each a stretch; `residuals` and `readings` (the observed entries' values) in K.
 pub fn find(
     input: &ScreenInput<'_>,
     j: usize,
-    residuals: &[Option<f64>],
+    (residuals, readings): (&[Option<f64>], &[Option<f64>]),
     noise_k: f64,
 ) -> Vec<LeftOut> {
     let limit = THRESHOLD * noise_k * (1.0 + std::f64::consts::PI / (2.0 * WINDOW as f64)).sqrt();
@@ -74,6 +81,11 @@ pub fn find(
         let Some(d) = departure(residuals, k).filter(|d| d.abs() > limit) else {
             continue;
         };
+        let spikes =
+            departure(readings, k).is_some_and(|m| m.abs() > limit && m.signum() == d.signum());
+        if !spikes {
+            continue;
+        }
         match out.last_mut() {
             Some(last) if last.to_index + 1 == k => {
                 last.to_index = k;

@@ -149,7 +149,15 @@ pub fn screen(input: &ScreenInput<'_>) -> Result<Screening> {
         let channel = &input.channels[j];
         let resolution = robust::resolution(channel.measured);
         let noise = glitch::noise_scale_k(&residuals, resolution);
-        let mut found = glitch::find(input, j, &residuals, noise);
+        let readings: Vec<Option<f64>> = (0..input.data.len())
+            .map(|k| {
+                channel
+                    .measured
+                    .get(k)
+                    .filter(|_| input.data.observed(k, j))
+            })
+            .collect();
+        let mut found = glitch::find(input, j, (&residuals, &readings), noise);
         if !channel.stored_by_exception {
             found.extend(frozen::find(input, j, noise, resolution));
         }

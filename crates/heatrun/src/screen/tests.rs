@@ -137,6 +137,19 @@ fn glitches_are_found_at_their_instants_and_nowhere_else() {
 }
 
 #[test]
+fn a_model_wrong_for_a_few_samples_is_not_a_glitch() {
+    // The data of the model with its input 5 s late (a dead time the screen's model
+    // lacks): the residual bumps at every step while the readings move smoothly.
+    let (y, u) = truth(6000);
+    let late = DMatrix::from_fn(6000, 1, |k, _| u[(k.saturating_sub(5), 0)]);
+    let data = IdentificationData::complete(1.0, y.clone(), late.clone());
+    let delayed = model().simulate(&data, 0..6000);
+    let outputs = measured(&delayed, 0.01, 0.0, 9);
+    let s = screen_of(&outputs, &u);
+    assert!(s.is_empty(), "{:?}", s.left_out);
+}
+
+#[test]
 fn a_frozen_stretch_is_found_whole_and_a_true_steady_value_is_not() {
     let (y, u) = truth(6000);
     let mut outputs = measured(&y, 0.05, 0.01, 5);
