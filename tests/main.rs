@@ -12,6 +12,7 @@
 //! | [`import`] | `heatrun import`: every table format, bad cells and rows, the fixture round trip |
 //! | [`historian`] | a historian's `;`/decimal-comma export (storage by exception, timeouts, Bad flags, a drifting inlet) and an on-change export imported as sampled, beside the run they came from |
 //! | [`datasets`] | measured data: the TCLab validation fit, as its example runs it |
+//! | [`flaws`] | unflagged glitches and a frozen sensor left out, named, the time constants unmoved; nothing left out of clean runs |
 //! | [`field_state`] | `replay --field-state`: a four-node machine whose field winding is seen through U_f/I_f |
 //! | [`network_rc`] | a known RC machine's C, G and K from the identified model and from `--method rc` |
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
@@ -32,6 +33,7 @@ mod corpus;
 mod datasets;
 mod estimators;
 mod field_state;
+mod flaws;
 mod historian;
 mod html;
 mod import;

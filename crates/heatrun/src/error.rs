@@ -19,6 +19,7 @@ use crate::model::ModelError;
 use crate::model_file::UseError;
 use crate::network::NetworkError;
 use crate::recording::RecordingError;
+use crate::screen::ScreenError;
 use crate::signals::SignalError;
 use crate::spec::SpecFileError;
 use crate::synth::SynthError;
@@ -47,6 +48,10 @@ pub enum Error {
     /// The model has no thermal network, or a network figure cannot be computed.
     #[error(transparent)]
     Network(#[from] NetworkError),
+    /// The screen for glitches and frozen values was given inputs that disagree (the
+    /// pipeline's fault, not the recording's).
+    #[error(transparent)]
+    Screen(#[from] ScreenError),
     /// A stage after reading failed on this recording: the error, with the file it is about.
     // Not `source`: the message already holds the stage's error (see `SpecFileError::Bad`).
     #[error("{path}: {error}")]
@@ -115,7 +120,7 @@ impl Error {
             Error::Import(e) => e.is_bad_input(),
             Error::Signals(e) => e.is_bad_input(),
             Error::Synth(e) => e.is_bad_input(),
-            Error::Network(_) | Error::Observer(_) | Error::Output(_) => false,
+            Error::Network(_) | Error::Screen(_) | Error::Observer(_) | Error::Output(_) => false,
             Error::Recording(_)
             | Error::Spec(_)
             | Error::Decimate(_)

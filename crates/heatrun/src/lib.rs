@@ -12,6 +12,7 @@
 //! | decimation | [`decimate`] | samples → [`DecimatedRecording`] on a grid of Ts |
 //! | signals | [`signals`] | decimated channels + [`ModelDescription`] (+ the generator's [`losses`]) → [`ModelSignals`] |
 //! | estimation | [`estimate`] | [`IdentificationData`] → [`Estimate`] (Φ, Γ) by a [`Method`] |
+//! | screen | [`screen`] | data + a model's simulation → the glitches and frozen runs left out ([`screen::Screening`]); the pipeline estimates again without them |
 //! | model analysis | [`model`] | estimate → [`ModelAnalysis`] (A_c, B_c, T_i, fit, …) |
 //! | network | [`network`] | continuous model + signals → [`NetworkAnalysis`] |
 //! | report | [`report`] | [`Replay`] → the profile's JSON [`Report`] and a summary |
@@ -70,6 +71,7 @@ pub mod progress;
 pub mod rating;
 pub mod recording;
 pub mod report;
+pub mod screen;
 pub mod series;
 pub mod signals;
 pub mod spec;

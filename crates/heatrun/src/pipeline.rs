@@ -1,4 +1,5 @@
-//! The replay pipeline: recording → decimation → signals → estimation → analysis.
+//! The replay pipeline: recording → decimation → signals → estimation → screen
+//! (→ estimation again without what the screen left out) → analysis.
 //!
 //! This is the one place that knows the order of the stages; each stage returns what it
 //! owns, and publishing and the report read their outputs, gathered in a [`Replay`]
@@ -27,6 +28,7 @@ use crate::recording::RecordingError;
 use crate::recording::{
     self, Nameplate, NameplateEntries, ReadOptions, RecordingSummary, SampleSink,
 };
+use crate::screen::{self, LeftOut};
 use crate::signals::SignalError;
 use crate::signals::{self, ModelSignals};
 use crate::spec::coolant::{self, ReferencePolicy};
@@ -161,6 +163,9 @@ pub struct Replay {
     /// For `rc`: the output-error model it started from, fitted on the same instants, to
     /// set beside it.
     pub output_error_beside: Option<Beside>,
+    /// The stretches the screen left out of the estimation (glitches, frozen values),
+    /// by state then time; empty when it found none.
+    pub left_out: Vec<LeftOut>,
     /// Warnings for the user (data loss, gaps).
     pub warnings: Vec<String>,
 }
@@ -369,6 +374,15 @@ pub fn replay_observed(
         )
     })
     .map_err(in_file)?;
+    let mut held_back = held_back;
+    let (estimate, left_out) = screen_and_estimate_again(
+        &mut prepared,
+        &mut held_back,
+        &estimation_range,
+        (options, scaling),
+        estimate,
+    )
+    .map_err(in_file)?;
     // Where the estimator found the rises offset by the error of the first sample they are
     // measured from, the references become the initial temperatures it estimated: from
     // here on ŷ = x (the analysis, validation, steady state, network and report).
@@ -446,7 +460,8 @@ pub fn replay_observed(
         })?;
     drop(analysed);
     drop(held_back);
-    let warnings = warnings::collect(&prepared.for_warnings(), &analysis, &network);
+    let mut warnings = warnings::collect(&prepared.for_warnings(), &analysis, &network);
+    warnings.extend(warnings::left_out(&left_out));
     Ok(Replay {
         path: path.to_owned(),
         model: prepared.model,
@@ -461,8 +476,119 @@ pub fn replay_observed(
         analysis,
         network,
         output_error_beside,
+        left_out,
         warnings,
     })
+}
+
+/// Rounds of screen → estimate again at most; each leaves out only what the last
+/// estimate's residuals show, so a glitch that bent the first estimate is found in the
+/// first round and one it hid in the next.
+const SCREEN_ROUNDS: usize = 4;
+
+/// Screens the data against the estimate's simulation for glitches and frozen values
+/// ([`screen`]); where it finds some, marks them unobserved in the data (the held-back
+/// part included), gives the signals computed from those channels (a copper loss from
+/// the winding's temperature) the model's predicted readings there, and estimates again;
+/// once a round finds nothing new, the predictions are refreshed from that round's model
+/// and the model estimated a last time. On clean data this is one simulation and one
+/// screen, nothing estimated again.
+fn screen_and_estimate_again(
+    prepared: &mut Prepared,
+    held_back: &mut Option<IdentificationData>,
+    estimation_range: &Range<usize>,
+    (options, scaling): (&ReplayOptions, network::Scaling),
+    mut estimate: Estimate,
+) -> Result<(Estimate, Vec<LeftOut>)> {
+    let mut left_out: Vec<LeftOut> = Vec::new();
+    let measured = prepared.signals.clone();
+    for _ in 0..SCREEN_ROUNDS {
+        let new = screen_once(prepared, &estimate, &mut left_out)?;
+        let found = !new.is_empty();
+        if !found && left_out.is_empty() {
+            break;
+        }
+        left_out.extend(new);
+        leave_out(prepared, &measured, &left_out)?;
+        if held_back.is_some() {
+            *held_back = Some(prepared.data.slice(estimation_range.clone()));
+        }
+        options
+            .progress
+            .stage("estimating again without glitches and frozen values");
+        estimate = estimate_in(
+            held_back.as_ref().unwrap_or(&prepared.data),
+            options,
+            scaling,
+        )?;
+        if !found {
+            break;
+        }
+    }
+    left_out.sort_by_key(|l| (l.state, l.from_index));
+    Ok((estimate, left_out))
+}
+
+/// One screen of the whole data against the estimate's simulation ŷ = x + d (d its
+/// output offset, where it has one): returns the new stretches, and sets the readings
+/// of those already left out to this model's predictions.
+fn screen_once(
+    prepared: &Prepared,
+    estimate: &Estimate,
+    left_out: &mut [LeftOut],
+) -> Result<Vec<LeftOut>> {
+    let data = &prepared.data;
+    let mut simulated = estimate.model.simulate_segments(data, &data.segments());
+    if let Some(offset) = &estimate.output_offset {
+        for (j, d) in offset.iter().enumerate().take(data.states()) {
+            simulated.column_mut(j).add_scalar_mut(*d);
+        }
+    }
+    let signals = &prepared.signals;
+    let channels: Vec<screen::Channel> = signals
+        .states
+        .iter()
+        .map(|s| screen::Channel {
+            name: &s.name,
+            measured: &s.measured,
+            stored_by_exception: s.exception.is_some() || s.observed.is_some(),
+        })
+        .collect();
+    let input = screen::ScreenInput {
+        data,
+        simulated: &simulated,
+        channels: &channels,
+        time_ns: &signals.time_ns,
+        temperature_base_k: signals.temperature_base_k,
+    };
+    screen::predict(&input, left_out)?;
+    Ok(screen::screen(&input)?.left_out)
+}
+
+/// The signals and data without the stretches left out: the grid's channels take the
+/// model's predicted readings there, the signal stage runs again on them (the inputs
+/// computed from those channels follow), the states keep what was `measured`, and the
+/// entries left out are unobserved.
+fn leave_out(prepared: &mut Prepared, measured: &ModelSignals, left_out: &[LeftOut]) -> Result<()> {
+    let mut grid = prepared.decimated.clone();
+    for l in left_out {
+        let channel = &prepared.model.states[l.state].channel;
+        let Some(series) = grid.series.get_mut(channel) else {
+            continue;
+        };
+        for (k, v) in (l.from_index..=l.to_index).zip(&l.predicted) {
+            if v.is_finite() {
+                series.values.set(k, Some(*v));
+            }
+        }
+    }
+    let mut signals = signals::compute(&prepared.model, &grid, prepared.nameplate.as_ref())?;
+    for (state, was) in signals.states.iter_mut().zip(&measured.states) {
+        state.measured = was.measured.clone();
+    }
+    prepared.data = screen::mark_unobserved(&signals.identification_data(), left_out);
+    prepared.signals = signals;
+    Ok(())
 }
 
 /// What the network is fitted to after `oe`: its Θ re-estimated with the constant output

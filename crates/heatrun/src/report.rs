@@ -12,8 +12,8 @@ use nalgebra::DMatrix;
 use crate::losses::FieldTemperatureSource;
 use crate::model_file::document::{
     AssignmentEntry, BesideEntry, ChannelEntry, EstimationEntry, FieldFromStator, FitEntry,
-    GapsEntry, InletSteadyState, InputGapsEntry, NetworkEntry, RecordingEntry, ResidualEntry,
-    SteadyStateEntry, UncertaintyEntry, UnobservedEntry, ValidationEntry,
+    GapsEntry, InletSteadyState, InputGapsEntry, LeftOutEntry, NetworkEntry, RecordingEntry,
+    ResidualEntry, SteadyStateEntry, UncertaintyEntry, UnobservedEntry, ValidationEntry,
 };
 use crate::model_file::{Report, PROFILE};
 use crate::pipeline::Replay;
@@ -412,6 +412,7 @@ impl Report {
                 time_constants_s: b.time_constants_s.clone(),
                 fit: FitEntry::from(&b.fit),
             }),
+            left_out: left_out_entries(r),
             warnings: r.warnings.clone(),
         }
     }
@@ -426,6 +427,7 @@ impl Report {
         self.summary_steady_state(&mut s);
         self.summary_residuals(&mut s);
         self.summary_network(&mut s);
+        self.summary_left_out(&mut s);
         for w in &self.warnings {
             let _ = writeln!(s, "warning: {w}");
         }
@@ -667,6 +669,23 @@ impl Report {
         }
     }
 
+    /// One line counting what the screen left out (the warnings name each stretch).
+    fn summary_left_out(&self, s: &mut String) {
+        if self.left_out.is_empty() {
+            return;
+        }
+        let count = |why: crate::screen::Why| {
+            let of: Vec<&LeftOutEntry> = self.left_out.iter().filter(|l| l.why == why).collect();
+            (of.len(), of.iter().map(|l| l.samples).sum::<usize>())
+        };
+        let (glitches, glitch_samples) = count(crate::screen::Why::Glitch);
+        let (frozen, frozen_samples) = count(crate::screen::Why::Frozen);
+        let _ = writeln!(
+            s,
+            "left out of the estimation (the data contradict them): {glitches} glitch(es), {glitch_samples} sample(s); {frozen} frozen stretch(es), {frozen_samples} sample(s); each named below"
+        );
+    }
+
     fn summary_network(&self, s: &mut String) {
         let _ = writeln!(s);
         // A report read back has no network or equilibrium (`Report`: not read); one a
@@ -885,4 +904,21 @@ fn minimum_distance_line(from: &str, d: &crate::network::MinimumDistance) -> Str
             d.distance, d.weighting
         ),
     }
+}
+
+/// The screen's stretches, their times as the recording's (RFC 3339).
+fn left_out_entries(r: &Replay) -> Vec<LeftOutEntry> {
+    let at = |ns: i64| format_time(ns.max(0) as u64);
+    r.left_out
+        .iter()
+        .map(|l| LeftOutEntry {
+            channel: l.channel.clone(),
+            from: at(l.from_ns),
+            to: at(l.to_ns),
+            value: l.value,
+            why: l.why,
+            samples: l.instants(),
+            deviation_k: l.deviation_k,
+        })
+        .collect()
 }

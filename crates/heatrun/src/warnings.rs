@@ -7,6 +7,7 @@ use crate::decimate::DecimatedRecording;
 use crate::model::ModelAnalysis;
 use crate::network::NetworkAnalysis;
 use crate::recording::{format_time, RecordingSummary};
+use crate::screen::{LeftOut, Why};
 use crate::signals::{Bridge, ModelSignals, INPUT_GAP_BRIDGED_S};
 use crate::spec::{coolant, InputSource, ModelDescription};
 
@@ -196,4 +197,90 @@ pub fn flow_change(p: &Prepared<'_>) -> Option<String> {
         flow.range_l_per_s.0,
         flow.range_l_per_s.1,
     ))
+}
+
+/// Stretches left out that are named one by one; more are counted in one line.
+const LEFT_OUT_NAMED: usize = 20;
+
+/// One warning per stretch the screen left out of the estimation (channel, from, to,
+/// value, why), the first [`LEFT_OUT_NAMED`] of them by time, the rest counted.
+pub fn left_out(stretches: &[LeftOut]) -> Vec<String> {
+    let mut by_time: Vec<&LeftOut> = stretches.iter().collect();
+    by_time.sort_by_key(|l| (l.from_ns, l.state));
+    let mut out: Vec<String> = by_time
+        .iter()
+        .take(LEFT_OUT_NAMED)
+        .map(|l| left_out_line(l))
+        .collect();
+    if by_time.len() > LEFT_OUT_NAMED {
+        out.push(format!(
+            "{} more stretch(es) were left out as glitches or frozen values (the report's `left_out` lists them all)",
+            by_time.len() - LEFT_OUT_NAMED
+        ));
+    }
+    out
+}
+
+fn left_out_line(l: &LeftOut) -> String {
+    let at = |ns: i64| format_time(ns.max(0) as u64);
+    // Six decimals: finer than any temperature sensor, without a binary fraction's tail.
+    let value = (l.value * 1e6).round() / 1e6;
+    let span = if l.from_ns == l.to_ns {
+        format!("at {}", at(l.from_ns))
+    } else {
+        format!("from {} to {}", at(l.from_ns), at(l.to_ns))
+    };
+    match l.why {
+        Why::Glitch => format!(
+            "{}: {} sample(s) {span} left out of the estimation as a glitch: {} against the model's prediction, {:.2} K apart, far outside the measurement noise",
+            l.channel,
+            l.instants(),
+            value,
+            l.deviation_k
+        ),
+        Why::Frozen => format!(
+            "{}: {} sample(s) {span} left out of the estimation as frozen: every one reads {} while the model predicts a change of {:.2} K (a sensor or link that stopped moving)",
+            l.channel,
+            l.instants(),
+            value,
+            l.deviation_k
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stretch(from_s: i64, samples: usize, why: Why) -> LeftOut {
+        let ns = 1_559_541_600_000_000_000 + from_s * 1_000_000_000;
+        LeftOut {
+            state: 1,
+            channel: "core_temp".into(),
+            from_index: from_s as usize,
+            to_index: from_s as usize + samples - 1,
+            from_ns: ns,
+            to_ns: ns + (samples as i64 - 1) * 1_000_000_000,
+            value: 41.010000000000005,
+            why,
+            deviation_k: 15.0,
+            predicted: vec![26.0; samples],
+        }
+    }
+
+    #[test]
+    fn each_stretch_left_out_is_named_by_time_and_the_rest_counted() {
+        let lines = left_out(&[stretch(60, 1, Why::Glitch), stretch(0, 3600, Why::Frozen)]);
+        assert_eq!(
+            lines,
+            [
+                "core_temp: 3600 sample(s) from 2019-06-03T06:00:00Z to 2019-06-03T06:59:59Z left out of the estimation as frozen: every one reads 41.01 while the model predicts a change of 15.00 K (a sensor or link that stopped moving)",
+                "core_temp: 1 sample(s) at 2019-06-03T06:01:00Z left out of the estimation as a glitch: 41.01 against the model's prediction, 15.00 K apart, far outside the measurement noise",
+            ]
+        );
+        let many: Vec<LeftOut> = (0..25).map(|i| stretch(10 * i, 1, Why::Glitch)).collect();
+        let lines = left_out(&many);
+        assert_eq!(lines.len(), LEFT_OUT_NAMED + 1);
+        assert!(lines[LEFT_OUT_NAMED].starts_with("5 more stretch(es)"));
+    }
 }

@@ -366,9 +366,35 @@ pub struct Report {
     /// For `rc`: the black-box output-error model it started from, on the same instants.
     #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
     pub output_error_beside: Option<BesideEntry>,
+    /// The stretches left out of the estimation as glitches or frozen values (absent
+    /// when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty", skip_deserializing)]
+    pub left_out: Vec<LeftOutEntry>,
     /// Warnings.
     #[serde(skip_deserializing)]
     pub warnings: Vec<String>,
+}
+
+/// A stretch of a state's channel left out of the estimation (the screen's
+/// [`crate::screen::LeftOut`], its times in RFC 3339).
+#[derive(Debug, Clone, Serialize)]
+pub struct LeftOutEntry {
+    /// The state's channel.
+    pub channel: String,
+    /// The first grid instant left out, RFC 3339.
+    pub from: String,
+    /// The last grid instant left out, RFC 3339.
+    pub to: String,
+    /// The measured value at the first instant (a frozen run's held value), in the
+    /// channel's unit.
+    pub value: f64,
+    /// `glitch` or `frozen`.
+    pub why: crate::screen::Why,
+    /// Grid instants left out.
+    pub samples: usize,
+    /// A glitch's largest departure from the model's prediction, or the change the
+    /// model predicts over a frozen run, K.
+    pub deviation_k: f64,
 }
 
 /// Another method's figures beside the report's own (`rc` beside `oe`).

@@ -223,7 +223,8 @@ impl FlawPlan {
         if quantity == f.glitch_channel {
             if let Ok(j) = self.glitches.binary_search(&index) {
                 out = if j % 2 == 0 {
-                    value + GLITCH_OFFSET_K
+                    // Rounded as every written value is, so that it reads as a sensor's.
+                    super::round_to_12_digits(value + GLITCH_OFFSET_K)
                 } else {
                     FAULT_CODE
                 };

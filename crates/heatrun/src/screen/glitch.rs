@@ -1,0 +1,111 @@
+//! Glitches: a measured output far outside the measurement noise of the model's
+//! prediction, against the residuals on both sides of it.
+//!
+//! The residual r(k) = y(k) − ŷ(k) of a model near the truth is measurement noise plus a
+//! slow model error. A glitch is a spike: r(k) stands apart from the median of the
+//! [`WINDOW`] residuals before it *and* of those after it, in the same direction. Either
+//! side alone would also flag a step of the residual (a sensor that resumes after
+//! freezing, a model error that changes at a load step); a spike departs from both. The
+//! departure d(k) = the smaller of the two (0 if they differ in sign) is compared with
+//! [`THRESHOLD`] times its noise scale σ_d = σ·√(1 + π/(2·WINDOW)) (a residual minus
+//! the median of WINDOW others), σ the residuals' noise.
+//!
+//! The reading itself must spike as well (depart from both sides by as much): a thermal
+//! mass does not let a temperature jump and come back, whereas a model that is wrong
+//! for a few samples (a dead time it lacks, a transient it misses) leaves a bump in the
+//! residual under a reading that moves smoothly, and that is the model's error to show,
+//! not the data's to hide.
+
+use super::robust::{median, sigma_mad};
+use super::{predicted_reading, LeftOut, ScreenInput, Why};
+
+/// Residuals on each side a sample is judged against (a window of 5 s at 1 s: shorter
+/// than the fastest thermal time constant, long enough for a median that one neighbouring
+/// glitch does not move).
+pub const WINDOW: usize = 5;
+
+/// A glitch departs from both sides by more than this many noise scales. For Gaussian
+/// noise one side alone exceeds 7 σ_d with probability 2.6·10⁻¹²: a week at 1 s of three
+/// outputs (1.8·10⁶ samples) expects 5·10⁻⁶ false glitches, which leaves room for
+/// residuals heavier-tailed than Gaussian (quantisation, a model error at load steps).
+pub const THRESHOLD: f64 = 7.0;
+
+/// The smallest noise σ taken, K: a noise-free recording's residuals are rounding, and a
+/// glitch is a departure a sensor could show, not one of 10⁻⁹ K.
+pub const NOISE_FLOOR_K: f64 = 0.002;
+
+/// σ of the residuals' measurement noise, K: 1.4826·MAD of their first differences / √2
+/// (differences remove a slow model error; the MAD ignores the glitches themselves), at
+/// least [`NOISE_FLOOR_K`] and the quantisation noise of `resolution_k` (r/√12).
+pub fn noise_scale_k(residuals: &[Option<f64>], resolution_k: f64) -> f64 {
+    let steps: Vec<f64> = residuals
+        .windows(2)
+        .filter_map(|w| Some(w[1]? - w[0]?))
+        .collect();
+    let sigma = if steps.is_empty() {
+        0.0
+    } else {
+        sigma_mad(&steps) / std::f64::consts::SQRT_2
+    };
+    sigma.max(NOISE_FLOOR_K).max(resolution_k / 12f64.sqrt())
+}
+
+/// The departure d(k) of residual k from both sides (module doc), `None` where the
+/// residual is unknown or a side has no residual.
+pub fn departure(residuals: &[Option<f64>], k: usize) -> Option<f64> {
+    let r = residuals[k]?;
+    let side = |range: &mut dyn Iterator<Item = usize>| -> Option<f64> {
+        let mut v: Vec<f64> = range.filter_map(|i| residuals[i]).take(WINDOW).collect();
+        (!v.is_empty()).then(|| r - median(&mut v))
+    };
+    let before = side(&mut (0..k).rev())?;
+    let after = side(&mut (k + 1..residuals.len()))?;
+    if before.signum() != after.signum() {
+        return Some(0.0);
+    }
+    Some(before.signum() * before.abs().min(after.abs()))
+}
+
+/// Output j's glitches: runs of neighbouring instants whose residual departs by more
+/// than [`THRESHOLD`]·σ_d and whose reading departs in the same direction by as much,
+/// each a stretch; `residuals` and `readings` (the observed entries' values) in K.
+pub fn find(
+    input: &ScreenInput<'_>,
+    j: usize,
+    (residuals, readings): (&[Option<f64>], &[Option<f64>]),
+    noise_k: f64,
+) -> Vec<LeftOut> {
+    let limit = THRESHOLD * noise_k * (1.0 + std::f64::consts::PI / (2.0 * WINDOW as f64)).sqrt();
+    let mut out: Vec<LeftOut> = Vec::new();
+    for k in 0..residuals.len() {
+        let Some(d) = departure(residuals, k).filter(|d| d.abs() > limit) else {
+            continue;
+        };
+        let spikes =
+            departure(readings, k).is_some_and(|m| m.abs() > limit && m.signum() == d.signum());
+        if !spikes {
+            continue;
+        }
+        match out.last_mut() {
+            Some(last) if last.to_index + 1 == k => {
+                last.to_index = k;
+                last.to_ns = input.time_ns[k];
+                last.deviation_k = last.deviation_k.max(d.abs());
+                last.predicted.push(predicted_reading(input, j, k));
+            }
+            _ => out.push(LeftOut {
+                state: j,
+                channel: input.channels[j].name.to_owned(),
+                from_index: k,
+                to_index: k,
+                from_ns: input.time_ns[k],
+                to_ns: input.time_ns[k],
+                value: input.channels[j].measured.get(k).unwrap_or(f64::NAN),
+                why: Why::Glitch,
+                deviation_k: d.abs(),
+                predicted: vec![predicted_reading(input, j, k)],
+            }),
+        }
+    }
+    out
+}
