@@ -346,7 +346,7 @@ fn library_options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
         // A spec's bad key is the input's fault (exit status 2), as every other is.
         (None, Some(name)) => name.parse::<Method>().map_err(|_| {
             Usage(format!(
-                "{}: method = \"{name}\" is not one of oe, rc, iv, rls, wls, ls",
+                "{}: method = \"{name}\" is not one of oe, pem, rc, iv, rls, wls, ls",
                 args.spec.as_deref().unwrap_or(Path::new("spec")).display()
             ))
         })?,

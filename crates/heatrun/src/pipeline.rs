@@ -17,7 +17,7 @@ use crate::decimate::DecimatedRecording;
 use crate::error::{Error, Result};
 use crate::estimate::{
     Estimate, EstimationError, Estimator, IdentificationData, InstrumentalVariables, OutputError,
-    RecursiveLeastSquares, ResistanceCapacitance, WeightedLeastSquares,
+    PredictionError, RecursiveLeastSquares, ResistanceCapacitance, WeightedLeastSquares,
 };
 use crate::grid::GridBuilder;
 use crate::model::{self, ModelAnalysis};
@@ -600,6 +600,10 @@ pub fn estimate_in(
         }),
         Method::Iv => Box::new(InstrumentalVariables::default()),
         Method::Oe => Box::new(OutputError {
+            weights: options.weights.clone(),
+            progress: options.progress.clone(),
+        }),
+        Method::Pem => Box::new(PredictionError {
             weights: options.weights.clone(),
             progress: options.progress.clone(),
         }),
