@@ -52,18 +52,29 @@ pub struct Predictor {
     pub gain: DMatrix<f64>,
     /// Var e_i per output (pu²): the innovations' variance at the estimate.
     pub innovation_variance: Vec<f64>,
+    /// x̂(start) of each segment of the data it was fitted on, as fitted (a slow mode of
+    /// the predictor remembers its start for hours: the analysis of the same data starts
+    /// where the fit did).
+    pub initial_states: Vec<DVector<f64>>,
 }
 
 impl Predictor {
     /// The one-step predictions ŷ(k|k−1) = x̂(k) over `data`'s segments (N × n, NaN
-    /// outside them), each segment's x̂(start) from the model's initial state (the
-    /// measured y(start) where observed): the innovations y − ŷ are what the residual
-    /// analysis tests for whiteness.
+    /// outside them): the innovations y − ŷ are what the residual analysis tests for
+    /// whiteness. Each segment starts from its fitted x̂(start) where `data` has the
+    /// segments the predictor was fitted on, else from the model's initial state (the
+    /// measured y(start) where observed).
     pub fn predict(&self, model: &DiscreteModel, data: &IdentificationData) -> DMatrix<f64> {
         let n = data.states();
         let mut out = DMatrix::from_element(data.len(), n, f64::NAN);
-        for seg in data.segments() {
-            let mut x = model.initial_state(data, seg.clone());
+        let segments = data.segments();
+        let fitted = segments.len() == self.initial_states.len();
+        for (s, seg) in segments.into_iter().enumerate() {
+            let mut x = if fitted {
+                self.initial_states[s].clone()
+            } else {
+                model.initial_state(data, seg.clone())
+            };
             for k in seg.clone() {
                 out.set_row(k, &x.transpose());
                 if k + 1 == seg.end {

@@ -112,6 +112,9 @@ fn conclude(problem: &Problem, rows_used: usize, evaluations: usize) -> Estimate
         predictor: Some(Box::new(Predictor {
             gain: problem.gain(),
             innovation_variance: noise_variance,
+            initial_states: (0..problem.segments.len())
+                .map(|s| DVector::from_column_slice(problem.x0(s)))
+                .collect(),
         })),
     }
 }
@@ -205,7 +208,11 @@ impl<'a> Problem<'a> {
     /// K, n × n, from its row-major place after Θ.
     fn gain(&self) -> DMatrix<f64> {
         let at = self.p_theta();
-        DMatrix::from_row_slice(self.n, self.n, &self.params.as_slice()[at..at + self.n * self.n])
+        DMatrix::from_row_slice(
+            self.n,
+            self.n,
+            &self.params.as_slice()[at..at + self.n * self.n],
+        )
     }
 
     fn x0(&self, s: usize) -> &[f64] {
@@ -243,7 +250,11 @@ impl<'a> Problem<'a> {
     /// output and, when asked, the normal equations (J never stored).
     fn pass(&self, mut normal: Option<(&mut DMatrix<f64>, &mut DVector<f64>)>) -> Vec<f64> {
         let n = self.n;
-        let mut state = Filter::new(&self.model(), &self.gain(), self.x0_at.iter().any(Option::is_some));
+        let mut state = Filter::new(
+            &self.model(),
+            &self.gain(),
+            self.x0_at.iter().any(Option::is_some),
+        );
         let mut block = RowBlock::new();
         let mut sse = vec![0.0; n];
         for (s, seg) in self.segments.iter().enumerate() {
@@ -287,6 +298,16 @@ impl<'a> Problem<'a> {
     fn segment_columns(&self, x0_at: Option<usize>) -> impl Iterator<Item = usize> {
         let n = self.n;
         (0..self.p_theta() + n * n).chain(x0_at.into_iter().flat_map(move |at| at..at + n))
+    }
+
+    /// Whether Φ and the predictor's Φ − K (every output observed) are stable.
+    fn stable(&self) -> bool {
+        let model = self.model();
+        let predictor = DiscreteModel {
+            phi: &model.phi - self.gain(),
+            ..model.clone()
+        };
+        model.is_stable() && predictor.is_stable()
     }
 
     /// The evaluation at the current parameters, computed once per parameter vector.
@@ -391,7 +412,11 @@ impl Filter {
         let cols = p_theta + n * n + if with_x0 { n } else { 0 };
         for c in 0..n {
             for l in 0..n {
-                let k = if self.observed[l] { self.gain[c * n + l] } else { 0.0 };
+                let k = if self.observed[l] {
+                    self.gain[c * n + l]
+                } else {
+                    0.0
+                };
                 self.a[c * n + l] = self.phi[c * n + l] - k;
             }
         }
@@ -453,12 +478,19 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
         self.params.clone()
     }
 
-    /// The square-root form's residual; a predictor that ran away (unstable Φ − K) is a
-    /// step LM must refuse, so it costs an enormous but finite J rather than ending the
-    /// minimisation.
+    /// The square-root form's residual. A model or a predictor that is not stable (Φ or
+    /// Φ − K with a spectral radius ≥ 1) is a step LM must refuse: it costs an enormous but
+    /// finite J rather than ending the minimisation. An unstable predictor is no
+    /// predictor (the criterion is only defined for stable ones), and its growing mode,
+    /// held down by a finely tuned x̂(start), would otherwise take up slow trends.
     fn residuals(&self) -> Option<DVector<f64>> {
-        let evaluation = self.evaluated();
         let p = self.params.len();
+        if !self.stable() {
+            let mut r = DVector::zeros(p + 1);
+            r[p] = 1e100;
+            return Some(r);
+        }
+        let evaluation = self.evaluated();
         if evaluation.diverged() {
             let mut r = DVector::zeros(p + 1);
             r[p] = 1e100;

@@ -78,7 +78,10 @@ fn process_and_sensor_noise_of_known_covariances_give_the_matrices_and_the_kalma
     // √(2/N) ≈ 1 % and K's small error).
     for (c, v) in e.noise_variance.iter().enumerate() {
         let want = innovations[(c, c)];
-        assert!((v / want - 1.0).abs() < 0.05, "output {c}: {v} against {want}");
+        assert!(
+            (v / want - 1.0).abs() < 0.05,
+            "output {c}: {v} against {want}"
+        );
     }
 }
 
@@ -97,7 +100,10 @@ fn white_sensor_noise_alone_gives_a_gain_near_zero_and_the_output_error_estimate
     let cov = oe.covariance.as_ref().unwrap();
     for (q, (a, b)) in pem.model.theta().iter().zip(oe.model.theta()).enumerate() {
         let sd = cov[(q, q)].sqrt();
-        assert!((a - b).abs() < 0.5 * sd, "entry {q}: pem {a} oe {b} (σ {sd})");
+        assert!(
+            (a - b).abs() < 0.5 * sd,
+            "entry {q}: pem {a} oe {b} (σ {sd})"
+        );
     }
     assert!(outside(&pem, &truth, 3.0) == 0);
     // Its intervals are oe's within a few percent.
@@ -141,4 +147,28 @@ fn missing_outputs_are_skipped_in_the_filters_update() {
     let b = predictor.predict(&e.model, &other);
     assert!(a.iter().all(|v| v.is_finite()));
     assert_eq!(a, b);
+}
+
+#[test]
+fn the_innovations_of_the_true_predictor_are_white() {
+    // The residual analysis of the predictions: with the true K, the innovations of the
+    // stochastic run are white (about 1 % of lags outside the 99 % band).
+    let truth = two_state_model();
+    let (sigma_w, sigma_v) = (0.01, 0.02);
+    let data = stochastic_run(20_000, sigma_w, sigma_v, 51);
+    let (gain, _) = kalman_gain(&truth.phi, sigma_w, sigma_v);
+    let predictor = Predictor {
+        gain,
+        innovation_variance: vec![0.0; 2],
+        initial_states: Vec::new(),
+    };
+    let predicted = predictor.predict(&truth, &data);
+    let res = crate::model::residuals::analyse(&data, &predicted, 60);
+    for (c, v) in res.autocorrelation_outside_band.iter().enumerate() {
+        assert!(*v <= 0.05, "output {c}: {v} of lags outside");
+    }
+    // The simulation's residuals are not white.
+    let simulated = truth.simulate_segments(&data, &data.segments());
+    let res = crate::model::residuals::analyse(&data, &simulated, 60);
+    assert!(res.autocorrelation_outside_band.iter().all(|v| *v > 0.5));
 }
