@@ -42,7 +42,14 @@ impl Method {
 
     /// Every method that identifies Φ and Γ freely (black box), for benchmarks and tests;
     /// `rc` fits a network and has its own benchmark (`benches/network.rs`).
-    pub const ALL: [Method; 5] = [Method::Ls, Method::Wls, Method::Rls, Method::Iv, Method::Oe];
+    pub const ALL: [Method; 6] = [
+        Method::Ls,
+        Method::Wls,
+        Method::Rls,
+        Method::Iv,
+        Method::Oe,
+        Method::Pem,
+    ];
 
     /// The method's name: `ls`, `wls`, `rls`, `iv`, `oe`, `pem` or `rc`.
     pub fn name(self) -> &'static str {
