@@ -357,9 +357,10 @@ fn library_options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
         machine: args.machine.clone(),
         method,
         // The default stays oe: pem (a white process noise, no disturbance state) was
-        // measured worse than oe on a random-walk heat into the cooling water (T1 47 % off
-        // against 6 % at 30 kW/√h) and equal on white noise, so the choice is not switched
-        // on until the model has a random-walk disturbance state.
+        // measured worse than oe on a random-walk heat into the cooling water (T1's bias
+        // +32 % against +12 % at 30 kW/√h over 6 seeds, `benches/calibration.rs`) and
+        // equal on white noise, so the choice is not switched on until the model has a
+        // random-walk disturbance state.
         choose_estimator: false,
         weights: args.weights.clone(),
         forgetting: args.forgetting,
