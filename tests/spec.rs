@@ -189,9 +189,9 @@ fn a_spec_naming_an_absent_channel_or_a_bad_key_stops_with_one_line() {
         (
             SPEC.replace(
                 "sample_time_s = 1.0",
-                "sample_time_s = 1.0\nmethod = \"pem\"",
+                "sample_time_s = 1.0\nmethod = \"bj\"",
             ),
-            "method = \"pem\" is not one of oe, rc, iv, rls, wls, ls",
+            "method = \"bj\" is not one of oe, pem, rc, iv, rls, wls, ls",
         ),
     ] {
         let path = dir.path().join("bad.toml");

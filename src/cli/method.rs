@@ -25,6 +25,10 @@ pub fn method_help(method: Method) -> &'static str {
         Method::Rls => "Recursive least squares with --forgetting; its trajectory goes to rerun",
         Method::Iv => "Iterated instrumental variables (instruments from the simulated model)",
         Method::Oe => "Output error: minimises the simulation error by Levenberg-Marquardt from IV",
+        Method::Pem => {
+            "Prediction error: a Kalman one-step predictor's gain fitted with the model from oe; \
+             for unmeasured heat or drift the sensors do not explain (K = 0 is oe)"
+        }
         Method::Rc => {
             "Grey-box output error in the thermal network's C, G and K (passive by \
              construction, 95 % intervals on each), started from oe's network; heat inputs only"

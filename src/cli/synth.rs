@@ -99,6 +99,10 @@ pub struct SynthArgs {
     /// With --fault-at: the fraction, in [0, 1), the conductances to the coolant fall by.
     #[arg(long, value_name = "F", requires = "fault_at")]
     pub fault_conductance_drop: Option<f64>,
+    /// Network machines: an unmeasured heat flow into the cooling water wandering as a
+    /// random walk of KW kW per √hour from zero (a valve, the air circuit, a neighbour).
+    #[arg(long, value_name = "KW")]
+    pub coolant_heat_walk: Option<f64>,
     /// Leave out the cooling_water_inlet_temp and cooling_water_flow channels.
     #[arg(long)]
     pub no_coolant_channels: bool,
@@ -248,6 +252,7 @@ fn disturbances(args: &SynthArgs) -> anyhow::Result<Disturbances> {
             ("--start-above", args.start_above.is_some()),
             ("--pump-switch", args.pump_switch.is_some()),
             ("--fault-at", args.fault_at.is_some()),
+            ("--coolant-heat-walk", args.coolant_heat_walk.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, set)| *set) {
             return Err(Usage(format!(
@@ -269,5 +274,6 @@ fn disturbances(args: &SynthArgs) -> anyhow::Result<Disturbances> {
                 time_s,
                 conductance_drop,
             }),
+        coolant_heat_walk_kw_per_sqrt_h: args.coolant_heat_walk.unwrap_or(0.0),
     })
 }

@@ -11,9 +11,10 @@ use nalgebra::DMatrix;
 
 use crate::losses::FieldTemperatureSource;
 use crate::model_file::document::{
-    AssignmentEntry, BesideEntry, ChannelEntry, EstimationEntry, FieldFromStator, FitEntry,
-    GapsEntry, InletSteadyState, InputGapsEntry, LeftOutEntry, NetworkEntry, RecordingEntry,
-    ResidualEntry, SteadyStateEntry, UncertaintyEntry, UnobservedEntry, ValidationEntry,
+    AssignmentEntry, BesideEntry, ChannelEntry, EstimationEntry, EstimatorChoiceEntry,
+    FieldFromStator, FitEntry, GapsEntry, InletSteadyState, InputGapsEntry, LeftOutEntry,
+    NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry, UncertaintyEntry,
+    UnobservedEntry, ValidationEntry,
 };
 use crate::model_file::{Report, PROFILE};
 use crate::pipeline::Replay;
@@ -321,6 +322,27 @@ fn gaps_entry(s: &crate::signals::ModelSignals) -> Option<GapsEntry> {
     })
 }
 
+/// The report's block of a residual analysis (the simulation's or the predictor's).
+fn residual_entry(res: &crate::model::ResidualAnalysis) -> ResidualEntry {
+    ResidualEntry {
+        max_lag: res.max_lag,
+        band99: res.band99,
+        autocorrelation: res.autocorrelation.clone(),
+        cross_correlation: res.cross_correlation.clone(),
+        autocorrelation_outside_band: res.autocorrelation_outside_band.clone(),
+        max_abs_cross_correlation: res
+            .cross_correlation
+            .iter()
+            .map(|per_input| {
+                per_input
+                    .iter()
+                    .map(|c| c.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
+                    .collect()
+            })
+            .collect(),
+    }
+}
+
 impl Report {
     /// Builds the report of a replay.
     pub fn new(r: &Replay) -> Report {
@@ -381,24 +403,15 @@ impl Report {
                 source: v.source.clone(),
                 fit: FitEntry::from(&v.fit),
             }),
-            residuals: ResidualEntry {
-                max_lag: a.residuals.max_lag,
-                band99: a.residuals.band99,
-                autocorrelation: a.residuals.autocorrelation.clone(),
-                cross_correlation: a.residuals.cross_correlation.clone(),
-                autocorrelation_outside_band: a.residuals.autocorrelation_outside_band.clone(),
-                max_abs_cross_correlation: a
-                    .residuals
-                    .cross_correlation
-                    .iter()
-                    .map(|per_input| {
-                        per_input
-                            .iter()
-                            .map(|c| c.iter().fold(0.0_f64, |m, v| m.max(v.abs())))
-                            .collect()
-                    })
-                    .collect(),
-            },
+            residuals: residual_entry(&a.residuals),
+            innovations: a.innovations.as_ref().map(residual_entry),
+            estimator_choice: r.estimator_choice.as_ref().map(|c| EstimatorChoiceEntry {
+                method: c.method.to_string(),
+                reason: c.reason.clone(),
+                oe_autocorrelation_outside_band: c.oe_autocorrelation_outside_band.clone(),
+                threshold: c.threshold,
+            }),
+            kalman_gain: r.estimate.predictor.as_ref().map(|p| rows(&p.gain)),
             network: Some(match &r.network.network {
                 Ok(n) => NetworkEntry::Defined(Box::new(n.clone())),
                 Err(why) => NetworkEntry::NotDefined {
@@ -816,6 +829,17 @@ impl Report {
             .map(|r| r.iter().fold(0.0_f64, |m, v| m.max(*v)))
             .collect();
         row(s, "  largest |cross-correlation| with u", &worst, 3);
+        if let Some(inn) = &self.innovations {
+            let outside: Vec<f64> = inn
+                .autocorrelation_outside_band
+                .iter()
+                .map(|v| v * 100.0)
+                .collect();
+            row(s, "  innovations (one-step predictor)", &outside, 1);
+        }
+        if let Some(c) = &self.estimator_choice {
+            let _ = writeln!(s, "estimator: {} ({})", c.method, c.reason);
+        }
         if let Some(v) = &self.validation {
             let _ = writeln!(s);
             let _ = writeln!(s, "validation on {} ({} instants)", v.source, v.fit.samples);

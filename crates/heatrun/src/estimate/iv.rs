@@ -218,6 +218,7 @@ impl InstrumentalVariables {
             output_offset: None,
             trajectory: None,
             network: None,
+            predictor: None,
         })
     }
 }

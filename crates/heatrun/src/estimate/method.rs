@@ -23,12 +23,16 @@ pub enum Method {
     /// Grey-box output error in the thermal network's own parameters (C, G, K), passive
     /// by construction, from the OE estimate's network.
     Rc,
+    /// Prediction error: Θ with the Kalman gain of a model with process noise, the
+    /// innovations' likelihood maximised from the OE estimate.
+    Pem,
 }
 
 impl Method {
     /// Every method, in the order the help lists them.
-    pub const EVERY: [Method; 6] = [
+    pub const EVERY: [Method; 7] = [
         Method::Oe,
+        Method::Pem,
         Method::Rc,
         Method::Iv,
         Method::Rls,
@@ -38,9 +42,16 @@ impl Method {
 
     /// Every method that identifies Φ and Γ freely (black box), for benchmarks and tests;
     /// `rc` fits a network and has its own benchmark (`benches/network.rs`).
-    pub const ALL: [Method; 5] = [Method::Ls, Method::Wls, Method::Rls, Method::Iv, Method::Oe];
+    pub const ALL: [Method; 6] = [
+        Method::Ls,
+        Method::Wls,
+        Method::Rls,
+        Method::Iv,
+        Method::Oe,
+        Method::Pem,
+    ];
 
-    /// The method's name: `ls`, `wls`, `rls`, `iv`, `oe` or `rc`.
+    /// The method's name: `ls`, `wls`, `rls`, `iv`, `oe`, `pem` or `rc`.
     pub fn name(self) -> &'static str {
         match self {
             Method::Ls => "ls",
@@ -49,6 +60,7 @@ impl Method {
             Method::Iv => "iv",
             Method::Oe => "oe",
             Method::Rc => "rc",
+            Method::Pem => "pem",
         }
     }
 
@@ -56,6 +68,7 @@ impl Method {
     pub fn description(self) -> &'static str {
         match self {
             Method::Oe => "output error: the simulation error minimised by Levenberg–Marquardt from the IV estimate",
+            Method::Pem => "prediction error: the innovations of a Kalman one-step predictor (process and sensor noise) minimised with its gain, from the OE estimate",
             Method::Rc => "grey-box output error in the thermal network's own parameters (C, G, K), passive by construction",
             Method::Iv => "iterated instrumental variables, instruments from the simulated model",
             Method::Rls => "recursive least squares with a forgetting factor",
@@ -73,7 +86,7 @@ impl fmt::Display for Method {
 
 /// A name that is no method.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("`{0}` is not one of oe, rc, iv, rls, wls, ls")]
+#[error("`{0}` is not one of oe, pem, rc, iv, rls, wls, ls")]
 pub struct UnknownMethod(pub String);
 
 impl FromStr for Method {
@@ -99,8 +112,8 @@ mod tests {
             assert_eq!(m.name().to_uppercase().parse::<Method>(), Ok(m));
         }
         assert_eq!(
-            "pem".parse::<Method>().unwrap_err().to_string(),
-            "`pem` is not one of oe, rc, iv, rls, wls, ls"
+            "bj".parse::<Method>().unwrap_err().to_string(),
+            "`bj` is not one of oe, pem, rc, iv, rls, wls, ls"
         );
     }
 

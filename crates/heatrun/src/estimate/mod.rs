@@ -14,6 +14,7 @@ mod iv;
 mod method;
 pub(crate) mod normal_equations;
 pub(crate) mod oe;
+mod pem;
 mod qr;
 mod rc;
 mod rls;
@@ -27,6 +28,7 @@ pub use error::EstimationError;
 pub use iv::InstrumentalVariables;
 pub use method::{Method, UnknownMethod};
 pub use oe::OutputError;
+pub use pem::{PredictionError, Predictor};
 pub use rc::{NetworkEstimate, ResistanceCapacitance};
 pub use rls::{RecursiveLeastSquares, TrajectoryPoint};
 pub use wls::WeightedLeastSquares;
@@ -63,6 +65,10 @@ pub struct Estimate {
     /// The thermal network itself, for the method that estimates it (`rc`).
     #[serde(skip)]
     pub network: Option<Box<NetworkEstimate>>,
+    /// The one-step predictor (the Kalman gain), for the method that estimates one
+    /// (`pem`); the others' predictor is the simulation.
+    #[serde(skip)]
+    pub predictor: Option<Box<Predictor>>,
 }
 
 /// An identification method.

@@ -379,6 +379,7 @@ impl<'a> RcProblem<'a> {
             output_offset: None,
             trajectory: None,
             network: None,
+            predictor: None,
         };
         Estimate {
             model: self.map.model(p),
@@ -397,6 +398,7 @@ impl<'a> RcProblem<'a> {
                 covariance: cov_p,
                 output_error: Box::new(start_estimate),
             })),
+            predictor: None,
         }
     }
 }

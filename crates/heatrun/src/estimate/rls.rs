@@ -136,6 +136,7 @@ impl Estimator for RecursiveLeastSquares {
             output_offset: None,
             trajectory: Some(trajectory),
             network: None,
+            predictor: None,
         })
     }
 }

@@ -82,6 +82,7 @@ impl Estimator for WeightedLeastSquares {
             output_offset: None,
             trajectory: None,
             network: None,
+            predictor: None,
         })
     }
 }

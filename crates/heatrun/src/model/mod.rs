@@ -6,7 +6,7 @@
 //! [`ModelAnalysis`].
 
 pub(crate) mod fit;
-mod residuals;
+pub mod residuals;
 pub mod sensitivity;
 mod uncertainty;
 
@@ -52,6 +52,10 @@ pub struct ModelAnalysis {
     pub uncertainty: Option<Uncertainty>,
     /// Whiteness of the residuals and their correlation with the inputs.
     pub residuals: ResidualAnalysis,
+    /// The same analysis of the innovations y(k) − ŷ(k|k−1) of the one-step predictor,
+    /// where the method estimated one (`pem`): what it leaves unexplained, which is white
+    /// where the predictor is right even when the simulation's residuals are not.
+    pub innovations: Option<ResidualAnalysis>,
 }
 
 /// Largest lag of the residual correlations.
@@ -113,6 +117,10 @@ pub fn analyse(
     let steady_state = continuous.steady_state(steady_state_input)?;
     let uncertainty = uncertainty::propagate(estimate, steady_state_input);
     let residuals = residuals::analyse(&estimation, &estimation_sim, RESIDUAL_MAX_LAG);
+    let innovations = estimate.predictor.as_ref().map(|p| {
+        let predicted = p.predict(model, &estimation);
+        residuals::analyse(&estimation, &predicted, RESIDUAL_MAX_LAG)
+    });
     drop((estimation, estimation_sim));
     Ok(ModelAnalysis {
         continuous,
@@ -125,5 +133,6 @@ pub fn analyse(
         steady_state,
         uncertainty,
         residuals,
+        innovations,
     })
 }

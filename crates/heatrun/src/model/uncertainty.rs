@@ -99,6 +99,7 @@ mod tests {
             output_offset: None,
             trajectory: None,
             network: None,
+            predictor: None,
         };
         let got = propagate(&estimate, &[u]).unwrap();
         let dt_da = ts / (a * a.ln().powi(2));
@@ -136,6 +137,7 @@ mod tests {
             output_offset: None,
             trajectory: None,
             network: None,
+            predictor: None,
         };
         assert!(propagate(&estimate, &[1.0]).is_none());
     }

@@ -351,6 +351,17 @@ pub struct Report {
     /// Whiteness and input correlation of the residuals.
     #[serde(skip_deserializing)]
     pub residuals: ResidualEntry,
+    /// The same analysis of the innovations y(k) − ŷ(k|k−1), where the method has a
+    /// one-step predictor (`pem`).
+    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub innovations: Option<ResidualEntry>,
+    /// Which estimator a replay chose and why, where the method was not given.
+    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub estimator_choice: Option<EstimatorChoiceEntry>,
+    /// The one-step predictor's gain K (n × n: x̂(k+1) = Φ x̂(k) + Γ u(k) + K (y(k) − x̂(k))),
+    /// where the method estimated one (`pem`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kalman_gain: Option<Vec<Vec<f64>>>,
     /// The passive thermal network of the model (Fig. 9), or why it has none: always
     /// written by a replay, `None` in a report read back.
     #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
@@ -395,6 +406,20 @@ pub struct LeftOutEntry {
     /// A glitch's largest departure from the model's prediction, or the change the
     /// model predicts over a frozen run, K.
     pub deviation_k: f64,
+}
+
+/// Which estimator a replay chose and why.
+#[derive(Debug, Clone, Serialize)]
+pub struct EstimatorChoiceEntry {
+    /// `oe` or `pem`.
+    pub method: String,
+    /// Why, in a sentence.
+    pub reason: String,
+    /// Per state: the fraction of lags of `oe`'s simulation residuals' autocorrelation
+    /// outside the 99 % band (about 0.01 when white).
+    pub oe_autocorrelation_outside_band: Vec<f64>,
+    /// The fraction above which a residual is taken as not white.
+    pub threshold: f64,
 }
 
 /// Another method's figures beside the report's own (`rc` beside `oe`).

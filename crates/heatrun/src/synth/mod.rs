@@ -70,7 +70,7 @@ pub use machines::{
     PAPER_INITIAL_TEMPERATURES_C, PAPER_PHI,
 };
 pub use plant::ChangeCause;
-pub use truth::{truth_path, NetworkChange, Truth, TruthCoolant, TruthNetwork};
+pub use truth::{truth_path, CoolantHeat, NetworkChange, Truth, TruthCoolant, TruthNetwork};
 
 /// The coolant of a run: the inlet temperature at the start and the flow, recorded as
 /// `cooling_water_inlet_temp` and `cooling_water_flow` (unless `channels` is false).
@@ -126,6 +126,16 @@ pub struct Disturbances {
     pub pump_switch: Option<PumpSwitch>,
     /// A fouled cooler.
     pub fault: Option<CoolerFault>,
+    /// W, kW/√h: an unmeasured heat flow q into the cooling-water node (a valve, the air
+    /// circuit, a neighbour) wandering as a random walk from 0, q(k+1) = q(k) + W·√(Ts/1 h)·ε,
+    /// ε ~ N(0, 1) from its own seeded stream (see [`plant::coolant_heat_walk_w`]).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub coolant_heat_walk_kw_per_sqrt_h: f64,
+}
+
+/// Whether a disturbance is off (left out of the truth file, which stays as it was).
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Disturbances {
@@ -139,6 +149,8 @@ impl Disturbances {
             Some("a pump switch")
         } else if self.fault.is_some() {
             Some("a cooler fault")
+        } else if self.coolant_heat_walk_kw_per_sqrt_h != 0.0 {
+            Some("an unmeasured heat walk into the coolant")
         } else {
             None
         }
@@ -443,6 +455,11 @@ fn check_machine(o: &SynthOptions) -> Result<()> {
     finite("the inlet drift", d.inlet_drift_k, true)?;
     finite("the start above the coolant", d.start_above_k, true)?;
     finite(
+        "the coolant heat walk",
+        d.coolant_heat_walk_kw_per_sqrt_h,
+        d.coolant_heat_walk_kw_per_sqrt_h >= 0.0,
+    )?;
+    finite(
         "the inlet temperature",
         o.coolant.inlet_temp_c,
         (0.0..=100.0).contains(&o.coolant.inlet_temp_c),
@@ -622,7 +639,8 @@ impl<'a> SampleSource<'a> {
         })
     }
 
-    /// The state at `t_rel_ns` after the start: x(t_k + τ) = Φ(τ) x(k) + Γ(τ) [u(k); inlet(k)]
+    /// The state at `t_rel_ns` after the start:
+    /// x(t_k + τ) = Φ(τ) x(k) + Γ(τ) [u(k); inlet(k); coolant heat(k)]
     /// with the piece of interval k.
     fn state_at(&mut self, t_rel_ns: u64) -> DVector<f64> {
         let k = ((t_rel_ns / self.ts_ns) as usize).min(self.steps);
@@ -636,9 +654,11 @@ impl<'a> SampleSource<'a> {
             .propagators
             .entry((piece_index, tau))
             .or_insert_with(|| discretize(&piece.a_c, &piece.b_c, tau as f64 * 1e-9));
+        let m = self.traj.inputs[k].len();
         let u = self.traj.inputs[k]
             .clone()
-            .insert_row(self.traj.inputs[k].len(), self.traj.inlet_offsets[k]);
+            .insert_row(m, self.traj.inlet_offsets[k])
+            .insert_row(m + 1, self.traj.coolant_heat_w[k]);
         &*phi * &self.traj.states[k] + &*gamma * &u
     }
 

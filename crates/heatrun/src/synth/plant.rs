@@ -13,7 +13,9 @@
 //! The losses u (pu of S_n), the operating point and the inlet are held over each
 //! interval [t_k, t_k + Ts) (the losses at the temperatures of t_k, the inlet at the
 //! interval's middle), so each piece's zero-order-hold discretisation [Φ, Γ | Γ_in] is
-//! exact.
+//! exact. An unmeasured heat flow q into the cooling-water node (a random walk,
+//! [`coolant_heat_walk_w`]) is held the same way, its column e_out/(C_out·θ_base) per W:
+//! [Φ, Γ | Γ_in | Γ_q].
 
 use nalgebra::{DMatrix, DVector};
 
@@ -53,11 +55,12 @@ pub struct Piece {
     pub conductance_w_per_k: Option<DMatrix<f64>>,
     /// A_c, 1/s.
     pub a_c: DMatrix<f64>,
-    /// [B_c | C⁻¹g₀], 1/s: the losses' columns and the inlet's.
+    /// [B_c | C⁻¹g₀ | e_out/(C_out·θ_base)]: the losses' columns (1/s), the inlet's
+    /// (1/s) and the unmeasured coolant heat's (per W, 1/s).
     pub b_c: DMatrix<f64>,
     /// Φ at Ts.
     pub phi: DMatrix<f64>,
-    /// [Γ | Γ_in] at Ts.
+    /// [Γ | Γ_in | Γ_q] at Ts.
     pub gamma: DMatrix<f64>,
 }
 
@@ -93,6 +96,8 @@ pub struct Trajectory {
     pub inputs: Vec<DVector<f64>>,
     /// (θ_in − θ_in(0))/θ_base per interval.
     pub inlet_offsets: Vec<f64>,
+    /// The unmeasured heat into the cooling-water node per interval, W.
+    pub coolant_heat_w: Vec<f64>,
     /// The pieces, in time order; the first starts at 0.
     pub pieces: Vec<Piece>,
     /// How θ_f follows from the states.
@@ -136,6 +141,30 @@ pub fn inlet_temperature_c(o: &SynthOptions, t_s: f64) -> f64 {
         + 0.4 * d * (2.0 * std::f64::consts::PI * t_s / DAY_S).sin()
 }
 
+/// The unmeasured heat flow into the cooling-water node held over each of `steps`
+/// intervals, W: a random walk from 0, q(k+1) = q(k) + W·√(Ts/3600 s)·ε_k with W in W/√h
+/// and ε_k ~ N(0, 1), so that its spread after t hours is W·√t. Its own seeded stream:
+/// the sensor noise of a run with it is that of the same run without it.
+pub fn coolant_heat_walk_w(o: &SynthOptions, steps: usize) -> Vec<f64> {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+    let w = o.disturbances.coolant_heat_walk_kw_per_sqrt_h * 1e3;
+    if w == 0.0 {
+        return vec![0.0; steps];
+    }
+    let step_sigma = w * (o.machine.ts_s() / 3600.0).sqrt();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(o.seed ^ 0x6865_6174_7761_6c6b);
+    let mut q = 0.0;
+    (0..steps)
+        .map(|_| {
+            let now = q;
+            let e: f64 = StandardNormal.sample(&mut rng);
+            q += step_sigma * e;
+            now
+        })
+        .collect()
+}
+
 /// The recorded flow at `t_s`, l/s (the pump switch multiplies it).
 pub fn flow_l_per_s(o: &SynthOptions, t_s: f64) -> f64 {
     match o.disturbances.pump_switch {
@@ -159,7 +188,8 @@ fn pieces(o: &SynthOptions, steps: usize) -> Result<Vec<Piece>> {
     let network = match &o.machine {
         Machine::Model { model, .. } => {
             let c = ContinuousModel::from_discrete(model)?;
-            let extend = |m: &DMatrix<f64>| m.clone().insert_column(m.ncols(), 0.0);
+            // No coolant node: the inlet's and the coolant heat's columns are zero.
+            let extend = |m: &DMatrix<f64>| m.clone().insert_columns(m.ncols(), 2, 0.0);
             return Ok(vec![Piece {
                 start_step: 0,
                 causes: Vec::new(),
@@ -245,8 +275,10 @@ fn network_piece(
     let (a_c, b_c) = network.to_continuous();
     let inlet = DVector::from_fn(n, |i, _| g[(i, i)] / machine.capacitance_j_per_k[i]);
     let m = b_c.ncols();
-    let mut b_c = b_c.insert_column(m, 0.0);
+    let mut b_c = b_c.insert_columns(m, 2, 0.0);
     b_c.set_column(m, &inlet);
+    b_c[(outlet, m + 1)] =
+        1.0 / (machine.capacitance_j_per_k[outlet] * o.nameplate.temperature_base_k);
     let (phi, gamma) = discretize(&a_c, &b_c, ts);
     Ok(Piece {
         start_step,
@@ -325,6 +357,7 @@ pub fn simulate(o: &SynthOptions) -> Result<Trajectory> {
         field_temps: Vec::new(),
         inputs: Vec::new(),
         inlet_offsets,
+        coolant_heat_w: coolant_heat_walk_w(o, steps),
         pieces,
         field,
     };
@@ -401,6 +434,7 @@ fn run(o: &SynthOptions, traj: &mut Trajectory, x0: &DVector<f64>, steps: usize)
             losses::field_copper_loss_w(np, i_f, theta_f) / s_n,
             losses::iron_loss_w(np, u_g) / s_n,
             traj.inlet_offsets[k],
+            traj.coolant_heat_w[k],
         ]);
         let pc = &traj.pieces[piece];
         x = &pc.phi * &x + &pc.gamma * &u;

@@ -111,6 +111,8 @@ fn all_disturbances() -> Disturbances {
             time_s: 2000.0,
             conductance_drop: 0.3,
         }),
+        // Large, so that a wrong column of the heat would show.
+        coolant_heat_walk_kw_per_sqrt_h: 30.0,
     }
 }
 
@@ -171,13 +173,15 @@ fn integrate(o: &SynthOptions, m: &NetworkMachine, traj: &plant::Trajectory) -> 
             ),
             crate::losses::iron_loss_w(np, p.line_voltage_pu * np.rated_voltage_v),
         ];
-        let heat: Vec<f64> = (0..n)
+        let mut heat: Vec<f64> = (0..n)
             .map(|i| {
                 (0..3)
                     .map(|j| m.loss_distribution[(i, j)] * losses[j])
                     .sum()
             })
             .collect();
+        // The unmeasured heat walk enters the cooling water, held over the second.
+        heat[outlet] += traj.coolant_heat_w[k];
         let rate = |th: &[f64]| -> Vec<f64> {
             (0..n)
                 .map(|i| {
@@ -229,6 +233,51 @@ fn network_machines_match_an_independent_integration_under_every_disturbance() {
             assert!(worst < 1e-6, "{} {d:?}: {worst} K", machine.name);
         }
     }
+}
+
+#[test]
+fn the_coolant_heat_walk_spreads_as_its_rate_and_leaves_the_sensor_noise_as_it_was() {
+    let walk = Disturbances {
+        coolant_heat_walk_kw_per_sqrt_h: 3.0,
+        ..Disturbances::default()
+    };
+    let mut o = network_options(NetworkMachine::rc_unit(), 20_868.0, walk);
+    o.temperature_noise_k = 0.05;
+    let traj = plant::simulate(&o).unwrap();
+    let q = &traj.coolant_heat_w;
+    assert_eq!(q[0], 0.0);
+    // The increments are N(0, (3 kW·√(1 s / 1 h))²) = N(0, (50 W)²): their spread from
+    // 20,867 of them within 3 % (the standard error of a spread is 0.5 %).
+    let steps: Vec<f64> = q.windows(2).map(|w| w[1] - w[0]).collect();
+    let spread = (steps.iter().map(|d| d * d).sum::<f64>() / steps.len() as f64).sqrt();
+    assert!((spread / 50.0 - 1.0).abs() < 0.03, "{spread} W a step");
+    let truth = truth::truth_of(&o, &traj).unwrap();
+    let heat = truth.coolant.coolant_heat_w.expect("recorded in the truth");
+    assert_eq!(heat.final_w, q[q.len() - 1]);
+    // The same run without it: other temperatures, the same sensor noise on each sample.
+    let mut still = o.clone();
+    still.disturbances = Disturbances::default();
+    let still_traj = plant::simulate(&still).unwrap();
+    assert!(truth::truth_of(&still, &still_traj)
+        .unwrap()
+        .coolant
+        .coolant_heat_w
+        .is_none());
+    let mut a = SampleSource::new(&o, &traj).unwrap();
+    let mut b = SampleSource::new(&still, &still_traj).unwrap();
+    let outlet = Quantity::CoolingWaterOutletTemp;
+    let mut moved: f64 = 0.0;
+    for t in (0..20_000u64)
+        .step_by(7)
+        .map(|s| s * 1_000_000_000 + 500_000_000)
+    {
+        let (ta, tb) = (a.true_temperature(outlet, t), b.true_temperature(outlet, t));
+        let (na, nb) = (a.value(outlet, t) - ta, b.value(outlet, t) - tb);
+        assert!((na - nb).abs() < 1e-9, "{t} ns: noise {na} against {nb}");
+        moved = moved.max((ta - tb).abs());
+    }
+    // 3 kW/√h moves the outlet by a tenth of a kelvin or more (c·ρ·Q ≈ 200 kW/K).
+    assert!(moved > 0.005, "the walk moved the outlet by {moved} K");
 }
 
 #[test]

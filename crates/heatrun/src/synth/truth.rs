@@ -71,6 +71,20 @@ pub struct TruthCoolant {
     pub channels: bool,
     /// The disturbances of the run.
     pub disturbances: Disturbances,
+    /// The unmeasured heat into the cooling water (with a heat walk), W.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coolant_heat_w: Option<CoolantHeat>,
+}
+
+/// What the unmeasured heat walk into the cooling water did over the run.
+#[derive(Debug, Clone, Serialize)]
+pub struct CoolantHeat {
+    /// The heat over the last interval, W.
+    pub final_w: f64,
+    /// The largest |q| over the run, W.
+    pub max_abs_w: f64,
+    /// The root mean square of q over the run, W.
+    pub rms_w: f64,
 }
 
 /// The true network C·dθ/dt = −L·θ + K·P + g₀·θ_in at the start of the run.
@@ -111,9 +125,15 @@ pub struct NetworkChange {
     pub steady_state_rise_k: Vec<f64>,
 }
 
+/// The number of loss inputs of a piece: its columns less the inlet's and the coolant
+/// heat's.
+fn losses_of(piece: &Piece) -> usize {
+    piece.b_c.ncols() - 2
+}
+
 /// The losses' part of a piece: (Φ, Γ) at Ts and (A_c, B_c).
 fn loss_model(piece: &Piece, ts: f64) -> (DiscreteModel, ContinuousModel) {
-    let m = piece.b_c.ncols() - 1;
+    let m = losses_of(piece);
     (
         DiscreteModel {
             phi: piece.phi.clone(),
@@ -173,6 +193,7 @@ pub fn truth_of(o: &SynthOptions, traj: &Trajectory) -> Result<Truth> {
             flow_l_per_s: o.coolant.flow_l_per_s,
             channels: o.coolant.channels,
             disturbances: o.disturbances,
+            coolant_heat_w: coolant_heat(o, traj),
         },
         network,
         changes,
@@ -180,11 +201,21 @@ pub fn truth_of(o: &SynthOptions, traj: &Trajectory) -> Result<Truth> {
     })
 }
 
+/// The heat walk's summary, where the run has one.
+fn coolant_heat(o: &SynthOptions, traj: &Trajectory) -> Option<CoolantHeat> {
+    let q = &traj.coolant_heat_w;
+    (o.disturbances.coolant_heat_walk_kw_per_sqrt_h != 0.0 && !q.is_empty()).then(|| CoolantHeat {
+        final_w: q[q.len() - 1],
+        max_abs_w: q.iter().fold(0.0, |a, v| a.max(v.abs())),
+        rms_w: (q.iter().map(|v| v * v).sum::<f64>() / q.len() as f64).sqrt(),
+    })
+}
+
 fn network_of(o: &SynthOptions, first: &Piece) -> Result<Option<TruthNetwork>> {
     let (Machine::Network(machine), Some(g)) = (&o.machine, &first.conductance_w_per_k) else {
         return Ok(None);
     };
-    let m = first.b_c.ncols() - 1;
+    let m = losses_of(first);
     Ok(Some(TruthNetwork {
         capacitance_j_per_k: machine.capacitance_j_per_k.clone(),
         conductance_w_per_k: rows(g),

@@ -362,6 +362,7 @@ fn conclude(problem: &Problem, method: Method, rows_used: usize, evaluations: us
         output_offset: problem.output_offset(),
         trajectory: None,
         network: None,
+        predictor: None,
     }
 }
 
@@ -420,7 +421,7 @@ impl Reporting {
     }
 
     /// One more evaluation, with J = Σ sse.
-    fn evaluated(&self, sse: &[f64]) {
+    pub(crate) fn evaluated(&self, sse: &[f64]) {
         let n = self.evaluations.get() + 1;
         self.evaluations.set(n);
         self.observer.iteration(self.method, n, sse.iter().sum());

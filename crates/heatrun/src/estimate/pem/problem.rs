@@ -1,0 +1,507 @@
+//! The prediction-error fit (see [`super`]): Levenberg–Marquardt over [Θ; K; x̂(start) of
+//! each segment], its Jacobian by the predictor's forward sensitivities, two passes of
+//! weights, and the covariance of Θ from the innovations' Gauss–Newton information.
+
+use std::cell::RefCell;
+use std::ops::Range;
+
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+
+use super::{PredictionError, Predictor};
+use crate::estimate::normal_equations::RowBlock;
+use crate::estimate::oe::{
+    cached, compared_instants, covariance_from_gram, normalised_inverse, Evaluation, Reporting,
+    MAX_ESTIMATED_INITIAL_STATES,
+};
+use crate::estimate::{
+    check_enough_rows, DiscreteModel, Estimate, EstimationError, Estimator, IdentificationData,
+    Result,
+};
+
+/// The prediction-error fit of [`PredictionError::refine`].
+pub(super) fn fit(
+    pem: &PredictionError,
+    data: &IdentificationData,
+    start: &Estimate,
+    initial_states: &[DVector<f64>],
+) -> Result<Estimate> {
+    let segments = data.segments();
+    let rows_used = compared_instants(data, &segments);
+    check_enough_rows(data, rows_used)?;
+    let weights = match &pem.weights {
+        Some(w) => w.clone(),
+        None => normalised_inverse(
+            &start
+                .noise_variance
+                .iter()
+                .map(|v| v.max(1e-24))
+                .collect::<Vec<_>>(),
+        ),
+    };
+    let mut problem = Problem::new(data, segments, &start.model, initial_states, &weights);
+    problem.progress = Some(Reporting::new(&pem.progress, pem.method().name()));
+    let (problem, evaluations) = minimise(problem, pem.weights.is_some())?;
+    Ok(conclude(&problem, rows_used, evaluations))
+}
+
+/// Levenberg–Marquardt, in two passes when no weights are given: the second with Λ⁻¹ of
+/// the first pass's innovations.
+fn minimise(mut problem: Problem<'_>, weights_given: bool) -> Result<(Problem<'_>, usize)> {
+    let lm = LevenbergMarquardt::new()
+        .with_patience(200)
+        .with_ftol(1e-10)
+        .with_xtol(1e-10)
+        .with_gtol(1e-10);
+    let mut evaluations = 0;
+    for pass in 0..2 {
+        let (solved, report) = lm.minimize(problem);
+        problem = solved;
+        evaluations += report.number_of_evaluations;
+        if !report.objective_function.is_finite() || problem.evaluated().diverged() {
+            return Err(EstimationError::MinimisationFailed {
+                termination: report.termination,
+            });
+        }
+        if pass == 1 || weights_given {
+            break;
+        }
+        let next = problem.innovation_weights();
+        let change = next
+            .iter()
+            .zip(&problem.sqrt_w)
+            .map(|(a, b)| (a / b - 1.0).abs())
+            .fold(0.0, f64::max);
+        problem.sqrt_w = next;
+        *problem.cache.borrow_mut() = None;
+        if change < 0.05 {
+            break;
+        }
+    }
+    Ok((problem, evaluations))
+}
+
+/// The estimate at the minimum: Θ's block of σ² (JᵀJ)⁻¹ (the innovations' Gauss–Newton
+/// information, K and the start states among the nuisance parameters), the innovations'
+/// variance per output as the noise variance, and the predictor.
+fn conclude(problem: &Problem, rows_used: usize, evaluations: usize) -> Estimate {
+    let n = problem.n;
+    let evaluation = problem.evaluate_full();
+    let entries: usize = problem.counts.iter().sum();
+    let dof = entries.saturating_sub(problem.params.len()).max(1) as f64;
+    let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
+    let (full, condition_number) = covariance_from_gram(&evaluation.gram, sigma2);
+    let p_theta = problem.p_theta();
+    let noise_variance: Vec<f64> = (0..n)
+        .map(|c| {
+            let w = problem.sqrt_w[c].powi(2).max(1e-300);
+            evaluation.sse[c] / problem.counts[c].max(1) as f64 / w
+        })
+        .collect();
+    Estimate {
+        model: problem.model(),
+        method: crate::estimate::Method::Pem,
+        rows_used,
+        condition_number,
+        covariance: Some(full.view((0, 0), (p_theta, p_theta)).into_owned()),
+        noise_variance: noise_variance.clone(),
+        iterations: evaluations,
+        output_offset: None,
+        trajectory: None,
+        network: None,
+        predictor: Some(Box::new(Predictor {
+            gain: problem.gain(),
+            innovation_variance: noise_variance,
+            initial_states: (0..problem.segments.len())
+                .map(|s| DVector::from_column_slice(problem.x0(s)))
+                .collect(),
+        })),
+    }
+}
+
+/// The least-squares problem LM sees: parameters [Θ; K (row-major); x̂(start) of each
+/// segment, where estimated].
+struct Problem<'a> {
+    data: &'a IdentificationData,
+    segments: Vec<Range<usize>>,
+    /// Where each segment's start state is in the parameters, where it is estimated.
+    x0_at: Vec<Option<usize>>,
+    /// Each segment's start state as given (used where it is not estimated).
+    fixed_x0: Vec<DVector<f64>>,
+    /// Observed entries per output over the segments.
+    counts: Vec<usize>,
+    sqrt_w: Vec<f64>,
+    n: usize,
+    m: usize,
+    params: DVector<f64>,
+    cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
+    progress: Option<Reporting>,
+}
+
+impl<'a> Problem<'a> {
+    fn new(
+        data: &'a IdentificationData,
+        segments: Vec<Range<usize>>,
+        start: &DiscreteModel,
+        initial_states: &[DVector<f64>],
+        weights: &[f64],
+    ) -> Problem<'a> {
+        let (n, m) = (data.states(), data.input_count());
+        let estimate_x0 = segments.len() <= MAX_ESTIMATED_INITIAL_STATES;
+        let fixed_x0: Vec<DVector<f64>> = segments
+            .iter()
+            .enumerate()
+            .map(|(s, seg)| {
+                initial_states
+                    .get(s)
+                    .cloned()
+                    .unwrap_or_else(|| start.initial_state(data, seg.clone()))
+            })
+            .collect();
+        let mut params = start.theta();
+        // K = 0: the predictor starts as the simulation.
+        params.extend(std::iter::repeat_n(0.0, n * n));
+        let p_fixed = params.len();
+        if estimate_x0 {
+            params.extend(fixed_x0.iter().flat_map(|x| x.iter().copied()));
+        }
+        let x0_at = (0..segments.len())
+            .map(|s| estimate_x0.then_some(p_fixed + s * n))
+            .collect();
+        let counts = (0..n)
+            .map(|c| {
+                segments
+                    .iter()
+                    .flat_map(|s| s.clone())
+                    .filter(|&k| data.observed(k, c))
+                    .count()
+            })
+            .collect();
+        Problem {
+            data,
+            segments,
+            x0_at,
+            fixed_x0,
+            counts,
+            sqrt_w: weights.iter().map(|v| v.max(0.0).sqrt()).collect(),
+            n,
+            m,
+            params: DVector::from_vec(params),
+            cache: RefCell::new(None),
+            progress: None,
+        }
+    }
+
+    fn p_theta(&self) -> usize {
+        self.n * (self.n + self.m)
+    }
+
+    fn model(&self) -> DiscreteModel {
+        DiscreteModel::from_theta(
+            self.n,
+            self.m,
+            self.data.ts_s,
+            &self.params.as_slice()[..self.p_theta()],
+        )
+    }
+
+    /// K, n × n, from its row-major place after Θ.
+    fn gain(&self) -> DMatrix<f64> {
+        let at = self.p_theta();
+        DMatrix::from_row_slice(
+            self.n,
+            self.n,
+            &self.params.as_slice()[at..at + self.n * self.n],
+        )
+    }
+
+    fn x0(&self, s: usize) -> &[f64] {
+        match self.x0_at[s] {
+            Some(at) => &self.params.as_slice()[at..at + self.n],
+            None => self.fixed_x0[s].as_slice(),
+        }
+    }
+
+    /// √w_i from Λ⁻¹ of the current innovations (normalised to mean 1).
+    fn innovation_weights(&self) -> Vec<f64> {
+        let sse = self.pass(None);
+        let variances: Vec<f64> = (0..self.n)
+            .map(|c| (sse[c] / self.sqrt_w[c].powi(2) / self.counts[c].max(1) as f64).max(1e-30))
+            .collect();
+        normalised_inverse(&variances)
+            .iter()
+            .map(|v| v.sqrt())
+            .collect()
+    }
+
+    /// The weighted squared innovations per output and the normal equations JᵀJ, Jᵀr.
+    fn evaluate_full(&self) -> Evaluation {
+        let cols = self.params.len();
+        let mut gram = DMatrix::<f64>::zeros(cols, cols);
+        let mut grad = DVector::<f64>::zeros(cols);
+        let sse = self.pass(Some((&mut gram, &mut grad)));
+        if let Some(reporting) = &self.progress {
+            reporting.evaluated(&sse);
+        }
+        Evaluation { sse, gram, grad }
+    }
+
+    /// One pass of the predictor over the data: the weighted squared innovations per
+    /// output and, when asked, the normal equations (J never stored).
+    fn pass(&self, mut normal: Option<(&mut DMatrix<f64>, &mut DVector<f64>)>) -> Vec<f64> {
+        let n = self.n;
+        let mut state = Filter::new(
+            &self.model(),
+            &self.gain(),
+            self.x0_at.iter().any(Option::is_some),
+        );
+        let mut block = RowBlock::new();
+        let mut sse = vec![0.0; n];
+        for (s, seg) in self.segments.iter().enumerate() {
+            state.reset(self.x0(s));
+            let x0_at = self.x0_at[s];
+            if let Some((gram, grad)) = normal.as_mut() {
+                block.set_columns(self.segment_columns(x0_at), gram, grad);
+            }
+            for k in seg.clone() {
+                state.innovate(self.data, k);
+                for c in (0..n).filter(|&c| self.data.observed(k, c)) {
+                    let r = self.sqrt_w[c] * state.e[c];
+                    sse[c] += r * r;
+                    if let Some((gram, grad)) = normal.as_mut() {
+                        let row = block.push(r, gram, grad);
+                        state.jacobian_row(c, self.sqrt_w[c], x0_at.is_some(), row);
+                    }
+                }
+                if k + 1 < seg.end {
+                    if normal.is_some() {
+                        state.propagate_sensitivities(x0_at.is_some());
+                    }
+                    state.step();
+                }
+            }
+        }
+        if let Some((gram, grad)) = normal {
+            block.flush(gram, grad);
+            let cols = gram.nrows();
+            for a in 0..cols {
+                for b in 0..a {
+                    gram[(a, b)] = gram[(b, a)];
+                }
+            }
+        }
+        sse
+    }
+
+    /// The columns of J a segment's rows touch, increasing: Θ, K, the segment's x̂(start)
+    /// where it is estimated.
+    fn segment_columns(&self, x0_at: Option<usize>) -> impl Iterator<Item = usize> {
+        let n = self.n;
+        (0..self.p_theta() + n * n).chain(x0_at.into_iter().flat_map(move |at| at..at + n))
+    }
+
+    /// Whether Φ and the predictor's Φ − K (every output observed) are stable.
+    fn stable(&self) -> bool {
+        let model = self.model();
+        let predictor = DiscreteModel {
+            phi: &model.phi - self.gain(),
+            ..model.clone()
+        };
+        model.is_stable() && predictor.is_stable()
+    }
+
+    /// The evaluation at the current parameters, computed once per parameter vector.
+    fn evaluated(&self) -> std::cell::Ref<'_, Evaluation> {
+        cached(&self.cache, &self.params, || self.evaluate_full())
+    }
+}
+
+/// Whether an evaluation ran away: a non-finite sum, an unstable predictor's mark.
+trait Diverged {
+    fn diverged(&self) -> bool;
+}
+
+impl Diverged for Evaluation {
+    fn diverged(&self) -> bool {
+        !self.sse.iter().all(|v| v.is_finite())
+    }
+}
+
+/// The predictor x̂, its innovations and its sensitivities, stepped through one segment
+/// in flat, reused buffers: no allocation per instant.
+struct Filter {
+    n: usize,
+    m: usize,
+    /// Φ, Γ, K row-major.
+    phi: Vec<f64>,
+    gamma: Vec<f64>,
+    gain: Vec<f64>,
+    /// Φ − K M_k of the current instant, row-major.
+    a: Vec<f64>,
+    x: Vec<f64>,
+    x_next: Vec<f64>,
+    u: Vec<f64>,
+    /// M_k e(k): the innovation where observed, 0 where not.
+    e: Vec<f64>,
+    observed: Vec<bool>,
+    /// sens[q·n + c] = ∂x̂_c/∂param_q over the segment's columns (Θ, K, x̂(start)).
+    sens: Vec<f64>,
+    sens_next: Vec<f64>,
+}
+
+impl Filter {
+    fn new(model: &DiscreteModel, gain: &DMatrix<f64>, with_x0: bool) -> Filter {
+        let (n, m) = (model.phi.nrows(), model.gamma.ncols());
+        let cols = n * (n + m) + n * n + if with_x0 { n } else { 0 };
+        Filter {
+            n,
+            m,
+            phi: (0..n * n).map(|q| model.phi[(q / n, q % n)]).collect(),
+            gamma: (0..n * m).map(|q| model.gamma[(q / m, q % m)]).collect(),
+            gain: (0..n * n).map(|q| gain[(q / n, q % n)]).collect(),
+            a: vec![0.0; n * n],
+            x: vec![0.0; n],
+            x_next: vec![0.0; n],
+            u: vec![0.0; m],
+            e: vec![0.0; n],
+            observed: vec![false; n],
+            sens: vec![0.0; cols * n],
+            sens_next: vec![0.0; cols * n],
+        }
+    }
+
+    /// x̂(start) = x0, ∂x̂/∂(Θ, K) = 0, ∂x̂/∂x0 = I.
+    fn reset(&mut self, x0: &[f64]) {
+        let n = self.n;
+        self.x.copy_from_slice(x0);
+        self.sens.iter_mut().for_each(|v| *v = 0.0);
+        let at = self.x0_column();
+        for q in 0..n {
+            if let Some(slot) = self.sens.get_mut((at + q) * n + q) {
+                *slot = 1.0;
+            }
+        }
+    }
+
+    /// The first column of x̂(start) among the segment's columns.
+    fn x0_column(&self) -> usize {
+        self.n * (self.n + self.m) + self.n * self.n
+    }
+
+    /// e(k) = y(k) − x̂(k) where observed (0 where not), and u(k).
+    fn innovate(&mut self, data: &IdentificationData, k: usize) {
+        for c in 0..self.n {
+            self.observed[c] = data.observed(k, c);
+            self.e[c] = if self.observed[c] {
+                data.outputs[(k, c)] - self.x[c]
+            } else {
+                0.0
+            };
+        }
+        for (l, u) in self.u.iter_mut().enumerate() {
+            *u = data.inputs[(k, l)];
+        }
+    }
+
+    /// ∂x̂(k+1)/∂θ = (Φ − K M_k) ∂x̂(k)/∂θ + the direct terms: e_i φ_j(k) for Θ_ij
+    /// (φ = [x̂ᵀ uᵀ]ᵀ), e_i (M_k e)_j for K_ij, none for x̂(start); before
+    /// [`Filter::step`].
+    fn propagate_sensitivities(&mut self, with_x0: bool) {
+        let (n, p) = (self.n, self.n + self.m);
+        let p_theta = n * p;
+        let cols = p_theta + n * n + if with_x0 { n } else { 0 };
+        for c in 0..n {
+            for l in 0..n {
+                let k = if self.observed[l] {
+                    self.gain[c * n + l]
+                } else {
+                    0.0
+                };
+                self.a[c * n + l] = self.phi[c * n + l] - k;
+            }
+        }
+        for q in 0..cols {
+            for c in 0..n {
+                let mut acc = 0.0;
+                for l in 0..n {
+                    acc += self.a[c * n + l] * self.sens[q * n + l];
+                }
+                self.sens_next[q * n + c] = acc;
+            }
+            if q < p_theta {
+                let (i, j) = (q / p, q % p);
+                self.sens_next[q * n + i] += if j < n { self.x[j] } else { self.u[j - n] };
+            } else if q < p_theta + n * n {
+                let (i, j) = ((q - p_theta) / n, (q - p_theta) % n);
+                self.sens_next[q * n + i] += self.e[j];
+            }
+        }
+        std::mem::swap(&mut self.sens, &mut self.sens_next);
+    }
+
+    /// x̂(k+1) = Φ x̂(k) + Γ u(k) + K M_k e(k).
+    fn step(&mut self) {
+        let (n, m) = (self.n, self.m);
+        for c in 0..n {
+            let mut acc = 0.0;
+            for l in 0..n {
+                acc += self.phi[c * n + l] * self.x[l] + self.gain[c * n + l] * self.e[l];
+            }
+            for l in 0..m {
+                acc += self.gamma[c * m + l] * self.u[l];
+            }
+            self.x_next[c] = acc;
+        }
+        std::mem::swap(&mut self.x, &mut self.x_next);
+    }
+
+    /// The row of J for output c over the segment's columns: −√w_c ∂x̂_c/∂param.
+    fn jacobian_row(&self, c: usize, sqrt_w: f64, with_x0: bool, row: &mut [f64]) {
+        let n = self.n;
+        let cols = self.x0_column() + if with_x0 { n } else { 0 };
+        for (q, slot) in row[..cols].iter_mut().enumerate() {
+            *slot = -sqrt_w * self.sens[q * n + c];
+        }
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.params.copy_from(x);
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.params.clone()
+    }
+
+    /// The square-root form's residual. A model or a predictor that is not stable (Φ or
+    /// Φ − K with a spectral radius ≥ 1) is a step LM must refuse: it costs an enormous but
+    /// finite J rather than ending the minimisation. An unstable predictor is no
+    /// predictor (the criterion is only defined for stable ones), and its growing mode,
+    /// held down by a finely tuned x̂(start), would otherwise take up slow trends.
+    fn residuals(&self) -> Option<DVector<f64>> {
+        let p = self.params.len();
+        if !self.stable() {
+            let mut r = DVector::zeros(p + 1);
+            r[p] = 1e100;
+            return Some(r);
+        }
+        let evaluation = self.evaluated();
+        if evaluation.diverged() {
+            let mut r = DVector::zeros(p + 1);
+            r[p] = 1e100;
+            return Some(r);
+        }
+        let (r, _) = evaluation.square_root_form()?;
+        r.iter().all(|v| v.is_finite()).then_some(r)
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let (_, j) = self.evaluated().square_root_form()?;
+        j.iter().all(|v| v.is_finite()).then_some(j)
+    }
+}
