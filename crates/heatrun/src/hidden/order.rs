@@ -15,6 +15,7 @@ use super::subspace::{decompose, horizon_for};
 use super::{HiddenError, HiddenStateModel, OutputMatrix};
 use crate::estimate::IdentificationData;
 use crate::model::fit::fit;
+use crate::model::Fit;
 
 /// The model order: given, or chosen on the data among 1 ..= `largest`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -94,9 +95,20 @@ fn at_order(
     Ok((refined, sub.singular_values))
 }
 
-/// Mean NRMSE fit (%) of `model` over `data`, each segment from its fitted x0.
+/// The fit of `model` over `data`, each segment from its fitted x0
+/// ([`HiddenStateModel::simulate_segments`]); errors in the data's units.
+pub fn fit_of(model: &HiddenStateModel, data: &IdentificationData) -> Fit {
+    compare(data, &model.simulate_segments(data))
+}
+
+/// The fit of a simulation (N × p, NaN where absent) to `data`'s observed outputs.
+pub fn compare(data: &IdentificationData, simulated: &nalgebra::DMatrix<f64>) -> Fit {
+    fit(data, simulated, 1.0)
+}
+
+/// Mean over the outputs of the NRMSE fit (%) of `model` over `data`.
 pub fn mean_fit_percent(model: &HiddenStateModel, data: &IdentificationData) -> f64 {
-    let f = fit(data, &model.simulate_segments(data), 1.0);
+    let f = fit_of(model, data);
     f.nrmse_fit_percent.iter().sum::<f64>() / f.nrmse_fit_percent.len().max(1) as f64
 }
 

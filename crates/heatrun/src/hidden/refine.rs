@@ -158,30 +158,38 @@ impl Problem<'_> {
                         .map(move |j| (i, j))
                 })
                 .collect();
-            // Parameters acting through the states: Φ, Γ and this segment's x0.
-            let through_states = (0..l.c()).chain(l.x0(s)..l.x0(s) + l.n);
-            for q in through_states {
-                let mut dx = DVector::zeros(l.n);
-                if q >= l.x0(s) {
-                    dx[q - l.x0(s)] = 1.0;
-                }
-                let mut cursor = 0;
-                for (i, k) in seg.clone().enumerate() {
-                    let dy = &model.c * &dx;
-                    while cursor < seg_rows.len() && seg_rows[cursor].0 == i {
-                        let j = seg_rows[cursor].1;
-                        jac[(row0 + cursor, q)] = -self.sqrt_w[j] * dy[j];
-                        cursor += 1;
+            // Parameters acting through the states: Φ, Γ and this segment's x0, their
+            // sensitivities ∂x/∂θ propagated together as one n × (n² + nm + n) matrix (one
+            // product a step rather than a simulation per parameter).
+            let q_state = l.c();
+            let mut sens = DMatrix::zeros(l.n, q_state + l.n);
+            sens.view_mut((0, q_state), (l.n, l.n)).fill_with_identity();
+            let mut next = sens.clone();
+            let mut dy = DMatrix::zeros(l.p, q_state + l.n);
+            let mut cursor = 0;
+            for (i, k) in seg.clone().enumerate() {
+                dy.gemm(1.0, &model.c, &sens, 0.0);
+                while cursor < seg_rows.len() && seg_rows[cursor].0 == i {
+                    let j = seg_rows[cursor].1;
+                    let w = -self.sqrt_w[j];
+                    for q in 0..q_state {
+                        jac[(row0 + cursor, q)] = w * dy[(j, q)];
                     }
-                    let mut next = &model.phi * &dx;
-                    if q < l.gamma() {
-                        next[q / l.n] += xs[(q % l.n, i)];
-                    } else if q < l.c() {
-                        let e = q - l.gamma();
-                        next[e / l.m] += self.data.inputs[(k, e % l.m)];
+                    for a in 0..l.n {
+                        jac[(row0 + cursor, l.x0(s) + a)] = w * dy[(j, q_state + a)];
                     }
-                    dx = next;
+                    cursor += 1;
                 }
+                next.gemm(1.0, &model.phi, &sens, 0.0);
+                for a in 0..l.n {
+                    for b in 0..l.n {
+                        next[(a, a * l.n + b)] += xs[(b, i)];
+                    }
+                    for b in 0..l.m {
+                        next[(a, l.gamma() + a * l.m + b)] += self.data.inputs[(k, b)];
+                    }
+                }
+                std::mem::swap(&mut sens, &mut next);
             }
             // C and D act on the output directly.
             for (cursor, &(i, j)) in seg_rows.iter().enumerate() {
@@ -300,7 +308,7 @@ pub fn refine(
         params,
     };
     let (solved, report) = LevenbergMarquardt::new()
-        .with_patience(100)
+        .with_patience(30)
         .with_ftol(1e-10)
         .with_xtol(1e-10)
         .with_gtol(1e-10)
