@@ -77,7 +77,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 reference: ReferencePolicy::Initial,
                 ..replay.clone()
             };
-            (prepared.data.clone(), prepare(&PathBuf::from(other), &same)?.data, false)
+            (
+                prepared.data.clone(),
+                prepare(&PathBuf::from(other), &same)?.data,
+                false,
+            )
         }
         _ => return Err("give --split-at SECONDS or --validate RECORDING".into()),
     };
@@ -86,15 +90,24 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         println!(
             "order {:2}: hold-back fit {:>7} %  AIC {:>10}  {}",
             c.order,
-            c.hold_back_fit_percent.map_or("-".into(), |f| format!("{f:.1}")),
+            c.hold_back_fit_percent
+                .map_or("-".into(), |f| format!("{f:.1}")),
             c.aic.map_or("-".into(), |a| format!("{a:.0}")),
             c.refused.as_deref().unwrap_or("")
         );
     }
     let m = &estimate.model;
-    println!("chosen order {} ({:?}, feedthrough {})", m.order(), options.output_matrix, options.feedthrough);
+    println!(
+        "chosen order {} ({:?}, feedthrough {})",
+        m.order(),
+        options.output_matrix,
+        options.feedthrough
+    );
     println!("time constants s: {:.2?}", m.time_constants_s());
-    println!("steady-state gain: {:.4?}", m.steady_state_gain().map(|g| g.as_slice().to_vec()));
+    println!(
+        "steady-state gain: {:.4?}",
+        m.steady_state_gain().map(|g| g.as_slice().to_vec())
+    );
     println!("estimation fit %: {:.1?}", per_output(m, &estimation));
     let v = per_output(m, &validation);
     println!(

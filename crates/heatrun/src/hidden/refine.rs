@@ -231,7 +231,13 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
         let r = self.residuals_of(&self.model());
         Some(DVector::from_iterator(
             r.len(),
-            r.into_iter().map(|v| if v.is_finite() { v.clamp(-1e10, 1e10) } else { 1e10 }),
+            r.into_iter().map(|v| {
+                if v.is_finite() {
+                    v.clamp(-1e10, 1e10)
+                } else {
+                    1e10
+                }
+            }),
         ))
     }
 
@@ -370,7 +376,10 @@ mod tests {
                 sqrt_w: vec![1.0, 2.0],
                 params: DVector::from_fn(layout.len(), |i, _| 0.01 * (i % 7) as f64),
             };
-            problem.params.rows_mut(0, 9).copy_from_slice(start.phi.transpose().as_slice());
+            problem
+                .params
+                .rows_mut(0, 9)
+                .copy_from_slice(start.phi.transpose().as_slice());
             let jac = problem.jacobian().unwrap();
             let r0 = problem.residuals().unwrap();
             for q in 0..layout.len() {
@@ -382,7 +391,10 @@ mod tests {
                 moved[q] -= h;
                 problem.set_params(&moved);
                 let err = (numeric - jac.column(q)).abs().max();
-                assert!(err < 1e-4 * (1.0 + jac.column(q).abs().max()), "param {q}: {err}");
+                assert!(
+                    err < 1e-4 * (1.0 + jac.column(q).abs().max()),
+                    "param {q}: {err}"
+                );
             }
         }
     }

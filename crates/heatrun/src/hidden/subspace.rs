@@ -67,18 +67,45 @@ fn column_rms(values: &DMatrix<f64>, used: impl Fn(usize, usize) -> bool) -> Vec
         .collect()
 }
 
-/// Whether instant k's inputs are finite and every output is observed.
-fn complete(data: &IdentificationData, k: usize) -> bool {
+/// The outputs with each unobserved entry inside a segment interpolated linearly between
+/// its observed neighbours (NaN before the first and after the last): for the start
+/// only, whose windows would otherwise need every output at every instant (a value
+/// stored by exception, a lost sample). The refinement compares observed entries only.
+fn interpolated_outputs(data: &IdentificationData) -> DMatrix<f64> {
+    let mut y = DMatrix::from_element(data.len(), data.states(), f64::NAN);
+    for seg in data.segments() {
+        for j in 0..data.states() {
+            let known: Vec<usize> = seg
+                .clone()
+                .filter(|&k| data.observed(k, j) && data.outputs[(k, j)].is_finite())
+                .collect();
+            for pair in known.windows(2) {
+                let (a, b) = (pair[0], pair[1]);
+                let (ya, yb) = (data.outputs[(a, j)], data.outputs[(b, j)]);
+                for k in a..=b {
+                    y[(k, j)] = ya + (yb - ya) * (k - a) as f64 / (b - a) as f64;
+                }
+            }
+            if let [only] = known.as_slice() {
+                y[(*only, j)] = data.outputs[(*only, j)];
+            }
+        }
+    }
+    y
+}
+
+/// Whether instant k's inputs and (interpolated) outputs are all finite.
+fn complete(data: &IdentificationData, outputs: &DMatrix<f64>, k: usize) -> bool {
     (0..data.input_count()).all(|l| data.inputs[(k, l)].is_finite())
-        && (0..data.states()).all(|j| data.observed(k, j) && data.outputs[(k, j)].is_finite())
+        && outputs.row(k).iter().all(|v| v.is_finite())
 }
 
 /// The first window instants t of complete windows of 2i instants inside one segment.
-fn window_starts(data: &IdentificationData, horizon: usize) -> Vec<usize> {
+fn window_starts(data: &IdentificationData, outputs: &DMatrix<f64>, horizon: usize) -> Vec<usize> {
     let span = 2 * horizon;
     let mut starts = Vec::new();
     for seg in data.segments() {
-        let ok: Vec<bool> = seg.clone().map(|k| complete(data, k)).collect();
+        let ok: Vec<bool> = seg.clone().map(|k| complete(data, outputs, k)).collect();
         let mut run = 0usize;
         for (r, &good) in ok.iter().enumerate() {
             run = if good { run + 1 } else { 0 };
@@ -93,19 +120,22 @@ fn window_starts(data: &IdentificationData, horizon: usize) -> Vec<usize> {
 /// The LQ factorisation's L₃₂ and the SVD of it: the state directions of the data.
 pub fn decompose(data: &IdentificationData, horizon: usize) -> Result<Subspace, HiddenError> {
     let (p, m, i) = (data.states(), data.input_count(), horizon);
-    let starts = window_starts(data, i);
+    let outputs = interpolated_outputs(data);
+    let starts = window_starts(data, &outputs, i);
     let rows = 2 * i * (m + p);
-    if starts.len() < 2 * rows {
+    // At least as many windows as rows, so that L is square and the projection has
+    // as many samples as instruments.
+    if starts.len() < rows {
         return Err(HiddenError::TooFewWindows {
             windows: starts.len(),
             horizon: 2 * i,
-            needed: 2 * rows,
+            needed: rows,
         });
     }
     let u_scale = column_rms(&data.inputs, |_, _| true);
-    let y_scale = column_rms(&data.outputs, |k, j| data.observed(k, j));
+    let y_scale = column_rms(&outputs, |_, _| true);
     let u = |k: usize, l: usize| data.inputs[(k, l)] / u_scale[l];
-    let y = |k: usize, j: usize| data.outputs[(k, j)] / y_scale[j];
+    let y = |k: usize, j: usize| outputs[(k, j)] / y_scale[j];
     // Hᵀ, one row per window: [U_f, U_p, Y_p, Y_f] (the LQ of H is the QR of Hᵀ).
     let ht = DMatrix::from_fn(starts.len(), rows, |w, c| {
         let t = starts[w];
@@ -124,7 +154,9 @@ pub fn decompose(data: &IdentificationData, horizon: usize) -> Result<Subspace, 
     let (r1, r2) = (m * i, m * i + p * i);
     let l32 = l.view((r1 + r2, r1), (p * i, r2)).into_owned();
     let svd = l32.svd(true, false);
-    let u_mat = svd.u.ok_or(HiddenError::Singular { what: "SVD of L₃₂" })?;
+    let u_mat = svd.u.ok_or(HiddenError::Singular {
+        what: "SVD of L₃₂"
+    })?;
     let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
     order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
     let directions = DMatrix::from_fn(u_mat.nrows(), order.len(), |r, c| {
@@ -167,7 +199,9 @@ impl Subspace {
         let lower = obs.rows(p, rows - p).into_owned();
         let pinv = upper
             .pseudo_inverse(1e-12)
-            .map_err(|_| HiddenError::Singular { what: "shift invariance" })?;
+            .map_err(|_| HiddenError::Singular {
+                what: "shift invariance",
+            })?;
         let phi = pinv * lower;
         // C in data units: the factorisation saw y/σ_y.
         let c = DMatrix::from_fn(p, order, |j, s| obs[(j, s)] * self.y_scale[j]);
@@ -226,8 +260,9 @@ fn fit_input_matrices(
         }
     }
     let a = DMatrix::from_row_slice(targets.len(), cols, &regressors);
-    let theta = least_squares(&a, &DVector::from_vec(targets))
-        .ok_or(HiddenError::Singular { what: "least squares for Γ, D" })?;
+    let theta = least_squares(&a, &DVector::from_vec(targets)).ok_or(HiddenError::Singular {
+        what: "least squares for Γ, D",
+    })?;
     let gamma = DMatrix::from_fn(n, m, |r, l| theta[r * m + l]);
     let d = if feedthrough {
         DMatrix::from_fn(p, m, |j, l| theta[n * m + j * m + l])
@@ -263,10 +298,9 @@ pub fn measured_basis(model: HiddenStateModel) -> Result<HiddenStateModel, Hidde
         t.row_mut(p + r)
             .copy_from(&eig.eigenvectors.column(col).transpose());
     }
-    let t_inv = t
-        .clone()
-        .try_inverse()
-        .ok_or(HiddenError::Singular { what: "output matrix C" })?;
+    let t_inv = t.clone().try_inverse().ok_or(HiddenError::Singular {
+        what: "output matrix C",
+    })?;
     let mut c = DMatrix::zeros(p, n);
     c.view_mut((0, 0), (p, p)).fill_with_identity();
     Ok(HiddenStateModel {
@@ -301,7 +335,10 @@ mod tests {
         for (g, w) in got.iter().zip(&want) {
             assert!((g / w - 1.0).abs() < 1e-6, "{got:?} vs {want:?}");
         }
-        let (g, w) = (model.steady_state_gain().unwrap(), truth.steady_state_gain().unwrap());
+        let (g, w) = (
+            model.steady_state_gain().unwrap(),
+            truth.steady_state_gain().unwrap(),
+        );
         assert!((g - &w).abs().max() < 1e-6 * w.abs().max());
     }
 
@@ -314,7 +351,10 @@ mod tests {
         let mut c = DMatrix::zeros(2, 3);
         c.view_mut((0, 0), (2, 2)).fill_with_identity();
         assert!((&model.c - c).abs().max() < 1e-12);
-        let (g, w) = (model.steady_state_gain().unwrap(), truth.steady_state_gain().unwrap());
+        let (g, w) = (
+            model.steady_state_gain().unwrap(),
+            truth.steady_state_gain().unwrap(),
+        );
         assert!((g - &w).abs().max() < 1e-6 * w.abs().max());
     }
 
