@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use crate::atomic::WriteError;
 use crate::decimate::DecimateError;
 use crate::estimate::EstimationError;
+use crate::hidden::HiddenError;
 use crate::import::ImportError;
 use crate::model::ModelError;
 use crate::model_file::UseError;
@@ -45,6 +46,9 @@ pub enum Error {
     /// The estimated model cannot be analysed (no real logarithm, singular matrix).
     #[error(transparent)]
     Model(#[from] ModelError),
+    /// The hidden-state model the spec declares could not be identified.
+    #[error("hidden states: {0}")]
+    Hidden(#[from] HiddenError),
     /// The model has no thermal network, or a network figure cannot be computed.
     #[error(transparent)]
     Network(#[from] NetworkError),
@@ -125,6 +129,7 @@ impl Error {
             | Error::Spec(_)
             | Error::Decimate(_)
             | Error::Estimation(_)
+            | Error::Hidden(_)
             | Error::Model(_)
             | Error::HoldOutFraction { .. }
             | Error::SplitOutside { .. }

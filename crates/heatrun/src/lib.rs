@@ -58,6 +58,7 @@ pub mod decimate;
 pub mod error;
 pub mod estimate;
 pub mod grid;
+pub mod hidden;
 pub mod html;
 pub mod import;
 pub mod losses;

@@ -137,6 +137,19 @@ impl Beside {
     }
 }
 
+/// The model with hidden states a spec declares (`[hidden]`), identified on the same
+/// instants as the replay's own estimate and validated on the same data.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct HiddenReplay {
+    /// The model, its order and the orders tried.
+    pub estimate: crate::hidden::HiddenEstimate,
+    /// Its fit on the estimation instants, each segment from its fitted initial state.
+    pub fit: crate::model::Fit,
+    /// Its fit on held-out data or another recording, each segment from the initial
+    /// state fitted to that segment's outputs (no measured state gives the hidden ones).
+    pub validation: Option<Validation>,
+}
+
 /// Everything a replay produced, stage by stage.
 #[derive(Debug, Clone)]
 pub struct Replay {
@@ -172,6 +185,8 @@ pub struct Replay {
     /// The stretches the screen left out of the estimation (glitches, frozen values),
     /// by state then time; empty when it found none.
     pub left_out: Vec<LeftOut>,
+    /// The model with hidden states the spec declares, where it declares one.
+    pub hidden: Option<HiddenReplay>,
     /// Warnings for the user (data loss, gaps).
     pub warnings: Vec<String>,
     /// Which estimator the replay chose and why, where the method was not given.
@@ -420,11 +435,13 @@ pub fn replay_observed(
     })?;
     options.progress.stage("analysing the model");
     let estimation_data = held_back.as_ref().unwrap_or(&prepared.data);
-    let (analysis, validation, output_error_beside, network) =
+    let (analysis, validation, output_error_beside, network, hidden) =
         std::thread::scope(|scope| -> Result<_> {
             // `oe`'s re-estimation for the network is as long as a fit and needs nothing
             // of the analysis: it runs on a thread of its own beside it.
             let refit = scope.spawn(|| with_output_offset(estimation_data, options, &estimate));
+            // The hidden-state model needs nothing of the analysis either.
+            let hidden = scope.spawn(|| identify_hidden(&prepared, estimation_data, options));
             let analysis = model::analyse(
                 &analysed,
                 continuous,
@@ -464,7 +481,11 @@ pub fn replay_observed(
                 );
                 Ok::<_, Error>((validation, output_error_beside, network))
             })?;
-            Ok((analysis, validation, output_error_beside, network))
+            let hidden = hidden
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+                .map_err(in_file)?;
+            Ok((analysis, validation, output_error_beside, network, hidden))
         })?;
     drop(analysed);
     drop(held_back);
@@ -485,6 +506,7 @@ pub fn replay_observed(
         network,
         output_error_beside,
         left_out,
+        hidden,
         warnings,
         estimator_choice,
     })
@@ -600,6 +622,33 @@ fn leave_out(prepared: &mut Prepared, measured: &ModelSignals, left_out: &[LeftO
     Ok(())
 }
 
+/// The hidden-state model the spec declares, identified on `estimation` (subspace start,
+/// output error, the order chosen on it alone where the spec gives none) and validated
+/// where the replay validates; `None` where the spec declares none. The data are the
+/// estimator's own, before any output offset (the model fits its own initial states).
+fn identify_hidden(
+    prepared: &Prepared,
+    estimation: &IdentificationData,
+    options: &ReplayOptions,
+) -> Result<Option<HiddenReplay>> {
+    let Some(spec) = &prepared.model.hidden else {
+        return Ok(None);
+    };
+    let estimate =
+        crate::hidden::identify(estimation, &crate::hidden::HiddenOptions::from_spec(spec))?;
+    let base = prepared.signals.temperature_base_k;
+    let fit_on = |data: &IdentificationData, base: f64| {
+        model::fit::fit(data, &estimate.model.simulate_segments(data), base)
+    };
+    let estimation_range = 0..estimation.len();
+    let validation = validate_with(prepared, &estimation_range, options, &fit_on)?;
+    Ok(Some(HiddenReplay {
+        fit: fit_on(estimation, base),
+        validation,
+        estimate,
+    }))
+}
+
 /// What the network is fitted to after `oe`: its Θ re-estimated with the constant output
 /// offset of the first sample the rises are measured from
 /// ([`OutputError::refit_with_output_offset`]), where the data start at that sample and are
@@ -662,6 +711,16 @@ fn validate(
         let sim = estimate.model.simulate_segments(data, &data.segments());
         model::fit::fit(data, &sim, base)
     };
+    validate_with(prepared, estimation_range, options, &fit_on)
+}
+
+/// [`validate`] for any model: `fit_on` gives its fit on data of the given temperature base.
+fn validate_with(
+    prepared: &Prepared,
+    estimation_range: &Range<usize>,
+    options: &ReplayOptions,
+    fit_on: &dyn Fn(&IdentificationData, f64) -> crate::model::Fit,
+) -> Result<Option<Validation>> {
     Ok(match &options.validation {
         None => None,
         Some(held @ (ValidationSource::HoldOut(_) | ValidationSource::SplitAt(_))) => {

@@ -16,6 +16,7 @@ use crate::model_file::document::{
     NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry, UncertaintyEntry,
     UnobservedEntry, ValidationEntry,
 };
+use crate::model_file::document::{HiddenCandidateEntry, HiddenEntry};
 use crate::model_file::{Report, PROFILE};
 use crate::pipeline::Replay;
 use crate::recording::format_time;
@@ -153,6 +154,46 @@ fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
     (0..m.nrows())
         .map(|i| m.row(i).iter().copied().collect())
         .collect()
+}
+
+/// The hidden-state model's block: its matrices, time constants, steady-state gain, the
+/// orders tried and its fits.
+fn hidden_entry(h: &crate::pipeline::HiddenReplay) -> HiddenEntry {
+    let e = &h.estimate;
+    let m = &e.model;
+    HiddenEntry {
+        order: m.order(),
+        order_source: match e.options.order {
+            crate::hidden::OrderChoice::Given(_) => "given".into(),
+            crate::hidden::OrderChoice::Chosen { .. } => "chosen on the estimation data".into(),
+        },
+        output_matrix: match e.options.output_matrix {
+            crate::hidden::OutputMatrix::Measured => "measured".into(),
+            crate::hidden::OutputMatrix::Free => "free".into(),
+        },
+        phi: rows(&m.phi),
+        gamma: rows(&m.gamma),
+        c: rows(&m.c),
+        d: rows(&m.d),
+        time_constants_s: m.time_constants_s().unwrap_or_default(),
+        steady_state_gain: m.steady_state_gain().as_ref().map(rows).unwrap_or_default(),
+        singular_values: e.singular_values.clone(),
+        candidates: e
+            .candidates
+            .iter()
+            .map(|c| HiddenCandidateEntry {
+                order: c.order,
+                hold_back_fit_percent: c.hold_back_fit_percent,
+                aic: c.aic,
+                refused: c.refused.clone(),
+            })
+            .collect(),
+        fit: FitEntry::from(&h.fit),
+        validation: h.validation.as_ref().map(|v| ValidationEntry {
+            source: v.source.clone(),
+            fit: FitEntry::from(&v.fit),
+        }),
+    }
 }
 
 /// The steady state of eqs. 30-35: the rise −A_c⁻¹B_c·u (eq. 31) in K, and the
@@ -426,6 +467,7 @@ impl Report {
                 fit: FitEntry::from(&b.fit),
             }),
             left_out: left_out_entries(r),
+            hidden: r.hidden.as_ref().map(hidden_entry),
             warnings: r.warnings.clone(),
         }
     }

@@ -75,6 +75,57 @@ pub struct ValidationEntry {
     pub fit: FitEntry,
 }
 
+/// The hidden-state model block (`hidden`), where the spec declares hidden states:
+/// x(k+1) = Φ x(k) + Γ u(k), y(k) = C x(k) + D u(k), the report's `states` the outputs y.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct HiddenEntry {
+    /// States n (measured and hidden).
+    pub order: usize,
+    /// How the order was set: "given" or "chosen on the estimation data".
+    pub order_source: String,
+    /// "measured" (C = [I 0], sensor i reads state i) or "free" (C estimated).
+    pub output_matrix: String,
+    /// Φ (n × n), rows.
+    pub phi: Vec<Vec<f64>>,
+    /// Γ (n × m), rows.
+    pub gamma: Vec<Vec<f64>>,
+    /// C (p × n), rows.
+    pub c: Vec<Vec<f64>>,
+    /// D (p × m), rows.
+    pub d: Vec<Vec<f64>>,
+    /// τ_i = −Ts / ln|λ_i(Φ)|, ascending, s (empty where Φ is unstable).
+    #[serde(default)]
+    pub time_constants_s: Vec<f64>,
+    /// Steady-state gain C (I − Φ)⁻¹ Γ + D (p × m), rows: y_ss = G u.
+    #[serde(default)]
+    pub steady_state_gain: Vec<Vec<f64>>,
+    /// Singular values of the subspace step, descending (the order's evidence).
+    #[serde(default)]
+    pub singular_values: Vec<f64>,
+    /// The orders tried, where the order was chosen.
+    #[serde(default)]
+    pub candidates: Vec<HiddenCandidateEntry>,
+    /// Fit on the estimation instants (each segment from its fitted initial state).
+    pub fit: FitEntry,
+    /// Fit on held-out data or another recording, where the replay validates.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validation: Option<ValidationEntry>,
+}
+
+/// One order tried for the hidden-state model.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct HiddenCandidateEntry {
+    /// The order n.
+    pub order: usize,
+    /// Mean NRMSE fit (%) on the held-back fifth of the estimation data.
+    pub hold_back_fit_percent: Option<f64>,
+    /// Akaike's criterion on the rest of the estimation data.
+    pub aic: Option<f64>,
+    /// Why the order gave no model, where it gave none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refused: Option<String>,
+}
+
 /// Residual analysis block.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct ResidualEntry {
@@ -381,6 +432,9 @@ pub struct Report {
     /// when none).
     #[serde(default, skip_serializing_if = "Vec::is_empty", skip_deserializing)]
     pub left_out: Vec<LeftOutEntry>,
+    /// The model with hidden states, where the spec declares one (`[hidden]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hidden: Option<HiddenEntry>,
     /// Warnings.
     #[serde(skip_deserializing)]
     pub warnings: Vec<String>,

@@ -208,6 +208,7 @@ pub fn description_of(model: &ThermalModel) -> Result<ModelDescription, UseError
         },
         sample_time_s: Some(model.ts_s),
         method: None,
+        hidden: None,
     };
     if description.needs_nameplate() && model.nameplate.is_none() {
         return Err(model.missing("nameplate", "the loss model and the per-unit bases need"));

@@ -12,6 +12,7 @@
 pub mod coolant;
 pub mod delay;
 pub mod expression;
+pub mod hidden;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -223,6 +224,10 @@ pub struct ModelDescription {
     pub sample_time_s: Option<f64>,
     /// The estimation method the spec asks for (`None`: the caller's).
     pub method: Option<String>,
+    /// Hidden states the spec declares (`[hidden]`): the states above are then the
+    /// measured outputs y = C x + D u of a larger model (`crate::hidden`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hidden: Option<hidden::HiddenSpec>,
 }
 
 /// A spec file (`--spec FILE.toml`) that cannot be read or used; both are the input's
@@ -306,6 +311,7 @@ impl ModelDescription {
             scaling: Scaling::NameplatePerUnit,
             sample_time_s: None,
             method: None,
+            hidden: None,
         }
     }
 
@@ -446,6 +452,7 @@ struct SpecFile {
     states: Vec<StateFile>,
     #[serde(default, rename = "input")]
     inputs: Vec<InputFile>,
+    hidden: Option<hidden::HiddenSpec>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -548,6 +555,11 @@ impl SpecFile {
                 });
             }
         }
+        if let Some(problem) = self.hidden.as_ref().and_then(hidden::HiddenSpec::problem) {
+            return Err(SpecError::Syntax {
+                message: format!("[hidden] {problem}"),
+            });
+        }
         Ok(ModelDescription {
             name: self.name.unwrap_or_else(|| "thermal system (spec)".into()),
             states,
@@ -555,6 +567,7 @@ impl SpecFile {
             scaling: Scaling::AsRecorded,
             sample_time_s: self.sample_time_s,
             method: self.method,
+            hidden: self.hidden,
         })
     }
 }
