@@ -6,6 +6,7 @@ use rerun::{RecordingStream, Scalars, TimeColumn};
 
 use crate::Result;
 use heatrun::decimate::DecimatedRecording;
+use heatrun::estimate::IdentificationData;
 use heatrun::model::ModelAnalysis;
 use heatrun::pipeline::{Prepared, Replay};
 use heatrun::signals::ModelSignals;
@@ -21,6 +22,8 @@ pub(super) struct Stages<'a> {
     pub signals: &'a ModelSignals,
     /// The decimated quantities.
     pub decimated: &'a DecimatedRecording,
+    /// The estimator's data: which entries were compared (a glitch left out was not).
+    pub data: &'a IdentificationData,
 }
 
 impl<'a> From<&'a Replay> for Stages<'a> {
@@ -29,6 +32,7 @@ impl<'a> From<&'a Replay> for Stages<'a> {
             model: &r.model,
             signals: &r.signals,
             decimated: &r.decimated,
+            data: &r.data,
         }
     }
 }
@@ -39,6 +43,7 @@ impl<'a> From<&'a Prepared> for Stages<'a> {
             model: &p.model,
             signals: &p.signals,
             decimated: &p.decimated,
+            data: &p.data,
         }
     }
 }
@@ -284,7 +289,12 @@ pub(super) fn log_model_temperatures(
             &residual,
             on_grid(
                 t,
-                (0..s.len()).map(|k| s.rise_pu(j, k).map(|y| base * (y - sim[(k, j)]))),
+                // Where the estimator compared: an entry left out as a glitch or frozen
+                // is in the measured trace, not among the residuals.
+                (0..s.len()).map(|k| {
+                    let y = s.rise_pu(j, k).filter(|_| stages.data.observed(k, j))?;
+                    Some(base * (y - sim[(k, j)]))
+                }),
             ),
         )?;
     }

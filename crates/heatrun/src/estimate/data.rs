@@ -196,6 +196,20 @@ impl IdentificationData {
         k >= 1 && self.outputs_known[k] && self.outputs_known[k - 1] && self.inputs_known[k - 1]
     }
 
+    /// Per output, how many of its entries within `segments` are observed: the count a
+    /// per-output mean square divides by.
+    pub fn observed_counts(&self, segments: &[Range<usize>]) -> Vec<usize> {
+        (0..self.states())
+            .map(|j| {
+                segments
+                    .iter()
+                    .flat_map(|s| s.clone())
+                    .filter(|&k| self.observed(k, j))
+                    .count()
+            })
+            .collect()
+    }
+
     /// The instants k ≥ 1 whose equation can be formed.
     pub fn usable_rows(&self) -> Vec<usize> {
         (1..self.len()).filter(|&k| self.row_usable(k)).collect()

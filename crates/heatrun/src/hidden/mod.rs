@@ -126,15 +126,7 @@ impl HiddenStateModel {
 
     /// Largest modulus of Φ's eigenvalues (stable below 1; NaN for non-finite Φ).
     pub fn spectral_radius(&self) -> f64 {
-        if !self.phi.iter().all(|v| v.is_finite()) {
-            return f64::NAN;
-        }
-        self.phi
-            .clone()
-            .complex_eigenvalues()
-            .iter()
-            .map(|z| z.norm())
-            .fold(0.0, f64::max)
+        crate::thermal::matrix::spectral_radius(&self.phi)
     }
 
     /// The time constants τ_i = −Ts / ln|λ_i| of Φ's eigenvalues λ_i, ascending (s): the

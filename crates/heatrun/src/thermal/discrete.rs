@@ -57,14 +57,6 @@ impl DiscreteModel {
     /// Largest modulus of Φ's eigenvalues (the model is stable below 1); NaN where Φ
     /// has non-finite entries.
     pub fn spectral_radius(&self) -> f64 {
-        if !self.phi.iter().all(|v| v.is_finite()) {
-            return f64::NAN;
-        }
-        self.phi
-            .clone()
-            .complex_eigenvalues()
-            .iter()
-            .map(|z| z.norm())
-            .fold(0.0, f64::max)
+        crate::thermal::matrix::spectral_radius(&self.phi)
     }
 }

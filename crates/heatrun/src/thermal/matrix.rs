@@ -64,6 +64,19 @@ pub fn real_eigenvalues(m: &DMatrix<f64>, matrix: &'static str) -> Result<Vec<f6
     Ok(out)
 }
 
+/// The spectral radius ρ(M) = max |λ_i(M)|, the largest modulus of M's eigenvalues (a
+/// discrete model is stable below 1); NaN where M has non-finite entries.
+pub fn spectral_radius(m: &DMatrix<f64>) -> f64 {
+    if !m.iter().all(|v| v.is_finite()) {
+        return f64::NAN;
+    }
+    m.clone()
+        .complex_eigenvalues()
+        .iter()
+        .map(|z| z.norm())
+        .fold(0.0, f64::max)
+}
+
 /// Principal matrix logarithm ln Φ of a real matrix with no eigenvalue on the closed
 /// negative real axis (real positive eigenvalues, or complex-conjugate pairs, whose
 /// logarithms ln|λ| ± i·arg λ keep ln Φ real).

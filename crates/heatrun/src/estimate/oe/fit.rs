@@ -449,15 +449,7 @@ impl<'a> Problem<'a> {
         let x0_at = (0..segments.len())
             .map(|s| estimate_x0.then_some(p_theta + s * n))
             .collect();
-        let counts = (0..n)
-            .map(|c| {
-                segments
-                    .iter()
-                    .flat_map(|s| s.clone())
-                    .filter(|&k| data.observed(k, c))
-                    .count()
-            })
-            .collect();
+        let counts = data.observed_counts(&segments);
         Problem {
             data,
             segments,

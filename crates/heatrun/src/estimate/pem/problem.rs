@@ -168,15 +168,7 @@ impl<'a> Problem<'a> {
         let x0_at = (0..segments.len())
             .map(|s| estimate_x0.then_some(p_fixed + s * n))
             .collect();
-        let counts = (0..n)
-            .map(|c| {
-                segments
-                    .iter()
-                    .flat_map(|s| s.clone())
-                    .filter(|&k| data.observed(k, c))
-                    .count()
-            })
-            .collect();
+        let counts = data.observed_counts(&segments);
         Problem {
             data,
             segments,
@@ -303,11 +295,8 @@ impl<'a> Problem<'a> {
     /// Whether Φ and the predictor's Φ − K (every output observed) are stable.
     fn stable(&self) -> bool {
         let model = self.model();
-        let predictor = DiscreteModel {
-            phi: &model.phi - self.gain(),
-            ..model.clone()
-        };
-        model.is_stable() && predictor.is_stable()
+        model.is_stable()
+            && crate::thermal::matrix::spectral_radius(&(&model.phi - self.gain())) < 1.0
     }
 
     /// The evaluation at the current parameters, computed once per parameter vector.
