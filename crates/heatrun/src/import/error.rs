@@ -2,6 +2,25 @@
 
 use std::path::PathBuf;
 
+/// Where in a table a row is: a text line (CSV), or a row (Parquet, counted from 1
+/// after the header, across row groups).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Place {
+    /// A line of a text table, 1-based, as an editor numbers it.
+    Line(u64),
+    /// A row of a Parquet file, 1-based.
+    Row(u64),
+}
+
+impl std::fmt::Display for Place {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Place::Line(n) => write!(f, "line {n}"),
+            Place::Row(n) => write!(f, "row {n}"),
+        }
+    }
+}
+
 /// An import that could not be done. Every message is one line naming the file and,
 /// where there is one, the line and column; no output is left behind.
 #[derive(Debug, thiserror::Error)]
@@ -46,13 +65,13 @@ pub enum ImportError {
     },
     /// The map names a column the table does not have.
     #[error(
-        "{path}: line {line}: no column {column} (named in {map}); the columns are {available}"
+        "{path}: {line}: no column {column} (named in {map}); the columns are {available}"
     )]
     AbsentColumn {
         /// The table.
         path: PathBuf,
         /// The line that shows the columns (the header, or the first data line).
-        line: u64,
+        line: Place,
         /// The map file.
         map: PathBuf,
         /// The column as the map names it (`Heater 3` or `12`).
@@ -75,24 +94,24 @@ pub enum ImportError {
         first_line: u64,
     },
     /// A value cell that is neither a number nor missing (empty, `NaN`).
-    #[error("{path}: line {line}, column {column}: `{text}` is not a number (an empty cell or NaN is a missing sample)")]
+    #[error("{path}: {line}, column {column}: `{text}` is not a number (an empty cell or NaN is a missing sample)")]
     BadNumber {
         /// The table.
         path: PathBuf,
         /// The line of the row.
-        line: u64,
+        line: Place,
         /// The column, by position and header name.
         column: String,
         /// The cell as written.
         text: String,
     },
     /// A quality cell that is none of the accepted flags.
-    #[error("{path}: line {line}, column {column}: `{text}` is not a quality flag ({accepted})")]
+    #[error("{path}: {line}, column {column}: `{text}` is not a quality flag ({accepted})")]
     BadQuality {
         /// The table.
         path: PathBuf,
         /// The line of the row.
-        line: u64,
+        line: Place,
         /// The quality column, by position and header name.
         column: String,
         /// The cell as written.
@@ -101,12 +120,12 @@ pub enum ImportError {
         accepted: String,
     },
     /// A time cell that cannot be read as the map's time format says.
-    #[error("{path}: line {line}, column {column}: `{text}` is not a time: {reason}")]
+    #[error("{path}: {line}, column {column}: `{text}` is not a time: {reason}")]
     BadTime {
         /// The table.
         path: PathBuf,
         /// The line of the row.
-        line: u64,
+        line: Place,
         /// The time column, by position and header name.
         column: String,
         /// The cell as written.
@@ -115,16 +134,18 @@ pub enum ImportError {
         reason: String,
     },
     /// A row's time is earlier than the row before it.
-    #[error("{path}: line {line}, column {column}: time goes backwards, from {previous} on the line before to {current}")]
+    #[error("{path}: {line}, column {column}: time goes backwards, from {previous} {before} to {current}")]
     TimeBackwards {
         /// The table.
         path: PathBuf,
         /// The line of the row.
-        line: u64,
+        line: Place,
         /// The time column, by position and header name.
         column: String,
         /// The previous row's time (RFC 3339, UTC).
         previous: String,
+        /// Which row that was: `on the line before`, or `in the tag's row on line 7`.
+        before: String,
         /// This row's time (RFC 3339, UTC).
         current: String,
     },
@@ -149,6 +170,34 @@ pub enum ImportError {
     OutputIsInput {
         /// The file named as both.
         path: PathBuf,
+    },
+    /// A Parquet file that its reader rejects (not Parquet, a damaged page, an
+    /// unsupported encoding or compression).
+    #[error("{path}: not a Parquet file heatrun can read: {message}")]
+    Parquet {
+        /// The file.
+        path: PathBuf,
+        /// What the Parquet reader said.
+        message: String,
+    },
+    /// A row's local time falls in the hour skipped when the clock went forward: no
+    /// instant has that wall-clock time.
+    #[error("{path}: {line}, column {column}: `{text}` does not exist in {zone}: the clock went forward from {before} to {after} there; the table's times are not that zone's wall-clock time")]
+    SkippedTime {
+        /// The table.
+        path: PathBuf,
+        /// The row.
+        line: Place,
+        /// The time column, by position and header name.
+        column: String,
+        /// The cell as written.
+        text: String,
+        /// The zone (an IANA name).
+        zone: String,
+        /// The offset before the change.
+        before: String,
+        /// The offset after the change.
+        after: String,
     },
     /// Writing the recording failed.
     #[error(transparent)]

@@ -2,6 +2,7 @@
 //!
 //! ```toml
 //! [input]                      # all optional: guessed from the first lines
+//! layout = "wide"              # "wide": a column per signal; "long": a row per sample
 //! delimiter = ","              # ",", ";", "\t" (or "tab"), "whitespace"
 //! header = true                # the first line names the columns
 //! skip_lines = 0               # lines before the header (a title)
@@ -28,6 +29,18 @@
 //! deadband = 0.1               # with exception: in the channel's unit
 //! max_interval_s = 600         # with exception: the heartbeat
 //!
+//! # A long table (layout = "long") names the columns of its rows, and picks its
+//! # signals by tag instead of by column:
+//! # [long]
+//! # tag = "Tag"                # the column that names the signal
+//! # value = "Wert"             # the column of values
+//! # quality = "Status"         # optional: good/uncertain/bad or OPC codes, per row
+//! # quality_values = { OK = "good" }
+//! # [[column]]
+//! # tag = "G1 Temp Statorwicklung [°C]"
+//! # quantity = "stator_winding_temp"
+//! # unit = "degC"
+//!
 //! [nameplate]                  # the heatrun.nameplate record
 //! rated_apparent_power_mva = 100
 //!
@@ -35,7 +48,8 @@
 //! site = "lab"
 //! ```
 //!
-//! Columns the map does not list (or lists with `skip = true`) are not imported.
+//! Columns (or tags) the map does not list, or lists with `skip = true`, are not
+//! imported. The same map reads a Parquet file (`[input]`'s text keys aside).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -48,7 +62,7 @@ use crate::recording::Quantity;
 use crate::writer::{ChannelSpec, Quality, Storage};
 
 /// A column of the table, as the map names it.
-#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Deserialize)]
 #[serde(untagged)]
 pub enum ColumnRef {
     /// By position, 1-based.
@@ -145,11 +159,50 @@ pub struct QualitySource {
     pub values: BTreeMap<String, Quality>,
 }
 
-/// One imported column.
+/// Where an imported signal's values are in the table.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub enum ColumnSource {
+    /// A column of a wide table.
+    Column(ColumnRef),
+    /// The rows of a long table whose tag column holds this text.
+    Tag(String),
+}
+
+impl std::fmt::Display for ColumnSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ColumnSource::Column(c) => c.fmt(f),
+            ColumnSource::Tag(t) => write!(f, "tag `{t}`"),
+        }
+    }
+}
+
+/// How the table holds its samples.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Layout {
+    /// A row per instant and a column per signal.
+    #[default]
+    Wide,
+    /// A row per sample: the signal's tag, the time, the value (and its quality).
+    Long(LongColumns),
+}
+
+/// The columns of a long table's rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LongColumns {
+    /// The column that names the signal.
+    pub tag: ColumnRef,
+    /// The column of values.
+    pub value: ColumnRef,
+    /// The column of quality flags, if any.
+    pub quality: Option<QualitySource>,
+}
+
+/// One imported signal.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ColumnMap {
-    /// The column of values.
-    pub column: ColumnRef,
+    /// Where its values are: a column, or a long table's tag.
+    pub source: ColumnSource,
     /// The channel it becomes.
     pub channel: ChannelSpec,
     /// Its quality flags, if the table has them.
@@ -161,8 +214,10 @@ pub struct ColumnMap {
 pub struct ImportMap {
     /// The map file, for messages.
     pub path: PathBuf,
-    /// The table's layout.
+    /// The table's text layout.
     pub input: InputLayout,
+    /// Wide (a column per signal) or long (a row per sample).
+    pub layout: Layout,
     /// The rows' times.
     pub time: TimeSpec,
     /// The imported columns, in the map's order.
@@ -179,6 +234,7 @@ struct RawMap {
     #[serde(default)]
     input: RawInput,
     time: Option<RawTime>,
+    long: Option<RawLong>,
     #[serde(default, rename = "column")]
     columns: Vec<RawColumn>,
     #[serde(default)]
@@ -190,6 +246,7 @@ struct RawMap {
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct RawInput {
+    layout: Option<String>,
     delimiter: Option<String>,
     header: Option<bool>,
     #[serde(default)]
@@ -198,6 +255,16 @@ struct RawInput {
     comment: Option<String>,
     #[serde(default)]
     missing: Vec<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLong {
+    tag: ColumnRef,
+    value: ColumnRef,
+    quality: Option<ColumnRef>,
+    #[serde(default)]
+    quality_values: BTreeMap<String, String>,
 }
 
 #[derive(Deserialize)]
@@ -215,7 +282,8 @@ struct RawTime {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawColumn {
-    column: ColumnRef,
+    column: Option<ColumnRef>,
+    tag: Option<String>,
     #[serde(default)]
     skip: bool,
     channel: Option<String>,
@@ -257,7 +325,9 @@ impl ImportMap {
             key: key.to_owned(),
             message,
         };
+        let layout_name = raw.input.layout.clone();
         let input = input_layout(raw.input, &bad)?;
+        let layout = layout(layout_name.as_deref(), raw.long, &bad)?;
         let time = time_spec(
             raw.time
                 .ok_or_else(|| bad("time", "the map has no [time] table: give `column` (the time column) or `sample_time_s`".into()))?,
@@ -265,7 +335,7 @@ impl ImportMap {
         )?;
         let mut columns = Vec::new();
         for c in raw.columns.into_iter().filter(|c| !c.skip) {
-            columns.push(column_map(c, &bad)?);
+            columns.push(column_map(c, &layout, &bad)?);
         }
         if columns.is_empty() {
             return Err(bad(
@@ -277,11 +347,20 @@ impl ImportMap {
         for c in &columns {
             if !topics.insert(c.channel.topic.clone()) {
                 return Err(bad(
-                    &format!("[[column]] {}", c.column),
+                    &format!("[[column]] {}", c.source),
                     format!(
                         "a second column becomes channel `{}`; give each a `sensor` to tell them apart",
                         c.channel.name
                     ),
+                ));
+            }
+        }
+        let mut sources = std::collections::BTreeSet::new();
+        for c in &columns {
+            if !sources.insert(c.source.clone()) {
+                return Err(bad(
+                    &format!("[[column]] {}", c.source),
+                    "listed twice: one [[column]] table for each".into(),
                 ));
             }
         }
@@ -305,6 +384,7 @@ impl ImportMap {
         Ok(ImportMap {
             path: path.to_owned(),
             input,
+            layout,
             time,
             columns,
             nameplate,
@@ -342,6 +422,35 @@ fn input_layout(raw: RawInput, bad: &Bad) -> Result<InputLayout, ImportError> {
         comment,
         missing: raw.missing,
     })
+}
+
+/// `[input] layout` and the `[long]` table, which go together.
+fn layout(name: Option<&str>, long: Option<RawLong>, bad: &Bad) -> Result<Layout, ImportError> {
+    match (name.unwrap_or("wide"), long) {
+        ("wide", None) => Ok(Layout::Wide),
+        ("wide", Some(_)) => Err(bad(
+            "long",
+            "a [long] table describes a long table: add `layout = \"long\"` under [input]".into(),
+        )),
+        ("long", None) => Err(bad(
+            "long",
+            "layout = \"long\" needs a [long] table naming the `tag` and `value` columns".into(),
+        )),
+        ("long", Some(raw)) => {
+            check_ref(&raw.tag, bad, "long.tag")?;
+            check_ref(&raw.value, bad, "long.value")?;
+            let quality = quality_source(raw.quality, raw.quality_values, &|f| format!("long.{f}"), bad)?;
+            Ok(Layout::Long(LongColumns {
+                tag: raw.tag,
+                value: raw.value,
+                quality,
+            }))
+        }
+        (other, _) => Err(bad(
+            "input.layout",
+            format!("`{other}` is not \"wide\" (a column per signal) or \"long\" (a row per sample)"),
+        )),
+    }
 }
 
 fn time_spec(raw: RawTime, bad: &Bad) -> Result<TimeSpec, ImportError> {
@@ -489,9 +598,45 @@ pub fn is_channel_name(name: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
-fn column_map(raw: RawColumn, bad: &Bad) -> Result<ColumnMap, ImportError> {
-    let key = |field: &str| format!("[[column]] {}.{field}", raw.column);
-    check_ref(&raw.column, bad, &key("column"))?;
+/// Where a `[[column]]` table's values are: `column` in a wide table, `tag` in a
+/// long one.
+fn column_source(raw: &RawColumn, layout: &Layout, bad: &Bad) -> Result<ColumnSource, ImportError> {
+    match (layout, &raw.column, &raw.tag) {
+        (Layout::Wide, Some(column), None) => {
+            check_ref(column, bad, &format!("[[column]] {column}.column"))?;
+            Ok(ColumnSource::Column(column.clone()))
+        }
+        (Layout::Wide, _, Some(tag)) => Err(bad(
+            &format!("[[column]] tag `{tag}`"),
+            "`tag` picks a long table's signal: set `layout = \"long\"` under [input] and add [long], or give `column`".into(),
+        )),
+        (Layout::Long(_), None, Some(tag)) if !tag.trim().is_empty() => {
+            Ok(ColumnSource::Tag(tag.trim().to_owned()))
+        }
+        (Layout::Long(_), Some(column), _) => Err(bad(
+            &format!("[[column]] {column}"),
+            "a long table's signals are picked by `tag`, not `column`".into(),
+        )),
+        (Layout::Long(_), None, _) => Err(bad(
+            "[[column]].tag",
+            "each [[column]] of a long table needs a non-empty `tag` (the tag column's text)".into(),
+        )),
+        (Layout::Wide, None, None) => Err(bad(
+            "[[column]].column",
+            "each [[column]] needs `column` (a header name or 1-based position)".into(),
+        )),
+    }
+}
+
+fn column_map(raw: RawColumn, layout: &Layout, bad: &Bad) -> Result<ColumnMap, ImportError> {
+    let source = column_source(&raw, layout, bad)?;
+    let key = |field: &str| format!("[[column]] {source}.{field}");
+    if matches!(layout, Layout::Long(_)) && raw.quality_column.is_some() {
+        return Err(bad(
+            &key("quality_column"),
+            "a long table's quality is per row: give `quality` under [long]".into(),
+        ));
+    }
     let name = channel_name(&raw, &key, bad)?;
     let unit = raw.unit.clone().ok_or_else(|| {
         bad(
@@ -523,7 +668,7 @@ fn column_map(raw: RawColumn, bad: &Bad) -> Result<ColumnMap, ImportError> {
     }
     let quality = quality_source(raw.quality_column, raw.quality_values, &key, bad)?;
     Ok(ColumnMap {
-        column: raw.column,
+        source,
         channel,
         quality,
     })
@@ -753,6 +898,57 @@ mod tests {
         for (text, expected) in cases {
             let msg = parse(text).unwrap_err().to_string();
             assert!(msg.starts_with("map.toml: "), "{msg}");
+            assert!(msg.contains(expected), "{expected:?} not in {msg}");
+            assert_eq!(msg.lines().count(), 1, "{msg}");
+        }
+    }
+
+    #[test]
+    fn a_long_map_is_read() {
+        let m = parse(
+            r#"
+            [input]
+            layout = "long"
+            delimiter = ";"
+            decimal_comma = true
+            [long]
+            tag = "Tag"
+            value = "Wert"
+            quality = "Status"
+            [time]
+            column = "Zeitstempel"
+            zone = "Europe/Zurich"
+            [[column]]
+            tag = "G1 Temp Statorwicklung [°C]"
+            quantity = "stator_winding_temp"
+            unit = "degC"
+            "#,
+        )
+        .unwrap();
+        let Layout::Long(long) = &m.layout else {
+            panic!("{:?}", m.layout)
+        };
+        assert_eq!(long.tag, ColumnRef::Name("Tag".into()));
+        assert_eq!(long.value, ColumnRef::Name("Wert".into()));
+        assert_eq!(
+            long.quality.as_ref().unwrap().column,
+            ColumnRef::Name("Status".into())
+        );
+        assert_eq!(
+            m.columns[0].source,
+            ColumnSource::Tag("G1 Temp Statorwicklung [°C]".into())
+        );
+        let long = "[input]\nlayout = \"long\"\n[long]\ntag = 1\nvalue = 3\n[time]\ncolumn = 2\n";
+        let cases = [
+            (format!("{long}[[column]]\ncolumn = 2\nchannel = \"T\"\nunit = \"1\""), "not `column`"),
+            (format!("{long}[[column]]\ntag = \"A\"\nchannel = \"T\"\nunit = \"1\"\nquality_column = 4"), "under [long]"),
+            (format!("{long}[[column]]\ntag = \"A\"\nchannel = \"T\"\nunit = \"1\"\n[[column]]\ntag = \"A\"\nchannel = \"U\"\nunit = \"1\""), "listed twice"),
+            ("[input]\nlayout = \"long\"\n[time]\ncolumn = 2\n[[column]]\ntag = \"A\"\nchannel = \"T\"\nunit = \"1\"".into(), "[long] table"),
+            ("[time]\ncolumn = 2\n[[column]]\ntag = \"A\"\nchannel = \"T\"\nunit = \"1\"".into(), "layout = \"long\""),
+            ("[input]\nlayout = \"tall\"\n[time]\ncolumn = 2\n[[column]]\ncolumn = 1\nchannel = \"T\"\nunit = \"1\"".into(), "input.layout"),
+        ];
+        for (text, expected) in cases {
+            let msg = parse(&text).unwrap_err().to_string();
             assert!(msg.contains(expected), "{expected:?} not in {msg}");
             assert_eq!(msg.lines().count(), 1, "{msg}");
         }

@@ -20,21 +20,28 @@
 
 mod error;
 mod guess;
+mod long;
 mod map;
+mod parquet;
+mod row_time;
+mod source;
 mod table;
 mod time;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-pub use error::ImportError;
+pub use error::{ImportError, Place};
 pub use guess::guess_map;
 pub use map::ImportMap;
+pub use time::ClockChange;
 
-use map::{ColumnRef, Delimiter, TimeFormat, TimeSource};
-use table::{Dialect, Table};
+use map::{ColumnRef, ColumnSource, Delimiter, Layout, QualitySource};
+use row_time::{time_error, RowTime};
+use source::{Cell, RowSource};
+use table::Table;
+use time::{ClockError, RowClock};
 
-use crate::recording::format_time;
 use crate::writer::{ChannelId, Quality, RecordingWriter, WriterOptions};
 
 /// What an import wrote.
@@ -50,6 +57,11 @@ pub struct ImportSummary {
     pub time_span_ns: (u64, u64),
     /// Messages written.
     pub messages: u64,
+    /// The zone's changes of offset the rows crossed (a repeated or skipped hour),
+    /// and how each was resolved; also in the recording's `heatrun.import` record.
+    pub clock_changes: Vec<ClockChange>,
+    /// Rows of a long table whose tag the map does not list (not imported).
+    pub unlisted_rows: u64,
 }
 
 /// One channel of an import.
@@ -65,68 +77,131 @@ pub struct ImportedChannel {
     pub missing: u64,
 }
 
-/// Imports the table `input` as `map` says into the recording `out`.
+/// What reading the rows gave, wide or long.
+struct Read {
+    rows: u64,
+    channels: Vec<ImportedChannel>,
+    span: Option<(u64, u64)>,
+    clock_changes: Vec<ClockChange>,
+    unlisted_rows: u64,
+}
+
+/// Imports the table `input` (delimited text, or Parquet) as `map` says into the
+/// recording `out`.
 pub fn import(input: &Path, map: &ImportMap, out: &Path) -> Result<ImportSummary, ImportError> {
     if same_file(input, out) {
         return Err(ImportError::OutputIsInput {
             path: out.to_owned(),
         });
     }
-    let lines = table::first_lines(input, map.input.skip_lines, map.input.comment)?;
-    let dialect = table::resolve_dialect(&map.input, &lines);
-    let mut table = Table::open(input, &dialect)?;
-    let header = if dialect.header {
+    let mut opened = open(input, map)?;
+    let shape = Shape {
+        input,
+        map,
+        header: opened.header.as_deref(),
+        fields: opened.fields,
+        line: opened.header_place,
+    };
+    let mut writer = RecordingWriter::create(out, WriterOptions::default())?;
+    // The records first: a metadata record closes the open chunk, which would
+    // otherwise hold only the channel records.
+    write_records(&mut writer, map)?;
+    let source = opened.source.as_mut();
+    let read = match &map.layout {
+        Layout::Wide => {
+            let mut rows = Rows::plan(&shape, opened.decimal_comma, &mut writer)?;
+            each_row(source, |row| rows.convert(row, &mut writer))?;
+            rows.finish(map)
+        }
+        Layout::Long(columns) => {
+            let mut rows =
+                long::LongRows::plan(&shape, columns, opened.decimal_comma, &mut writer)?;
+            each_row(source, |row| rows.convert(row, &mut writer))?;
+            rows.finish(map)
+        }
+    };
+    write_import_record(&mut writer, input, map, &read.clock_changes)?;
+    let written = writer.finish()?;
+    Ok(ImportSummary {
+        out: out.to_owned(),
+        rows: read.rows,
+        channels: read.channels,
+        time_span_ns: read.span.unwrap_or((0, 0)),
+        messages: written.messages,
+        clock_changes: read.clock_changes,
+        unlisted_rows: read.unlisted_rows,
+    })
+}
+
+/// Calls `convert` on the current row and each after it.
+fn each_row(
+    source: &mut dyn RowSource,
+    mut convert: impl FnMut(&dyn RowSource) -> Result<(), ImportError>,
+) -> Result<(), ImportError> {
+    loop {
+        convert(source)?;
+        if !source.next_row()? {
+            return Ok(());
+        }
+    }
+}
+
+/// A table opened at its first data row.
+struct Opened {
+    source: Box<dyn RowSource>,
+    header: Option<Vec<String>>,
+    /// Fields in the header (or the first row).
+    fields: usize,
+    /// Where the header (or the first row) is.
+    header_place: Place,
+    /// Numbers written with a decimal comma.
+    decimal_comma: bool,
+}
+
+/// Opens a Parquet file (known by its magic bytes) or a delimited text table, and
+/// reads its header and first data row.
+fn open(input: &Path, map: &ImportMap) -> Result<Opened, ImportError> {
+    if parquet::is_parquet(input)? {
+        let mut table = parquet::ParquetTable::open(input)?;
+        let header = table.header();
         if !table.next_row()? {
             return Err(ImportError::NoData {
                 path: input.to_owned(),
             });
+        }
+        return Ok(Opened {
+            fields: header.len(),
+            header: Some(header),
+            source: Box::new(table),
+            header_place: Place::Row(0),
+            decimal_comma: false,
+        });
+    }
+    let lines = table::first_lines(input, map.input.skip_lines, map.input.comment)?;
+    let dialect = table::resolve_dialect(&map.input, &lines);
+    let mut table = Table::open(input, &dialect)?;
+    let no_data = || ImportError::NoData {
+        path: input.to_owned(),
+    };
+    let header = if dialect.header {
+        if !table.next_row()? {
+            return Err(no_data());
         }
         Some((table.fields(), table.line()))
     } else {
         None
     };
     if !table.next_row()? {
-        return Err(ImportError::NoData {
-            path: input.to_owned(),
-        });
+        return Err(no_data());
     }
-    let shape = Shape {
-        input,
-        map,
-        header: header.as_ref().map(|(h, _)| h.as_slice()),
+    Ok(Opened {
         fields: header
             .as_ref()
             .map_or(table.record().len(), |(h, _)| h.len()),
-        line: header.as_ref().map_or(table.line(), |(_, l)| *l),
-    };
-    let mut writer = RecordingWriter::create(out, WriterOptions::default())?;
-    // The records first: a metadata record closes the open chunk, which would
-    // otherwise hold only the channel records.
-    write_records(&mut writer, input, map)?;
-    let mut rows = Rows::plan(&shape, &dialect, &mut writer)?;
-    loop {
-        rows.convert(&table, &mut writer)?;
-        if !table.next_row()? {
-            break;
-        }
-    }
-    let written = writer.finish()?;
-    Ok(ImportSummary {
-        out: out.to_owned(),
-        rows: rows.count,
-        channels: rows
-            .columns
-            .iter()
-            .zip(&map.columns)
-            .map(|(c, m)| ImportedChannel {
-                topic: m.channel.topic.clone(),
-                unit: m.channel.unit.clone(),
-                samples: c.samples,
-                missing: c.missing,
-            })
-            .collect(),
-        time_span_ns: (rows.first_time.unwrap_or(0), rows.previous.unwrap_or(0)),
-        messages: written.messages,
+        header_place: Place::Line(header.as_ref().map_or(table.line(), |(_, l)| *l)),
+        header: header.map(|(h, _)| h),
+        source: Box::new(table),
+        decimal_comma: dialect.decimal_comma && dialect.delimiter != Delimiter::Byte(b','),
     })
 }
 
@@ -137,43 +212,66 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// The nameplate, the map's metadata records and a `heatrun.import` record naming
-/// the source.
-fn write_records(
-    writer: &mut RecordingWriter,
-    input: &Path,
-    map: &ImportMap,
-) -> Result<(), ImportError> {
+/// The nameplate and the map's metadata records.
+fn write_records(writer: &mut RecordingWriter, map: &ImportMap) -> Result<(), ImportError> {
     if !map.nameplate.is_empty() {
         writer.write_nameplate(&map.nameplate)?;
     }
     for (name, entries) in &map.metadata {
         writer.write_metadata(name, entries)?;
     }
+    Ok(())
+}
+
+/// The `heatrun.import` record, written after the rows: the source and the map, and
+/// with a zone, `time_zone` and `clock_changes` (each change crossed and how its rows
+/// were placed, `; `-separated, or `none`).
+fn write_import_record(
+    writer: &mut RecordingWriter,
+    input: &Path,
+    map: &ImportMap,
+    changes: &[ClockChange],
+) -> Result<(), ImportError> {
     let file_name = |p: &Path| {
         p.file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default()
     };
-    let record: BTreeMap<String, String> = [
+    let mut record: BTreeMap<String, String> = [
         ("source".to_owned(), file_name(input)),
         ("map".to_owned(), file_name(&map.path)),
     ]
     .into();
+    if let Some(zone) = &map.time.zone {
+        let name = zone.iana_name().map_or_else(
+            || time::offset_text(zone.to_offset(jiff::Timestamp::UNIX_EPOCH).seconds()),
+            str::to_owned,
+        );
+        record.insert("time_zone".to_owned(), name);
+        let described: Vec<String> = changes.iter().map(ClockChange::describe).collect();
+        record.insert(
+            "clock_changes".to_owned(),
+            if described.is_empty() {
+                "none".to_owned()
+            } else {
+                described.join("; ")
+            },
+        );
+    }
     writer.write_metadata("heatrun.import", &record)?;
     Ok(())
 }
 
 /// The table's columns as far as the map needs them.
-struct Shape<'a> {
+pub(crate) struct Shape<'a> {
     input: &'a Path,
     map: &'a ImportMap,
     /// The header's names, if there is a header.
     header: Option<&'a [String]>,
     /// Fields in the header (or the first row).
     fields: usize,
-    /// The line of the header (or the first row).
-    line: u64,
+    /// Where the header (or the first row) is.
+    line: Place,
 }
 
 impl Shape<'_> {
@@ -238,23 +336,26 @@ impl Shape<'_> {
         }
         names.join(", ")
     }
+
+    /// A row with another number of fields than the header: an error.
+    fn check_width(&self, row: &dyn RowSource) -> Result<(), ImportError> {
+        if row.width() == self.fields {
+            return Ok(());
+        }
+        let (Place::Line(line), Place::Line(first_line)) = (row.place(), self.line) else {
+            unreachable!("only text tables have rows of their own width")
+        };
+        Err(ImportError::RaggedRow {
+            path: self.input.to_owned(),
+            line,
+            found: row.width(),
+            expected: self.fields,
+            first_line,
+        })
+    }
 }
 
-/// Where a row's time comes from, resolved against the table.
-enum RowTime {
-    Column {
-        index: usize,
-        label: String,
-        format: TimeFormat,
-        unit_ns: i128,
-        pattern: Option<String>,
-    },
-    Index {
-        sample_time_ns: i128,
-    },
-}
-
-/// One imported column, resolved against the table.
+/// One imported column of a wide table, resolved against the table.
 struct ColumnPlan {
     index: usize,
     label: String,
@@ -264,70 +365,66 @@ struct ColumnPlan {
     missing: u64,
 }
 
-struct QualityPlan {
+/// A column of quality flags, resolved.
+pub(crate) struct QualityPlan {
     index: usize,
     label: String,
     values: BTreeMap<String, Quality>,
 }
 
-/// The conversion of rows into messages.
-struct Rows {
-    path: PathBuf,
-    time: RowTime,
-    start_ns: i128,
-    zone: Option<jiff::tz::TimeZone>,
-    columns: Vec<ColumnPlan>,
-    fields: usize,
-    first_line: u64,
-    decimal_comma: bool,
-    missing: Vec<String>,
-    count: u64,
-    first_time: Option<u64>,
-    previous: Option<u64>,
+impl QualityPlan {
+    fn new(shape: &Shape, source: &QualitySource) -> Result<QualityPlan, ImportError> {
+        let (index, label) = shape.find(&source.column)?;
+        Ok(QualityPlan {
+            index,
+            label,
+            values: source.values.clone(),
+        })
+    }
+
+    /// The current row's flag.
+    fn read(&self, row: &dyn RowSource, path: &Path) -> Result<Quality, ImportError> {
+        let cell = row.cell(self.index);
+        parse_quality_cell(&cell, &self.values).ok_or_else(|| ImportError::BadQuality {
+            path: path.to_owned(),
+            line: row.place(),
+            column: self.label.clone(),
+            text: cell.text(),
+            accepted: quality_words(&self.values),
+        })
+    }
 }
 
-impl Rows {
+/// The conversion of a wide table's rows into messages.
+struct Rows<'a> {
+    shape: &'a Shape<'a>,
+    time: RowTime,
+    clock: RowClock,
+    columns: Vec<ColumnPlan>,
+    decimal_comma: bool,
+    count: u64,
+}
+
+impl<'a> Rows<'a> {
     /// Resolves the map's columns and adds their channels to the recording.
     fn plan(
-        shape: &Shape,
-        dialect: &Dialect,
+        shape: &'a Shape<'a>,
+        decimal_comma: bool,
         writer: &mut RecordingWriter,
-    ) -> Result<Rows, ImportError> {
+    ) -> Result<Rows<'a>, ImportError> {
         let map = shape.map;
-        let time = match &map.time.source {
-            TimeSource::Column {
-                column,
-                format,
-                unit_ns,
-                pattern,
-            } => {
-                let (index, label) = shape.find(column)?;
-                RowTime::Column {
-                    index,
-                    label,
-                    format: *format,
-                    unit_ns: *unit_ns,
-                    pattern: pattern.clone(),
-                }
-            }
-            TimeSource::SampleIndex { sample_time_ns } => RowTime::Index {
-                sample_time_ns: *sample_time_ns,
-            },
-        };
+        let time = RowTime::plan(&map.time, decimal_comma, |c| shape.find(c))?;
         let mut columns = Vec::new();
         for c in &map.columns {
-            let (index, label) = shape.find(&c.column)?;
-            let quality = match &c.quality {
-                Some(q) => {
-                    let (index, label) = shape.find(&q.column)?;
-                    Some(QualityPlan {
-                        index,
-                        label,
-                        values: q.values.clone(),
-                    })
-                }
-                None => None,
+            let ColumnSource::Column(column) = &c.source else {
+                unreachable!("a wide map's columns are checked to name columns")
             };
+            let (index, label) = shape.find(column)?;
+            let quality = c
+                .quality
+                .as_ref()
+                .map(|q| QualityPlan::new(shape, q))
+                .transpose()?;
             columns.push(ColumnPlan {
                 index,
                 label,
@@ -338,43 +435,35 @@ impl Rows {
             });
         }
         Ok(Rows {
-            path: shape.input.to_owned(),
+            shape,
             time,
-            start_ns: map.time.start_ns,
-            zone: map.time.zone.clone(),
+            clock: RowClock::new(map.time.zone.clone()),
             columns,
-            fields: shape.fields,
-            first_line: shape.line,
-            decimal_comma: dialect.decimal_comma && dialect.delimiter != Delimiter::Byte(b','),
-            missing: map.input.missing.clone(),
+            decimal_comma,
             count: 0,
-            first_time: None,
-            previous: None,
         })
     }
 
     /// Writes the messages of the table's current row.
-    fn convert(&mut self, table: &Table, writer: &mut RecordingWriter) -> Result<(), ImportError> {
-        let record = table.record();
-        let line = table.line();
-        if record.len() != self.fields {
-            return Err(ImportError::RaggedRow {
-                path: self.path.clone(),
-                line,
-                found: record.len(),
-                expected: self.fields,
-                first_line: self.first_line,
-            });
-        }
-        let t = self.row_time(record, line)?;
+    fn convert(&mut self, row: &dyn RowSource, writer: &mut RecordingWriter) -> Result<(), ImportError> {
+        self.shape.check_width(row)?;
+        let path = self.shape.input;
+        let (stamp, text) = self.time.stamp(row, self.count);
+        let t = stamp
+            .map_err(ClockError::Bad)
+            .and_then(|s| self.clock.place(s))
+            .map_err(|e| {
+                time_error(path, row.place(), self.time.label(), text, e, "on the row before")
+            })?;
+        let missing = &self.shape.map.input.missing;
         for c in &mut self.columns {
-            let text = cell(record, c.index);
-            let value = parse_value(text, self.decimal_comma, &self.missing).ok_or_else(|| {
+            let cell = row.cell(c.index);
+            let value = parse_value_cell(&cell, self.decimal_comma, missing).ok_or_else(|| {
                 ImportError::BadNumber {
-                    path: self.path.clone(),
-                    line,
+                    path: path.to_owned(),
+                    line: row.place(),
                     column: c.label.clone(),
-                    text: text.to_owned(),
+                    text: cell.text(),
                 }
             })?;
             let Some(value) = value else {
@@ -382,15 +471,7 @@ impl Rows {
                 continue;
             };
             let quality = match &c.quality {
-                Some(q) => parse_quality(cell(record, q.index), &q.values).ok_or_else(|| {
-                    ImportError::BadQuality {
-                        path: self.path.clone(),
-                        line,
-                        column: q.label.clone(),
-                        text: cell(record, q.index).to_owned(),
-                        accepted: quality_words(&q.values),
-                    }
-                })?,
+                Some(q) => q.read(row, path)?,
                 None => Quality::Good,
             };
             writer.write_flagged(c.channel, t, Some(value), quality)?;
@@ -400,83 +481,46 @@ impl Rows {
         Ok(())
     }
 
-    /// The row's time, ns since the epoch, checked to be in range and not earlier
-    /// than the row before.
-    fn row_time(&mut self, record: &csv::ByteRecord, line: u64) -> Result<u64, ImportError> {
-        let (ns, text, label) = match &mut self.time {
-            RowTime::Index { sample_time_ns } => (
-                Ok(self.start_ns + self.count as i128 * *sample_time_ns),
-                String::new(),
-                "(row index)".to_owned(),
-            ),
-            RowTime::Column {
-                index,
-                label,
-                format,
-                unit_ns,
-                pattern,
-            } => {
-                let text = cell(record, *index).to_owned();
-                // A table written with decimal commas writes its seconds so too.
-                let text = if self.decimal_comma && !text.contains('.') {
-                    text.replacen(',', ".", 1)
-                } else {
-                    text
-                };
-                if *format == TimeFormat::Auto {
-                    *format = if time::looks_like_seconds(&text) {
-                        TimeFormat::Seconds
-                    } else {
-                        TimeFormat::Timestamp
-                    };
-                }
-                let ns = match format {
-                    TimeFormat::Timestamp => {
-                        time::parse_timestamp(&text, self.zone.as_ref(), pattern.as_deref())
-                    }
-                    _ => time::parse_decimal_ns(&text, *unit_ns)
-                        .map(|t| self.start_ns + t)
-                        .ok_or_else(|| {
-                            "not a number of seconds, as the first row's time is".to_owned()
-                        }),
-                };
-                (ns, text, label.clone())
-            }
-        };
-        let bad = |reason: String| ImportError::BadTime {
-            path: self.path.clone(),
-            line,
-            column: label.clone(),
-            text: text.clone(),
-            reason,
-        };
-        let ns = ns.map_err(bad)?;
-        let t = u64::try_from(ns).map_err(|_| {
-            bad(if ns < 0 {
-                "it is before 1970-01-01T00:00:00Z, where recording times start; give `start` under [time]".into()
-            } else {
-                "it is after 2554, beyond what a recording can hold".into()
-            })
-        })?;
-        if let Some(previous) = self.previous.filter(|p| t < *p) {
-            return Err(ImportError::TimeBackwards {
-                path: self.path.clone(),
-                line,
-                column: label,
-                previous: format_time(previous),
-                current: format_time(t),
-            });
+    fn finish(self, map: &ImportMap) -> Read {
+        Read {
+            rows: self.count,
+            channels: self
+                .columns
+                .iter()
+                .zip(&map.columns)
+                .map(|(c, m)| ImportedChannel {
+                    topic: m.channel.topic.clone(),
+                    unit: m.channel.unit.clone(),
+                    samples: c.samples,
+                    missing: c.missing,
+                })
+                .collect(),
+            span: self.clock.span(),
+            clock_changes: self.clock.changes().to_vec(),
+            unlisted_rows: 0,
         }
-        self.first_time.get_or_insert(t);
-        self.previous = Some(t);
-        Ok(t)
     }
 }
 
-/// A field as text (numbers and times are ASCII; anything else reads as Latin-1 in
-/// messages).
-fn cell(record: &csv::ByteRecord, index: usize) -> &str {
-    std::str::from_utf8(&record[index]).unwrap_or("<not UTF-8>")
+/// A value cell: `Some(None)` when missing (empty, NaN, null, a `missing` marker),
+/// `Some(Some(v))` for a finite number, `None` when malformed.
+fn parse_value_cell(cell: &Cell, decimal_comma: bool, missing: &[String]) -> Option<Option<f64>> {
+    match cell {
+        Cell::Text(text) => parse_value(text, decimal_comma, missing),
+        Cell::Number(v) if v.is_nan() => Some(None),
+        Cell::Number(v) if v.is_finite() => Some(Some(*v)),
+        Cell::Null => Some(None),
+        Cell::Number(_) | Cell::Time(_) => None,
+    }
+}
+
+/// A quality cell, as text or as an OPC code stored as a number; null is good.
+fn parse_quality_cell(cell: &Cell, values: &BTreeMap<String, Quality>) -> Option<Quality> {
+    match cell {
+        Cell::Text(text) => parse_quality(text, values),
+        Cell::Null => Some(Quality::Good),
+        other => parse_quality(&other.text(), values),
+    }
 }
 
 /// A value cell: `Some(None)` when missing (empty, NaN, a `missing` marker),

@@ -6,8 +6,9 @@ use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
-use super::error::ImportError;
+use super::error::{ImportError, Place};
 use super::map::{Delimiter, InputLayout};
+use super::source::{Cell, RowSource};
 
 /// The layout of a table, every choice made.
 #[derive(Debug, Clone, PartialEq)]
@@ -304,6 +305,25 @@ impl Table {
     /// The current row's fields as text.
     pub fn fields(&self) -> Vec<String> {
         self.record.iter().map(decode).collect()
+    }
+}
+
+impl RowSource for Table {
+    fn next_row(&mut self) -> Result<bool, ImportError> {
+        Table::next_row(self)
+    }
+
+    fn width(&self) -> usize {
+        self.record.len()
+    }
+
+    fn cell(&self, index: usize) -> Cell<'_> {
+        // Numbers and times are ASCII; anything else reads as such in messages.
+        Cell::Text(std::str::from_utf8(&self.record[index]).unwrap_or("<not UTF-8>"))
+    }
+
+    fn place(&self) -> Place {
+        Place::Line(self.line)
     }
 }
 
