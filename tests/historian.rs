@@ -16,7 +16,7 @@ use serde_json::Value;
 const S: u64 = 1_000_000_000;
 
 /// Every channel of a recording: topic → (log time, value or `None` for a dropout).
-fn samples(path: &Path) -> BTreeMap<String, Vec<(u64, Option<f64>)>> {
+pub(crate) fn samples(path: &Path) -> BTreeMap<String, Vec<(u64, Option<f64>)>> {
     let bytes = std::fs::read(path).unwrap();
     let mut out: BTreeMap<String, Vec<(u64, Option<f64>)>> = BTreeMap::new();
     for m in mcap::MessageStream::new(&bytes).unwrap() {
@@ -42,7 +42,7 @@ fn german(v: f64) -> String {
 /// where the current's sample is missing, and a status column for the stator winding
 /// with `Bad` on `bad_stator` of its rows. Returns the table and its map (temperatures
 /// declared stored by exception with `deadband`, or as sampled channels).
-fn historian_export(
+pub(crate) fn historian_export(
     path: &Path,
     deadband: Option<f64>,
     bad_stator: usize,
@@ -137,7 +137,7 @@ fn historian_export(
 }
 
 /// The time constants of a replay's report, ascending.
-fn time_constants(dir: &Path, mcap: &str) -> Vec<f64> {
+pub(crate) fn time_constants(dir: &Path, mcap: &str) -> Vec<f64> {
     let report = format!("{mcap}.json");
     heatrun_ok(&["replay", mcap, "--report", &report, "-q"], dir);
     let r: Value =
@@ -152,7 +152,7 @@ fn time_constants(dir: &Path, mcap: &str) -> Vec<f64> {
     t
 }
 
-fn truth(dir: &Path, mcap: &str) -> Vec<f64> {
+pub(crate) fn truth(dir: &Path, mcap: &str) -> Vec<f64> {
     let t: Value = serde_json::from_str(
         &std::fs::read_to_string(dir.join(format!("{mcap}.truth.json"))).unwrap(),
     )
@@ -165,7 +165,7 @@ fn truth(dir: &Path, mcap: &str) -> Vec<f64> {
         .collect()
 }
 
-fn synth(dir: &Path, out: &str, extra: &[&str]) {
+pub(crate) fn synth(dir: &Path, out: &str, extra: &[&str]) {
     let mut args = vec![
         "synth",
         out,
@@ -182,12 +182,12 @@ fn synth(dir: &Path, out: &str, extra: &[&str]) {
     heatrun_ok(&args, dir);
 }
 
-fn import(dir: &Path, table: &str, map: &str, out: &str) {
+pub(crate) fn import(dir: &Path, table: &str, map: &str, out: &str) {
     heatrun_ok(&["import", table, "--map", map, "--out", out], dir);
 }
 
 /// Relative differences, %.
-fn percent(got: &[f64], want: &[f64]) -> Vec<f64> {
+pub(crate) fn percent(got: &[f64], want: &[f64]) -> Vec<f64> {
     got.iter()
         .zip(want)
         .map(|(g, w)| 100.0 * (g / w - 1.0))

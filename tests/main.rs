@@ -18,6 +18,7 @@
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
 //! | [`html`] | `replay --html`: the page parsed, its sections, figures and tables; nothing outside it |
 //! | [`monitor`] | `heatrun monitor`: healthy recordings raise nothing, a fouled cooler an alarm in time; bad input |
+//! | [`tables`] | long tables (sorted by time, grouped by tag) and Parquet (wide, long) imported as the wide text export; a night run in Zurich's wall-clock time through the clock change, against its truth; a skipped hour |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
 //!
 //! A new test file `tests/NAME.rs` becomes `mod NAME;` here; shared helpers are in
@@ -45,3 +46,4 @@ mod paper;
 mod predict;
 mod recovery;
 mod spec;
+mod tables;

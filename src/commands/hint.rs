@@ -198,6 +198,16 @@ fn for_import(e: &ImportError) -> Option<String> {
              such as \"%d.%m.%Y %H:%M:%S\""
                 .into()
         }
+        ImportError::SkippedTime { .. } => {
+            "if the table keeps standard time all year, give its fixed offset as the map's \
+             [time] `zone` (such as \"+01:00\")"
+                .into()
+        }
+        ImportError::TimeBackwards { .. } => {
+            "local wall-clock times go back an hour when summer time ends: give the map's \
+             [time] `zone` (such as \"Europe/Zurich\") and the rows' order places them"
+                .into()
+        }
         ImportError::MapSyntax { .. } | ImportError::MapValue { .. } => {
             "`heatrun import --guess FILE` prints a map to start from; \
              docs/src/reference/import-map.md shows its keys"

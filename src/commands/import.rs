@@ -41,6 +41,15 @@ pub fn run(request: &Import) -> anyhow::Result<Outcome> {
             format!("; no samples on {}", empty.join(", "))
         }
     );
+    if summary.unlisted_rows > 0 {
+        println!(
+            "passed over {} rows of tags the map does not list",
+            summary.unlisted_rows
+        );
+    }
+    for change in &summary.clock_changes {
+        println!("clock change crossed: {}", change.describe());
+    }
     Ok(Outcome::Complete)
 }
 

@@ -50,7 +50,37 @@ pub fn guess_map(input: &Path) -> Result<String, ImportError> {
     }
     let columns = columns(header.as_deref(), &rows, width);
     let time = time_column(&columns);
+    if let Some(long) = time.and_then(|t| long_table(&columns, t, dialect.decimal_comma)) {
+        let tags = list_tags(Table::open(input, &dialect)?, dialect.header, long.tag)?;
+        let mut out = preamble(input);
+        write_input(&mut out, dialect.delimiter, dialect.header, dialect.decimal_comma);
+        out = out.replacen("[input]\n", "[input]\nlayout = \"long\"\n", 1);
+        write_long(&mut out, &columns, &long);
+        write_time(&mut out, &columns, time);
+        write_tags(&mut out, &tags);
+        write_records_help(&mut out);
+        return Ok(out);
+    }
 
+    let mut out = preamble(input);
+    write_input(
+        &mut out,
+        dialect.delimiter,
+        dialect.header,
+        dialect.decimal_comma,
+    );
+    write_time(&mut out, &columns, time);
+    for (i, c) in columns.iter().enumerate() {
+        if Some(i) != time {
+            write_column(&mut out, c, i, header.is_some());
+        }
+    }
+    write_records_help(&mut out);
+    Ok(out)
+}
+
+/// The map's opening comment: what to check and the command to run.
+fn preamble(input: &Path) -> String {
     let mut out = String::new();
     let file = input
         .file_name()
@@ -69,18 +99,11 @@ pub fn guess_map(input: &Path) -> Result<String, ImportError> {
         "#   heatrun import {file} --map THIS.toml --out OUT.mcap"
     );
     let _ = writeln!(out);
-    write_input(
-        &mut out,
-        dialect.delimiter,
-        dialect.header,
-        dialect.decimal_comma,
-    );
-    write_time(&mut out, &columns, time);
-    for (i, c) in columns.iter().enumerate() {
-        if Some(i) != time {
-            write_column(&mut out, c, i, header.is_some());
-        }
-    }
+    out
+}
+
+/// The commented nameplate and metadata records at the map's end.
+fn write_records_help(out: &mut String) {
     let _ = writeln!(
         out,
         "\n# For a generator heat run: the heatrun.nameplate record (see the profile)"
@@ -88,7 +111,141 @@ pub fn guess_map(input: &Path) -> Result<String, ImportError> {
     let _ = writeln!(out, "# [nameplate]\n# rated_apparent_power_mva = 100");
     let _ = writeln!(out, "\n# Other metadata records, carried into the report");
     let _ = writeln!(out, "# [metadata.\"heatrun.test\"]\n# site = \"\"");
-    Ok(out)
+}
+
+/// The columns of a long table's rows.
+struct LongGuess {
+    tag: usize,
+    value: usize,
+    quality: Option<usize>,
+}
+
+/// Tags listed at most (a long table of more is a plant's whole archive).
+const MAX_TAGS: usize = 1000;
+
+/// A long table: besides the time, a column of text that repeats (the tag; one named
+/// like a tag if several), a column of numbers (the value), and at most one more (a
+/// quality flag); so three or four columns in all.
+fn long_table(columns: &[Column], time: usize, decimal_comma: bool) -> Option<LongGuess> {
+    if !(3..=4).contains(&columns.len()) || columns.iter().any(|c| c.header.is_none()) {
+        return None;
+    }
+    let number = |v: &String| {
+        let v = if decimal_comma { v.replacen(',', ".", 1) } else { v.clone() };
+        v.trim().parse::<f64>().is_ok()
+    };
+    let others: Vec<usize> = (0..columns.len()).filter(|&i| i != time).collect();
+    let is_text = |i: usize| {
+        let cells = &columns[i].cells;
+        !cells.is_empty() && cells.iter().all(|v| !v.trim().is_empty() && !number(v))
+    };
+    let named = |i: usize, words: &[&str]| {
+        let h = columns[i].header.as_deref().unwrap_or("").to_lowercase();
+        words.iter().any(|w| h.contains(w))
+    };
+    let repeats = |i: usize| {
+        let cells = &columns[i].cells;
+        cells.iter().collect::<std::collections::BTreeSet<_>>().len() < cells.len()
+    };
+    // Flags repeat too (`Good`), but name no signal.
+    let flags = |i: usize| {
+        named(i, &["status", "quality", "qualit", "flag"])
+            || columns[i].cells.iter().all(|v| {
+                ["good", "bad", "uncertain", "ok", "gut", "schlecht"]
+                    .contains(&v.trim().to_lowercase().as_str())
+            })
+    };
+    let texts: Vec<usize> = others
+        .iter()
+        .copied()
+        .filter(|&i| is_text(i) && repeats(i) && !flags(i))
+        .collect();
+    let tag = texts
+        .iter()
+        .copied()
+        .find(|&i| named(i, &["tag", "name", "point", "signal", "variable", "item"]))
+        .or_else(|| texts.first().copied())?;
+    let value = others.iter().copied().find(|&i| {
+        i != tag && columns[i].cells.iter().filter(|v| number(v)).count() * 2 > columns[i].cells.len()
+    })?;
+    let quality = others.iter().copied().find(|&i| i != tag && i != value);
+    Some(LongGuess { tag, value, quality })
+}
+
+/// Every tag of a long table in the order first seen (the whole table streams
+/// through; only the tags are kept, at most [`MAX_TAGS`]).
+fn list_tags(mut table: Table, header: bool, tag: usize) -> Result<Vec<String>, ImportError> {
+    let mut seen = std::collections::HashSet::new();
+    let mut tags = Vec::new();
+    let mut skip_header = header;
+    while tags.len() < MAX_TAGS && table.next_row()? {
+        if std::mem::take(&mut skip_header) {
+            continue;
+        }
+        if let Some(t) = table.record().get(tag) {
+            let t = table::decode(t).trim().to_owned();
+            if !t.is_empty() && seen.insert(t.clone()) {
+                tags.push(t);
+            }
+        }
+    }
+    Ok(tags)
+}
+
+fn write_long(out: &mut String, columns: &[Column], long: &LongGuess) {
+    let _ = writeln!(out, "\n[long]");
+    let _ = writeln!(out, "tag = {}", reference(&columns[long.tag], long.tag));
+    let _ = writeln!(out, "value = {}", reference(&columns[long.value], long.value));
+    if let Some(q) = long.quality {
+        let _ = writeln!(
+            out,
+            "quality = {}   # EDIT: remove if it is not good/uncertain/bad or OPC codes",
+            reference(&columns[q], q)
+        );
+    }
+}
+
+/// A `[[column]]` per tag, with the unit its name gives (`G1 Strom [kA]`, `T1.degC`).
+fn write_tags(out: &mut String, tags: &[String]) {
+    let _ = writeln!(out, "\n# {} tags in the table", tags.len());
+    let mut used = std::collections::BTreeSet::new();
+    for (i, tag) in tags.iter().enumerate() {
+        let (base, unit) = tag_unit(tag);
+        let mut name = channel_name(&base, i);
+        if !used.insert(name.clone()) {
+            name = format!("{name}_{}", i + 1);
+            used.insert(name.clone());
+        }
+        let column = Column {
+            header: Some(tag.clone()),
+            name,
+            unit,
+            cells: Vec::new(),
+        };
+        let mut text = String::new();
+        write_column(&mut text, &column, i, true);
+        // The same table as a wide column, but picked by tag.
+        let _ = write!(out, "{}", text.replacen("\ncolumn = ", "\ntag = ", 1));
+    }
+}
+
+/// A tag's name and unit: `G1 Strom [kA]` → (`G1 Strom`, `kA`); `G1.Strom.kA` or
+/// `G1_Temp_degC` → the last part when it is a unit the profile knows.
+fn tag_unit(tag: &str) -> (String, Option<String>) {
+    let (base, unit) = split_unit(tag);
+    if unit.is_some() {
+        return (base, unit);
+    }
+    const UNITS: [&str; 12] = [
+        "degC", "°C", "kA", "A", "kV", "V", "l/s", "l/min", "m3/h", "MW", "Mvar", "%",
+    ];
+    match tag.rfind(['.', '_', ' ']) {
+        Some(at) if UNITS.contains(&&tag[at + 1..]) => (
+            tag[..at].to_owned(),
+            Some(normalise_unit(&tag[at + 1..])),
+        ),
+        _ => (base, None),
+    }
 }
 
 fn columns(header: Option<&[String]>, rows: &[Vec<String>], width: usize) -> Vec<Column> {
@@ -304,5 +461,12 @@ mod tests {
         assert_eq!(channel_name("1st sensor", 0), "c_1st_sensor");
         assert_eq!(channel_name("", 4), "column_5");
         assert_eq!(channel_name("U/V-phase", 0), "U_V_phase");
+        assert_eq!(
+            tag_unit("G1 Temp Statorwicklung [°C]"),
+            ("G1 Temp Statorwicklung".into(), Some("degC".into()))
+        );
+        assert_eq!(tag_unit("G1.Strom.kA"), ("G1.Strom".into(), Some("kA".into())));
+        assert_eq!(tag_unit("G1_Durchfluss_l/s"), ("G1_Durchfluss".into(), Some("l/s".into())));
+        assert_eq!(tag_unit("G1 Status"), ("G1 Status".into(), None));
     }
 }
