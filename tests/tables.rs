@@ -124,7 +124,9 @@ fn long_map(wide_map: &str) -> String {
         match line {
             "[input]" => map.push_str("[input]\nlayout = \"long\"\n"),
             "[time]" => {
-                map.push_str("[long]\ntag = \"Tag\"\nvalue = \"Wert\"\nquality = \"Status\"\n[time]\n");
+                map.push_str(
+                    "[long]\ntag = \"Tag\"\nvalue = \"Wert\"\nquality = \"Status\"\n[time]\n",
+                );
                 in_time = true;
             }
             l if in_time && l.starts_with("column = ") => {
@@ -169,7 +171,14 @@ fn a_long_export_replays_as_the_wide_one() {
     for (name, by_tag) in [("long", false), ("grouped", true)] {
         std::fs::write(d.join(format!("{name}.csv")), long_table(&rows, by_tag)).unwrap();
         let out = heatrun_ok(
-            &["import", &format!("{name}.csv"), "--map", "long.toml", "--out", &format!("{name}.mcap")],
+            &[
+                "import",
+                &format!("{name}.csv"),
+                "--map",
+                "long.toml",
+                "--out",
+                &format!("{name}.mcap"),
+            ],
             d,
         );
         eprintln!("{}", String::from_utf8_lossy(&out.stdout));
@@ -231,7 +240,17 @@ fn guess_recognises_a_long_table_and_lists_its_tags() {
     // The guess imports once its zone is given.
     let map = map.replace("zone = \"UTC\"", "zone = \"Europe/Zurich\"");
     std::fs::write(d.join("long.toml"), map).unwrap();
-    let out = heatrun_ok(&["import", "long.csv", "--map", "long.toml", "--out", "long.mcap"], d);
+    let out = heatrun_ok(
+        &[
+            "import",
+            "long.csv",
+            "--map",
+            "long.toml",
+            "--out",
+            "long.mcap",
+        ],
+        d,
+    );
     let said = String::from_utf8(out.stdout).unwrap();
     assert!(said.contains("121 rows, 4 channels"), "{said}");
 }
@@ -301,14 +320,27 @@ fn a_night_run_through_the_clock_change_replays_to_its_truth() {
     assert!(table.contains("\n2023-10-29T02:59:59;") && table.contains("\n2023-10-29T03:00:00;"));
     std::fs::write(d.join("night.csv"), &table).unwrap();
     std::fs::write(d.join("night.toml"), &map).unwrap();
-    let out = heatrun_ok(&["import", "night.csv", "--map", "night.toml", "--out", "local.mcap"], d);
+    let out = heatrun_ok(
+        &[
+            "import",
+            "night.csv",
+            "--map",
+            "night.toml",
+            "--out",
+            "local.mcap",
+        ],
+        d,
+    );
     let said = String::from_utf8(out.stdout).unwrap();
     eprintln!("{said}");
     let change = format!(
         "2023-10-29T01:00:00Z, +02:00 to +01:00: the repeated hour resolved by row order \
          ({first} rows in its first pass, {second} in its second)"
     );
-    assert!(said.contains(&format!("clock change crossed: {change}")), "{said}");
+    assert!(
+        said.contains(&format!("clock change crossed: {change}")),
+        "{said}"
+    );
     let record = import_record(&d.join("local.mcap"));
     assert_eq!(record["time_zone"], "Europe/Zurich");
     assert_eq!(record["clock_changes"], change);
@@ -330,7 +362,17 @@ fn a_night_run_through_the_clock_change_replays_to_its_truth() {
     }
     // Read at a fixed offset, the second pass goes back in time: one line, exit 2.
     std::fs::write(d.join("fixed.toml"), map.replace("Europe/Zurich", "+02:00")).unwrap();
-    let out = common::heatrun(&["import", "night.csv", "--map", "fixed.toml", "--out", "fixed.mcap"], d);
+    let out = common::heatrun(
+        &[
+            "import",
+            "night.csv",
+            "--map",
+            "fixed.toml",
+            "--out",
+            "fixed.mcap",
+        ],
+        d,
+    );
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("time goes backwards"), "{err}");
@@ -344,16 +386,39 @@ fn a_skipped_hour_is_an_error_only_where_a_row_falls_in_it() {
     let map = "[time]\ncolumn = \"Zeit\"\nzone = \"Europe/Zurich\"\n[[column]]\ncolumn = \"T\"\nchannel = \"T\"\nunit = \"degC\"\n";
     std::fs::write(d.join("map.toml"), map).unwrap();
     // 2023-03-26: 02:00 +01:00 became 03:00 +02:00.
-    std::fs::write(d.join("spring.csv"), "Zeit,T\n2023-03-26 01:59:59,20\n2023-03-26 03:00:00,21\n").unwrap();
-    let out = heatrun_ok(&["import", "spring.csv", "--map", "map.toml", "--out", "spring.mcap"], d);
+    std::fs::write(
+        d.join("spring.csv"),
+        "Zeit,T\n2023-03-26 01:59:59,20\n2023-03-26 03:00:00,21\n",
+    )
+    .unwrap();
+    let out = heatrun_ok(
+        &[
+            "import",
+            "spring.csv",
+            "--map",
+            "map.toml",
+            "--out",
+            "spring.mcap",
+        ],
+        d,
+    );
     let said = String::from_utf8(out.stdout).unwrap();
     assert!(
         said.contains("clock change crossed: 2023-03-26T01:00:00Z, +01:00 to +02:00: the skipped hour holds no row"),
         "{said}"
     );
     assert!(said.contains("1.0 s from 2023-03-26T00:59:59Z"), "{said}");
-    std::fs::write(d.join("gap.csv"), "Zeit,T\n2023-03-26 01:59:59,20\n2023-03-26 02:30:00,21\n").unwrap();
-    let out = common::heatrun(&["import", "gap.csv", "--map", "map.toml", "--out", "gap.mcap"], d);
+    std::fs::write(
+        d.join("gap.csv"),
+        "Zeit,T\n2023-03-26 01:59:59,20\n2023-03-26 02:30:00,21\n",
+    )
+    .unwrap();
+    let out = common::heatrun(
+        &[
+            "import", "gap.csv", "--map", "map.toml", "--out", "gap.mcap",
+        ],
+        d,
+    );
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
@@ -387,7 +452,11 @@ impl Column {
                 Repetition::REQUIRED,
             ),
             Column::Double(_) => (Physical::DOUBLE, None, Repetition::OPTIONAL),
-            Column::Text(_) => (Physical::BYTE_ARRAY, Some(LogicalType::String), Repetition::OPTIONAL),
+            Column::Text(_) => (
+                Physical::BYTE_ARRAY,
+                Some(LogicalType::String),
+                Repetition::OPTIONAL,
+            ),
             Column::Code(_) => (Physical::INT32, None, Repetition::REQUIRED),
         };
         Type::primitive_type_builder(name, physical)
@@ -405,10 +474,24 @@ fn optional<T: Clone>(cells: &[Option<T>]) -> (Vec<i16>, Vec<T>) {
 }
 
 /// Writes `columns` as a Parquet file in row groups of `group` rows.
-fn write_parquet(path: &Path, columns: &[(String, Column)], compression: Compression, group: usize) {
+fn write_parquet(
+    path: &Path,
+    columns: &[(String, Column)],
+    compression: Compression,
+    group: usize,
+) {
     let fields = columns.iter().map(|(n, c)| Arc::new(c.schema(n))).collect();
-    let schema = Arc::new(Type::group_type_builder("table").with_fields(fields).build().unwrap());
-    let props = Arc::new(WriterProperties::builder().set_compression(compression).build());
+    let schema = Arc::new(
+        Type::group_type_builder("table")
+            .with_fields(fields)
+            .build()
+            .unwrap(),
+    );
+    let props = Arc::new(
+        WriterProperties::builder()
+            .set_compression(compression)
+            .build(),
+    );
     let mut writer = SerializedFileWriter::new(File::create(path).unwrap(), schema, props).unwrap();
     let rows = match &columns[0].1 {
         Column::Time(v) => v.len(),
@@ -422,19 +505,28 @@ fn write_parquet(path: &Path, columns: &[(String, Column)], compression: Compres
             let mut w = row_group.next_column().unwrap().unwrap();
             match column {
                 Column::Time(v) => {
-                    w.typed::<Int64Type>().write_batch(&v[range.clone()], None, None).unwrap();
+                    w.typed::<Int64Type>()
+                        .write_batch(&v[range.clone()], None, None)
+                        .unwrap();
                 }
                 Column::Code(v) => {
-                    w.typed::<Int32Type>().write_batch(&v[range.clone()], None, None).unwrap();
+                    w.typed::<Int32Type>()
+                        .write_batch(&v[range.clone()], None, None)
+                        .unwrap();
                 }
                 Column::Double(v) => {
                     let (levels, values) = optional(&v[range.clone()]);
-                    w.typed::<DoubleType>().write_batch(&values, Some(&levels), None).unwrap();
+                    w.typed::<DoubleType>()
+                        .write_batch(&values, Some(&levels), None)
+                        .unwrap();
                 }
                 Column::Text(v) => {
                     let (levels, values) = optional(&v[range.clone()]);
-                    let values: Vec<ByteArray> = values.iter().map(|s| ByteArray::from(s.as_str())).collect();
-                    w.typed::<ByteArrayType>().write_batch(&values, Some(&levels), None).unwrap();
+                    let values: Vec<ByteArray> =
+                        values.iter().map(|s| ByteArray::from(s.as_str())).collect();
+                    w.typed::<ByteArrayType>()
+                        .write_batch(&values, Some(&levels), None)
+                        .unwrap();
                 }
             }
             w.close().unwrap();
@@ -475,10 +567,22 @@ fn wide_parquet(table: &str, t0: u64) -> Vec<(String, Column)> {
 /// OPC quality code (0 bad, 192 good).
 fn long_parquet(rows: &[LongRow], t0: u64) -> Vec<(String, Column)> {
     vec![
-        ("Tag".to_owned(), Column::Text(rows.iter().map(|r| Some(tag(&r.quantity))).collect())),
-        ("Zeitstempel".to_owned(), Column::Time(rows.iter().map(|r| (t0 + r.t) as i64).collect())),
-        ("Wert".to_owned(), Column::Double(rows.iter().map(|r| r.value).collect())),
-        ("Status".to_owned(), Column::Code(rows.iter().map(|r| if r.bad { 0 } else { 192 }).collect())),
+        (
+            "Tag".to_owned(),
+            Column::Text(rows.iter().map(|r| Some(tag(&r.quantity))).collect()),
+        ),
+        (
+            "Zeitstempel".to_owned(),
+            Column::Time(rows.iter().map(|r| (t0 + r.t) as i64).collect()),
+        ),
+        (
+            "Wert".to_owned(),
+            Column::Double(rows.iter().map(|r| r.value).collect()),
+        ),
+        (
+            "Status".to_owned(),
+            Column::Code(rows.iter().map(|r| if r.bad { 0 } else { 192 }).collect()),
+        ),
     ]
 }
 
@@ -502,10 +606,18 @@ fn parquet_tables_wide_and_long_import_as_the_text_export() {
     let reference = sorted_samples(&d.join("wide.mcap"));
 
     // Wide, snappy (pyarrow's default), row groups of 4096 rows.
-    write_parquet(&d.join("wide.parquet"), &wide_parquet(&wide, t0), Compression::SNAPPY, 4096);
+    write_parquet(
+        &d.join("wide.parquet"),
+        &wide_parquet(&wide, t0),
+        Compression::SNAPPY,
+        4096,
+    );
     std::fs::write(d.join("wide_parquet.toml"), parquet_map(&wide_map)).unwrap();
     import(d, "wide.parquet", "wide_parquet.toml", "wide_parquet.mcap");
-    assert!(sorted_samples(&d.join("wide_parquet.mcap")) == reference, "wide Parquet");
+    assert!(
+        sorted_samples(&d.join("wide_parquet.mcap")) == reference,
+        "wide Parquet"
+    );
 
     // Long, zstd (polars' default).
     let rows = long_rows(&d.join("stored.mcap"), BAD_STATOR);
@@ -515,9 +627,16 @@ fn parquet_tables_wide_and_long_import_as_the_text_export() {
         Compression::ZSTD(ZstdLevel::default()),
         10_000,
     );
-    std::fs::write(d.join("long_parquet.toml"), parquet_map(&long_map(&wide_map))).unwrap();
+    std::fs::write(
+        d.join("long_parquet.toml"),
+        parquet_map(&long_map(&wide_map)),
+    )
+    .unwrap();
     import(d, "long.parquet", "long_parquet.toml", "long_parquet.mcap");
-    assert!(sorted_samples(&d.join("long_parquet.mcap")) == reference, "long Parquet");
+    assert!(
+        sorted_samples(&d.join("long_parquet.mcap")) == reference,
+        "long Parquet"
+    );
 
     // The replays agree as the samples do.
     let wide = time_constants(d, "wide.mcap");
@@ -529,9 +648,23 @@ fn parquet_tables_wide_and_long_import_as_the_text_export() {
     // A damaged file: one line, exit 2, nothing written.
     let bytes = std::fs::read(d.join("long.parquet")).unwrap();
     std::fs::write(d.join("cut.parquet"), &bytes[..bytes.len() / 2]).unwrap();
-    let out = common::heatrun(&["import", "cut.parquet", "--map", "long_parquet.toml", "--out", "cut.mcap"], d);
+    let out = common::heatrun(
+        &[
+            "import",
+            "cut.parquet",
+            "--map",
+            "long_parquet.toml",
+            "--out",
+            "cut.mcap",
+        ],
+        d,
+    );
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.starts_with("error: cut.parquet: not a Parquet file heatrun can read") || err.contains("cut.parquet: not a Parquet file heatrun can read"), "{err}");
+    assert!(
+        err.starts_with("error: cut.parquet: not a Parquet file heatrun can read")
+            || err.contains("cut.parquet: not a Parquet file heatrun can read"),
+        "{err}"
+    );
     assert!(!d.join("cut.mcap").exists());
 }

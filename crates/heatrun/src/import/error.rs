@@ -64,9 +64,7 @@ pub enum ImportError {
         column: String,
     },
     /// The map names a column the table does not have.
-    #[error(
-        "{path}: {line}: no column {column} (named in {map}); the columns are {available}"
-    )]
+    #[error("{path}: {line}: no column {column} (named in {map}); the columns are {available}")]
     AbsentColumn {
         /// The table.
         path: PathBuf,
@@ -134,7 +132,7 @@ pub enum ImportError {
         reason: String,
     },
     /// A row's time is earlier than the row before it.
-    #[error("{path}: {line}, column {column}: time goes backwards, from {previous} {before} to {current}")]
+    #[error("{path}: {line}, column {column}: time goes backwards, from {previous} to {current}")]
     TimeBackwards {
         /// The table.
         path: PathBuf,
@@ -142,10 +140,9 @@ pub enum ImportError {
         line: Place,
         /// The time column, by position and header name.
         column: String,
-        /// The previous row's time (RFC 3339, UTC).
+        /// The previous row's time (RFC 3339, UTC) and which row that was:
+        /// `2024-01-01T00:00:00Z on the line before`.
         previous: String,
-        /// Which row that was: `on the line before`, or `in the tag's row on line 7`.
-        before: String,
         /// This row's time (RFC 3339, UTC).
         current: String,
     },
@@ -182,7 +179,7 @@ pub enum ImportError {
     },
     /// A row's local time falls in the hour skipped when the clock went forward: no
     /// instant has that wall-clock time.
-    #[error("{path}: {line}, column {column}: `{text}` does not exist in {zone}: the clock went forward from {before} to {after} there; the table's times are not that zone's wall-clock time")]
+    #[error("{path}: {line}, column {column}: `{text}` does not exist in {zone}; the table's times are not that zone's wall-clock time")]
     SkippedTime {
         /// The table.
         path: PathBuf,
@@ -192,12 +189,9 @@ pub enum ImportError {
         column: String,
         /// The cell as written.
         text: String,
-        /// The zone (an IANA name).
+        /// The zone and its change: `Europe/Zurich (the clock went forward from +01:00
+        /// to +02:00 there)`.
         zone: String,
-        /// The offset before the change.
-        before: String,
-        /// The offset after the change.
-        after: String,
     },
     /// Writing the recording failed.
     #[error(transparent)]

@@ -53,7 +53,12 @@ pub fn guess_map(input: &Path) -> Result<String, ImportError> {
     if let Some(long) = time.and_then(|t| long_table(&columns, t, dialect.decimal_comma)) {
         let tags = list_tags(Table::open(input, &dialect)?, dialect.header, long.tag)?;
         let mut out = preamble(input);
-        write_input(&mut out, dialect.delimiter, dialect.header, dialect.decimal_comma);
+        write_input(
+            &mut out,
+            dialect.delimiter,
+            dialect.header,
+            dialect.decimal_comma,
+        );
         out = out.replacen("[input]\n", "[input]\nlayout = \"long\"\n", 1);
         write_long(&mut out, &columns, &long);
         write_time(&mut out, &columns, time);
@@ -131,7 +136,11 @@ fn long_table(columns: &[Column], time: usize, decimal_comma: bool) -> Option<Lo
         return None;
     }
     let number = |v: &String| {
-        let v = if decimal_comma { v.replacen(',', ".", 1) } else { v.clone() };
+        let v = if decimal_comma {
+            v.replacen(',', ".", 1)
+        } else {
+            v.clone()
+        };
         v.trim().parse::<f64>().is_ok()
     };
     let others: Vec<usize> = (0..columns.len()).filter(|&i| i != time).collect();
@@ -145,7 +154,11 @@ fn long_table(columns: &[Column], time: usize, decimal_comma: bool) -> Option<Lo
     };
     let repeats = |i: usize| {
         let cells = &columns[i].cells;
-        cells.iter().collect::<std::collections::BTreeSet<_>>().len() < cells.len()
+        cells
+            .iter()
+            .collect::<std::collections::BTreeSet<_>>()
+            .len()
+            < cells.len()
     };
     // Flags repeat too (`Good`), but name no signal.
     let flags = |i: usize| {
@@ -166,10 +179,15 @@ fn long_table(columns: &[Column], time: usize, decimal_comma: bool) -> Option<Lo
         .find(|&i| named(i, &["tag", "name", "point", "signal", "variable", "item"]))
         .or_else(|| texts.first().copied())?;
     let value = others.iter().copied().find(|&i| {
-        i != tag && columns[i].cells.iter().filter(|v| number(v)).count() * 2 > columns[i].cells.len()
+        i != tag
+            && columns[i].cells.iter().filter(|v| number(v)).count() * 2 > columns[i].cells.len()
     })?;
     let quality = others.iter().copied().find(|&i| i != tag && i != value);
-    Some(LongGuess { tag, value, quality })
+    Some(LongGuess {
+        tag,
+        value,
+        quality,
+    })
 }
 
 /// Every tag of a long table in the order first seen (the whole table streams
@@ -195,7 +213,11 @@ fn list_tags(mut table: Table, header: bool, tag: usize) -> Result<Vec<String>, 
 fn write_long(out: &mut String, columns: &[Column], long: &LongGuess) {
     let _ = writeln!(out, "\n[long]");
     let _ = writeln!(out, "tag = {}", reference(&columns[long.tag], long.tag));
-    let _ = writeln!(out, "value = {}", reference(&columns[long.value], long.value));
+    let _ = writeln!(
+        out,
+        "value = {}",
+        reference(&columns[long.value], long.value)
+    );
     if let Some(q) = long.quality {
         let _ = writeln!(
             out,
@@ -240,10 +262,9 @@ fn tag_unit(tag: &str) -> (String, Option<String>) {
         "degC", "°C", "kA", "A", "kV", "V", "l/s", "l/min", "m3/h", "MW", "Mvar", "%",
     ];
     match tag.rfind(['.', '_', ' ']) {
-        Some(at) if UNITS.contains(&&tag[at + 1..]) => (
-            tag[..at].to_owned(),
-            Some(normalise_unit(&tag[at + 1..])),
-        ),
+        Some(at) if UNITS.contains(&&tag[at + 1..]) => {
+            (tag[..at].to_owned(), Some(normalise_unit(&tag[at + 1..])))
+        }
         _ => (base, None),
     }
 }
@@ -465,8 +486,14 @@ mod tests {
             tag_unit("G1 Temp Statorwicklung [°C]"),
             ("G1 Temp Statorwicklung".into(), Some("degC".into()))
         );
-        assert_eq!(tag_unit("G1.Strom.kA"), ("G1.Strom".into(), Some("kA".into())));
-        assert_eq!(tag_unit("G1_Durchfluss_l/s"), ("G1_Durchfluss".into(), Some("l/s".into())));
+        assert_eq!(
+            tag_unit("G1.Strom.kA"),
+            ("G1.Strom".into(), Some("kA".into()))
+        );
+        assert_eq!(
+            tag_unit("G1_Durchfluss_l/s"),
+            ("G1_Durchfluss".into(), Some("l/s".into()))
+        );
         assert_eq!(tag_unit("G1 Status"), ("G1 Status".into(), None));
     }
 }

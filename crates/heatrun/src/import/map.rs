@@ -439,7 +439,12 @@ fn layout(name: Option<&str>, long: Option<RawLong>, bad: &Bad) -> Result<Layout
         ("long", Some(raw)) => {
             check_ref(&raw.tag, bad, "long.tag")?;
             check_ref(&raw.value, bad, "long.value")?;
-            let quality = quality_source(raw.quality, raw.quality_values, &|f| format!("long.{f}"), bad)?;
+            let quality = quality_source(
+                raw.quality,
+                raw.quality_values,
+                &|f| format!("long.{f}"),
+                bad,
+            )?;
             Ok(Layout::Long(LongColumns {
                 tag: raw.tag,
                 value: raw.value,
@@ -448,7 +453,9 @@ fn layout(name: Option<&str>, long: Option<RawLong>, bad: &Bad) -> Result<Layout
         }
         (other, _) => Err(bad(
             "input.layout",
-            format!("`{other}` is not \"wide\" (a column per signal) or \"long\" (a row per sample)"),
+            format!(
+                "`{other}` is not \"wide\" (a column per signal) or \"long\" (a row per sample)"
+            ),
         )),
     }
 }

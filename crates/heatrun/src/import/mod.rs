@@ -445,7 +445,11 @@ impl<'a> Rows<'a> {
     }
 
     /// Writes the messages of the table's current row.
-    fn convert(&mut self, row: &dyn RowSource, writer: &mut RecordingWriter) -> Result<(), ImportError> {
+    fn convert(
+        &mut self,
+        row: &dyn RowSource,
+        writer: &mut RecordingWriter,
+    ) -> Result<(), ImportError> {
         self.shape.check_width(row)?;
         let path = self.shape.input;
         let (stamp, text) = self.time.stamp(row, self.count);
@@ -453,7 +457,14 @@ impl<'a> Rows<'a> {
             .map_err(ClockError::Bad)
             .and_then(|s| self.clock.place(s))
             .map_err(|e| {
-                time_error(path, row.place(), self.time.label(), text, e, "on the row before")
+                time_error(
+                    path,
+                    row.place(),
+                    self.time.label(),
+                    text,
+                    e,
+                    "on the row before",
+                )
             })?;
         let missing = &self.shape.map.input.missing;
         for c in &mut self.columns {

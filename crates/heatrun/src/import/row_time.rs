@@ -80,13 +80,19 @@ impl RowTime {
 
     /// The row's time as written, and that text for messages. `row_index` counts the
     /// rows from 0.
-    pub fn stamp(&mut self, row: &dyn RowSource, row_index: u64) -> (Result<Stamp, String>, String) {
+    pub fn stamp(
+        &mut self,
+        row: &dyn RowSource,
+        row_index: u64,
+    ) -> (Result<Stamp, String>, String) {
         match self {
             RowTime::Index {
                 start_ns,
                 sample_time_ns,
             } => (
-                Ok(Stamp::Instant(*start_ns + row_index as i128 * *sample_time_ns)),
+                Ok(Stamp::Instant(
+                    *start_ns + row_index as i128 * *sample_time_ns,
+                )),
                 String::new(),
             ),
             RowTime::Column {
@@ -104,11 +110,18 @@ impl RowTime {
                     Cell::Time(stamp) => Ok(stamp),
                     Cell::Null => Err("the cell is empty".to_owned()),
                     // A number stored as one: seconds (or the map's unit) after start.
-                    Cell::Number(v) if v.is_finite() => {
-                        Ok(Stamp::Instant(*start_ns + (v * *unit_ns as f64).round() as i128))
-                    }
+                    Cell::Number(v) if v.is_finite() => Ok(Stamp::Instant(
+                        *start_ns + (v * *unit_ns as f64).round() as i128,
+                    )),
                     Cell::Number(_) => Err("not a finite number".to_owned()),
-                    Cell::Text(t) => text_stamp(t, format, *unit_ns, pattern.as_deref(), *start_ns, *decimal_comma),
+                    Cell::Text(t) => text_stamp(
+                        t,
+                        format,
+                        *unit_ns,
+                        pattern.as_deref(),
+                        *start_ns,
+                        *decimal_comma,
+                    ),
                 };
                 (stamp, text)
             }
@@ -147,15 +160,15 @@ fn text_stamp(
     }
 }
 
-/// A time that could not be placed, as the import's error. `before` says which row
-/// the clock compared with (`on the line before`).
+/// A time that could not be placed, as the import's error. `previous_row` says which
+/// row the clock compared with (`on the row before`).
 pub fn time_error(
     path: &Path,
     line: Place,
     column: String,
     text: String,
     error: ClockError,
-    before: &str,
+    previous_row: &str,
 ) -> ImportError {
     match error {
         ClockError::Bad(reason) => ImportError::BadTime {
@@ -174,16 +187,13 @@ pub fn time_error(
             line,
             column,
             text,
-            zone,
-            before,
-            after,
+            zone: format!("{zone} (the clock went forward from {before} to {after} there)"),
         },
         ClockError::Backwards { previous, current } => ImportError::TimeBackwards {
             path: path.to_owned(),
             line,
             column,
-            previous: format_time(previous),
-            before: before.to_owned(),
+            previous: format!("{} {previous_row}", format_time(previous)),
             current: format_time(current),
         },
     }

@@ -454,7 +454,9 @@ mod tests {
         assert_eq!((c.from_s, c.to_s), (7200, 3600));
         assert_eq!((c.first_pass_rows, c.second_pass_rows), (2, 3));
         assert!(c.repeated());
-        assert!(c.describe().starts_with("2023-10-29T01:00:00Z, +02:00 to +01:00"));
+        assert!(c
+            .describe()
+            .starts_with("2023-10-29T01:00:00Z, +02:00 to +01:00"));
     }
 
     #[test]
