@@ -638,6 +638,28 @@ fn parquet_tables_wide_and_long_import_as_the_text_export() {
         "long Parquet"
     );
 
+    // --guess reads Parquet too: the wide file's columns, the long file's tags.
+    let guessed =
+        |file: &str| String::from_utf8(heatrun_ok(&["import", "--guess", file], d).stdout).unwrap();
+    let wide_guess = guessed("wide.parquet");
+    assert!(
+        wide_guess.contains("[time]\ncolumn = \"Zeit\"\nformat = \"timestamp\"\n")
+            && wide_guess.contains("[[column]]\ncolumn = \"core_temp\""),
+        "{wide_guess}"
+    );
+    let long_guess = guessed("long.parquet");
+    let channels = rows
+        .iter()
+        .map(|r| &r.quantity)
+        .collect::<std::collections::BTreeSet<_>>();
+    assert!(
+        long_guess.contains(
+            "layout = \"long\"\n\n[long]\ntag = \"Tag\"\nvalue = \"Wert\"\nquality = \"Status\""
+        ) && long_guess.contains(&format!("# {} tags", channels.len()))
+            && long_guess.contains("tag = \"G1.core_temp\""),
+        "{long_guess}"
+    );
+
     // The replays agree as the samples do.
     let wide = time_constants(d, "wide.mcap");
     let long = time_constants(d, "long_parquet.mcap");

@@ -10,7 +10,8 @@ use super::Usage;
 /// Arguments of `heatrun import`.
 #[derive(Debug, Args)]
 pub struct ImportArgs {
-    /// The table: comma, semicolon, tab or whitespace separated, with or without a header.
+    /// The table: comma, semicolon, tab or whitespace separated, with or without a
+    /// header, a column per signal or a row per sample; or a Parquet file.
     pub input: PathBuf,
     /// The map (TOML) that names the time column and the channels.
     #[arg(long, value_name = "MAP.toml", required_unless_present = "guess")]

@@ -5,6 +5,8 @@ use std::path::Path;
 
 use super::error::ImportError;
 use super::map::{is_channel_name, Delimiter, InputLayout};
+use super::parquet::ParquetTable;
+use super::source::RowSource;
 use super::table::{self, Table};
 use super::time;
 use crate::recording::Quantity;
@@ -28,6 +30,9 @@ struct Column {
 /// time to fill in) and one `[[column]]` per other column, named after the header
 /// with the unit it gives (`T1 (degC)`, `Q1 [%]`).
 pub fn guess_map(input: &Path) -> Result<String, ImportError> {
+    if super::parquet::is_parquet(input)? {
+        return guess_parquet(input);
+    }
     let lines = table::first_lines(input, 0, None)?;
     let dialect = table::resolve_dialect(&InputLayout::default(), &lines);
     let mut table = Table::open(input, &dialect)?;
@@ -78,6 +83,50 @@ pub fn guess_map(input: &Path) -> Result<String, ImportError> {
     for (i, c) in columns.iter().enumerate() {
         if Some(i) != time {
             write_column(&mut out, c, i, header.is_some());
+        }
+    }
+    write_records_help(&mut out);
+    Ok(out)
+}
+
+/// The map of a Parquet file: its columns from the schema, the first rows' cells as
+/// text; no `[input]` text keys.
+fn guess_parquet(input: &Path) -> Result<String, ImportError> {
+    let mut table = ParquetTable::open(input)?;
+    let header = table.header();
+    let mut rows = Vec::new();
+    while rows.len() < SAMPLE_ROWS && table.next_row()? {
+        rows.push((0..table.width()).map(|i| table.cell(i).text()).collect());
+    }
+    if header.is_empty() || rows.is_empty() {
+        return Err(ImportError::NoData {
+            path: input.to_owned(),
+        });
+    }
+    let columns = columns(Some(&header), &rows, header.len());
+    let time = time_column(&columns);
+    let mut out = preamble(input);
+    let _ = writeln!(out, "# A Parquet file: the columns are the schema's.");
+    if let Some(long) = time.and_then(|t| long_table(&columns, t, false)) {
+        let mut tags = Vec::new();
+        let mut seen = std::collections::HashSet::new();
+        let mut table = ParquetTable::open(input)?;
+        while tags.len() < MAX_TAGS && table.next_row()? {
+            let t = table.cell(long.tag).text().trim().to_owned();
+            if !t.is_empty() && seen.insert(t.clone()) {
+                tags.push(t);
+            }
+        }
+        let _ = writeln!(out, "[input]\nlayout = \"long\"");
+        write_long(&mut out, &columns, &long);
+        write_time(&mut out, &columns, time);
+        write_tags(&mut out, &tags);
+    } else {
+        write_time(&mut out, &columns, time);
+        for (i, c) in columns.iter().enumerate() {
+            if Some(i) != time {
+                write_column(&mut out, c, i, true);
+            }
         }
     }
     write_records_help(&mut out);
