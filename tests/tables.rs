@@ -432,6 +432,8 @@ fn a_skipped_hour_is_an_error_only_where_a_row_falls_in_it() {
 enum Column {
     /// Timestamps, ns, UTC-adjusted.
     Time(Vec<i64>),
+    /// Local timestamps, ms: wall-clock times stored as if they were UTC.
+    LocalTime(Vec<i64>),
     /// Doubles, `None` a null.
     Double(Vec<Option<f64>>),
     /// Strings, `None` a null.
@@ -448,6 +450,14 @@ impl Column {
                 Some(LogicalType::Timestamp {
                     is_adjusted_to_u_t_c: true,
                     unit: TimeUnit::NANOS,
+                }),
+                Repetition::REQUIRED,
+            ),
+            Column::LocalTime(_) => (
+                Physical::INT64,
+                Some(LogicalType::Timestamp {
+                    is_adjusted_to_u_t_c: false,
+                    unit: TimeUnit::MILLIS,
                 }),
                 Repetition::REQUIRED,
             ),
@@ -494,7 +504,7 @@ fn write_parquet(
     );
     let mut writer = SerializedFileWriter::new(File::create(path).unwrap(), schema, props).unwrap();
     let rows = match &columns[0].1 {
-        Column::Time(v) => v.len(),
+        Column::Time(v) | Column::LocalTime(v) => v.len(),
         Column::Text(v) => v.len(),
         _ => unreachable!(),
     };
@@ -504,7 +514,7 @@ fn write_parquet(
         for (_, column) in columns {
             let mut w = row_group.next_column().unwrap().unwrap();
             match column {
-                Column::Time(v) => {
+                Column::Time(v) | Column::LocalTime(v) => {
                     w.typed::<Int64Type>()
                         .write_batch(&v[range.clone()], None, None)
                         .unwrap();
@@ -689,4 +699,60 @@ fn parquet_tables_wide_and_long_import_as_the_text_export() {
         "{err}"
     );
     assert!(!d.join("cut.mcap").exists());
+}
+
+#[test]
+fn parquet_local_timestamps_cross_the_clock_change() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    // Wall-clock times of 2023-10-29 in Zurich, stored as local timestamps (ms):
+    // 02:30 and 02:59 in the first pass, 02:10 in the second, then 03:00.
+    // 03:00 on the wall is 01:00Z + 2 h as if UTC.
+    let wall_ms = |h: i64, m: i64| (FALL_BACK_S as i64 + (h - 1) * 3600 + m * 60) * 1000;
+    let times = vec![
+        wall_ms(2, 30),
+        wall_ms(2, 59),
+        wall_ms(2, 10),
+        wall_ms(3, 0),
+    ];
+    let columns = vec![
+        ("Zeit".to_owned(), Column::LocalTime(times)),
+        (
+            "T".to_owned(),
+            Column::Double(vec![Some(20.0), Some(21.0), None, Some(22.0)]),
+        ),
+    ];
+    write_parquet(&d.join("local.parquet"), &columns, Compression::SNAPPY, 2);
+    let map = "[time]\ncolumn = \"Zeit\"\nzone = \"Europe/Zurich\"\n[[column]]\ncolumn = \"T\"\nchannel = \"T\"\nunit = \"degC\"\n";
+    std::fs::write(d.join("map.toml"), map).unwrap();
+    let out = heatrun_ok(
+        &[
+            "import",
+            "local.parquet",
+            "--map",
+            "map.toml",
+            "--out",
+            "local.mcap",
+        ],
+        d,
+    );
+    let said = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        said.contains("+02:00 to +01:00: the repeated hour resolved by row order (2 rows in its first pass, 1 in its second)"),
+        "{said}"
+    );
+    // 02:30 +02:00, 02:59 +02:00, (02:10 +01:00 missing), 03:00 +01:00.
+    let got: Vec<u64> = samples(&d.join("local.mcap"))["/scada/T"]
+        .iter()
+        .map(|(t, _)| *t)
+        .collect();
+    let utc = |s: u64| s * S;
+    assert_eq!(
+        got,
+        [
+            utc(FALL_BACK_S - 1800),
+            utc(FALL_BACK_S - 60),
+            utc(FALL_BACK_S + 3600)
+        ]
+    );
 }

@@ -1,22 +1,28 @@
-//! Importing tables (CSV, historian exports, DaISy `.dat`) into profile recordings.
+//! Importing tables (CSV, historian exports wide or long, DaISy `.dat`, Parquet) into
+//! profile recordings.
 //!
-//! Input: a delimited text table and an [`ImportMap`] that says which column holds
-//! the time and which become channels (a profile quantity or a free name, with unit,
-//! sensor, quality and storage), plus the nameplate and other metadata records.
-//! Output: a complete profile recording, written by [`crate::writer`] under a
-//! temporary name and renamed when complete.
+//! Input: a table and an [`ImportMap`] that says which column holds the time and
+//! which become channels (a profile quantity or a free name, with unit, sensor,
+//! quality and storage), plus the nameplate and other metadata records. The table is a
+//! [`source::RowSource`]: delimited text ([`table`]) or Parquet ([`parquet`], known by
+//! its magic bytes). Output: a complete profile recording, written by
+//! [`crate::writer`] under a temporary name and renamed when complete.
 //!
-//! The table streams through one row at a time. Every row becomes one message per
-//! imported column at the row's time, in the row's order; times are kept as they
-//! are (non-uniform spacing stays). An empty cell, `NaN` or one of the map's
-//! `missing` markers is a missing sample: no message is written for it. On a
-//! sampled channel the silence is then a gap, and on a channel stored by exception
-//! it is what a historian export shows between stored samples; writing nothing
-//! keeps both meanings, where a `null` dropout would say a sample was due.
+//! The table streams through one row at a time. A wide table's row becomes one
+//! message per imported column at the row's time; a long table's row (`layout =
+//! "long"`, [`long`]) one message on its tag's channel. Times are kept as they are
+//! (non-uniform spacing stays); wall-clock times in the map's zone are placed by a
+//! [`RowClock`], which resolves the hour repeated when summer time ends by the rows'
+//! order and names each change crossed in the summary and the `heatrun.import`
+//! record. An empty cell, `NaN`, a null or one of the map's `missing` markers is a
+//! missing sample: no message is written for it. On a sampled channel the silence is
+//! then a gap, and on a channel stored by exception it is what a historian export
+//! shows between stored samples; writing nothing keeps both meanings, where a `null`
+//! dropout would say a sample was due.
 //!
-//! Any malformed cell, ragged row, unreadable or backward time, or column the map
-//! names that the table lacks stops the import with one [`ImportError`] naming the
-//! file, line and column, and nothing is written.
+//! Any malformed cell, ragged row, unreadable, skipped or backward time, or column the
+//! map names that the table lacks stops the import with one [`ImportError`] naming the
+//! file, line (or row) and column, and nothing is written.
 
 mod error;
 mod guess;
@@ -173,7 +179,8 @@ fn open(input: &Path, map: &ImportMap) -> Result<Opened, ImportError> {
             fields: header.len(),
             header: Some(header),
             source: Box::new(table),
-            header_place: Place::Row(0),
+            // The schema names the columns; messages point at the first row.
+            header_place: Place::Row(1),
             decimal_comma: false,
         });
     }
@@ -342,9 +349,11 @@ impl Shape<'_> {
         if row.width() == self.fields {
             return Ok(());
         }
-        let (Place::Line(line), Place::Line(first_line)) = (row.place(), self.line) else {
-            unreachable!("only text tables have rows of their own width")
+        // Only text tables have rows of their own width; a row number serves otherwise.
+        let number = |p: Place| match p {
+            Place::Line(n) | Place::Row(n) => n,
         };
+        let (line, first_line) = (number(row.place()), number(self.line));
         Err(ImportError::RaggedRow {
             path: self.input.to_owned(),
             line,
