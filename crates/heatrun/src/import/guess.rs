@@ -55,23 +55,6 @@ pub fn guess_map(input: &Path) -> Result<String, ImportError> {
     }
     let columns = columns(header.as_deref(), &rows, width);
     let time = time_column(&columns);
-    if let Some(long) = time.and_then(|t| long_table(&columns, t, dialect.decimal_comma)) {
-        let tags = list_tags(Table::open(input, &dialect)?, dialect.header, long.tag)?;
-        let mut out = preamble(input);
-        write_input(
-            &mut out,
-            dialect.delimiter,
-            dialect.header,
-            dialect.decimal_comma,
-        );
-        out = out.replacen("[input]\n", "[input]\nlayout = \"long\"\n", 1);
-        write_long(&mut out, &columns, &long);
-        write_time(&mut out, &columns, time);
-        write_tags(&mut out, &tags);
-        write_records_help(&mut out);
-        return Ok(out);
-    }
-
     let mut out = preamble(input);
     write_input(
         &mut out,
@@ -79,10 +62,21 @@ pub fn guess_map(input: &Path) -> Result<String, ImportError> {
         dialect.header,
         dialect.decimal_comma,
     );
-    write_time(&mut out, &columns, time);
-    for (i, c) in columns.iter().enumerate() {
-        if Some(i) != time {
-            write_column(&mut out, c, i, header.is_some());
+    match time.and_then(|t| long_table(&columns, t, dialect.decimal_comma)) {
+        Some(long) => {
+            let tags = list_tags(Table::open(input, &dialect)?, dialect.header, long.tag)?;
+            out = out.replacen("[input]\n", "[input]\nlayout = \"long\"\n", 1);
+            write_long(&mut out, &columns, &long);
+            write_time(&mut out, &columns, time);
+            write_tags(&mut out, &tags);
+        }
+        None => {
+            write_time(&mut out, &columns, time);
+            for (i, c) in columns.iter().enumerate() {
+                if Some(i) != time {
+                    write_column(&mut out, c, i, header.is_some());
+                }
+            }
         }
     }
     write_records_help(&mut out);

@@ -343,27 +343,7 @@ impl ImportMap {
                 "the map imports no column: add a [[column]] table for each".into(),
             ));
         }
-        let mut topics = std::collections::BTreeSet::new();
-        for c in &columns {
-            if !topics.insert(c.channel.topic.clone()) {
-                return Err(bad(
-                    &format!("[[column]] {}", c.source),
-                    format!(
-                        "a second column becomes channel `{}`; give each a `sensor` to tell them apart",
-                        c.channel.name
-                    ),
-                ));
-            }
-        }
-        let mut sources = std::collections::BTreeSet::new();
-        for c in &columns {
-            if !sources.insert(c.source.clone()) {
-                return Err(bad(
-                    &format!("[[column]] {}", c.source),
-                    "listed twice: one [[column]] table for each".into(),
-                ));
-            }
-        }
+        check_unique(&columns, &bad)?;
         let nameplate = nameplate_record(raw.nameplate, &bad)?;
         let mut metadata = BTreeMap::new();
         for (name, record) in raw.metadata {
@@ -394,6 +374,32 @@ impl ImportMap {
 }
 
 type Bad<'a> = dyn Fn(&str, String) -> ImportError + 'a;
+
+/// Each channel once, each column or tag once.
+fn check_unique(columns: &[ColumnMap], bad: &Bad) -> Result<(), ImportError> {
+    let mut topics = std::collections::BTreeSet::new();
+    for c in columns {
+        if !topics.insert(c.channel.topic.clone()) {
+            return Err(bad(
+                &format!("[[column]] {}", c.source),
+                format!(
+                    "a second column becomes channel `{}`; give each a `sensor` to tell them apart",
+                    c.channel.name
+                ),
+            ));
+        }
+    }
+    let mut sources = std::collections::BTreeSet::new();
+    for c in columns {
+        if !sources.insert(c.source.clone()) {
+            return Err(bad(
+                &format!("[[column]] {}", c.source),
+                "listed twice: one [[column]] table for each".into(),
+            ));
+        }
+    }
+    Ok(())
+}
 
 fn input_layout(raw: RawInput, bad: &Bad) -> Result<InputLayout, ImportError> {
     let delimiter = match raw.delimiter.as_deref() {
