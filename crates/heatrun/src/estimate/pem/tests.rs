@@ -159,6 +159,7 @@ fn the_innovations_of_the_true_predictor_are_white() {
     let (gain, _) = kalman_gain(&truth.phi, sigma_w, sigma_v);
     let predictor = Predictor {
         gain,
+        disturbance: None,
         innovation_variance: vec![0.0; 2],
         initial_states: Vec::new(),
     };
