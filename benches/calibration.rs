@@ -148,7 +148,7 @@ fn main() {
         report("oe (given)", &oe, &truth_tc);
         report("pem (given)", &pem, &truth_tc);
         report(
-            "default (oe, or pem where oe's residuals are not white)",
+            "default (oe, or pem with the disturbance state where oe's residuals are not white and the likelihood ratio rejects q = 0)",
             &default,
             &truth_tc,
         );

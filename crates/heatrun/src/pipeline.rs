@@ -865,23 +865,28 @@ pub fn estimate_chosen(
     let estimate = pem
         .refine(data, &fitted.estimate, &fitted.initial_states)
         .map_err(Error::from)?;
-    let gain_entries = estimate.predictor.as_ref().map_or(0, |p| {
-        p.gain.len() + p.disturbance.as_ref().map_or(0, |d| d.gain.len())
-    });
-    let lr = crate::estimate::LikelihoodRatio::new(
-        &data.observed_counts(&segments),
-        &fitted.estimate.noise_variance,
-        &estimate.noise_variance,
-        gain_entries,
-    );
+    let counts = data.observed_counts(&segments);
+    let lr = match estimate.predictor.as_ref() {
+        Some(p) if p.disturbance.is_some() => crate::estimate::LikelihoodRatio::intensity(
+            &counts,
+            &fitted.estimate.noise_variance,
+            &estimate.noise_variance,
+        ),
+        _ => crate::estimate::LikelihoodRatio::gain(
+            &counts,
+            &fitted.estimate.noise_variance,
+            &estimate.noise_variance,
+            data.states() * data.states(),
+        ),
+    };
     let what = if estimate.predictor.as_ref().is_some_and(|p| p.disturbance.is_some()) {
-        "a random-walk disturbance into the cooling water and a process noise"
+        "a random-walk heat into the cooling water"
     } else {
         "a process noise"
     };
     if lr.rejects_zero_gain() {
         let reason = format!(
-            "oe's residuals are not white ({:.0} % of lags outside the 99 % band) and pem's innovations explain them: likelihood ratio {:.1} > {:.1} (χ² of {} degrees of freedom, 1 %): {what} the inputs do not explain",
+            "oe's residuals are not white ({:.0} % of lags outside the 99 % band) and pem's innovations explain them: likelihood ratio {:.1} > {:.1} ({} parameter(s), size 1 %): {what} the inputs do not explain",
             100.0 * worst,
             lr.statistic,
             lr.critical,
@@ -890,7 +895,7 @@ pub fn estimate_chosen(
         return Ok((estimate, Some(choice(Method::Pem, reason, Some(lr)))));
     }
     let reason = format!(
-        "oe's residuals are not white ({:.0} % of lags outside the 99 % band), but pem's gain does not pay for its {} parameters: likelihood ratio {:.1} ≤ {:.1} (χ², 1 %)",
+        "oe's residuals are not white ({:.0} % of lags outside the 99 % band), but pem's gain does not pay for its {} parameter(s): likelihood ratio {:.1} ≤ {:.1} (size 1 %)",
         100.0 * worst,
         lr.degrees_of_freedom,
         lr.statistic,

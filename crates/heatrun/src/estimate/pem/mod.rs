@@ -39,10 +39,11 @@
 //! ```
 //!
 //! d in the state's own units per sample (the rise the heat adds each step), d̂(start) = 0
-//! in each segment. k_d carries the disturbance's intensity: the walk's increments are
-//! k_d e(k), of variance k_d Λ k_dᵀ; with white sensor noise alone the optimal K_a is 0
+//! in each segment. K_a is the steady-state Kalman gain of w_d's variance q and the
+//! sensors' R, q estimated with Θ ([`disturbance`](self::disturbance)); as q → 0, K_a → 0
 //! and the predictor is `oe`'s simulation again.
 
+mod disturbance;
 mod problem;
 pub mod ratio;
 
@@ -72,20 +73,9 @@ pub struct Disturbance {
     pub state: usize,
     /// k_d (n, by output): d's row of the gain K_a.
     pub gain: Vec<f64>,
-}
-
-impl Disturbance {
-    /// The standard deviation of d's increment per sample, √(k_d Λ k_dᵀ) with Λ the
-    /// innovations' (diagonal) covariance: the disturbance's intensity, in the state's
-    /// units per sample per sample (0 when the predictor is the simulation).
-    pub fn increment_sd(&self, innovation_variance: &[f64]) -> f64 {
-        self.gain
-            .iter()
-            .zip(innovation_variance)
-            .map(|(k, v)| k * k * v)
-            .sum::<f64>()
-            .sqrt()
-    }
+    /// √q: the standard deviation of d's increment per sample, the disturbance's
+    /// intensity the gain was made from (the state's units per sample per sample).
+    pub increment_sd: f64,
 }
 
 /// The one-step predictor of an estimate: the Kalman gain and the innovations' variance.
@@ -170,15 +160,19 @@ impl Estimator for PredictionError {
 }
 
 impl PredictionError {
-    /// The prediction-error fit from `start` (Θ, with K_a = 0) and its segments' initial
-    /// states.
+    /// The prediction-error fit from `start` (Θ, with K = 0) and its segments' initial
+    /// states; with a disturbance state, its intensity searched
+    /// ([`disturbance`](self::disturbance)).
     pub fn refine(
         &self,
         data: &IdentificationData,
         start: &Estimate,
         initial_states: &[DVector<f64>],
     ) -> Result<Estimate> {
-        problem::fit(self, data, start, initial_states)
+        match self.disturbance_state.filter(|&j| j < data.states()) {
+            Some(state) => disturbance::fit(self, data, start, initial_states, state),
+            None => problem::fit(self, data, start, initial_states, &problem::GainModel::Free),
+        }
     }
 }
 

@@ -19,12 +19,29 @@ use crate::estimate::{
     Result,
 };
 
-/// The prediction-error fit of [`PredictionError::refine`].
+/// How the predictor's gain is found.
+#[derive(Debug, Clone)]
+pub(super) enum GainModel {
+    /// K (n × n) free among the parameters, x alone (white process noise).
+    Free,
+    /// K_a ((n + 1) × n) given, from the Riccati equation of a disturbance's intensity;
+    /// d enters `state`.
+    Disturbance {
+        /// The state d enters.
+        state: usize,
+        /// K_a = [K; k_d].
+        gain: DMatrix<f64>,
+    },
+}
+
+/// The prediction-error fit of [`PredictionError::refine`] with the gain `gain_model`
+/// gives: Θ and the start states (and K where it is free).
 pub(super) fn fit(
     pem: &PredictionError,
     data: &IdentificationData,
     start: &Estimate,
     initial_states: &[DVector<f64>],
+    gain_model: &GainModel,
 ) -> Result<Estimate> {
     let segments = data.segments();
     let rows_used = compared_instants(data, &segments);
@@ -40,7 +57,9 @@ pub(super) fn fit(
         ),
     };
     let mut problem = Problem::new(data, segments, &start.model, initial_states, &weights);
-    problem.set_disturbance(pem.disturbance_state.filter(|&j| j < data.states()));
+    if let GainModel::Disturbance { state, gain } = gain_model {
+        problem.fix_gain(*state, gain.clone());
+    }
     problem.progress = Some(Reporting::new(&pem.progress, pem.method().name()));
     let (problem, evaluations) = minimise(problem, pem.weights.is_some())?;
     Ok(conclude(&problem, rows_used, evaluations))
@@ -115,6 +134,7 @@ fn conclude(problem: &Problem, rows_used: usize, evaluations: usize) -> Estimate
             disturbance: problem.disturbance.map(|state| super::Disturbance {
                 state,
                 gain: problem.disturbance_gain().unwrap_or_default(),
+                increment_sd: 0.0,
             }),
             innovation_variance: noise_variance,
             initial_states: (0..problem.segments.len())
@@ -124,8 +144,9 @@ fn conclude(problem: &Problem, rows_used: usize, evaluations: usize) -> Estimate
     }
 }
 
-/// The least-squares problem LM sees: parameters [Θ; K_a (row-major: K, then d's row
-/// k_d where there is a disturbance); x̂(start) of each segment, where estimated].
+/// The least-squares problem LM sees: parameters [Θ; K (row-major) where it is free;
+/// x̂(start) of each segment, where estimated]. A given K_a ([`GainModel::Disturbance`])
+/// is held apart.
 struct Problem<'a> {
     data: &'a IdentificationData,
     segments: Vec<Range<usize>>,
@@ -139,6 +160,8 @@ struct Problem<'a> {
     n: usize,
     /// The state the disturbance d enters, where the predictor has one.
     disturbance: Option<usize>,
+    /// K_a where it is given, not fitted.
+    fixed_gain: Option<DMatrix<f64>>,
     m: usize,
     params: DVector<f64>,
     cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
@@ -185,6 +208,7 @@ impl<'a> Problem<'a> {
             sqrt_w: weights.iter().map(|v| v.max(0.0).sqrt()).collect(),
             n,
             disturbance: None,
+            fixed_gain: None,
             m,
             params: DVector::from_vec(params),
             cache: RefCell::new(None),
@@ -192,42 +216,49 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// Appends the disturbance state d entering `state` (K's row for it, 0 at the start:
-    /// the predictor starts as the simulation), before the start states.
-    fn set_disturbance(&mut self, state: Option<usize>) {
-        let Some(state) = state else { return };
+    /// Holds K_a as given (d entering `state`): K leaves the parameters.
+    fn fix_gain(&mut self, state: usize, gain: DMatrix<f64>) {
         let n = self.n;
-        let at = self.p_theta() + n * n;
+        let at = self.p_theta();
         let mut params: Vec<f64> = self.params.iter().copied().collect();
-        params.splice(at..at, std::iter::repeat_n(0.0, n));
+        params.drain(at..at + n * n);
         self.params = DVector::from_vec(params);
         for x0 in self.x0_at.iter_mut().flatten() {
-            *x0 += n;
+            *x0 -= n * n;
         }
         self.disturbance = Some(state);
+        self.fixed_gain = Some(gain);
     }
 
-    /// The predictor's states: x, and d where there is a disturbance.
-    fn augmented(&self) -> usize {
-        self.n + usize::from(self.disturbance.is_some())
+    /// The columns of K among the parameters: n² where it is free, 0 where given.
+    fn gain_columns(&self) -> usize {
+        if self.fixed_gain.is_some() {
+            0
+        } else {
+            self.n * self.n
+        }
     }
 
     fn p_theta(&self) -> usize {
         self.n * (self.n + self.m)
     }
 
-    /// K_a, (n + 1) × n with a disturbance (its last row d's), else n × n.
+    /// K_a: (n + 1) × n as given with a disturbance (its last row d's), else K, n × n,
+    /// from the parameters.
     fn augmented_gain(&self) -> DMatrix<f64> {
-        let at = self.p_theta();
-        let rows = self.augmented();
-        DMatrix::from_row_slice(rows, self.n, &self.params.as_slice()[at..at + rows * self.n])
+        match &self.fixed_gain {
+            Some(k) => k.clone(),
+            None => {
+                let at = self.p_theta();
+                DMatrix::from_row_slice(self.n, self.n, &self.params.as_slice()[at..at + self.n * self.n])
+            }
+        }
     }
 
     /// d's row of K_a, where there is a disturbance.
     fn disturbance_gain(&self) -> Option<Vec<f64>> {
-        let at = self.p_theta() + self.n * self.n;
-        self.disturbance
-            .map(|_| self.params.as_slice()[at..at + self.n].to_vec())
+        let k = self.fixed_gain.as_ref()?;
+        Some(k.row(self.n).iter().copied().collect())
     }
 
     fn model(&self) -> DiscreteModel {
@@ -239,14 +270,9 @@ impl<'a> Problem<'a> {
         )
     }
 
-    /// K, n × n, from its row-major place after Θ.
+    /// K, n × n: x's rows of the gain.
     fn gain(&self) -> DMatrix<f64> {
-        let at = self.p_theta();
-        DMatrix::from_row_slice(
-            self.n,
-            self.n,
-            &self.params.as_slice()[at..at + self.n * self.n],
-        )
+        self.augmented_gain().rows(0, self.n).into_owned()
     }
 
     fn x0(&self, s: usize) -> &[f64] {
@@ -286,7 +312,7 @@ impl<'a> Problem<'a> {
         let n = self.n;
         let mut state = Filter::new(
             &self.model(),
-            &self.augmented_gain(),
+            (&self.augmented_gain(), self.fixed_gain.is_none()),
             self.disturbance,
             self.x0_at.iter().any(Option::is_some),
         );
@@ -328,34 +354,31 @@ impl<'a> Problem<'a> {
         sse
     }
 
-    /// The columns of J a segment's rows touch, increasing: Θ, K_a, the segment's
-    /// x̂(start) where it is estimated.
+    /// The columns of J a segment's rows touch, increasing: Θ, K where it is free, the
+    /// segment's x̂(start) where it is estimated.
     fn segment_columns(&self, x0_at: Option<usize>) -> impl Iterator<Item = usize> {
         let n = self.n;
-        (0..self.p_theta() + self.augmented() * n)
+        (0..self.p_theta() + self.gain_columns())
             .chain(x0_at.into_iter().flat_map(move |at| at..at + n))
     }
 
     /// Whether Φ and the predictor's Φ_a − K_a C_a (every output observed) are stable.
-    /// With d's gain row 0 the integrator d is never moved from its start 0, and its
-    /// eigenvalue 1 is no instability: the predictor is then x's alone, as `oe` (K = 0)
-    /// is the start of the fit.
     fn stable(&self) -> bool {
         use crate::thermal::matrix::spectral_radius;
         let model = self.model();
         let n = self.n;
         let k = self.augmented_gain();
-        let x_part = &model.phi - k.rows(0, n);
-        match (self.disturbance, self.disturbance_gain()) {
-            (Some(state), Some(row)) if row.iter().any(|v| *v != 0.0) => {
+        let predictor = match self.disturbance {
+            Some(state) => {
                 let mut a = augmented_phi(&model.phi, state);
                 let mut kc = DMatrix::zeros(n + 1, n + 1);
                 kc.view_mut((0, 0), (n + 1, n)).copy_from(&k);
                 a -= kc;
-                model.is_stable() && spectral_radius(&a) < 1.0
+                a
             }
-            _ => model.is_stable() && spectral_radius(&x_part) < 1.0,
-        }
+            None => &model.phi - k,
+        };
+        model.is_stable() && spectral_radius(&predictor) < 1.0
     }
 
     /// The evaluation at the current parameters, computed once per parameter vector.
@@ -404,25 +427,30 @@ struct Filter {
     /// M_k e(k): the innovation where observed, 0 where not.
     e: Vec<f64>,
     observed: Vec<bool>,
-    /// sens[q·na + c] = ∂x̂_c/∂param_q over the segment's columns (Θ, K_a, x̂(start)).
+    /// The columns of K among the parameters (n² where it is free, 0 where given).
+    gain_cols: usize,
+    /// sens[q·na + c] = ∂x̂_c/∂param_q over the segment's columns (Θ, K, x̂(start)).
     sens: Vec<f64>,
     sens_next: Vec<f64>,
 }
 
 impl Filter {
+    /// The filter of `model` with the gain `gain.0` (K_a), a parameter where `gain.1`.
     fn new(
         model: &DiscreteModel,
-        gain: &DMatrix<f64>,
+        gain: (&DMatrix<f64>, bool),
         disturbance: Option<usize>,
         with_x0: bool,
     ) -> Filter {
+        let (gain, free) = gain;
         let (n, m) = (model.phi.nrows(), model.gamma.ncols());
         let phi = match disturbance {
             Some(state) => augmented_phi(&model.phi, state),
             None => model.phi.clone(),
         };
         let na = phi.nrows();
-        let cols = n * (n + m) + na * n + if with_x0 { n } else { 0 };
+        let gain_cols = if free { n * n } else { 0 };
+        let cols = n * (n + m) + gain_cols + if with_x0 { n } else { 0 };
         let gamma = |r: usize, l: usize| if r < n { model.gamma[(r, l)] } else { 0.0 };
         Filter {
             n,
@@ -437,6 +465,7 @@ impl Filter {
             u: vec![0.0; m],
             e: vec![0.0; n],
             observed: vec![false; n],
+            gain_cols,
             sens: vec![0.0; cols * na],
             sens_next: vec![0.0; cols * na],
         }
@@ -460,7 +489,7 @@ impl Filter {
 
     /// The first column of x̂(start) among the segment's columns.
     fn x0_column(&self) -> usize {
-        self.n * (self.n + self.m) + self.na * self.n
+        self.n * (self.n + self.m) + self.gain_cols
     }
 
     /// e(k) = y(k) − x̂(k) where observed (0 where not), and u(k).
@@ -478,8 +507,8 @@ impl Filter {
         }
     }
 
-    /// ∂x̂_a(k+1)/∂θ = (Φ_a − K_a M_k C_a) ∂x̂_a(k)/∂θ + the direct terms: e_i φ_j(k) for
-    /// Θ_ij (φ = [x̂ᵀ uᵀ]ᵀ), (M_k e)_j for K_a's entry (i, j) in row i, none for
+    /// ∂x̂_a(k+1)/∂θ = (Φ_a − K_a M_k C_a) ∂x̂_a(k)/∂θ + the direct terms: φ_j(k) in row
+    /// i for Θ_ij (φ = [x̂ᵀ uᵀ]ᵀ), (M_k e)_j in row i for a free K_ij, none for
     /// x̂(start); before [`Filter::step`].
     fn propagate_sensitivities(&mut self, with_x0: bool) {
         let (n, na, p) = (self.n, self.na, self.n + self.m);
@@ -506,7 +535,7 @@ impl Filter {
             if q < p_theta {
                 let (i, j) = (q / p, q % p);
                 self.sens_next[q * na + i] += if j < n { self.x[j] } else { self.u[j - n] };
-            } else if q < p_theta + na * n {
+            } else if q < p_theta + self.gain_cols {
                 let (i, j) = ((q - p_theta) / n, (q - p_theta) % n);
                 self.sens_next[q * na + i] += self.e[j];
             }

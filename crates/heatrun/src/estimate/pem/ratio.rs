@@ -9,9 +9,11 @@
 //! LR = 2 (ln L_pem − ln L_oe) = Σ_c N_c ln(σ̂²_oe,c / σ̂²_pem,c)
 //! ```
 //!
-//! is χ² with as many degrees of freedom as K_a has entries where K_a = 0 is the truth
-//! (Wilks), and grows with the record where it is not. The gain is taken as real where
-//! LR exceeds χ²'s 1 − α quantile: a test of size α, whatever the run's length.
+//! grows with the record where the gain is real. Where K = 0 is the truth it is χ² with as
+//! many degrees of freedom as a free K has entries (Wilks); for a disturbance's
+//! intensity q ≥ 0, one parameter on the boundary of its range, it is ½χ²₀ + ½χ²₁ (Self
+//! and Liang 1987), whose 1 − α quantile is z²₁₋α. The gain is taken as real where LR
+//! exceeds that critical value: a test of size α, whatever the run's length.
 
 /// The test's size α: the probability of taking `pem` where the sensors' noise is all
 /// there is.
@@ -32,23 +34,29 @@ pub struct LikelihoodRatio {
 }
 
 impl LikelihoodRatio {
-    /// LR from each output's observed entries N_c and the two fits' noise variances per
-    /// output (SSE_c / N_c: `oe`'s simulation errors, `pem`'s innovations).
-    pub fn new(
+    /// LR of a free gain of `degrees_of_freedom` entries, from each output's observed
+    /// entries N_c and the two fits' noise variances per output (SSE_c / N_c: `oe`'s
+    /// simulation errors, `pem`'s innovations); critical value χ²'s 0.99 quantile.
+    pub fn gain(
         counts: &[usize],
         oe_variance: &[f64],
         pem_variance: &[f64],
         degrees_of_freedom: usize,
     ) -> LikelihoodRatio {
-        let statistic = counts
-            .iter()
-            .zip(oe_variance.iter().zip(pem_variance))
-            .map(|(n, (oe, pem))| *n as f64 * (oe.max(1e-300) / pem.max(1e-300)).ln())
-            .sum();
         LikelihoodRatio {
-            statistic,
+            statistic: statistic(counts, oe_variance, pem_variance),
             degrees_of_freedom,
             critical: chi_square_quantile_99(degrees_of_freedom),
+        }
+    }
+
+    /// LR of a disturbance's intensity q ≥ 0 against 0 (one parameter on its boundary):
+    /// critical value z₀.₉₉² = 5.41.
+    pub fn intensity(counts: &[usize], oe_variance: &[f64], pem_variance: &[f64]) -> LikelihoodRatio {
+        LikelihoodRatio {
+            statistic: statistic(counts, oe_variance, pem_variance),
+            degrees_of_freedom: 1,
+            critical: Z_99 * Z_99,
         }
     }
 
@@ -56,6 +64,15 @@ impl LikelihoodRatio {
     pub fn rejects_zero_gain(&self) -> bool {
         self.statistic > self.critical
     }
+}
+
+/// Σ_c N_c ln(σ̂²_oe,c / σ̂²_pem,c).
+fn statistic(counts: &[usize], oe_variance: &[f64], pem_variance: &[f64]) -> f64 {
+    counts
+        .iter()
+        .zip(oe_variance.iter().zip(pem_variance))
+        .map(|(n, (oe, pem))| *n as f64 * (oe.max(1e-300) / pem.max(1e-300)).ln())
+        .sum()
 }
 
 /// χ²_ν's 0.99 quantile by Wilson and Hilferty's cube-root normal approximation,
@@ -82,12 +99,16 @@ mod tests {
 
     #[test]
     fn equal_fits_give_zero_and_a_better_predictor_a_large_ratio() {
-        let lr = LikelihoodRatio::new(&[1000, 1000], &[1.0, 2.0], &[1.0, 2.0], 6);
+        let lr = LikelihoodRatio::gain(&[1000, 1000], &[1.0, 2.0], &[1.0, 2.0], 6);
         assert_eq!(lr.statistic, 0.0);
         assert!(!lr.rejects_zero_gain());
         // 1 % less variance on 10,000 entries: 10⁴·ln(1/0.99) ≈ 100.5.
-        let lr = LikelihoodRatio::new(&[10_000], &[1.0], &[0.99], 6);
+        let lr = LikelihoodRatio::gain(&[10_000], &[1.0], &[0.99], 6);
         assert!((lr.statistic - 100.503).abs() < 0.01, "{}", lr.statistic);
         assert!(lr.rejects_zero_gain());
+        // The boundary's critical value: P(½χ²₁ > 5.41) = 0.01 (χ²₁'s 0.98 quantile 5.412).
+        let lr = LikelihoodRatio::intensity(&[10_000], &[1.0], &[0.9995]);
+        assert!((lr.critical - 5.412).abs() < 0.001);
+        assert!(lr.rejects_zero_gain() == (lr.statistic > 5.412));
     }
 }

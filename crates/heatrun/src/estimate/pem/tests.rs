@@ -173,3 +173,45 @@ fn the_innovations_of_the_true_predictor_are_white() {
     let res = crate::model::residuals::analyse(&data, &simulated, 60);
     assert!(res.autocorrelation_outside_band.iter().all(|v| *v > 0.5));
 }
+
+/// Outputs of the two-state model with a random walk d entering state `state`,
+/// x(k+1) = Φ x + Γ u + e_state d(k), d(k+1) = d(k) + σ_d ε, and white sensor noise σ_v.
+fn walk_run(len: usize, sigma_d: f64, sigma_v: f64, state: usize, seed: u64) -> IdentificationData {
+    let truth = two_state_model();
+    let u = step_inputs(len, 2, seed);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed + 2000);
+    let (w, v) = (
+        Normal::new(0.0, sigma_d).unwrap(),
+        Normal::new(0.0, sigma_v).unwrap(),
+    );
+    let mut x = DVector::from_column_slice(&[0.5, 0.2]);
+    let mut d = 0.0;
+    let mut y = DMatrix::zeros(len, 2);
+    for k in 0..len {
+        for c in 0..2 {
+            y[(k, c)] = x[c] + v.sample(&mut rng);
+        }
+        x = &truth.phi * &x + &truth.gamma * u.row(k).transpose();
+        x[state] += d;
+        d += w.sample(&mut rng);
+    }
+    IdentificationData::complete(1.0, y, u)
+}
+
+#[test]
+fn a_random_walk_disturbance_is_taken_up_by_its_state_where_oe_is_biased() {
+    let truth = two_state_model();
+    let data = walk_run(20_000, 2e-4, 0.02, 1, 61);
+    let oe = OutputError::default().estimate(&data).unwrap();
+    let pem = PredictionError {
+        disturbance_state: Some(1),
+        ..PredictionError::default()
+    }
+    .estimate(&data)
+    .unwrap();
+    let predictor = pem.predictor.as_ref().unwrap();
+    let d = predictor.disturbance.as_ref().expect("a disturbance state");
+    eprintln!("K = {} k_d = {:?}", predictor.gain, d.gain);
+    eprintln!("oe {:?}\npem {:?}\ntruth {:?}", oe.model.theta(), pem.model.theta(), truth.theta());
+    eprintln!("oe outside {} pem outside {}", outside(&oe, &truth, 3.0), outside(&pem, &truth, 3.0));
+}
