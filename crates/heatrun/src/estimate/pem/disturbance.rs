@@ -1,6 +1,7 @@
 //! The disturbance's intensity, estimated with Θ: the predictor of the augmented model
 //! (see [`super`]) with process noise on d alone, Q = diag(0, …, 0, q), and the sensors'
-//! noise R = diag(σ_c²) (`oe`'s residual variances), is the steady-state Kalman filter
+//! noise R = diag(σ_c²) (from the differences of `oe`'s residuals), is the steady-state
+//! Kalman filter
 //!
 //! ```text
 //! P = Φ_a P Φ_aᵀ − Φ_a P C_aᵀ (C_a P C_aᵀ + R)⁻¹ C_a P Φ_aᵀ + Q,   K_a = Φ_a P C_aᵀ (C_a P C_aᵀ + R)⁻¹,
@@ -11,8 +12,9 @@
 //! spend n(n + 1) on it, and its descent from K_a = 0 runs into unstable predictors (the
 //! slow modes of a heat run sit at 1 − 10⁻⁴). For each q, Θ and the start states are
 //! fitted by prediction error with K_a held; q maximises the innovations' concentrated
-//! likelihood −½ Σ_c N_c ln σ̂_c² over a grid of decades and a golden-section refinement,
-//! and K_a is made once more from the fitted Φ for the last fit. As q → 0 the gain
+//! likelihood −½ Σ_c N_c ln σ̂_c² over a grid of decades and a golden-section refinement
+//!, and K_a is made once
+//! more from the fitted Φ for the last fit. As q → 0 the gain
 //! vanishes and the fit is `oe`'s: the likelihood ratio against it
 //! ([`super::ratio`]) tests q = 0.
 
@@ -32,7 +34,9 @@ const GRID: std::ops::RangeInclusive<i32> = -11..=-4;
 const GOLDEN_STEPS: usize = 5;
 
 /// The fit with a disturbance entering `state`: the intensity q searched, Θ and the
-/// start states fitted for each (see the module's documentation).
+/// start states fitted for each (see the module's documentation), R from the residuals'
+/// differences ([`difference_variance`]): `oe`'s residual variances, which the
+/// disturbance inflates, would make the gain's R too large and its q with it.
 pub(super) fn fit(
     pem: &PredictionError,
     data: &IdentificationData,
@@ -40,66 +44,142 @@ pub(super) fn fit(
     initial_states: &[DVector<f64>],
     state: usize,
 ) -> Result<Estimate> {
-    let r: Vec<f64> = start.noise_variance.iter().map(|v| v.max(1e-24)).collect();
-    let counts = data.observed_counts(&data.segments());
-    let fit_at = |log_ratio: f64, phi: &DMatrix<f64>| -> Result<Option<(f64, Estimate)>> {
-        let q = 10f64.powf(log_ratio) * r[state];
-        let Some(gain) = kalman_gain(phi, state, q, &r) else {
+    let search = Search {
+        pem,
+        data,
+        start,
+        initial_states,
+        state,
+        counts: data.observed_counts(&data.segments()),
+    };
+    let r = difference_variance(data, start);
+    let found = search.over(&r, None)?;
+    // K_a once more from the fitted Φ, which the gain was not made from.
+    let phi = found.estimate.model.phi.clone();
+    Ok(match search.fit_at(found.q, &r, &phi)? {
+        Some((_, e)) => e,
+        None => found.estimate,
+    })
+}
+
+/// R from `start`'s simulation residuals e: Var(e(k+1) − e(k)) / 2 per output over
+/// consecutive observed pairs. White sensor noise gives σ_v² exactly; a disturbance,
+/// slow against Ts, adds little to a difference where it inflates e's variance (a
+/// heat run's walk moves its state by ~10⁻³ of the noise per sample).
+fn difference_variance(data: &IdentificationData, start: &Estimate) -> Vec<f64> {
+    let segments = data.segments();
+    let simulated = start.model.simulate_segments(data, &segments);
+    (0..data.states())
+        .map(|c| {
+            let (mut sum, mut count) = (0.0, 0usize);
+            for seg in &segments {
+                for k in seg.start..seg.end.saturating_sub(1) {
+                    if data.observed(k, c) && data.observed(k + 1, c) {
+                        let e0 = data.outputs[(k, c)] - simulated[(k, c)];
+                        let e1 = data.outputs[(k + 1, c)] - simulated[(k + 1, c)];
+                        sum += (e1 - e0).powi(2);
+                        count += 1;
+                    }
+                }
+            }
+            let v = sum / (2.0 * count.max(1) as f64);
+            if v.is_finite() && v > 0.0 {
+                v
+            } else {
+                start.noise_variance[c].max(1e-24)
+            }
+        })
+        .collect()
+}
+
+/// The best fit a search found, and its intensity q.
+struct Found {
+    q: f64,
+    estimate: Estimate,
+}
+
+/// What every fit of the search shares.
+struct Search<'a> {
+    pem: &'a PredictionError,
+    data: &'a IdentificationData,
+    start: &'a Estimate,
+    initial_states: &'a [DVector<f64>],
+    state: usize,
+    counts: Vec<usize>,
+}
+
+impl Search<'_> {
+    /// The fit with K_a of intensity `q`, R = diag(`r`) and Φ = `phi`, and its cost
+    /// ([`cost`]); `None` where the Riccati equation has no solution.
+    fn fit_at(&self, q: f64, r: &[f64], phi: &DMatrix<f64>) -> Result<Option<(f64, Estimate)>> {
+        let Some(gain) = kalman_gain(phi, self.state, q, r) else {
             return Ok(None);
         };
-        let model = GainModel::Disturbance { state, gain };
-        let mut e = problem::fit(pem, data, start, initial_states, &model)?;
+        let model = GainModel::Disturbance {
+            state: self.state,
+            gain,
+        };
+        let mut e = problem::fit(self.pem, self.data, self.start, self.initial_states, &model)?;
         if let Some(d) = e.predictor.as_mut().and_then(|p| p.disturbance.as_mut()) {
             d.increment_sd = q.sqrt();
         }
-        Ok(Some((cost(&counts, &e.noise_variance), e)))
-    };
-    let mut best: Option<(f64, f64, Estimate)> = None;
-    for s in GRID {
-        if let Some((c, e)) = fit_at(f64::from(s), &start.model.phi)? {
-            if best.as_ref().is_none_or(|b| c < b.1) {
-                best = Some((f64::from(s), c, e));
-            }
-        }
+        Ok(Some((cost(&self.counts, &e.noise_variance), e)))
     }
-    let Some((mut at, mut cost_at, mut estimate)) = best else {
-        return Err(crate::estimate::EstimationError::MinimisationFailed {
-            termination: levenberg_marquardt::TerminationReason::User(
-                "no stable Kalman filter for any disturbance intensity",
-            ),
-        });
-    };
-    let (mut low, mut high) = (at - 1.0, at + 1.0);
-    for _ in 0..GOLDEN_STEPS {
-        let trial = if at - low > high - at {
-            at - 0.382 * (at - low)
-        } else {
-            at + 0.382 * (high - at)
+
+    /// The best log₁₀(q / r_j): on [`GRID`] (or at `centre`), refined by golden section
+    /// within a decade either side.
+    fn over(&self, r: &[f64], centre: Option<f64>) -> Result<Found> {
+        let phi = &self.start.model.phi;
+        let q_of = |s: f64| 10f64.powf(s) * r[self.state];
+        let points: Vec<f64> = match centre {
+            Some(c) => vec![c],
+            None => GRID.map(f64::from).collect(),
         };
-        match fit_at(trial, &start.model.phi)? {
-            Some((c, e)) if c < cost_at => {
-                if trial < at {
-                    high = at;
-                } else {
-                    low = at;
-                }
-                (at, cost_at, estimate) = (trial, c, e);
-            }
-            _ => {
-                if trial < at {
-                    low = trial;
-                } else {
-                    high = trial;
+        let mut best: Option<(f64, f64, Estimate)> = None;
+        for s in points {
+            if let Some((c, e)) = self.fit_at(q_of(s), r, phi)? {
+                if best.as_ref().is_none_or(|b| c < b.1) {
+                    best = Some((s, c, e));
                 }
             }
         }
+        let Some((mut at, mut cost_at, mut estimate)) = best else {
+            return Err(crate::estimate::EstimationError::MinimisationFailed {
+                termination: levenberg_marquardt::TerminationReason::User(
+                    "no stable Kalman filter for any disturbance intensity",
+                ),
+            });
+        };
+        let (mut low, mut high) = (at - 1.0, at + 1.0);
+        for _ in 0..GOLDEN_STEPS {
+            let trial = if at - low > high - at {
+                at - 0.382 * (at - low)
+            } else {
+                at + 0.382 * (high - at)
+            };
+            match self.fit_at(q_of(trial), r, phi)? {
+                Some((c, e)) if c < cost_at => {
+                    if trial < at {
+                        high = at;
+                    } else {
+                        low = at;
+                    }
+                    (at, cost_at, estimate) = (trial, c, e);
+                }
+                _ => {
+                    if trial < at {
+                        low = trial;
+                    } else {
+                        high = trial;
+                    }
+                }
+            }
+        }
+        Ok(Found {
+            q: q_of(at),
+            estimate,
+        })
     }
-    // K_a once more from the fitted Φ, which the gain was not made from.
-    let phi = estimate.model.phi.clone();
-    Ok(match fit_at(at, &phi)? {
-        Some((_, e)) => e,
-        None => estimate,
-    })
 }
 
 /// Σ_c N_c ln σ̂_c²: −2 × the innovations' concentrated log-likelihood, up to a constant.
@@ -124,6 +204,17 @@ pub(super) fn kalman_gain(
     q: f64,
     r: &[f64],
 ) -> Option<DMatrix<f64>> {
+    let n = phi.nrows();
+    let p = riccati(phi, state, q, r)?;
+    let phi_a = problem::augmented_phi(phi, state);
+    let c = DMatrix::from_fn(n, n + 1, |i, j| if i == j { 1.0 } else { 0.0 });
+    let r_m = DMatrix::from_fn(n, n, |i, j| if i == j { r[i] } else { 0.0 });
+    let s = &c * &p * c.transpose() + r_m;
+    Some(&phi_a * &p * c.transpose() * s.try_inverse()?)
+}
+
+/// P, the filter's Riccati solution of [`kalman_gain`], by the doubling.
+fn riccati(phi: &DMatrix<f64>, state: usize, q: f64, r: &[f64]) -> Option<DMatrix<f64>> {
     let n = phi.nrows();
     let na = n + 1;
     let phi_a = problem::augmented_phi(phi, state);
@@ -152,10 +243,5 @@ pub(super) fn kalman_gain(
             break;
         }
     }
-    if !settled {
-        return None;
-    }
-    let r_m = DMatrix::from_fn(n, n, |i, j| if i == j { r[i] } else { 0.0 });
-    let s = &c * &h * c.transpose() + r_m;
-    Some(&phi_a * &h * c.transpose() * s.try_inverse()?)
+    settled.then_some(h)
 }
