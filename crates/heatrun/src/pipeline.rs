@@ -796,7 +796,8 @@ pub const EXACT_FIT_RMS_K: f64 = 1e-6;
 /// The state a disturbance enters where the model has one: the cooling water's, where an
 /// unmeasured heat (a valve, the air circuit, a neighbour) arrives.
 pub fn disturbance_state(model: &ModelDescription) -> Option<usize> {
-    let outlet = crate::recording::Signal::Profile(crate::recording::Quantity::CoolingWaterOutletTemp);
+    let outlet =
+        crate::recording::Signal::Profile(crate::recording::Quantity::CoolingWaterOutletTemp);
     model.states.iter().position(|s| s.channel == outlet)
 }
 
@@ -879,7 +880,11 @@ pub fn estimate_chosen(
             data.states() * data.states(),
         ),
     };
-    let what = if estimate.predictor.as_ref().is_some_and(|p| p.disturbance.is_some()) {
+    let what = if estimate
+        .predictor
+        .as_ref()
+        .is_some_and(|p| p.disturbance.is_some())
+    {
         "a random-walk heat into the cooling water"
     } else {
         "a process noise"
@@ -1084,7 +1089,13 @@ mod tests {
         };
         let chosen = run(true);
         assert_eq!(chosen.estimate.method, Method::Pem);
-        let d = chosen.estimate.predictor.as_ref().unwrap().disturbance.as_ref();
+        let d = chosen
+            .estimate
+            .predictor
+            .as_ref()
+            .unwrap()
+            .disturbance
+            .as_ref();
         assert_eq!(d.map(|d| d.state), Some(2), "the cooling water's node");
         let z = off_by_sigmas(&chosen);
         assert!(z.iter().all(|z| *z < 3.0), "pem: {z:?} σ");
@@ -1093,10 +1104,17 @@ mod tests {
         for (j, rise) in truth.steady_state_rise_k.iter().enumerate() {
             let predicted = refs[j] + base * chosen.analysis.steady_state[j];
             let error = predicted - truth.coolant.inlet_initial_c - rise;
-            assert!(error.abs() < 1.0, "state {j}: steady state off by {error} K");
+            assert!(
+                error.abs() < 1.0,
+                "state {j}: steady state off by {error} K"
+            );
         }
         let oe = run(false);
         assert_eq!(oe.estimate.method, Method::Oe);
-        assert!(off_by_sigmas(&oe)[2] > 3.0, "oe: {:?} σ", off_by_sigmas(&oe));
+        assert!(
+            off_by_sigmas(&oe)[2] > 3.0,
+            "oe: {:?} σ",
+            off_by_sigmas(&oe)
+        );
     }
 }

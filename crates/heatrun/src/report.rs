@@ -11,9 +11,9 @@ use nalgebra::DMatrix;
 
 use crate::losses::FieldTemperatureSource;
 use crate::model_file::document::{
-    AssignmentEntry, BesideEntry, ChannelEntry, DisturbanceEntry, EstimationEntry, EstimatorChoiceEntry,
-    FieldFromStator, FitEntry, GapsEntry, InletSteadyState, InputGapsEntry, LeftOutEntry,
-    NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry, UncertaintyEntry,
+    AssignmentEntry, BesideEntry, ChannelEntry, DisturbanceEntry, EstimationEntry,
+    EstimatorChoiceEntry, FieldFromStator, FitEntry, GapsEntry, InletSteadyState, InputGapsEntry,
+    LeftOutEntry, NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry, UncertaintyEntry,
     UnobservedEntry, ValidationEntry,
 };
 use crate::model_file::document::{HiddenCandidateEntry, HiddenEntry};
@@ -460,7 +460,11 @@ impl Report {
                 .as_ref()
                 .and_then(|p| p.disturbance.as_ref())
                 .map(|d| DisturbanceEntry {
-                    state: r.signals.states.get(d.state).map_or_else(String::new, |s| s.name.clone()),
+                    state: r
+                        .signals
+                        .states
+                        .get(d.state)
+                        .map_or_else(String::new, |s| s.name.clone()),
                     gain: d.gain.clone(),
                     increment_sd_k: d.increment_sd * r.signals.temperature_base_k,
                 }),

@@ -128,7 +128,12 @@ impl Predictor {
                 let mut next = &model.phi * &x + &model.gamma * u + &self.gain * &e;
                 if let Some(dist) = &self.disturbance {
                     next[dist.state] += d;
-                    d += dist.gain.iter().zip(e.iter()).map(|(k, e)| k * e).sum::<f64>();
+                    d += dist
+                        .gain
+                        .iter()
+                        .zip(e.iter())
+                        .map(|(k, e)| k * e)
+                        .sum::<f64>();
                 }
                 x = next;
             }

@@ -250,7 +250,11 @@ impl<'a> Problem<'a> {
             Some(k) => k.clone(),
             None => {
                 let at = self.p_theta();
-                DMatrix::from_row_slice(self.n, self.n, &self.params.as_slice()[at..at + self.n * self.n])
+                DMatrix::from_row_slice(
+                    self.n,
+                    self.n,
+                    &self.params.as_slice()[at..at + self.n * self.n],
+                )
             }
         }
     }

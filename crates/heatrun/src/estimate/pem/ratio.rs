@@ -52,7 +52,11 @@ impl LikelihoodRatio {
 
     /// LR of a disturbance's intensity q ≥ 0 against 0 (one parameter on its boundary):
     /// critical value z₀.₉₉² = 5.41.
-    pub fn intensity(counts: &[usize], oe_variance: &[f64], pem_variance: &[f64]) -> LikelihoodRatio {
+    pub fn intensity(
+        counts: &[usize],
+        oe_variance: &[f64],
+        pem_variance: &[f64],
+    ) -> LikelihoodRatio {
         LikelihoodRatio {
             statistic: statistic(counts, oe_variance, pem_variance),
             degrees_of_freedom: 1,
@@ -91,9 +95,18 @@ mod tests {
     /// Published χ² 0.99 quantiles (Abramowitz & Stegun, table 26.8).
     #[test]
     fn the_quantile_is_the_tables_within_half_a_percent() {
-        for (nu, table) in [(3, 11.345), (6, 16.812), (12, 26.217), (20, 37.566), (30, 50.892)] {
+        for (nu, table) in [
+            (3, 11.345),
+            (6, 16.812),
+            (12, 26.217),
+            (20, 37.566),
+            (30, 50.892),
+        ] {
             let q = chi_square_quantile_99(nu);
-            assert!((q / table - 1.0).abs() < 0.005, "ν {nu}: {q} against {table}");
+            assert!(
+                (q / table - 1.0).abs() < 0.005,
+                "ν {nu}: {q} against {table}"
+            );
         }
     }
 

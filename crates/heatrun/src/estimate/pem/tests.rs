@@ -254,5 +254,8 @@ fn the_doubling_solves_the_filters_riccati_equation_as_its_recursion_does() {
     let s = (&c * &p * c.transpose() + &rm).try_inverse().unwrap();
     let reference = &phi_a * &p * c.transpose() * s;
     assert!((&k - &reference).amax() < 1e-9, "{k} against {reference}");
-    assert!(reference[(2, 0)] > 0.01, "the walk's gain matters: {reference}");
+    assert!(
+        reference[(2, 0)] > 0.01,
+        "the walk's gain matters: {reference}"
+    );
 }
