@@ -801,8 +801,9 @@ pub fn disturbance_state(model: &ModelDescription) -> Option<usize> {
     model.states.iter().position(|s| s.channel == outlet)
 }
 
-/// The estimate of `options.method`, or, where the method is `oe` and the replay is to
-/// choose ([`ReplayOptions::choose_estimator`]), the choice between `oe` and `pem`:
+/// The estimate of `options.method`, or, where the method is `oe`, the replay is to
+/// choose ([`ReplayOptions::choose_estimator`]) and the model has a cooling-water state
+/// ([`disturbance_state`]), the choice between `oe` and `pem` with the disturbance state:
 /// `oe`'s fit; `oe` kept where it reproduces the data ([`EXACT_FIT_RMS_K`]) or its
 /// simulation residuals are white (the sensors' noise is all there is; `pem` would cost
 /// a second fit for nothing); else `pem` from that fit, taken where the likelihood ratio
@@ -816,9 +817,16 @@ pub fn estimate_chosen(
     options: &ReplayOptions,
     scaling: network::Scaling,
 ) -> Result<(Estimate, Option<EstimatorChoice>)> {
+    // Without a cooling-water state there is no disturbance state to offer: a free gain
+    // (white process noise) was measured worse than `oe` on a wandering heat, so such a
+    // model keeps `oe`.
+    let Some(state) = disturbance_state(&options.model) else {
+        return Ok((estimate_in(data, options, scaling)?, None));
+    };
     if !options.choose_estimator
         || options.method != Method::Oe
         || crate::estimate::oe::censored::applies(data)
+        || state >= data.states()
     {
         return Ok((estimate_in(data, options, scaling)?, None));
     }
@@ -861,7 +869,7 @@ pub fn estimate_chosen(
     let pem = PredictionError {
         weights: options.weights.clone(),
         progress: options.progress.clone(),
-        disturbance_state: disturbance_state(&options.model),
+        disturbance_state: Some(state),
     };
     let estimate = pem
         .refine(data, &fitted.estimate, &fitted.initial_states)
@@ -1007,8 +1015,12 @@ mod tests {
     #[test]
     fn the_default_keeps_oe_on_white_residuals_and_takes_pem_where_they_are_not() {
         let (white, disturbed) = runs();
+        // Two states, the first the cooling water's (where the walk enters).
+        let mut model = ModelDescription::generator();
+        model.states = vec![model.states[2].clone(), model.states[1].clone()];
         let options = ReplayOptions {
             choose_estimator: true,
+            model: model.clone(),
             ..ReplayOptions::default()
         };
         let (e, choice) = estimate_chosen(&white, &options, network::Scaling::PHYSICAL).unwrap();
@@ -1032,11 +1044,27 @@ mod tests {
             "{}",
             choice.reason
         );
-        assert!(e.predictor.is_some());
+        let d = e.predictor.as_ref().and_then(|p| p.disturbance.as_ref());
+        assert_eq!(d.map(|d| d.state), Some(0), "the walk's state");
         let lr = choice.likelihood_ratio.expect("pem was tested against oe");
         assert!(lr.rejects_zero_gain() && lr.statistic > lr.critical);
+        // Without a cooling-water state the default keeps oe and does not choose.
+        let mut dry = ModelDescription::generator();
+        dry.states.truncate(2);
+        let no_water = ReplayOptions {
+            choose_estimator: true,
+            model: dry,
+            ..ReplayOptions::default()
+        };
+        let (e, choice) =
+            estimate_chosen(&disturbed, &no_water, network::Scaling::PHYSICAL).unwrap();
+        assert_eq!(e.method, Method::Oe);
+        assert!(choice.is_none());
         // A method given is run as given, whatever the residuals.
-        let given = ReplayOptions::default();
+        let given = ReplayOptions {
+            model,
+            ..ReplayOptions::default()
+        };
         let (e, choice) = estimate_chosen(&disturbed, &given, network::Scaling::PHYSICAL).unwrap();
         assert_eq!(e.method, Method::Oe);
         assert!(choice.is_none());
