@@ -356,12 +356,11 @@ fn library_options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
         ts_s: args.ts.or(model.sample_time_s).unwrap_or(1.0),
         machine: args.machine.clone(),
         method,
-        // The default stays oe: pem (a white process noise, no disturbance state) was
-        // measured worse than oe on a random-walk heat into the cooling water (T1's bias
-        // +32 % against +12 % at 30 kW/√h over 6 seeds, `benches/calibration.rs`) and
-        // equal on white noise, so the choice is not switched on until the model has a
-        // random-walk disturbance state.
-        choose_estimator: false,
+        // Neither the flag nor the spec names a method: oe, or pem with the disturbance
+        // state where oe's residuals are not white and the likelihood ratio rejects a zero
+        // intensity (pipeline::estimate_chosen; measured in benches/calibration.rs and
+        // docs/src/validation/unmeasured-heat.md).
+        choose_estimator: args.method.is_none() && model.method.is_none(),
         weights: args.weights.clone(),
         forgetting: args.forgetting,
         validation: match (&args.holdout, &args.split_at, &args.validate) {

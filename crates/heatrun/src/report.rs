@@ -11,9 +11,9 @@ use nalgebra::DMatrix;
 
 use crate::losses::FieldTemperatureSource;
 use crate::model_file::document::{
-    AssignmentEntry, BesideEntry, ChannelEntry, EstimationEntry, EstimatorChoiceEntry,
-    FieldFromStator, FitEntry, GapsEntry, InletSteadyState, InputGapsEntry, LeftOutEntry,
-    NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry, UncertaintyEntry,
+    AssignmentEntry, BesideEntry, ChannelEntry, DisturbanceEntry, EstimationEntry,
+    EstimatorChoiceEntry, FieldFromStator, FitEntry, GapsEntry, InletSteadyState, InputGapsEntry,
+    LeftOutEntry, NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry, UncertaintyEntry,
     UnobservedEntry, ValidationEntry,
 };
 use crate::model_file::document::{HiddenCandidateEntry, HiddenEntry};
@@ -451,8 +451,23 @@ impl Report {
                 reason: c.reason.clone(),
                 oe_autocorrelation_outside_band: c.oe_autocorrelation_outside_band.clone(),
                 threshold: c.threshold,
+                likelihood_ratio: c.likelihood_ratio,
             }),
             kalman_gain: r.estimate.predictor.as_ref().map(|p| rows(&p.gain)),
+            disturbance: r
+                .estimate
+                .predictor
+                .as_ref()
+                .and_then(|p| p.disturbance.as_ref())
+                .map(|d| DisturbanceEntry {
+                    state: r
+                        .signals
+                        .states
+                        .get(d.state)
+                        .map_or_else(String::new, |s| s.name.clone()),
+                    gain: d.gain.clone(),
+                    increment_sd_k: d.increment_sd * r.signals.temperature_base_k,
+                }),
             network: Some(match &r.network.network {
                 Ok(n) => NetworkEntry::Defined(Box::new(n.clone())),
                 Err(why) => NetworkEntry::NotDefined {
@@ -881,6 +896,13 @@ impl Report {
         }
         if let Some(c) = &self.estimator_choice {
             let _ = writeln!(s, "estimator: {} ({})", c.method, c.reason);
+        }
+        if let Some(d) = &self.disturbance {
+            let _ = writeln!(
+                s,
+                "disturbance: a random walk of heat into {}, its increment's σ {:.2e} K per sample per sample",
+                d.state, d.increment_sd_k
+            );
         }
         if let Some(v) = &self.validation {
             let _ = writeln!(s);

@@ -413,6 +413,10 @@ pub struct Report {
     /// where the method estimated one (`pem`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kalman_gain: Option<Vec<Vec<f64>>>,
+    /// The predictor's disturbance state, where `pem` had one: a random walk d of heat
+    /// entering a state, d(k+1) = d(k) + k_d (y(k) − x̂(k)).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disturbance: Option<DisturbanceEntry>,
     /// The passive thermal network of the model (Fig. 9), or why it has none: always
     /// written by a replay, `None` in a report read back.
     #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
@@ -474,6 +478,21 @@ pub struct EstimatorChoiceEntry {
     pub oe_autocorrelation_outside_band: Vec<f64>,
     /// The fraction above which a residual is taken as not white.
     pub threshold: f64,
+    /// The likelihood ratio of `pem` against `oe`, where `pem` was fitted to test it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub likelihood_ratio: Option<crate::estimate::LikelihoodRatio>,
+}
+
+/// The report's `disturbance`: a predictor's random-walk state (see
+/// [`crate::estimate::Disturbance`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DisturbanceEntry {
+    /// The state d enters, by name.
+    pub state: String,
+    /// k_d per output (pu of the state per pu of the innovation): d's row of the gain.
+    pub gain: Vec<f64>,
+    /// √q θ_base: the standard deviation of d's increment, K per sample per sample.
+    pub increment_sd_k: f64,
 }
 
 /// Another method's figures beside the report's own (`rc` beside `oe`).

@@ -26,8 +26,26 @@
 //! none observed it is the time update alone). The steady-state gain is kept through a
 //! gap rather than the filter's growing one, an approximation that errs towards trusting
 //! the model after a gap.
+//!
+//! **A disturbance state** ([`PredictionError::disturbance_state`]): an unmeasured heat
+//! that wanders (a valve, the air circuit, a neighbour) is integrated white noise, not
+//! the white process noise above, and a predictor of x alone follows it only by a gain
+//! that also takes up the sensors' noise. The model is then augmented with d, a random
+//! walk entering state j (the cooling water's node, where such heat arrives),
+//!
+//! ```text
+//! x_a = [x; d],   Φ_a = [Φ e_j; 0 1],   Γ_a = [Γ; 0],   C_a = [I 0],   d(k+1) = d(k) + w_d(k),
+//! x̂_a(k+1) = Φ_a x̂_a(k) + Γ_a u(k) + K_a e(k),   K_a = [K; k_d]   ((n + 1) × n),
+//! ```
+//!
+//! d in the state's own units per sample (the rise the heat adds each step), d̂(start) = 0
+//! in each segment. K_a is the steady-state Kalman gain of w_d's variance q and the
+//! sensors' R, q estimated with Θ ([`disturbance`](self::disturbance)); as q → 0, K_a → 0
+//! and the predictor is `oe`'s simulation again.
 
+mod disturbance;
 mod problem;
+pub mod ratio;
 
 use nalgebra::{DMatrix, DVector};
 
@@ -43,13 +61,31 @@ pub struct PredictionError {
     pub weights: Option<Vec<f64>>,
     /// Told each evaluation of the objective (its number and J) as the fit goes.
     pub progress: Observer,
+    /// The state a random-walk disturbance d enters (see the module's documentation);
+    /// `None`, or an index that names no state: the predictor of x alone.
+    pub disturbance_state: Option<usize>,
+}
+
+/// The disturbance state of a predictor: d(k+1) = d(k) + k_d e(k), entering x_j.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Disturbance {
+    /// j: the state d enters (x_j(k+1) gains d(k)).
+    pub state: usize,
+    /// k_d (n, by output): d's row of the gain K_a.
+    pub gain: Vec<f64>,
+    /// √q: the standard deviation of d's increment per sample, the disturbance's
+    /// intensity the gain was made from (the state's units per sample per sample).
+    pub increment_sd: f64,
 }
 
 /// The one-step predictor of an estimate: the Kalman gain and the innovations' variance.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Predictor {
-    /// K (n × n, rows by state, columns by output), from x̂(k+1) = Φ x̂(k) + Γ u(k) + K e(k).
+    /// K (n × n, rows by state, columns by output), from x̂(k+1) = Φ x̂(k) + Γ u(k) + K e(k)
+    /// (+ d̂(k) into x_j where there is a disturbance).
     pub gain: DMatrix<f64>,
+    /// The disturbance state, where the predictor has one.
+    pub disturbance: Option<Disturbance>,
     /// Var e_i per output (pu²): the innovations' variance at the estimate.
     pub innovation_variance: Vec<f64>,
     /// x̂(start) of each segment of the data it was fitted on, as fitted (a slow mode of
@@ -75,6 +111,7 @@ impl Predictor {
             } else {
                 model.initial_state(data, seg.clone())
             };
+            let mut d = 0.0;
             for k in seg.clone() {
                 out.set_row(k, &x.transpose());
                 if k + 1 == seg.end {
@@ -88,7 +125,17 @@ impl Predictor {
                     }
                 });
                 let u = data.inputs.row(k).transpose();
-                x = &model.phi * &x + &model.gamma * u + &self.gain * e;
+                let mut next = &model.phi * &x + &model.gamma * u + &self.gain * &e;
+                if let Some(dist) = &self.disturbance {
+                    next[dist.state] += d;
+                    d += dist
+                        .gain
+                        .iter()
+                        .zip(e.iter())
+                        .map(|(k, e)| k * e)
+                        .sum::<f64>();
+                }
+                x = next;
             }
         }
         out
@@ -119,14 +166,18 @@ impl Estimator for PredictionError {
 
 impl PredictionError {
     /// The prediction-error fit from `start` (Θ, with K = 0) and its segments' initial
-    /// states.
+    /// states; with a disturbance state, its intensity searched
+    /// ([`disturbance`](self::disturbance)).
     pub fn refine(
         &self,
         data: &IdentificationData,
         start: &Estimate,
         initial_states: &[DVector<f64>],
     ) -> Result<Estimate> {
-        problem::fit(self, data, start, initial_states)
+        match self.disturbance_state.filter(|&j| j < data.states()) {
+            Some(state) => disturbance::fit(self, data, start, initial_states, state),
+            None => problem::fit(self, data, start, initial_states, &problem::GainModel::Free),
+        }
     }
 }
 

@@ -19,12 +19,29 @@ use crate::estimate::{
     Result,
 };
 
-/// The prediction-error fit of [`PredictionError::refine`].
+/// How the predictor's gain is found.
+#[derive(Debug, Clone)]
+pub(super) enum GainModel {
+    /// K (n × n) free among the parameters, x alone (white process noise).
+    Free,
+    /// K_a ((n + 1) × n) given, from the Riccati equation of a disturbance's intensity;
+    /// d enters `state`.
+    Disturbance {
+        /// The state d enters.
+        state: usize,
+        /// K_a = [K; k_d].
+        gain: DMatrix<f64>,
+    },
+}
+
+/// The prediction-error fit of [`PredictionError::refine`] with the gain `gain_model`
+/// gives: Θ and the start states (and K where it is free).
 pub(super) fn fit(
     pem: &PredictionError,
     data: &IdentificationData,
     start: &Estimate,
     initial_states: &[DVector<f64>],
+    gain_model: &GainModel,
 ) -> Result<Estimate> {
     let segments = data.segments();
     let rows_used = compared_instants(data, &segments);
@@ -40,6 +57,9 @@ pub(super) fn fit(
         ),
     };
     let mut problem = Problem::new(data, segments, &start.model, initial_states, &weights);
+    if let GainModel::Disturbance { state, gain } = gain_model {
+        problem.fix_gain(*state, gain.clone());
+    }
     problem.progress = Some(Reporting::new(&pem.progress, pem.method().name()));
     let (problem, evaluations) = minimise(problem, pem.weights.is_some())?;
     Ok(conclude(&problem, rows_used, evaluations))
@@ -111,6 +131,11 @@ fn conclude(problem: &Problem, rows_used: usize, evaluations: usize) -> Estimate
         network: None,
         predictor: Some(Box::new(Predictor {
             gain: problem.gain(),
+            disturbance: problem.disturbance.map(|state| super::Disturbance {
+                state,
+                gain: problem.disturbance_gain().unwrap_or_default(),
+                increment_sd: 0.0,
+            }),
             innovation_variance: noise_variance,
             initial_states: (0..problem.segments.len())
                 .map(|s| DVector::from_column_slice(problem.x0(s)))
@@ -119,8 +144,9 @@ fn conclude(problem: &Problem, rows_used: usize, evaluations: usize) -> Estimate
     }
 }
 
-/// The least-squares problem LM sees: parameters [Θ; K (row-major); x̂(start) of each
-/// segment, where estimated].
+/// The least-squares problem LM sees: parameters [Θ; K (row-major) where it is free;
+/// x̂(start) of each segment, where estimated]. A given K_a ([`GainModel::Disturbance`])
+/// is held apart.
 struct Problem<'a> {
     data: &'a IdentificationData,
     segments: Vec<Range<usize>>,
@@ -132,6 +158,10 @@ struct Problem<'a> {
     counts: Vec<usize>,
     sqrt_w: Vec<f64>,
     n: usize,
+    /// The state the disturbance d enters, where the predictor has one.
+    disturbance: Option<usize>,
+    /// K_a where it is given, not fitted.
+    fixed_gain: Option<DMatrix<f64>>,
     m: usize,
     params: DVector<f64>,
     cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
@@ -177,6 +207,8 @@ impl<'a> Problem<'a> {
             counts,
             sqrt_w: weights.iter().map(|v| v.max(0.0).sqrt()).collect(),
             n,
+            disturbance: None,
+            fixed_gain: None,
             m,
             params: DVector::from_vec(params),
             cache: RefCell::new(None),
@@ -184,8 +216,53 @@ impl<'a> Problem<'a> {
         }
     }
 
+    /// Holds K_a as given (d entering `state`): K leaves the parameters.
+    fn fix_gain(&mut self, state: usize, gain: DMatrix<f64>) {
+        let n = self.n;
+        let at = self.p_theta();
+        let mut params: Vec<f64> = self.params.iter().copied().collect();
+        params.drain(at..at + n * n);
+        self.params = DVector::from_vec(params);
+        for x0 in self.x0_at.iter_mut().flatten() {
+            *x0 -= n * n;
+        }
+        self.disturbance = Some(state);
+        self.fixed_gain = Some(gain);
+    }
+
+    /// The columns of K among the parameters: n² where it is free, 0 where given.
+    fn gain_columns(&self) -> usize {
+        if self.fixed_gain.is_some() {
+            0
+        } else {
+            self.n * self.n
+        }
+    }
+
     fn p_theta(&self) -> usize {
         self.n * (self.n + self.m)
+    }
+
+    /// K_a: (n + 1) × n as given with a disturbance (its last row d's), else K, n × n,
+    /// from the parameters.
+    fn augmented_gain(&self) -> DMatrix<f64> {
+        match &self.fixed_gain {
+            Some(k) => k.clone(),
+            None => {
+                let at = self.p_theta();
+                DMatrix::from_row_slice(
+                    self.n,
+                    self.n,
+                    &self.params.as_slice()[at..at + self.n * self.n],
+                )
+            }
+        }
+    }
+
+    /// d's row of K_a, where there is a disturbance.
+    fn disturbance_gain(&self) -> Option<Vec<f64>> {
+        let k = self.fixed_gain.as_ref()?;
+        Some(k.row(self.n).iter().copied().collect())
     }
 
     fn model(&self) -> DiscreteModel {
@@ -197,14 +274,9 @@ impl<'a> Problem<'a> {
         )
     }
 
-    /// K, n × n, from its row-major place after Θ.
+    /// K, n × n: x's rows of the gain.
     fn gain(&self) -> DMatrix<f64> {
-        let at = self.p_theta();
-        DMatrix::from_row_slice(
-            self.n,
-            self.n,
-            &self.params.as_slice()[at..at + self.n * self.n],
-        )
+        self.augmented_gain().rows(0, self.n).into_owned()
     }
 
     fn x0(&self, s: usize) -> &[f64] {
@@ -244,7 +316,8 @@ impl<'a> Problem<'a> {
         let n = self.n;
         let mut state = Filter::new(
             &self.model(),
-            &self.gain(),
+            (&self.augmented_gain(), self.fixed_gain.is_none()),
+            self.disturbance,
             self.x0_at.iter().any(Option::is_some),
         );
         let mut block = RowBlock::new();
@@ -285,18 +358,31 @@ impl<'a> Problem<'a> {
         sse
     }
 
-    /// The columns of J a segment's rows touch, increasing: Θ, K, the segment's x̂(start)
-    /// where it is estimated.
+    /// The columns of J a segment's rows touch, increasing: Θ, K where it is free, the
+    /// segment's x̂(start) where it is estimated.
     fn segment_columns(&self, x0_at: Option<usize>) -> impl Iterator<Item = usize> {
         let n = self.n;
-        (0..self.p_theta() + n * n).chain(x0_at.into_iter().flat_map(move |at| at..at + n))
+        (0..self.p_theta() + self.gain_columns())
+            .chain(x0_at.into_iter().flat_map(move |at| at..at + n))
     }
 
-    /// Whether Φ and the predictor's Φ − K (every output observed) are stable.
+    /// Whether Φ and the predictor's Φ_a − K_a C_a (every output observed) are stable.
     fn stable(&self) -> bool {
+        use crate::thermal::matrix::spectral_radius;
         let model = self.model();
-        model.is_stable()
-            && crate::thermal::matrix::spectral_radius(&(&model.phi - self.gain())) < 1.0
+        let n = self.n;
+        let k = self.augmented_gain();
+        let predictor = match self.disturbance {
+            Some(state) => {
+                let mut a = augmented_phi(&model.phi, state);
+                let mut kc = DMatrix::zeros(n + 1, n + 1);
+                kc.view_mut((0, 0), (n + 1, n)).copy_from(&k);
+                a -= kc;
+                a
+            }
+            None => &model.phi - k,
+        };
+        model.is_stable() && spectral_radius(&predictor) < 1.0
     }
 
     /// The evaluation at the current parameters, computed once per parameter vector.
@@ -316,16 +402,28 @@ impl Diverged for Evaluation {
     }
 }
 
-/// The predictor x̂, its innovations and its sensitivities, stepped through one segment
-/// in flat, reused buffers: no allocation per instant.
+/// Φ_a = [Φ e_j; 0 1]: x with the disturbance d, a random walk, entering state j.
+pub(super) fn augmented_phi(phi: &DMatrix<f64>, state: usize) -> DMatrix<f64> {
+    let n = phi.nrows();
+    let mut a = DMatrix::zeros(n + 1, n + 1);
+    a.view_mut((0, 0), (n, n)).copy_from(phi);
+    a[(state, n)] = 1.0;
+    a[(n, n)] = 1.0;
+    a
+}
+
+/// The predictor x̂_a (x̂, and d̂ where there is a disturbance: na states), its n
+/// innovations and its sensitivities, stepped through one segment in flat, reused
+/// buffers: no allocation per instant.
 struct Filter {
     n: usize,
+    na: usize,
     m: usize,
-    /// Φ, Γ, K row-major.
+    /// Φ_a (na × na), Γ_a (na × m, d's row 0), K_a (na × n), row-major.
     phi: Vec<f64>,
     gamma: Vec<f64>,
     gain: Vec<f64>,
-    /// Φ − K M_k of the current instant, row-major.
+    /// Φ_a − K_a M_k C_a of the current instant, row-major.
     a: Vec<f64>,
     x: Vec<f64>,
     x_next: Vec<f64>,
@@ -333,40 +431,61 @@ struct Filter {
     /// M_k e(k): the innovation where observed, 0 where not.
     e: Vec<f64>,
     observed: Vec<bool>,
-    /// sens[q·n + c] = ∂x̂_c/∂param_q over the segment's columns (Θ, K, x̂(start)).
+    /// The columns of K among the parameters (n² where it is free, 0 where given).
+    gain_cols: usize,
+    /// sens[q·na + c] = ∂x̂_c/∂param_q over the segment's columns (Θ, K, x̂(start)).
     sens: Vec<f64>,
     sens_next: Vec<f64>,
 }
 
 impl Filter {
-    fn new(model: &DiscreteModel, gain: &DMatrix<f64>, with_x0: bool) -> Filter {
+    /// The filter of `model` with the gain `gain.0` (K_a), a parameter where `gain.1`.
+    fn new(
+        model: &DiscreteModel,
+        gain: (&DMatrix<f64>, bool),
+        disturbance: Option<usize>,
+        with_x0: bool,
+    ) -> Filter {
+        let (gain, free) = gain;
         let (n, m) = (model.phi.nrows(), model.gamma.ncols());
-        let cols = n * (n + m) + n * n + if with_x0 { n } else { 0 };
+        let phi = match disturbance {
+            Some(state) => augmented_phi(&model.phi, state),
+            None => model.phi.clone(),
+        };
+        let na = phi.nrows();
+        let gain_cols = if free { n * n } else { 0 };
+        let cols = n * (n + m) + gain_cols + if with_x0 { n } else { 0 };
+        let gamma = |r: usize, l: usize| if r < n { model.gamma[(r, l)] } else { 0.0 };
         Filter {
             n,
+            na,
             m,
-            phi: (0..n * n).map(|q| model.phi[(q / n, q % n)]).collect(),
-            gamma: (0..n * m).map(|q| model.gamma[(q / m, q % m)]).collect(),
-            gain: (0..n * n).map(|q| gain[(q / n, q % n)]).collect(),
-            a: vec![0.0; n * n],
-            x: vec![0.0; n],
-            x_next: vec![0.0; n],
+            phi: (0..na * na).map(|q| phi[(q / na, q % na)]).collect(),
+            gamma: (0..na * m).map(|q| gamma(q / m, q % m)).collect(),
+            gain: (0..na * n).map(|q| gain[(q / n, q % n)]).collect(),
+            a: vec![0.0; na * na],
+            x: vec![0.0; na],
+            x_next: vec![0.0; na],
             u: vec![0.0; m],
             e: vec![0.0; n],
             observed: vec![false; n],
-            sens: vec![0.0; cols * n],
-            sens_next: vec![0.0; cols * n],
+            gain_cols,
+            sens: vec![0.0; cols * na],
+            sens_next: vec![0.0; cols * na],
         }
     }
 
-    /// x̂(start) = x0, ∂x̂/∂(Θ, K) = 0, ∂x̂/∂x0 = I.
+    /// x̂(start) = x0 and d̂(start) = 0 (the disturbance is what moved since the start;
+    /// a constant part would be a heat the inputs miss throughout), ∂x̂_a/∂(Θ, K_a) = 0,
+    /// ∂x̂/∂x0 = I.
     fn reset(&mut self, x0: &[f64]) {
-        let n = self.n;
-        self.x.copy_from_slice(x0);
+        let na = self.na;
+        self.x.iter_mut().for_each(|v| *v = 0.0);
+        self.x[..self.n].copy_from_slice(x0);
         self.sens.iter_mut().for_each(|v| *v = 0.0);
         let at = self.x0_column();
-        for q in 0..n {
-            if let Some(slot) = self.sens.get_mut((at + q) * n + q) {
+        for q in 0..self.n {
+            if let Some(slot) = self.sens.get_mut((at + q) * na + q) {
                 *slot = 1.0;
             }
         }
@@ -374,7 +493,7 @@ impl Filter {
 
     /// The first column of x̂(start) among the segment's columns.
     fn x0_column(&self) -> usize {
-        self.n * (self.n + self.m) + self.n * self.n
+        self.n * (self.n + self.m) + self.gain_cols
     }
 
     /// e(k) = y(k) − x̂(k) where observed (0 where not), and u(k).
@@ -392,49 +511,52 @@ impl Filter {
         }
     }
 
-    /// ∂x̂(k+1)/∂θ = (Φ − K M_k) ∂x̂(k)/∂θ + the direct terms: e_i φ_j(k) for Θ_ij
-    /// (φ = [x̂ᵀ uᵀ]ᵀ), e_i (M_k e)_j for K_ij, none for x̂(start); before
-    /// [`Filter::step`].
+    /// ∂x̂_a(k+1)/∂θ = (Φ_a − K_a M_k C_a) ∂x̂_a(k)/∂θ + the direct terms: φ_j(k) in row
+    /// i for Θ_ij (φ = [x̂ᵀ uᵀ]ᵀ), (M_k e)_j in row i for a free K_ij, none for
+    /// x̂(start); before [`Filter::step`].
     fn propagate_sensitivities(&mut self, with_x0: bool) {
-        let (n, p) = (self.n, self.n + self.m);
+        let (n, na, p) = (self.n, self.na, self.n + self.m);
         let p_theta = n * p;
-        let cols = p_theta + n * n + if with_x0 { n } else { 0 };
-        for c in 0..n {
-            for l in 0..n {
-                let k = if self.observed[l] {
+        let cols = self.x0_column() + if with_x0 { n } else { 0 };
+        for c in 0..na {
+            for l in 0..na {
+                let k = if l < n && self.observed[l] {
                     self.gain[c * n + l]
                 } else {
                     0.0
                 };
-                self.a[c * n + l] = self.phi[c * n + l] - k;
+                self.a[c * na + l] = self.phi[c * na + l] - k;
             }
         }
         for q in 0..cols {
-            for c in 0..n {
+            for c in 0..na {
                 let mut acc = 0.0;
-                for l in 0..n {
-                    acc += self.a[c * n + l] * self.sens[q * n + l];
+                for l in 0..na {
+                    acc += self.a[c * na + l] * self.sens[q * na + l];
                 }
-                self.sens_next[q * n + c] = acc;
+                self.sens_next[q * na + c] = acc;
             }
             if q < p_theta {
                 let (i, j) = (q / p, q % p);
-                self.sens_next[q * n + i] += if j < n { self.x[j] } else { self.u[j - n] };
-            } else if q < p_theta + n * n {
+                self.sens_next[q * na + i] += if j < n { self.x[j] } else { self.u[j - n] };
+            } else if q < p_theta + self.gain_cols {
                 let (i, j) = ((q - p_theta) / n, (q - p_theta) % n);
-                self.sens_next[q * n + i] += self.e[j];
+                self.sens_next[q * na + i] += self.e[j];
             }
         }
         std::mem::swap(&mut self.sens, &mut self.sens_next);
     }
 
-    /// x̂(k+1) = Φ x̂(k) + Γ u(k) + K M_k e(k).
+    /// x̂_a(k+1) = Φ_a x̂_a(k) + Γ_a u(k) + K_a M_k e(k).
     fn step(&mut self) {
-        let (n, m) = (self.n, self.m);
-        for c in 0..n {
+        let (n, na, m) = (self.n, self.na, self.m);
+        for c in 0..na {
             let mut acc = 0.0;
+            for l in 0..na {
+                acc += self.phi[c * na + l] * self.x[l];
+            }
             for l in 0..n {
-                acc += self.phi[c * n + l] * self.x[l] + self.gain[c * n + l] * self.e[l];
+                acc += self.gain[c * n + l] * self.e[l];
             }
             for l in 0..m {
                 acc += self.gamma[c * m + l] * self.u[l];
@@ -446,10 +568,9 @@ impl Filter {
 
     /// The row of J for output c over the segment's columns: −√w_c ∂x̂_c/∂param.
     fn jacobian_row(&self, c: usize, sqrt_w: f64, with_x0: bool, row: &mut [f64]) {
-        let n = self.n;
-        let cols = self.x0_column() + if with_x0 { n } else { 0 };
+        let cols = self.x0_column() + if with_x0 { self.n } else { 0 };
         for (q, slot) in row[..cols].iter_mut().enumerate() {
-            *slot = -sqrt_w * self.sens[q * n + c];
+            *slot = -sqrt_w * self.sens[q * self.na + c];
         }
     }
 }

@@ -159,6 +159,7 @@ fn the_innovations_of_the_true_predictor_are_white() {
     let (gain, _) = kalman_gain(&truth.phi, sigma_w, sigma_v);
     let predictor = Predictor {
         gain,
+        disturbance: None,
         innovation_variance: vec![0.0; 2],
         initial_states: Vec::new(),
     };
@@ -171,4 +172,90 @@ fn the_innovations_of_the_true_predictor_are_white() {
     let simulated = truth.simulate_segments(&data, &data.segments());
     let res = crate::model::residuals::analyse(&data, &simulated, 60);
     assert!(res.autocorrelation_outside_band.iter().all(|v| *v > 0.5));
+}
+
+/// Outputs of the two-state model with a random walk d entering state `state`,
+/// x(k+1) = Φ x + Γ u + e_state d(k), d(k+1) = d(k) + σ_d ε, and white sensor noise σ_v.
+fn walk_run(len: usize, sigma_d: f64, sigma_v: f64, state: usize, seed: u64) -> IdentificationData {
+    let truth = two_state_model();
+    let u = step_inputs(len, 2, seed);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed + 2000);
+    let (w, v) = (
+        Normal::new(0.0, sigma_d).unwrap(),
+        Normal::new(0.0, sigma_v).unwrap(),
+    );
+    let mut x = DVector::from_column_slice(&[0.5, 0.2]);
+    let mut d = 0.0;
+    let mut y = DMatrix::zeros(len, 2);
+    for k in 0..len {
+        for c in 0..2 {
+            y[(k, c)] = x[c] + v.sample(&mut rng);
+        }
+        x = &truth.phi * &x + &truth.gamma * u.row(k).transpose();
+        x[state] += d;
+        d += w.sample(&mut rng);
+    }
+    IdentificationData::complete(1.0, y, u)
+}
+
+#[test]
+fn a_random_walk_disturbance_is_taken_up_by_its_state_where_oe_is_biased() {
+    let truth = two_state_model();
+    // d wanders ~1.4·10⁻³ over the run, moving state 1 by ~0.14 (1/(1 − 0.99) times):
+    // seven times the sensors' noise, slow against it.
+    let (sigma_d, sigma_v) = (1e-5, 0.02);
+    let data = walk_run(20_000, sigma_d, sigma_v, 1, 61);
+    let oe = OutputError::default().estimate(&data).unwrap();
+    let pem = PredictionError {
+        disturbance_state: Some(1),
+        ..PredictionError::default()
+    }
+    .estimate(&data)
+    .unwrap();
+    // oe attributes the walk to Θ: entries outside their own 3σ intervals.
+    assert!(outside(&oe, &truth, 3.0) >= 2, "oe {:?}", oe.model);
+    // The predictor with the disturbance state finds Θ within 3σ on every entry.
+    assert_eq!(outside(&pem, &truth, 3.0), 0, "pem {:?}", pem.model);
+    let predictor = pem.predictor.as_ref().unwrap();
+    let d = predictor.disturbance.as_ref().expect("a disturbance state");
+    assert_eq!(d.state, 1);
+    // The intensity within a factor of two (a decade's grid refined by golden section,
+    // from one realisation of the walk).
+    assert!(
+        (d.increment_sd / sigma_d).ln().abs() < 2f64.ln(),
+        "√q {} against {sigma_d}",
+        d.increment_sd
+    );
+    // The innovations are the sensors' noise, no longer the walk.
+    for v in &pem.noise_variance {
+        assert!((v.sqrt() / sigma_v - 1.0) < 0.1, "σ_e {}", v.sqrt());
+    }
+}
+
+#[test]
+fn the_doubling_solves_the_filters_riccati_equation_as_its_recursion_does() {
+    // A fast model (the plain recursion settles in a few thousand steps) with the walk
+    // into state 0: K_a from the doubling against K_a from iterating
+    // P ← Φ_a P Φ_aᵀ + Q − Φ_a P Cᵀ (C P Cᵀ + R)⁻¹ C P Φ_aᵀ.
+    let phi = DMatrix::from_row_slice(2, 2, &[0.8, 0.1, 0.05, 0.7]);
+    let (q, r) = (1e-3, [0.04, 0.09]);
+    let k = super::disturbance::kalman_gain(&phi, 0, q, &r).unwrap();
+    let phi_a = DMatrix::from_row_slice(3, 3, &[0.8, 0.1, 1.0, 0.05, 0.7, 0.0, 0.0, 0.0, 1.0]);
+    let c = DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    let rm = DMatrix::from_diagonal(&DVector::from_column_slice(&r));
+    let mut qm = DMatrix::zeros(3, 3);
+    qm[(2, 2)] = q;
+    let mut p = qm.clone();
+    for _ in 0..200_000 {
+        let s = (&c * &p * c.transpose() + &rm).try_inverse().unwrap();
+        p = &phi_a * &p * phi_a.transpose() + &qm
+            - &phi_a * &p * c.transpose() * s * &c * &p * phi_a.transpose();
+    }
+    let s = (&c * &p * c.transpose() + &rm).try_inverse().unwrap();
+    let reference = &phi_a * &p * c.transpose() * s;
+    assert!((&k - &reference).amax() < 1e-9, "{k} against {reference}");
+    assert!(
+        reference[(2, 0)] > 0.01,
+        "the walk's gain matters: {reference}"
+    );
 }
