@@ -76,6 +76,7 @@ pub mod screen;
 pub mod series;
 pub mod signals;
 pub mod spec;
+pub mod store;
 pub mod synth;
 pub mod thermal;
 pub mod warnings;
