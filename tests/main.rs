@@ -19,6 +19,7 @@
 //! | [`html`] | `replay --html`: the page parsed, its sections, figures and tables; nothing outside it |
 //! | [`monitor`] | `heatrun monitor`: healthy recordings raise nothing, a fouled cooler an alarm in time; bad input |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
+//! | [`object_store`] | `s3://` recordings, prefixes as fleets, `--index`, `fleet summary` and store errors, against moto's S3 server on loopback |
 //!
 //! A new test file `tests/NAME.rs` becomes `mod NAME;` here; shared helpers are in
 //! [`common`].
@@ -40,6 +41,7 @@ mod import;
 mod layouts;
 mod monitor;
 mod network_rc;
+mod object_store;
 mod outputs;
 mod paper;
 mod predict;

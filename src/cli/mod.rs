@@ -11,6 +11,7 @@
 //!
 //! Each command's file holds both layers for that command: its flags and its request.
 
+mod fleet;
 mod import;
 mod method;
 mod monitor;
@@ -27,6 +28,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+pub use fleet::{FleetArgs, FleetCommand, FleetSummary};
 pub use import::{Import, ImportArgs};
 pub use monitor::{Input, Monitor, MonitorArgs};
 pub use predict::{Predict, PredictArgs};
@@ -99,6 +101,8 @@ another profile or without the needed blocks, a recording lacking a state's chan
 lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300\n  tail -c +1 -f growing.mcap | heatrun monitor --model model.json - --connect"
     )]
     Monitor(MonitorArgs),
+    /// Work with a fleet's reports: `summary` reduces them into the fleet table.
+    Fleet(FleetArgs),
 }
 
 /// Arguments of `heatrun info`.
@@ -152,6 +156,8 @@ pub enum Request {
     Rating(Rating),
     /// `heatrun monitor`.
     Monitor(Monitor),
+    /// `heatrun fleet summary`.
+    FleetSummary(FleetSummary),
 }
 
 impl TryFrom<Command> for Request {
@@ -171,6 +177,9 @@ impl TryFrom<Command> for Request {
             Command::Predict(args) => Request::Predict(args.into()),
             Command::Rating(args) => Request::Rating(args.into()),
             Command::Monitor(args) => Request::Monitor(args.try_into()?),
+            Command::Fleet(FleetArgs {
+                command: FleetCommand::Summary(args),
+            }) => Request::FleetSummary(args.try_into()?),
         })
     }
 }

@@ -56,6 +56,7 @@
 pub mod atomic;
 pub mod decimate;
 pub mod error;
+pub mod fleet;
 pub mod estimate;
 pub mod grid;
 pub mod hidden;

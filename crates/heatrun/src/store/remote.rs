@@ -61,8 +61,20 @@ impl Remote {
         self.fetched.clone()
     }
 
+    /// The store's error for this URL. A missing object is told from a missing bucket
+    /// by one listing of the key (a HEAD's 404 has no body to say which).
     fn error(&self, e: &object_store::Error) -> StoreError {
-        StoreError::from_store(&self.url, e)
+        let error = StoreError::from_store(&self.url, e);
+        if !matches!(error, StoreError::NoSuchObject { .. }) {
+            return error;
+        }
+        match self.runtime.block_on(self.store.list_with_delimiter(Some(&self.key))) {
+            Err(listing) => match StoreError::from_store(&self.url, &listing) {
+                bucket @ StoreError::NoSuchBucket { .. } => bucket,
+                _ => error,
+            },
+            Ok(_) => error,
+        }
     }
 
     /// The object's length, by a HEAD request.
