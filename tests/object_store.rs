@@ -134,7 +134,7 @@ fn index_replays_the_nth_recording_of_a_prefix_or_a_listing() {
     let listed = s3.boto3(
         "print(sorted(o['Key'] for o in s3.list_objects_v2(Bucket='array', Prefix='out/')['Contents']))",
     );
-    assert_eq!(listed.trim(), "['out/b.rrd', 'out/b.report.json']");
+    assert_eq!(listed.trim(), "['out/b.report.json', 'out/b.rrd']");
 
     // A listing (a text file, here in the store too); the task number from Slurm's variable.
     s3.boto3("s3.put_object(Bucket='array', Key='list.txt', Body=b's3://array/in/c.mcap\\n# a comment\\ns3://array/in/a.mcap\\n')");
@@ -149,7 +149,7 @@ fn index_replays_the_nth_recording_of_a_prefix_or_a_listing() {
     let listed = s3.boto3(
         "print(sorted(o['Key'] for o in s3.list_objects_v2(Bucket='array', Prefix='listed/')['Contents']))",
     );
-    assert_eq!(listed.trim(), "['listed/c.rrd', 'listed/c.report.json']");
+    assert_eq!(listed.trim(), "['listed/c.report.json', 'listed/c.rrd']");
 
     let past = s3.heatrun(&["replay", "--index", "3", "s3://array/in/", "-q"], dir.path());
     assert_eq!(past.status.code(), Some(2));

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use anyhow::Context;
-use heatrun::fleet::{self as table, FleetFigures, FleetRow, FleetTally};
+use heatrun::fleet::{self as table, FleetRow, FleetTally, ReportRow};
 use heatrun::progress::{Observer, Progress};
 use heatrun::store::{self, Location};
 use heatrun_rerun::RerunSink;
@@ -106,8 +106,12 @@ fn fleet_row(replay: &Replay, fleet: &Fleet, file: &Path) -> FleetRow {
     };
     FleetRow {
         recording: file.display().to_string(),
+        // The figures as `fleet summary` reads them from the report written: one reduction.
         outcome: replay_one(replay, file, &rrd, outputs, Observer::silent())
-            .map(|replayed| FleetFigures::of(&replayed.report))
+            .and_then(|replayed| {
+                let row = ReportRow::from_json(&replayed.report.to_json(), &report);
+                Ok(row.map_err(heatrun::Error::from)?.figures)
+            })
             .map_err(|e| match super::hint::for_error(&e) {
                 Some(hint) => format!("{}; {hint}", super::hint::one_line(&e)),
                 None => super::hint::one_line(&e),

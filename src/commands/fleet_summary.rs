@@ -2,8 +2,7 @@
 //! Indexed Job, or a fleet replay) reduced into the fleet table, by the same reduction as
 //! the fleet replay (`heatrun::fleet`).
 
-use heatrun::fleet::{self as table, FleetFigures, FleetRow, FleetTally};
-use heatrun::model_file::Report;
+use heatrun::fleet::{self as table, FleetRow, FleetTally, ReportRow};
 use heatrun::store::{self, Location};
 
 use super::{Outcome, Usage};
@@ -19,11 +18,11 @@ pub fn run(summary: &FleetSummary) -> anyhow::Result<Outcome> {
     if found.is_empty() {
         return Err(Usage(format!("{}: no *{REPORT_SUFFIX} reports there", summary.reports)).into());
     }
-    let read: Vec<(Location, Result<Report, String>)> = found
+    let read: Vec<(Location, Result<ReportRow, String>)> = found
         .into_iter()
         .map(|location| {
-            let report = Report::read(&location.to_path()).map_err(|e| e.to_string());
-            (location, report)
+            let row = read_row(&location).map_err(|e| super::hint::one_line(&e));
+            (location, row)
         })
         .collect();
     // The columns follow the model of the first report that reads.
@@ -32,12 +31,12 @@ pub fn run(summary: &FleetSummary) -> anyhow::Result<Outcome> {
     };
     let rows: Vec<FleetRow> = read
         .iter()
-        .map(|(location, report)| FleetRow {
-            recording: match report {
-                Ok(r) => r.recording.path.clone(),
+        .map(|(location, row)| FleetRow {
+            recording: match row {
+                Ok(r) => r.recording.clone(),
                 Err(_) => location.to_string(),
             },
-            outcome: report.as_ref().map(FleetFigures::of).map_err(Clone::clone),
+            outcome: row.as_ref().map(|r| r.figures.clone()).map_err(Clone::clone),
         })
         .collect();
     let csv = table::fleet_csv(&rows, &table::csv_header(model))?;
@@ -60,4 +59,10 @@ pub fn run(summary: &FleetSummary) -> anyhow::Result<Outcome> {
     } else {
         Outcome::Complete
     })
+}
+
+/// One report, read from its folder or store.
+fn read_row(location: &Location) -> anyhow::Result<ReportRow> {
+    let text = store::read_to_string(location)?;
+    Ok(ReportRow::from_json(&text, &location.to_path()).map_err(heatrun::Error::from)?)
 }

@@ -10,5 +10,5 @@ pub mod summary;
 
 pub use summary::{
     csv_header, fleet_csv, short_name, table_text, FleetError, FleetFigures, FleetRow,
-    FleetTally, SUMMARY_FILE,
+    FleetTally, ReportRow, SUMMARY_FILE,
 };

@@ -1,7 +1,11 @@
 //! The fleet table: one row per recording (its time constants, fit and steady state, read
 //! from its report), as text and as `fleet-summary.csv`.
 
-use crate::model_file::Report;
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::model_file::{Report, UseError};
 use crate::spec::{ModelDescription, StateDescription};
 
 /// The fleet table's file name, in the fleet's output folder or prefix.
@@ -28,17 +32,70 @@ pub struct FleetFigures {
     pub data_lost: bool,
 }
 
-impl FleetFigures {
-    /// The figures of one report.
-    pub fn of(report: &Report) -> FleetFigures {
-        FleetFigures {
-            time_constants_s: report.time_constants_s.clone(),
-            nrmse_fit_percent: report.fit.nrmse_fit_percent.clone(),
-            steady_state_c: report.steady_state.temperature_c.clone(),
-            data_lost: !report.recording.data_loss.is_empty(),
-        }
-    }
+/// A report as the fleet table reads it, from its JSON: the same text, parsed the same way,
+/// whether the report was just made (the fleet replay) or written by a cluster's task
+/// (`fleet summary`), so both tables agree to the last digit.
+#[derive(Debug, Clone)]
+pub struct ReportRow {
+    /// The recording the report is of (`recording.path`), as its replay named it.
+    pub recording: String,
+    /// The model described (`model`): the table's columns.
+    pub model: ModelDescription,
+    /// Its figures.
+    pub figures: FleetFigures,
+}
 
+/// The blocks of the report's JSON the table reads (the typed [`Report`] reads only what
+/// the model's uses need).
+#[derive(Deserialize)]
+struct TableBlocks {
+    time_constants_s: Vec<f64>,
+    fit: FitBlock,
+    steady_state: SteadyBlock,
+    recording: RecordingBlock,
+    model: ModelDescription,
+}
+
+#[derive(Deserialize)]
+struct FitBlock {
+    nrmse_fit_percent: Vec<f64>,
+}
+
+#[derive(Deserialize)]
+struct SteadyBlock {
+    temperature_c: Vec<f64>,
+}
+
+#[derive(Deserialize)]
+struct RecordingBlock {
+    path: String,
+    data_loss: Vec<String>,
+}
+
+impl ReportRow {
+    /// Reads a report's text (`name` names it in messages): checked as a report of this
+    /// profile first ([`Report::from_json`]), then its table's blocks.
+    pub fn from_json(text: &str, name: &Path) -> Result<ReportRow, UseError> {
+        Report::from_json(text, name)?;
+        let blocks: TableBlocks =
+            serde_json::from_str(text).map_err(|e| UseError::NotAReport {
+                path: name.to_owned(),
+                message: e.to_string(),
+            })?;
+        Ok(ReportRow {
+            recording: blocks.recording.path,
+            model: blocks.model,
+            figures: FleetFigures {
+                time_constants_s: blocks.time_constants_s,
+                nrmse_fit_percent: blocks.fit.nrmse_fit_percent,
+                steady_state_c: blocks.steady_state.temperature_c,
+                data_lost: !blocks.recording.data_loss.is_empty(),
+            },
+        })
+    }
+}
+
+impl FleetFigures {
     /// The status column: `ok`, or `data lost`.
     pub fn status(&self) -> &'static str {
         if self.data_lost {
@@ -270,6 +327,28 @@ mod tests {
                 failed: 1
             }
         );
+    }
+
+    #[test]
+    fn a_report_of_a_synthetic_run_gives_its_figures() {
+        use crate::pipeline::{replay, ReplayOptions};
+        use crate::report::Replayed;
+        use crate::synth::{write, SynthOptions};
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("run.mcap");
+        write(&file, &SynthOptions::default()).unwrap();
+        let replayed = Replayed::new(replay(&file, &ReplayOptions::default()).unwrap());
+        let row = ReportRow::from_json(&replayed.report.to_json(), Path::new("r.json")).unwrap();
+        assert_eq!(row.recording, file.display().to_string());
+        assert_eq!(row.model.states.len(), 3);
+        let report = &replayed.report;
+        let close = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-12 * y.abs())
+        };
+        assert!(close(&row.figures.time_constants_s, &report.time_constants_s));
+        assert!(close(&row.figures.nrmse_fit_percent, &report.fit.nrmse_fit_percent));
+        assert!(close(&row.figures.steady_state_c, &report.steady_state.temperature_c));
+        assert!(!row.figures.data_lost);
     }
 
     #[test]
