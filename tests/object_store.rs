@@ -38,7 +38,15 @@ fn a_recording_in_s3_gives_the_same_report_as_the_local_file() {
     let dir = tempfile::tempdir().unwrap();
     let fixture = fixture();
     heatrun_ok(
-        &["replay", fixture.to_str().unwrap(), "--report", "local.json", "--rrd", "local.rrd", "-q"],
+        &[
+            "replay",
+            fixture.to_str().unwrap(),
+            "--report",
+            "local.json",
+            "--rrd",
+            "local.rrd",
+            "-q",
+        ],
         dir.path(),
     );
     let out = s3.heatrun(
@@ -54,9 +62,16 @@ fn a_recording_in_s3_gives_the_same_report_as_the_local_file() {
         dir.path(),
     );
     assert_ok(&out, "replay s3://");
-    s3.download("heatruns", "reports/unit 1.json", &dir.path().join("remote.json"));
+    s3.download(
+        "heatruns",
+        "reports/unit 1.json",
+        &dir.path().join("remote.json"),
+    );
     // `info` reads the footer, summary and metadata by ranged requests, not the data.
-    let info = s3.heatrun(&["info", "s3://heatruns/2024/unit%201.mcap", "--json"], dir.path());
+    let info = s3.heatrun(
+        &["info", "s3://heatruns/2024/unit%201.mcap", "--json"],
+        dir.path(),
+    );
     assert_ok(&info, "info s3://");
     let index: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
     let (fetched, size) = (
@@ -69,12 +84,21 @@ fn a_recording_in_s3_gives_the_same_report_as_the_local_file() {
         index["requests"]
     );
     assert_eq!(size, std::fs::metadata(&fixture).unwrap().len());
-    assert!(fetched * 10 < size, "info fetched {fetched} of {size} bytes");
-    assert!(index["metadata"]["heatrun.nameplate"].is_object(), "{index}");
+    assert!(
+        fetched * 10 < size,
+        "info fetched {fetched} of {size} bytes"
+    );
+    assert!(
+        index["metadata"]["heatrun.nameplate"].is_object(),
+        "{index}"
+    );
 
     let local = report_without_path(&dir.path().join("local.json"));
     let remote = report_without_path(&dir.path().join("remote.json"));
-    assert_eq!(local, remote, "the report of s3:// differs from the local file's");
+    assert_eq!(
+        local, remote,
+        "the report of s3:// differs from the local file's"
+    );
 }
 
 #[test]
@@ -89,28 +113,52 @@ fn a_prefix_is_a_fleet_and_fleet_summary_reduces_its_reports_alike() {
     s3.upload(&fixture(), "fleet", "in/old/d.mcap");
     let dir = tempfile::tempdir().unwrap();
     let replay = s3.heatrun(
-        &["replay", "s3://fleet/in/", "--out-dir", "s3://fleet/out/", "--jobs", "2", "-q"],
+        &[
+            "replay",
+            "s3://fleet/in/",
+            "--out-dir",
+            "s3://fleet/out/",
+            "--jobs",
+            "2",
+            "-q",
+        ],
         dir.path(),
     );
     assert_ok(&replay, "replay of a prefix");
-    s3.download("fleet", "out/fleet-summary.csv", &dir.path().join("replayed.csv"));
+    s3.download(
+        "fleet",
+        "out/fleet-summary.csv",
+        &dir.path().join("replayed.csv"),
+    );
     let replayed = std::fs::read_to_string(dir.path().join("replayed.csv")).unwrap();
     let rows: Vec<&str> = replayed.lines().skip(1).collect();
     assert_eq!(rows.len(), 3, "{replayed}");
     for (row, name) in rows.iter().zip(["a", "b", "c"]) {
-        assert!(row.starts_with(&format!("s3://fleet/in/{name}.mcap,ok,")), "{row}");
+        assert!(
+            row.starts_with(&format!("s3://fleet/in/{name}.mcap,ok,")),
+            "{row}"
+        );
     }
     let listed = s3.boto3(
         "print(sorted(o['Key'] for o in s3.list_objects_v2(Bucket='fleet', Prefix='out/')['Contents']))",
     );
     for name in ["a", "b", "c"] {
-        assert!(listed.contains(&format!("out/{name}.report.json")), "{listed}");
+        assert!(
+            listed.contains(&format!("out/{name}.report.json")),
+            "{listed}"
+        );
         assert!(listed.contains(&format!("out/{name}.rrd")), "{listed}");
     }
 
     // The cluster's way: the summary gathered from the reports is the replay's table.
     let summary = s3.heatrun(
-        &["fleet", "summary", "s3://fleet/out/", "--csv", "gathered.csv"],
+        &[
+            "fleet",
+            "summary",
+            "s3://fleet/out/",
+            "--csv",
+            "gathered.csv",
+        ],
         dir.path(),
     );
     assert_ok(&summary, "fleet summary");
@@ -127,7 +175,15 @@ fn index_replays_the_nth_recording_of_a_prefix_or_a_listing() {
     }
     let dir = tempfile::tempdir().unwrap();
     let out = s3.heatrun(
-        &["replay", "--index", "1", "s3://array/in/", "--out-dir", "s3://array/out", "-q"],
+        &[
+            "replay",
+            "--index",
+            "1",
+            "s3://array/in/",
+            "--out-dir",
+            "s3://array/out",
+            "-q",
+        ],
         dir.path(),
     );
     assert_ok(&out, "replay --index 1 PREFIX");
@@ -139,7 +195,14 @@ fn index_replays_the_nth_recording_of_a_prefix_or_a_listing() {
     // A listing (a text file, here in the store too); the task number from Slurm's variable.
     s3.boto3("s3.put_object(Bucket='array', Key='list.txt', Body=b's3://array/in/c.mcap\\n# a comment\\ns3://array/in/a.mcap\\n')");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_heatrun"))
-        .args(["replay", "--index-from-env", "s3://array/list.txt", "--out-dir", "s3://array/listed/", "-q"])
+        .args([
+            "replay",
+            "--index-from-env",
+            "s3://array/list.txt",
+            "--out-dir",
+            "s3://array/listed/",
+            "-q",
+        ])
         .envs(s3.env())
         .env("SLURM_ARRAY_TASK_ID", "1")
         .current_dir(dir.path())
@@ -151,7 +214,10 @@ fn index_replays_the_nth_recording_of_a_prefix_or_a_listing() {
     );
     assert_eq!(listed.trim(), "['listed/c.report.json', 'listed/c.rrd']");
 
-    let past = s3.heatrun(&["replay", "--index", "3", "s3://array/in/", "-q"], dir.path());
+    let past = s3.heatrun(
+        &["replay", "--index", "3", "s3://array/in/", "-q"],
+        dir.path(),
+    );
     assert_eq!(past.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&past.stderr);
     assert!(stderr.contains("lists 3 recordings"), "{stderr}");
@@ -175,7 +241,10 @@ fn a_missing_bucket_or_object_is_one_line_naming_the_url() {
             let stderr = String::from_utf8_lossy(&out.stderr);
             assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
             assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr}");
-            assert!(stderr.contains(url) && stderr.contains(said), "{args:?}: {stderr}");
+            assert!(
+                stderr.contains(url) && stderr.contains(said),
+                "{args:?}: {stderr}"
+            );
             assert!(!stderr.contains("panicked"), "{stderr}");
         }
     }

@@ -231,7 +231,11 @@ fn indexed_replay(args: ReplayArgs, file: PathBuf) -> anyhow::Result<Replay> {
             .viewer
             .sink()
             .unwrap_or_else(|| RerunSink::Rrd(in_out(format!("{s}.rrd")))),
-        report: Some(args.report.clone().unwrap_or_else(|| in_out(format!("{s}.report.json")))),
+        report: Some(
+            args.report
+                .clone()
+                .unwrap_or_else(|| in_out(format!("{s}.report.json"))),
+        ),
         html: args.html.as_ref().map(|h| {
             if h.is_empty() {
                 in_out(format!("{s}.report.html"))
@@ -261,7 +265,10 @@ fn index_asked(args: &ReplayArgs) -> anyhow::Result<Option<usize>> {
     for name in ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"] {
         if let Ok(value) = std::env::var(name) {
             return value.trim().parse().map(Some).map_err(|_| {
-                Usage(format!("--index-from-env: {name}={value} is not a task number")).into()
+                Usage(format!(
+                    "--index-from-env: {name}={value} is not a task number"
+                ))
+                .into()
             });
         }
     }

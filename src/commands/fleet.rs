@@ -118,4 +118,3 @@ fn fleet_row(replay: &Replay, fleet: &Fleet, file: &Path) -> FleetRow {
             }),
     }
 }
-

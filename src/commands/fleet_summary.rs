@@ -16,7 +16,11 @@ const REPORT_SUFFIX: &str = ".report.json";
 pub fn run(summary: &FleetSummary) -> anyhow::Result<Outcome> {
     let found = store::list(&summary.reports, REPORT_SUFFIX)?;
     if found.is_empty() {
-        return Err(Usage(format!("{}: no *{REPORT_SUFFIX} reports there", summary.reports)).into());
+        return Err(Usage(format!(
+            "{}: no *{REPORT_SUFFIX} reports there",
+            summary.reports
+        ))
+        .into());
     }
     let read: Vec<(Location, Result<ReportRow, String>)> = found
         .into_iter()
@@ -26,8 +30,15 @@ pub fn run(summary: &FleetSummary) -> anyhow::Result<Outcome> {
         })
         .collect();
     // The columns follow the model of the first report that reads.
-    let Some(model) = read.iter().find_map(|(_, r)| r.as_ref().ok().map(|r| &r.model)) else {
-        return Err(Usage(format!("{}: no report there could be read", summary.reports)).into());
+    let Some(model) = read
+        .iter()
+        .find_map(|(_, r)| r.as_ref().ok().map(|r| &r.model))
+    else {
+        return Err(Usage(format!(
+            "{}: no report there could be read",
+            summary.reports
+        ))
+        .into());
     };
     let rows: Vec<FleetRow> = read
         .iter()
@@ -36,7 +47,10 @@ pub fn run(summary: &FleetSummary) -> anyhow::Result<Outcome> {
                 Ok(r) => r.recording.clone(),
                 Err(_) => location.to_string(),
             },
-            outcome: row.as_ref().map(|r| r.figures.clone()).map_err(Clone::clone),
+            outcome: row
+                .as_ref()
+                .map(|r| r.figures.clone())
+                .map_err(Clone::clone),
         })
         .collect();
     let csv = table::fleet_csv(&rows, &table::csv_header(model))?;
@@ -52,7 +66,12 @@ pub fn run(summary: &FleetSummary) -> anyhow::Result<Outcome> {
         summary.csv
     );
     if tally.failed > 0 {
-        return Err(Usage(format!("{} of {} reports could not be read", tally.failed, rows.len())).into());
+        return Err(Usage(format!(
+            "{} of {} reports could not be read",
+            tally.failed,
+            rows.len()
+        ))
+        .into());
     }
     Ok(if tally.data_lost > 0 {
         Outcome::DataLoss

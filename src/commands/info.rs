@@ -4,8 +4,8 @@ use std::path::Path;
 
 use heatrun::decimate::{ChannelGrid, DecimatedRecording};
 use heatrun::grid::GridBuilder;
-use heatrun::recording::{self, format_time, RecordingSummary, SensorChannel, Storage};
 use heatrun::recording::RecordingIndex;
+use heatrun::recording::{self, format_time, RecordingSummary, SensorChannel, Storage};
 use heatrun::spec::ModelDescription;
 use heatrun::store::Location;
 
@@ -189,7 +189,10 @@ fn print_index(index: &RecordingIndex) {
             (b - a) as f64 * 1e-9
         );
     }
-    println!("  channels: {} (from the summary section)", index.channels.len());
+    println!(
+        "  channels: {} (from the summary section)",
+        index.channels.len()
+    );
     for c in &index.channels {
         let get = |k: &str| c.metadata.get(k).map_or("", String::as_str);
         println!(

@@ -26,7 +26,11 @@ impl Staging {
         if self.folder.is_none() {
             self.folder = Some(tempfile::Builder::new().prefix("heatrun-out").tempdir()?);
         }
-        let folder = self.folder.as_ref().map(|f| f.path()).unwrap_or(Path::new("."));
+        let folder = self
+            .folder
+            .as_ref()
+            .map(|f| f.path())
+            .unwrap_or(Path::new("."));
         let name = location.file_name().unwrap_or_else(|| "output".into());
         let local = folder.join(format!("{}-{name}", self.uploads.len()));
         self.uploads.push((local.clone(), location));

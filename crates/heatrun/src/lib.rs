@@ -56,8 +56,8 @@
 pub mod atomic;
 pub mod decimate;
 pub mod error;
-pub mod fleet;
 pub mod estimate;
+pub mod fleet;
 pub mod grid;
 pub mod hidden;
 pub mod html;

@@ -9,6 +9,6 @@
 pub mod summary;
 
 pub use summary::{
-    csv_header, fleet_csv, short_name, table_text, FleetError, FleetFigures, FleetRow,
-    FleetTally, ReportRow, SUMMARY_FILE,
+    csv_header, fleet_csv, short_name, table_text, FleetError, FleetFigures, FleetRow, FleetTally,
+    ReportRow, SUMMARY_FILE,
 };

@@ -77,11 +77,10 @@ impl ReportRow {
     /// profile first ([`Report::from_json`]), then its table's blocks.
     pub fn from_json(text: &str, name: &Path) -> Result<ReportRow, UseError> {
         Report::from_json(text, name)?;
-        let blocks: TableBlocks =
-            serde_json::from_str(text).map_err(|e| UseError::NotAReport {
-                path: name.to_owned(),
-                message: e.to_string(),
-            })?;
+        let blocks: TableBlocks = serde_json::from_str(text).map_err(|e| UseError::NotAReport {
+            path: name.to_owned(),
+            message: e.to_string(),
+        })?;
         Ok(ReportRow {
             recording: blocks.recording.path,
             model: blocks.model,
@@ -343,11 +342,23 @@ mod tests {
         assert_eq!(row.model.states.len(), 3);
         let report = &replayed.report;
         let close = |a: &[f64], b: &[f64]| {
-            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-12 * y.abs())
+            a.len() == b.len()
+                && a.iter()
+                    .zip(b)
+                    .all(|(x, y)| (x - y).abs() <= 1e-12 * y.abs())
         };
-        assert!(close(&row.figures.time_constants_s, &report.time_constants_s));
-        assert!(close(&row.figures.nrmse_fit_percent, &report.fit.nrmse_fit_percent));
-        assert!(close(&row.figures.steady_state_c, &report.steady_state.temperature_c));
+        assert!(close(
+            &row.figures.time_constants_s,
+            &report.time_constants_s
+        ));
+        assert!(close(
+            &row.figures.nrmse_fit_percent,
+            &report.fit.nrmse_fit_percent
+        ));
+        assert!(close(
+            &row.figures.steady_state_c,
+            &report.steady_state.temperature_c
+        ));
         assert!(!row.figures.data_lost);
     }
 

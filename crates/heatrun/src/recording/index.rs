@@ -167,7 +167,11 @@ impl Ranges {
     }
 
     /// Fills `out` from `position` as far as the object goes; the bytes read.
-    fn read_at(&mut self, position: u64, out: &mut [u8]) -> Result<usize, crate::store::StoreError> {
+    fn read_at(
+        &mut self,
+        position: u64,
+        out: &mut [u8],
+    ) -> Result<usize, crate::store::StoreError> {
         let end = position + out.len() as u64;
         let window_end = self.start + self.window.len() as u64;
         if position < self.start || end > window_end {
@@ -211,7 +215,12 @@ mod tests {
                 .iter()
                 .find(|c| c.topic == channel.topic)
                 .unwrap_or_else(|| panic!("{} not in the index", channel.topic));
-            assert_eq!(indexed.messages, Some(full.samples_per_channel[i]), "{}", channel.topic);
+            assert_eq!(
+                indexed.messages,
+                Some(full.samples_per_channel[i]),
+                "{}",
+                channel.topic
+            );
         }
         assert_eq!(index.time_span_ns, full.time_span_ns);
         let nameplate = &index.metadata["heatrun.nameplate"];

@@ -77,10 +77,15 @@ impl StoreError {
     /// message (`NoSuchBucket`, `AccessDenied`, `InvalidAccessKeyId`, ...).
     pub fn from_store(url: &str, error: &object_store::Error) -> StoreError {
         use object_store::Error as E;
-        let said = one_line(error);
+        let full = one_line(error);
         let url = url.to_owned();
-        let has = |code: &str| said.contains(code);
-        if has("NoSuchBucket") || has("ContainerNotFound") || has("The specified bucket does not exist") {
+        let has = |code: &str| full.contains(code);
+        // An S3-style XML error body says it best: its code and message.
+        let said = s3_code_and_message(&full).unwrap_or_else(|| full.clone());
+        if has("NoSuchBucket")
+            || has("ContainerNotFound")
+            || has("The specified bucket does not exist")
+        {
             return StoreError::NoSuchBucket { url, said };
         }
         if has("InvalidAccessKeyId") || has("SignatureDoesNotMatch") || has("credential") {
@@ -98,13 +103,32 @@ impl StoreError {
     }
 }
 
+/// `Code: Message` of an S3-style XML error body (`<Code>NoSuchBucket</Code>`), if any.
+fn s3_code_and_message(text: &str) -> Option<String> {
+    let element = |name: &str| {
+        let open = format!("<{name}>");
+        let start = text.find(&open)? + open.len();
+        let end = start + text[start..].find(&format!("</{name}>"))?;
+        Some(text[start..end].trim().to_owned())
+    };
+    let code = element("Code")?;
+    Some(match element("Message") {
+        Some(message) => format!("{code}: {message}"),
+        None => code,
+    })
+}
+
 /// An error and its causes on one line, without repeats (`object_store` often repeats its
 /// source in its own message), at most 400 characters.
 fn one_line(error: &dyn std::error::Error) -> String {
     let mut parts: Vec<String> = Vec::new();
     let mut next: Option<&dyn std::error::Error> = Some(error);
     while let Some(e) = next {
-        let text = e.to_string().split_whitespace().collect::<Vec<_>>().join(" ");
+        let text = e
+            .to_string()
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
         if !parts.iter().any(|p| p.contains(&text)) {
             parts.push(text);
         }
@@ -112,9 +136,29 @@ fn one_line(error: &dyn std::error::Error) -> String {
     }
     let mut line = parts.join(": ");
     if line.len() > 400 {
-        let cut = (0..=400).rev().find(|&i| line.is_char_boundary(i)).unwrap_or(0);
+        let cut = (0..=400)
+            .rev()
+            .find(|&i| line.is_char_boundary(i))
+            .unwrap_or(0);
         line.truncate(cut);
         line.push('…');
     }
     line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_s3_error_body_is_said_by_its_code_and_message() {
+        let body = "GET http://127.0.0.1:9/b/k - 404 Not Found: <?xml version=\"1.0\"?> \
+                    <Error><Code>NoSuchBucket</Code><Message>The specified bucket does not \
+                    exist</Message><BucketName>b</BucketName></Error>";
+        assert_eq!(
+            s3_code_and_message(body).as_deref(),
+            Some("NoSuchBucket: The specified bucket does not exist")
+        );
+        assert_eq!(s3_code_and_message("connection refused"), None);
+    }
 }

@@ -81,7 +81,7 @@ impl Location {
                 .path_segments()
                 .and_then(|mut s| s.next_back())
                 .filter(|s| !s.is_empty())
-                .map(|s| percent_decoded(s)),
+                .map(percent_decoded),
         }
     }
 

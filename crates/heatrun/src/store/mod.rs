@@ -161,7 +161,8 @@ impl RangeReader {
                 };
                 file.seek(SeekFrom::Start(range.start)).map_err(local)?;
                 file.read_exact(&mut bytes).map_err(local)?;
-                self.fetched.fetch_add(bytes.len() as u64, Ordering::Relaxed);
+                self.fetched
+                    .fetch_add(bytes.len() as u64, Ordering::Relaxed);
                 Ok(bytes)
             }
             RangeSource::Remote(remote) => Ok(remote.read_range(range)?.to_vec()),

@@ -68,7 +68,10 @@ impl Remote {
         if !matches!(error, StoreError::NoSuchObject { .. }) {
             return error;
         }
-        match self.runtime.block_on(self.store.list_with_delimiter(Some(&self.key))) {
+        match self
+            .runtime
+            .block_on(self.store.list_with_delimiter(Some(&self.key)))
+        {
             Err(listing) => match StoreError::from_store(&self.url, &listing) {
                 bucket @ StoreError::NoSuchBucket { .. } => bucket,
                 _ => error,
@@ -100,7 +103,9 @@ impl Remote {
 
     /// Bytes `range` of the object, by one ranged GET.
     pub(super) fn read_range(&self, range: Range<u64>) -> Result<Bytes, StoreError> {
-        let got = self.runtime.block_on(self.store.get_range(&self.key, range));
+        let got = self
+            .runtime
+            .block_on(self.store.get_range(&self.key, range));
         let got = got.map_err(|e| self.error(&e))?;
         self.fetched.fetch_add(got.len() as u64, Ordering::Relaxed);
         Ok(got)
@@ -109,7 +114,9 @@ impl Remote {
     /// The names of the objects directly under this prefix (not in deeper "folders").
     pub(super) fn list_names(&self) -> Result<Vec<String>, StoreError> {
         let prefix = (!self.key.as_ref().is_empty()).then_some(&self.key);
-        let listed = self.runtime.block_on(self.store.list_with_delimiter(prefix));
+        let listed = self
+            .runtime
+            .block_on(self.store.list_with_delimiter(prefix));
         let listed = listed.map_err(|e| self.error(&e))?;
         Ok(listed
             .objects
@@ -174,9 +181,11 @@ fn client(scheme: ObjectStoreScheme, url: &Url) -> object_store::Result<Arc<dyn 
         ObjectStoreScheme::AmazonS3 => {
             Arc::new(AmazonS3Builder::from_env().with_url(text).build()?)
         }
-        ObjectStoreScheme::GoogleCloudStorage => {
-            Arc::new(GoogleCloudStorageBuilder::from_env().with_url(text).build()?)
-        }
+        ObjectStoreScheme::GoogleCloudStorage => Arc::new(
+            GoogleCloudStorageBuilder::from_env()
+                .with_url(text)
+                .build()?,
+        ),
         ObjectStoreScheme::MicrosoftAzure => {
             Arc::new(MicrosoftAzureBuilder::from_env().with_url(text).build()?)
         }
@@ -209,7 +218,8 @@ impl Read for StreamReader {
             match self.runtime.block_on(self.stream.next()) {
                 None => return Ok(0),
                 Some(Ok(chunk)) => {
-                    self.fetched.fetch_add(chunk.len() as u64, Ordering::Relaxed);
+                    self.fetched
+                        .fetch_add(chunk.len() as u64, Ordering::Relaxed);
                     self.current = chunk;
                 }
                 Some(Err(e)) => {
