@@ -108,7 +108,8 @@ lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun
 /// Arguments of `heatrun info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// The recording.
+    /// The recording: a path, or a URL (s3://, gs://, az://, https://), of which only the
+    /// footer, summary section and metadata are read, by ranged requests.
     pub file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]

@@ -58,8 +58,9 @@ impl Offer for ReplayViewer {
 /// Arguments of `heatrun replay`.
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
-    /// Recordings (MCAP, heatrun SCADA profile), or folders of them. Default: the shipped
-    /// fixture. More than one recording (or a folder) replays a fleet in parallel.
+    /// Recordings (MCAP, heatrun SCADA profile), or folders of them; paths or URLs
+    /// (s3://, gs://, az://, https://; a prefix ends in `/`). Default: the shipped
+    /// fixture. More than one recording (or a folder or prefix) replays a fleet in parallel.
     pub files: Vec<PathBuf>,
     /// Sample time Ts of the model in seconds [default: the spec's, else 1].
     #[arg(long)]
