@@ -20,6 +20,7 @@
 //! | [`monitor`] | `heatrun monitor`: healthy recordings raise nothing, a fouled cooler an alarm in time; bad input |
 //! | [`tables`] | long tables (sorted by time, grouped by tag) and Parquet (wide, long) imported as the wide text export; a night run in Zurich's wall-clock time through the clock change, against its truth; a skipped hour |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
+//! | [`object_store`] | `s3://` recordings, prefixes as fleets, `--index`, `fleet summary` and store errors, against moto's S3 server on loopback |
 //!
 //! A new test file `tests/NAME.rs` becomes `mod NAME;` here; shared helpers are in
 //! [`common`].
@@ -41,6 +42,7 @@ mod import;
 mod layouts;
 mod monitor;
 mod network_rc;
+mod object_store;
 mod outputs;
 mod paper;
 mod predict;

@@ -11,6 +11,7 @@
 //!
 //! Each command's file holds both layers for that command: its flags and its request.
 
+mod fleet;
 mod import;
 mod method;
 mod monitor;
@@ -27,6 +28,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+pub use fleet::{FleetArgs, FleetCommand, FleetSummary};
 pub use import::{Import, ImportArgs};
 pub use monitor::{Input, Monitor, MonitorArgs};
 pub use predict::{Predict, PredictArgs};
@@ -99,12 +101,15 @@ another profile or without the needed blocks, a recording lacking a state's chan
 lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300\n  tail -c +1 -f growing.mcap | heatrun monitor --model model.json - --connect"
     )]
     Monitor(MonitorArgs),
+    /// Work with a fleet's reports: `summary` reduces them into the fleet table.
+    Fleet(FleetArgs),
 }
 
 /// Arguments of `heatrun info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// The recording.
+    /// The recording: a path, or a URL (s3://, gs://, az://, https://), of which only the
+    /// footer, summary section and metadata are read, by ranged requests.
     pub file: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -152,6 +157,8 @@ pub enum Request {
     Rating(Rating),
     /// `heatrun monitor`.
     Monitor(Monitor),
+    /// `heatrun fleet summary`.
+    FleetSummary(FleetSummary),
 }
 
 impl TryFrom<Command> for Request {
@@ -171,6 +178,9 @@ impl TryFrom<Command> for Request {
             Command::Predict(args) => Request::Predict(args.into()),
             Command::Rating(args) => Request::Rating(args.into()),
             Command::Monitor(args) => Request::Monitor(args.try_into()?),
+            Command::Fleet(FleetArgs {
+                command: FleetCommand::Summary(args),
+            }) => Request::FleetSummary(args.try_into()?),
         })
     }
 }

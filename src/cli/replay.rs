@@ -10,6 +10,7 @@ use heatrun::progress::Observer;
 use heatrun::recording::RecordingError;
 use heatrun::spec::coolant::ReferencePolicy;
 use heatrun::spec::ModelDescription;
+use heatrun::store::{self, Location};
 use heatrun_rerun::RerunSink;
 
 use super::viewer::{Offer, ViewerArgs};
@@ -57,8 +58,9 @@ impl Offer for ReplayViewer {
 /// Arguments of `heatrun replay`.
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
-    /// Recordings (MCAP, heatrun SCADA profile), or folders of them. Default: the shipped
-    /// fixture. More than one recording (or a folder) replays a fleet in parallel.
+    /// Recordings (MCAP, heatrun SCADA profile), or folders of them; paths or URLs
+    /// (s3://, gs://, az://, https://; a prefix ends in `/`). Default: the shipped
+    /// fixture. More than one recording (or a folder or prefix) replays a fleet in parallel.
     pub files: Vec<PathBuf>,
     /// Sample time Ts of the model in seconds [default: the spec's, else 1].
     #[arg(long)]
@@ -124,6 +126,16 @@ pub struct ReplayArgs {
     /// Fleet mode: recordings replayed at once (default: the number of cores).
     #[arg(long)]
     pub jobs: Option<usize>,
+    /// Replay only the N-th recording (from 0) of a sorted listing: one FILE that is a
+    /// folder, a prefix (`s3://bucket/runs/`) or a text file of paths or URLs, one a line;
+    /// its outputs go to --out-dir as in a fleet (a Slurm array or Kubernetes Indexed Job
+    /// task).
+    #[arg(long, value_name = "N")]
+    pub index: Option<usize>,
+    /// Take --index from the cluster's task number: SLURM_ARRAY_TASK_ID (Slurm job
+    /// arrays), else JOB_COMPLETION_INDEX (Kubernetes Indexed Jobs).
+    #[arg(long, conflicts_with = "index")]
+    pub index_from_env: bool,
     /// Do not print the summary.
     #[arg(long, short)]
     pub quiet: bool,
@@ -192,7 +204,11 @@ impl TryFrom<ReplayArgs> for Replay {
     /// Finds the recordings, checks the flags against one or many, then reads the spec:
     /// the command line's own faults are found before any file is read for the model.
     fn try_from(args: ReplayArgs) -> anyhow::Result<Replay> {
-        let target = match named_recordings(&args.files)? {
+        let named = match indexed(&args)? {
+            Some(file) => return indexed_replay(args, file),
+            None => named_recordings(&args.files)?,
+        };
+        let target = match named {
             Named::One(file) => Target::One(one(&args, file)?),
             Named::Fleet(files) => Target::Fleet(fleet(&args, files)?),
         };
@@ -204,6 +220,108 @@ impl TryFrom<ReplayArgs> for Replay {
             target,
         })
     }
+}
+
+/// One task of a cluster's array: the N-th recording of the listing, its outputs named
+/// after it in `--out-dir`, as a fleet's are.
+fn indexed_replay(args: ReplayArgs, file: PathBuf) -> anyhow::Result<Replay> {
+    let s = stem(&file);
+    let in_out = |name: String| args.out_dir.join(name);
+    let one = One {
+        sink: args
+            .viewer
+            .sink()
+            .unwrap_or_else(|| RerunSink::Rrd(in_out(format!("{s}.rrd")))),
+        report: Some(
+            args.report
+                .clone()
+                .unwrap_or_else(|| in_out(format!("{s}.report.json"))),
+        ),
+        html: args.html.as_ref().map(|h| {
+            if h.is_empty() {
+                in_out(format!("{s}.report.html"))
+            } else {
+                PathBuf::from(h)
+            }
+        }),
+        file,
+    };
+    Ok(Replay {
+        options: library_options(&args)?,
+        raw: args.raw,
+        quiet: args.quiet,
+        summary: args.summary,
+        target: Target::One(one),
+    })
+}
+
+/// The task number of `--index` or `--index-from-env`, if either is given.
+fn index_asked(args: &ReplayArgs) -> anyhow::Result<Option<usize>> {
+    if let Some(n) = args.index {
+        return Ok(Some(n));
+    }
+    if !args.index_from_env {
+        return Ok(None);
+    }
+    for name in ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"] {
+        if let Ok(value) = std::env::var(name) {
+            return value.trim().parse().map(Some).map_err(|_| {
+                Usage(format!(
+                    "--index-from-env: {name}={value} is not a task number"
+                ))
+                .into()
+            });
+        }
+    }
+    Err(Usage(
+        "--index-from-env: neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX is set".into(),
+    )
+    .into())
+}
+
+/// The recording `--index N` picks: the N-th (from 0) of the sorted listing named.
+fn indexed(args: &ReplayArgs) -> anyhow::Result<Option<PathBuf>> {
+    let Some(n) = index_asked(args)? else {
+        return Ok(None);
+    };
+    let [listing] = args.files.as_slice() else {
+        return Err(Usage(
+            "--index takes one listing: a folder, a prefix or a text file of recordings".into(),
+        )
+        .into());
+    };
+    let mut found = listing_of(listing)?;
+    if n >= found.len() {
+        return Err(Usage(format!(
+            "--index {n}: {} lists {} recordings (0 to {})",
+            listing.display(),
+            found.len(),
+            found.len().saturating_sub(1)
+        ))
+        .into());
+    }
+    Ok(Some(found.swap_remove(n)))
+}
+
+/// A listing's recordings, sorted: a folder's or prefix's `.mcap` files, or a text file's
+/// lines (paths or URLs; blank lines and `#` comments skipped).
+fn listing_of(listing: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let location = Location::from_path(listing)?;
+    if store::is_folder(&location) {
+        return Ok(store::list(&location, ".mcap")?
+            .iter()
+            .map(Location::to_path)
+            .collect());
+    }
+    let text = store::read_to_string(&location)?;
+    let mut found: Vec<PathBuf> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(PathBuf::from)
+        .collect();
+    found.sort();
+    Ok(found)
 }
 
 /// The recordings a replay names.
@@ -222,7 +340,12 @@ fn named_recordings(files: &[PathBuf]) -> anyhow::Result<Named> {
     let mut found = Vec::new();
     let mut from_folder = false;
     for f in files {
-        if f.is_dir() {
+        let location = Location::from_path(f)?;
+        if location.is_remote() && store::is_folder(&location) {
+            from_folder = true;
+            let listed = store::list(&location, ".mcap")?;
+            found.extend(listed.iter().map(Location::to_path));
+        } else if f.is_dir() {
             from_folder = true;
             found.extend(mcap_files_in(f)?);
         } else {

@@ -801,3 +801,47 @@ fn predict_rating_and_import_requests_are_in_the_librarys_terms() {
         }
     );
 }
+
+#[test]
+fn index_picks_the_nth_recording_of_a_sorted_folder_or_listing_into_out_dir() {
+    let folder = tempfile::tempdir().unwrap();
+    for name in ["c.mcap", "a.mcap", "b.mcap", "notes.txt"] {
+        std::fs::write(folder.path().join(name), b"").unwrap();
+    }
+    let dir = folder.path().to_str().unwrap();
+    let Ok(Request::Replay(r)) = request(&["replay", "--index", "1", dir, "--out-dir", "out"])
+    else {
+        panic!("not replay");
+    };
+    let Target::One(one) = &r.target else {
+        panic!("--index replays one recording");
+    };
+    assert_eq!(one.file, folder.path().join("b.mcap"));
+    assert_eq!(one.report.as_deref(), Some(Path::new("out/b.report.json")));
+    assert_eq!(
+        one.sink,
+        heatrun_rerun::RerunSink::Rrd(PathBuf::from("out/b.rrd"))
+    );
+
+    // A listing: lines sorted, blank lines and comments skipped.
+    let listing = folder.path().join("runs.txt");
+    std::fs::write(&listing, "z/run.mcap\n\n# old\na/run.mcap\n").unwrap();
+    let listing = listing.to_str().unwrap();
+    let Ok(Request::Replay(r)) = request(&["replay", "--index", "1", listing]) else {
+        panic!("not replay");
+    };
+    let Target::One(one) = &r.target else {
+        panic!("--index replays one recording");
+    };
+    assert_eq!(one.file, PathBuf::from("z/run.mcap"));
+
+    assert_eq!(
+        usage(&["replay", "--index", "3", dir]),
+        format!("--index 3: {dir} lists 3 recordings (0 to 2)")
+    );
+    assert!(usage(&["replay", "--index", "0", dir, listing]).starts_with("--index takes one"));
+    assert_eq!(
+        error(&["replay", "--index", "0", "--index-from-env", dir]),
+        ErrorKind::ArgumentConflict
+    );
+}

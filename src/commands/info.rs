@@ -4,8 +4,10 @@ use std::path::Path;
 
 use heatrun::decimate::{ChannelGrid, DecimatedRecording};
 use heatrun::grid::GridBuilder;
+use heatrun::recording::RecordingIndex;
 use heatrun::recording::{self, format_time, RecordingSummary, SensorChannel, Storage};
 use heatrun::spec::ModelDescription;
+use heatrun::store::Location;
 
 use super::Outcome;
 use crate::cli::InfoArgs;
@@ -13,6 +15,17 @@ use crate::cli::InfoArgs;
 /// Reads the recording, lays it on a 1 s grid for the channels' periods and gaps, and
 /// prints both (text or JSON).
 pub fn run(args: &InfoArgs) -> anyhow::Result<Outcome> {
+    // A recording in object storage: its summary section only, by ranged requests.
+    let location = Location::from_path(&args.file)?;
+    if location.is_remote() {
+        let index = recording::read_index(&location).map_err(heatrun::Error::from)?;
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&index)?);
+        } else {
+            print_index(&index);
+        }
+        return Ok(Outcome::Complete);
+    }
     // The generator's placement of each profile quantity on the grid; channels it does not
     // name are averaged over intervals.
     let mut grid = GridBuilder::whole(1.0, ModelDescription::generator().alignments())
@@ -162,4 +175,50 @@ fn print_findings(summary: &RecordingSummary, grid: Option<&DecimatedRecording>)
     if summary.channels.is_empty() {
         println!("  this recording holds no heat-run data");
     }
+}
+
+/// A remote recording's summary section: channels with their message counts, span,
+/// chunks, metadata, and the bytes fetched to read it.
+fn print_index(index: &RecordingIndex) {
+    println!("{} ({} bytes)", index.path.display(), index.object_bytes);
+    if let Some((a, b)) = index.time_span_ns {
+        println!(
+            "  span {} to {} ({:.1} s)",
+            format_time(a),
+            format_time(b),
+            (b - a) as f64 * 1e-9
+        );
+    }
+    println!(
+        "  channels: {} (from the summary section)",
+        index.channels.len()
+    );
+    for c in &index.channels {
+        let get = |k: &str| c.metadata.get(k).map_or("", String::as_str);
+        println!(
+            "    {:<40} {:<26} {:<5} {:>9} messages",
+            c.topic,
+            get("quantity"),
+            get("unit"),
+            c.messages.map_or("?".into(), |m| m.to_string())
+        );
+    }
+    println!("  chunks: {}", index.chunks);
+    for (name, m) in &index.metadata {
+        println!(
+            "  metadata {name}: {}",
+            m.iter()
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    println!(
+        "  read by ranged requests: {} of {} bytes ({:.2} %) in {} requests; the samples' \
+         periods and gaps need the whole recording (a local copy)",
+        index.fetched_bytes,
+        index.object_bytes,
+        100.0 * index.fetched_bytes as f64 / index.object_bytes.max(1) as f64,
+        index.requests
+    );
 }

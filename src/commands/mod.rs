@@ -4,6 +4,7 @@
 mod bars;
 mod completions;
 mod fleet;
+mod fleet_summary;
 pub mod hint;
 mod import;
 mod info;
@@ -12,6 +13,7 @@ mod monitor;
 mod predict;
 mod rating;
 mod replay;
+mod staging;
 mod synth;
 
 use crate::cli::{Request, Target};
@@ -36,6 +38,9 @@ pub fn is_bad_input(err: &anyhow::Error) -> bool {
         || err
             .downcast_ref::<heatrun::Error>()
             .is_some_and(heatrun::Error::is_bad_input)
+        || err
+            .downcast_ref::<heatrun::store::StoreError>()
+            .is_some_and(heatrun::store::StoreError::is_bad_input)
 }
 
 /// Runs a validated command.
@@ -53,5 +58,6 @@ pub fn dispatch(request: Request) -> anyhow::Result<Outcome> {
         Request::Predict(predict) => predict::run(&predict),
         Request::Rating(rating) => rating::run(&rating),
         Request::Monitor(monitor) => monitor::run(&monitor),
+        Request::FleetSummary(summary) => fleet_summary::run(&summary),
     }
 }

@@ -11,6 +11,7 @@ use heatrun::progress::Observer;
 use heatrun_rerun::{Publisher, RerunSink};
 
 use super::bars::{self, Bars};
+use super::staging::Staging;
 use super::Outcome;
 use crate::cli::{One, Replay, SummaryFormat};
 
@@ -99,7 +100,13 @@ pub fn replay_one(
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let publisher = Publisher::open(sink, &name)?;
+    // Outputs named by URLs are written here complete, then uploaded whole.
+    let mut staging = Staging::default();
+    let sink = match sink {
+        RerunSink::Rrd(path) => RerunSink::Rrd(staging.local(path)?),
+        other => other.clone(),
+    };
+    let publisher = Publisher::open(&sink, &name)?;
     // The publisher sends each stage's series while the next stage runs.
     let found = if replay.raw {
         let mut full_rate = publisher.full_rate();
@@ -113,10 +120,11 @@ pub fn replay_one(
     let replayed = Replayed::new(found);
     publisher.finish(&replayed)?;
     if let Some(path) = outputs.report {
-        write_atomically(path, replayed.report.to_json().as_bytes())?;
+        write_atomically(&staging.local(path)?, replayed.report.to_json().as_bytes())?;
     }
     if let Some(path) = outputs.html {
-        heatrun::html::replay_page(&replayed, &options).write(path)?;
+        heatrun::html::replay_page(&replayed, &options).write(&staging.local(path)?)?;
     }
+    staging.upload()?;
     Ok(replayed)
 }

@@ -9,6 +9,7 @@ use std::process::{Command, Output};
 use heatrun::recording::Nameplate;
 
 pub mod oracle;
+pub mod s3;
 
 /// The package root, read when the test runs: a test binary built from another
 /// clone sharing the target directory must not look in that clone's folder.

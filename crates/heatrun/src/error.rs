@@ -145,7 +145,8 @@ impl Error {
             e @ (Error::Recording(
                 RecordingError::ReadInput { .. }
                 | RecordingError::BadRecording { .. }
-                | RecordingError::BadMachineFile { .. },
+                | RecordingError::BadMachineFile { .. }
+                | RecordingError::Store(_),
             )
             | Error::Spec(_)
             | Error::InRecording { .. }

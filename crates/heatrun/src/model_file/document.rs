@@ -541,6 +541,12 @@ enum Tag {
 impl Report {
     /// Reads a report (`heatrun replay --report`).
     pub fn read(path: &Path) -> Result<Report, UseError> {
+        // A URL (s3://, gs://, az://, https://) is read from its store, whole.
+        let location = crate::store::Location::from_path(path)?;
+        if location.is_remote() {
+            let text = crate::store::read_to_string(&location)?;
+            return Report::from_json(&text, path);
+        }
         let text = std::fs::read_to_string(path).map_err(|source| UseError::Read {
             path: path.to_owned(),
             source,

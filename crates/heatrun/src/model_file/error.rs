@@ -14,6 +14,9 @@ pub enum UseError {
         /// The operating-system error.
         source: std::io::Error,
     },
+    /// A report in object storage could not be read: the store's error names the URL.
+    #[error(transparent)]
+    Store(#[from] crate::store::StoreError),
     /// The model file is not a report of `heatrun replay --report` (not JSON, or a key of
     /// the wrong type).
     #[error("{path}: not a heatrun model report: {message}")]

@@ -53,6 +53,10 @@ pub enum RecordingError {
         /// What the key needs ("a decimal number", "positive", ...).
         requirement: &'static str,
     },
+    /// A recording in object storage could not be read (no such bucket or object, no
+    /// credentials, access denied): the store's error names the URL.
+    #[error(transparent)]
+    Store(#[from] crate::store::StoreError),
     /// A machine (nameplate) file given on the command line is unusable.
     #[error("{path}: {message}")]
     BadMachineFile {

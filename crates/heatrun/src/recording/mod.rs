@@ -7,12 +7,14 @@
 mod channel;
 mod chunk;
 mod error;
+mod index;
 mod nameplate;
 mod quantity;
 mod reader;
 
 pub use channel::{ChannelError, Storage};
 pub use error::RecordingError;
+pub use index::{read_index, IndexedChannel, RecordingIndex};
 pub use nameplate::{Nameplate, NameplateEntries, NAMEPLATE_RECORD};
 pub use quantity::{Alignment, Quantity, Signal};
 pub use reader::{

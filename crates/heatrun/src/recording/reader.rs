@@ -14,6 +14,8 @@ use std::collections::{BTreeMap, BTreeSet, BinaryHeap, HashMap};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use crate::store::Location;
+
 use mcap::records::{ChunkHeader, Record};
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use serde::{Deserialize, Serialize};
@@ -344,6 +346,13 @@ pub fn read_recording_with<S: SampleSink>(
     sink: &mut S,
     options: &ReadOptions,
 ) -> Result<RecordingSummary> {
+    // A URL (s3://, gs://, az://, https://) is streamed from its store by one GET: the
+    // same single pass as a local file, through the same reader.
+    let location = Location::from_path(path)?;
+    if location.is_remote() {
+        let opened = crate::store::open(&location)?;
+        return read_stream_with(opened.reader, path, opened.bytes, sink, options);
+    }
     let file = std::fs::File::open(path).map_err(|source| RecordingError::ReadInput {
         path: path.to_owned(),
         source,
