@@ -439,7 +439,15 @@ pub fn replay_observed(
         std::thread::scope(|scope| -> Result<_> {
             // `oe`'s re-estimation for the network is as long as a fit and needs nothing
             // of the analysis: it runs on a thread of its own beside it.
-            let refit = scope.spawn(|| with_output_offset(estimation_data, options, &estimate));
+            let refit = scope.spawn(|| {
+                network_source(
+                    estimation_data,
+                    options,
+                    &estimate,
+                    &prepared.model,
+                    scaling,
+                )
+            });
             // The hidden-state model needs nothing of the analysis either.
             let hidden = scope.spawn(|| identify_hidden(&prepared, estimation_data, options));
             let analysis = model::analyse(
@@ -474,10 +482,15 @@ pub fn replay_observed(
                     .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
                 let network = balance.with_network(
                     &prepared.model,
-                    estimate.network.as_deref(),
-                    network_source.as_ref().unwrap_or(&estimate),
+                    network_source
+                        .grey_box
+                        .as_ref()
+                        .and_then(|e| e.network.as_deref())
+                        .or(estimate.network.as_deref()),
+                    network_source.refit.as_ref().unwrap_or(&estimate),
                     &analysis.continuous,
                     &prepared.signals,
+                    network_source.said.as_deref(),
                 );
                 Ok::<_, Error>((validation, output_error_beside, network))
             })?;
@@ -647,6 +660,84 @@ fn identify_hidden(
         validation,
         estimate,
     }))
+}
+
+/// Where a replay's network comes from, found beside the model's analysis.
+struct NetworkSource {
+    /// `rc`'s fit to the data from the passive network nearest `oe`'s model.
+    grey_box: Option<Estimate>,
+    /// `oe`'s Θ re-estimated with the first sample's offset, where the nearest passive
+    /// network is the replay's network and the refit applies.
+    refit: Option<Estimate>,
+    /// Which network it is, and why, for the report ([`crate::network::Network::fitted_from`]).
+    said: Option<String>,
+}
+
+/// The replay's network: for `oe` (the default), `rc`'s fit to the data
+/// ([`ResistanceCapacitance::estimate_from`]) started from the passive network nearest
+/// `oe`'s model, which is near the minimum (few evaluations); the nearest passive network
+/// itself where `rc` cannot apply (an input that is not heat), saying why. The reported
+/// model stays the estimator's own: only the network changes source. `rc` itself
+/// brings its own network; the other methods keep the network nearest their model.
+fn network_source(
+    data: &IdentificationData,
+    options: &ReplayOptions,
+    estimate: &Estimate,
+    model: &ModelDescription,
+    scaling: network::Scaling,
+) -> NetworkSource {
+    match options.method {
+        Method::Rc => NetworkSource {
+            grey_box: None,
+            refit: None,
+            said: Some("fitted to the data by rc (--method rc), started from oe's network".into()),
+        },
+        Method::Oe => {
+            let fitted = grey_box_from_nearest(data, options, estimate, model, scaling);
+            match fitted {
+                Ok(grey_box) => NetworkSource {
+                    grey_box: Some(grey_box),
+                    refit: None,
+                    said: Some(
+                        "fitted to the data by rc, started from the passive network nearest \
+                         the identified model"
+                            .into(),
+                    ),
+                },
+                Err(why) => NetworkSource {
+                    grey_box: None,
+                    refit: with_output_offset(data, options, estimate),
+                    said: Some(format!("not fitted to the data by rc: {why}")),
+                },
+            }
+        }
+        _ => NetworkSource {
+            grey_box: None,
+            refit: None,
+            said: None,
+        },
+    }
+}
+
+/// `rc`'s fit to `data` from the passive network nearest `estimate`'s model (`oe`'s), or
+/// why it cannot be made.
+fn grey_box_from_nearest(
+    data: &IdentificationData,
+    options: &ReplayOptions,
+    estimate: &Estimate,
+    model: &ModelDescription,
+    scaling: network::Scaling,
+) -> std::result::Result<Estimate, String> {
+    let continuous =
+        crate::model::ContinuousModel::from_discrete(&estimate.model).map_err(|e| e.to_string())?;
+    let start = network::stage::nearest_parts(model, estimate, &continuous, scaling)?;
+    let rc = ResistanceCapacitance {
+        weights: options.weights.clone(),
+        scaling,
+        progress: options.progress.clone(),
+    };
+    rc.estimate_from(data, &start, estimate.clone())
+        .map_err(|e| format!("rc's fit failed ({e})"))
 }
 
 /// What the network is fitted to after `oe`: its Θ re-estimated with the constant output

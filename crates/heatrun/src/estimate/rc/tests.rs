@@ -151,7 +151,9 @@ fn from_a_distant_start_noise_free_data_give_the_true_network() {
         scaling,
         progress: Default::default(),
     };
-    let e = estimator.fit_from(&data, map, &p0).unwrap();
+    let e = estimator
+        .fit_from(&data, map, &p0, NEGLIGIBLE_CHI2)
+        .unwrap();
     let network = e.network.as_ref().unwrap();
     let (cg, k) = errors(&network.parts, &truth);
     assert!(cg < 1e-6 && k < 1e-7, "C, G off by {cg}, K by {k}");
@@ -260,4 +262,56 @@ fn a_constant_offset_on_every_output_is_estimated_beside_the_network() {
     for (f, t) in found.iter().zip(d) {
         assert!((f - t).abs() < 1e-7, "offset {found:?}, truth {d:?}");
     }
+}
+
+/// What `oe` would hand over: `model` as an estimate of its own.
+fn as_estimate(model: DiscreteModel) -> Estimate {
+    Estimate {
+        model,
+        method: Method::Oe,
+        rows_used: 0,
+        condition_number: f64::NAN,
+        covariance: None,
+        noise_variance: Vec::new(),
+        iterations: 0,
+        output_offset: None,
+        trajectory: None,
+        network: None,
+    }
+}
+
+#[test]
+fn a_slow_network_is_recovered_from_a_distant_start_through_the_coarse_grid() {
+    // C twenty times `known`'s: the fastest time constant (≈ 200 s) spans ten samples of
+    // a grid 20·Ts, so the fit runs there first ([`coarse`]), then at full rate.
+    let (mut truth, scaling) = known();
+    truth
+        .capacitance_j_per_k
+        .iter_mut()
+        .for_each(|c| *c *= 20.0);
+    let data = data_of(&truth, scaling, 40_000, 0.01);
+    let map = Parametrisation::of_shape(1.0, scaling, &truth);
+    let model = map.model(&map.start);
+    let k = coarse(&data, &model).map(|c| c.ts_s);
+    assert!(k.is_some_and(|ts| ts >= 2.0), "coarse grid {k:?}");
+    // Every C 60 % high, every G halved, the shares moved 0.1 towards equal.
+    let start = Parts {
+        capacitance_j_per_k: truth.capacitance_j_per_k.iter().map(|c| c * 1.6).collect(),
+        conductance_w_per_k: truth.conductance_w_per_k.map(|g| g * 0.5),
+        loss_distribution: truth.loss_distribution.map(|v| 0.7 * v + 0.1),
+    };
+    let estimator = ResistanceCapacitance {
+        weights: None,
+        scaling,
+        progress: crate::progress::Observer::silent(),
+    };
+    let e = estimator
+        .estimate_from(&data, &start, as_estimate(model))
+        .unwrap();
+    let found = &e.network.as_ref().unwrap().parts;
+    let (cg, k) = errors(found, &truth);
+    assert!(cg < 0.02, "C, G {cg}");
+    assert!(k < 0.01, "K {k}");
+    // The start it was given is kept beside the network, for comparison.
+    assert_eq!(e.network.unwrap().output_error.method, Method::Oe);
 }
