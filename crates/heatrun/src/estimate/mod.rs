@@ -29,7 +29,7 @@ pub use iv::InstrumentalVariables;
 pub use method::{Method, UnknownMethod};
 pub use oe::OutputError;
 pub use pem::{PredictionError, Predictor};
-pub use rc::{NetworkEstimate, ResistanceCapacitance};
+pub use rc::{likelihood_ratio, NetworkEstimate, ResistanceCapacitance};
 pub use rls::{RecursiveLeastSquares, TrajectoryPoint};
 pub use wls::WeightedLeastSquares;
 

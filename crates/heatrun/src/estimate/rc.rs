@@ -124,7 +124,7 @@ impl ResistanceCapacitance {
         let coarse_fit = coarse(data, &output_error.model).and_then(|coarse| {
             let map = Parametrisation::of_shape(coarse.ts_s, self.scaling, &start);
             let at = map.start.clone();
-            let fit = self.fit_from(&coarse, map, &at, COARSE_NEGLIGIBLE_CHI2);
+            let fit = self.fit_from(&coarse, map, &at, &[], COARSE_NEGLIGIBLE_CHI2);
             // A failed coarse fit only loses its head start.
             fit.ok()?.network.map(|n| projected(n.parts))
         });
@@ -142,11 +142,33 @@ impl ResistanceCapacitance {
         let start = coarse_fit.unwrap_or(start);
         let map = Parametrisation::of_shape(data.ts_s, self.scaling, &start);
         let start = map.start.clone();
-        let mut estimate = self.fit_from(data, map, &start, NEGLIGIBLE_CHI2)?;
+        let mut estimate = self.fit_from(data, map, &start, &[], NEGLIGIBLE_CHI2)?;
         if let Some(network) = estimate.network.as_mut() {
             *network.output_error = output_error;
         }
         Ok(estimate)
+    }
+
+    /// The fit to `data` from `parts` with every part's conductance to the coolant but
+    /// `coolant_state`'s held at zero (pinned at 10⁻⁹ of the largest conductance, where
+    /// its logarithm stays finite): the network in which heat leaves the machine only
+    /// through the cooling water, as the calorimetric balance measures it.
+    pub fn fit_through_coolant(
+        &self,
+        data: &IdentificationData,
+        parts: &Parts,
+        coolant_state: usize,
+    ) -> Result<Estimate> {
+        let n = parts.capacitance_j_per_k.len();
+        let mut parts = parts.clone();
+        let g_max = parts.conductance_w_per_k.amax();
+        let pinned: Vec<usize> = (0..n).filter(|&i| i != coolant_state).map(|i| n + i).collect();
+        for i in (0..n).filter(|&i| i != coolant_state) {
+            parts.conductance_w_per_k[(i, i)] = PINNED_ZERO * g_max;
+        }
+        let map = Parametrisation::of_shape(data.ts_s, self.scaling, &parts);
+        let start = map.start.clone();
+        self.fit_from(data, map, &start, &pinned, NEGLIGIBLE_CHI2)
     }
 
     fn scaling_is_valid(&self) -> Result<()> {
@@ -172,6 +194,7 @@ impl ResistanceCapacitance {
         data: &IdentificationData,
         map: Parametrisation,
         start: &[f64],
+        pinned: &[usize],
         negligible_chi2: f64,
     ) -> Result<Estimate> {
         let segments = data.segments();
@@ -192,7 +215,7 @@ impl ResistanceCapacitance {
         // conductances to the coolant absorb it; docs/src/methods/thermal-network.md).
         let mut inner = Problem::new(data, segments, &start_model, &weights).with_output_offset();
         inner.progress = Some(oe::Reporting::new(&self.progress, self.method().name()));
-        let mut problem = RcProblem::new(inner, map, start);
+        let mut problem = RcProblem::new(inner, map, start, pinned);
         let mut evaluations = 0;
         // Fewer evaluations than OE's 200·(p+1): a conductance or share that is zero in
         // truth walks its logarithm towards −∞ with ever smaller gains, and the fit stops
@@ -285,6 +308,24 @@ fn simulation_score(data: &IdentificationData, model: &DiscreteModel) -> f64 {
         score
     }
 }
+
+/// The likelihood-ratio statistic of `restricted` (a network with entries held, e.g.
+/// [`ResistanceCapacitance::fit_through_coolant`]) against `full`, both fitted to `data`:
+/// Λ = Σ_i N_i·ln(σ̂²_R,i / σ̂²_F,i) over the outputs i (N_i observed instants, σ̂²_i the
+/// output's residual variance), χ²-distributed on as many degrees of freedom as entries
+/// held where the held entries are zero in truth (Gaussian white noise per output, its
+/// variance unknown).
+pub fn likelihood_ratio(data: &IdentificationData, full: &Estimate, restricted: &Estimate) -> f64 {
+    data.observed_counts(&data.segments())
+        .iter()
+        .zip(full.noise_variance.iter().zip(&restricted.noise_variance))
+        .map(|(&n, (f, r))| n as f64 * (r.max(1e-300) / f.max(1e-300)).ln())
+        .sum()
+}
+
+/// A conductance held at zero, relative to the largest: far below any the data could
+/// tell apart from none, its logarithm finite.
+const PINNED_ZERO: f64 = 1e-9;
 
 /// Samples of the coarse grid per fastest time constant: the coarse fit resolves every
 /// mode of the model.
@@ -399,9 +440,14 @@ fn rough_parts(
 struct RcProblem<'a> {
     inner: Problem<'a>,
     map: Parametrisation,
-    /// [p; x0 of each segment] (x0 only where OE estimates them).
+    /// The entries of p the fit moves, increasing; the others stay pinned at their start
+    /// (a conductance held at zero: [`pinned_to_coolant`]).
+    free: Vec<usize>,
+    /// The whole of p, pinned entries included.
+    p_full: Vec<f64>,
+    /// [p's free entries; x0 of each segment] (x0 only where OE estimates them).
     params: DVector<f64>,
-    /// D = ∂Θ/∂p at `params`.
+    /// D = ∂Θ/∂p at `params`, the free entries' columns.
     d: DMatrix<f64>,
     cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
     /// The lowest objective evaluated so far and its parameters: where the minimiser
@@ -445,14 +491,22 @@ struct Stall {
 }
 
 impl<'a> RcProblem<'a> {
-    fn new(inner: Problem<'a>, map: Parametrisation, start: &[f64]) -> RcProblem<'a> {
+    fn new(
+        inner: Problem<'a>,
+        map: Parametrisation,
+        start: &[f64],
+        pinned: &[usize],
+    ) -> RcProblem<'a> {
         let p_theta = inner.p_theta();
-        let mut params: Vec<f64> = start.to_vec();
+        let free: Vec<usize> = (0..start.len()).filter(|q| !pinned.contains(q)).collect();
+        let mut params: Vec<f64> = free.iter().map(|&q| start[q]).collect();
         params.extend(inner.params.iter().skip(p_theta).copied());
         let mut problem = RcProblem {
             d: DMatrix::zeros(0, 0),
             inner,
             map,
+            free,
+            p_full: start.to_vec(),
             params: DVector::from_vec(params),
             cache: RefCell::new(None),
             best: RefCell::new(None),
@@ -464,13 +518,13 @@ impl<'a> RcProblem<'a> {
     }
 
     fn p(&self) -> &[f64] {
-        &self.params.as_slice()[..self.map.len()]
+        &self.p_full
     }
 
     /// OE's evaluation in [Θ; x0] carried to [p; x0] by T = diag(D, I).
     fn evaluate(&self) -> Evaluation {
         let e = self.inner.evaluate_full();
-        let (pt, pp) = (self.inner.p_theta(), self.map.len());
+        let (pt, pp) = (self.inner.p_theta(), self.free.len());
         let rest = e.gram.nrows() - pt;
         let d = &self.d;
         let cols = pp + rest;
@@ -559,9 +613,16 @@ impl<'a> RcProblem<'a> {
         let dof = entries.saturating_sub(self.params.len()).max(1) as f64;
         let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
         let (full, condition_number) = oe::covariance_from_gram(&evaluation.gram, sigma2);
-        let pp = self.map.len();
-        let cov_p = full.view((0, 0), (pp, pp)).into_owned();
-        let theta_cov = &self.d * &cov_p * self.d.transpose();
+        let pp = self.free.len();
+        let cov_free = full.view((0, 0), (pp, pp)).into_owned();
+        let theta_cov = &self.d * &cov_free * self.d.transpose();
+        // A pinned entry is no estimate: no variance, no covariance.
+        let mut cov_p = DMatrix::zeros(self.map.len(), self.map.len());
+        for (a, &qa) in self.free.iter().enumerate() {
+            for (b, &qb) in self.free.iter().enumerate() {
+                cov_p[(qa, qb)] = cov_free[(a, b)];
+            }
+        }
         let noise_variance: Vec<f64> = (0..n)
             .map(|c| {
                 let w = self.inner.sqrt_w[c].powi(2).max(1e-300);
@@ -612,15 +673,15 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
 
     fn set_params(&mut self, x: &DVector<f64>) {
         self.params.copy_from(x);
-        let pp = self.map.len();
+        let pp = self.free.len();
         // Logarithms within e^±LOG_RANGE of the start: the exponentials stay finite.
-        for q in 0..pp {
+        for (k, &q) in self.free.iter().enumerate() {
             let s = self.map.start[q];
-            self.params[q] = self.params[q].clamp(s - LOG_RANGE, s + LOG_RANGE);
+            self.params[k] = self.params[k].clamp(s - LOG_RANGE, s + LOG_RANGE);
+            self.p_full[q] = self.params[k];
         }
         let x = &self.params.clone();
-        let p = &x.as_slice()[..pp];
-        let theta = self.map.model(p).theta();
+        let theta = self.map.model(&self.p_full).theta();
         let pt = self.inner.p_theta();
         for (q, t) in theta.iter().enumerate() {
             self.inner.params[q] = *t;
@@ -628,7 +689,10 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
         for q in pp..x.len() {
             self.inner.params[pt + q - pp] = x[q];
         }
-        self.d = self.map.theta_jacobian(p);
+        self.d = self
+            .map
+            .theta_jacobian(&self.p_full)
+            .select_columns(&self.free);
     }
 
     fn params(&self) -> DVector<f64> {

@@ -103,7 +103,8 @@ impl Balance {
                 self.calorimetry.as_ref(),
             ),
         };
-        if let (Ok(network), true) = (network.as_mut(), identified.network.is_none()) {
+        let beside_another_model = grey_box.is_some() && identified.network.is_none();
+        if let (Ok(network), true) = (network.as_mut(), beside_another_model) {
             // rc's network beside another estimator's model: the passivity figures still
             // describe the model the replay reports (how far it is from a network).
             if let Some(passivity) = algebraic_passivity(model, continuous, signals) {
