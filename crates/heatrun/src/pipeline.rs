@@ -692,6 +692,15 @@ fn network_source(
             refit: None,
             said: Some("fitted to the data by rc (--method rc), started from oe's network".into()),
         },
+        Method::Oe if reproduced_exactly(estimate, scaling) => NetworkSource {
+            grey_box: None,
+            refit: with_output_offset(data, options, estimate),
+            said: Some(format!(
+                "not rc's fit to the data: the identified model reproduces them within \
+                 {NOISE_FREE_K:e} K (they carry no noise), so its own nearest passive network is \
+                 the network"
+            )),
+        },
         Method::Oe => match grey_box_from_nearest(data, options, estimate, model, scaling) {
             Ok((grey_box, said)) => NetworkSource {
                 grey_box: Some(grey_box),
@@ -712,12 +721,19 @@ fn network_source(
     }
 }
 
-/// The largest ratio, on any output, of the residual variance rc's network leaves to
-/// the identified model's at which the network is said to reproduce the data: what it
-/// misses is then no larger than the noise. A model that is no passive network and is
-/// known without noise (the paper's fixture: 3·10⁻¹² K) is far beyond it, and the replay
-/// prints the passive network nearest the model, as it says.
-const REPRODUCES_WITHIN: f64 = 2.0;
+/// The residual, in kelvin, below which an identified model reproduces its data exactly:
+/// far below the quantisation of any temperature sensor (0.001 K/√12 ≈ 3·10⁻⁴ K), so
+/// only data without noise (the paper's fixture: 3·10⁻¹² K) come within it.
+const NOISE_FREE_K: f64 = 1e-4;
+
+/// Whether `estimate`'s model reproduces its data within [`NOISE_FREE_K`] on every
+/// output: the data carry no noise, the model is the system's own, and its departure from
+/// a passive network is the system's, which no fit to the same data would undo; the
+/// network nearest the model is then the network, at no cost.
+fn reproduced_exactly(estimate: &Estimate, scaling: network::Scaling) -> bool {
+    let limit = (NOISE_FREE_K / scaling.theta_base_k).powi(2);
+    !estimate.noise_variance.is_empty() && estimate.noise_variance.iter().all(|v| *v < limit)
+}
 
 /// The level of the likelihood-ratio test that every part but the cooling water has no
 /// conductance to the coolant: above it, the data cannot tell those conductances from
@@ -726,8 +742,9 @@ const THROUGH_COOLANT_LEVEL: f64 = 0.05;
 
 /// `rc`'s fit to `data` from the passive network nearest `estimate`'s model (`oe`'s),
 /// with heat leaving only through the cooling water where the data allow it
-/// ([`through_coolant`]), and what it is; or why it is not the replay's network (it
-/// cannot be made, or it does not reproduce the data: [`REPRODUCES_WITHIN`]).
+/// ([`through_coolant`]), and what it is: how much more than the identified model it
+/// leaves unexplained, as an RMS in kelvin, max_i θ_base·√(σ̂²_rc,i − σ̂²_model,i) (the
+/// model's own misfit is the noise, or less); or why it cannot be made.
 fn grey_box_from_nearest(
     data: &IdentificationData,
     options: &ReplayOptions,
@@ -747,23 +764,18 @@ fn grey_box_from_nearest(
         .estimate_from(data, &start, estimate.clone())
         .map_err(|e| format!("rc's fit failed ({e})"))?;
     let (chosen, coolant) = through_coolant(&rc, data, model, full);
-    let worst = chosen
+    let beyond_k = chosen
         .noise_variance
         .iter()
         .zip(&estimate.noise_variance)
-        .map(|(r, m)| r / m.max(1e-300))
+        .map(|(r, m)| (r - m).max(0.0).sqrt() * scaling.theta_base_k)
         .fold(0.0, f64::max);
-    if !(worst <= REPRODUCES_WITHIN) {
-        return Err(format!(
-            "no passive network reproduces the data (rc's fit from it leaves {worst:.2e} times \
-             the identified model's residual variance on an output)"
-        ));
-    }
     Ok((
         chosen,
         format!(
             "fitted to the data by rc, started from the passive network nearest the \
-             identified model{coolant}"
+             identified model{coolant}; it leaves at most {beyond_k:.3} K RMS unexplained \
+             beyond the identified model's residuals"
         ),
     ))
 }

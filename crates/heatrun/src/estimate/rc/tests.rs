@@ -358,7 +358,7 @@ fn experiment_four_node_starts() {
         };
         let t0 = std::time::Instant::now();
         let oe = crate::pipeline::estimate(data, &options).unwrap();
-        eprintln!("seed {seed}: oe {:.1} s", t0.elapsed().as_secs_f64());
+        eprintln!("seed {seed}: oe {:.1} s nv {:?} method {:?} iters {}", t0.elapsed().as_secs_f64(), oe.noise_variance, oe.method, oe.iterations);
         let continuous = ContinuousModel::from_discrete(&oe.model).unwrap();
         let nearest =
             crate::network::stage::nearest_parts(&prepared.model, &oe, &continuous, scaling)
@@ -368,10 +368,8 @@ fn experiment_four_node_starts() {
             scaling,
             progress: crate::progress::Observer::silent(),
         };
-        let nearest_fit = rc.estimate_from(data, &nearest, oe.clone()).unwrap().network.unwrap().parts;
         let starts = [
             ("nearest", nearest.clone()),
-            ("pinned", nearest_fit.clone()),
         ];
         let counts = data.observed_counts(&data.segments());
         let mut full_nv: Option<Vec<f64>> = None;
