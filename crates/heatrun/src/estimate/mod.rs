@@ -29,7 +29,8 @@ pub use iv::InstrumentalVariables;
 pub use method::{Method, UnknownMethod};
 pub use oe::OutputError;
 pub use pem::{PredictionError, Predictor};
-pub use rc::{likelihood_ratio, NetworkEstimate, ResistanceCapacitance};
+pub(crate) use rc::start_parts;
+pub use rc::{deviance, likelihood_ratio, NetworkEstimate, ResistanceCapacitance};
 pub use rls::{RecursiveLeastSquares, TrajectoryPoint};
 pub use wls::WeightedLeastSquares;
 

@@ -203,12 +203,12 @@ impl ResistanceCapacitance {
         let start_model = map.model(start);
         let weights = match &self.weights {
             Some(w) => w.clone(),
-            None => oe::normalised_inverse(
+            None => capped(oe::normalised_inverse(
                 &oe::simulation_error_variance(data, &segments, &start_model)
                     .iter()
                     .map(|v| v.max(1e-24))
                     .collect::<Vec<_>>(),
-            ),
+            )),
         };
         // The rises are measured from one noisy first sample each: a constant offset per
         // output, estimated beside the network (without it the slow columns of K and the
@@ -269,7 +269,17 @@ impl ResistanceCapacitance {
                 break;
             }
             // Second pass on 1/σ_i² of the first pass's residuals (the sensor noise).
-            let next = problem.inner.residual_weights();
+            let next: Vec<f64> = capped(
+                problem
+                    .inner
+                    .residual_weights()
+                    .iter()
+                    .map(|s| s * s)
+                    .collect(),
+            )
+            .iter()
+            .map(|w| w.sqrt())
+            .collect();
             let change = next
                 .iter()
                 .zip(&problem.inner.sqrt_w)
@@ -309,18 +319,47 @@ fn simulation_score(data: &IdentificationData, model: &DiscreteModel) -> f64 {
     }
 }
 
-/// The likelihood-ratio statistic of `restricted` (a network with entries held, e.g.
-/// [`ResistanceCapacitance::fit_through_coolant`]) against `full`, both fitted to `data`:
-/// Λ = Σ_i N_i·ln(σ̂²_R,i / σ̂²_F,i) over the outputs i (N_i observed instants, σ̂²_i the
-/// output's residual variance), χ²-distributed on as many degrees of freedom as entries
-/// held where the held entries are zero in truth (Gaussian white noise per output, its
-/// variance unknown).
-pub fn likelihood_ratio(data: &IdentificationData, full: &Estimate, restricted: &Estimate) -> f64 {
+/// The deviance of `estimate`'s fit to `data`, Σ_i N_i·ln max(σ̂²_i, floor) over the
+/// outputs i (N_i observed instants, σ̂²_i the output's residual variance): −2 ln L up to
+/// a constant for Gaussian white noise of unknown variance per output. `floor` (in the
+/// outputs' units squared) is the least variance taken as real: an output nearly without
+/// noise (a field winding from U_f/I_f whose electrical channels carry none: 10⁻⁶ K)
+/// would otherwise weigh its last numerical digits against the other outputs' data.
+pub fn deviance(data: &IdentificationData, estimate: &Estimate, floor: f64) -> f64 {
     data.observed_counts(&data.segments())
         .iter()
-        .zip(full.noise_variance.iter().zip(&restricted.noise_variance))
-        .map(|(&n, (f, r))| n as f64 * (r.max(1e-300) / f.max(1e-300)).ln())
+        .zip(&estimate.noise_variance)
+        .map(|(&n, v)| n as f64 * v.max(floor).max(1e-300).ln())
         .sum()
+}
+
+/// The likelihood-ratio statistic of `restricted` (a network with entries held, e.g.
+/// [`ResistanceCapacitance::fit_through_coolant`]) against `full`, both fitted to `data`:
+/// Λ = [`deviance`](restricted) − [`deviance`](full), χ²-distributed on as many degrees
+/// of freedom as entries held where those entries are zero in truth.
+pub fn likelihood_ratio(
+    data: &IdentificationData,
+    full: &Estimate,
+    restricted: &Estimate,
+    floor: f64,
+) -> f64 {
+    deviance(data, restricted, floor) - deviance(data, full, floor)
+}
+
+/// The largest weight of an output over the median output's: no output is taken as more
+/// than ten times as precise (in σ) as the median one.
+const WEIGHT_OVER_MEDIAN: f64 = 100.0;
+
+/// `weights` (1/σ_i², any scale) with none above [`WEIGHT_OVER_MEDIAN`] times their
+/// median. An output nearly without noise (a field winding read from U_f/I_f whose
+/// electrical channels carry none) would otherwise take a weight 10⁴ times the others',
+/// on which the fit stalls far from the minimum (the four-node machine: C 33 % off).
+fn capped(weights: Vec<f64>) -> Vec<f64> {
+    let mut sorted = weights.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    let cap = WEIGHT_OVER_MEDIAN * median;
+    weights.into_iter().map(|w| w.min(cap)).collect()
 }
 
 /// A conductance held at zero, relative to the largest: far below any the data could
@@ -374,7 +413,7 @@ fn coarse(data: &IdentificationData, model: &DiscreteModel) -> Option<Identifica
 /// conductances and shares floored at `thermal::rc::START_FLOOR` (of the largest
 /// conductance; of 1), each column of K renormalised to 1. Where the model has no
 /// network, a rough one from its diagonal.
-fn start_parts(model: &DiscreteModel, scaling: Scaling) -> Parts {
+pub(crate) fn start_parts(model: &DiscreteModel, scaling: Scaling) -> Parts {
     let (n, m) = (model.phi.nrows(), model.gamma.ncols());
     let continuous = ContinuousModel::from_discrete(model).ok();
     let network = continuous.as_ref().and_then(|c| {

@@ -317,95 +317,49 @@ fn a_slow_network_is_recovered_from_a_distant_start_through_the_coarse_grid() {
     assert_eq!(e.network.unwrap().output_error.method, Method::Oe);
 }
 
+/// rc's network of `data` and the same refitted with every conductance to the coolant
+/// but part 2's held at zero, and the likelihood ratio between them.
+fn held_against_full(data: &IdentificationData, scaling: Scaling) -> (Estimate, Estimate, f64) {
+    let estimator = ResistanceCapacitance {
+        weights: None,
+        scaling,
+        progress: crate::progress::Observer::silent(),
+    };
+    let full = estimator.estimate(data).unwrap();
+    let parts = full.network.as_ref().unwrap().parts.clone();
+    let held = estimator.fit_through_coolant(data, &parts, 2).unwrap();
+    let ratio = likelihood_ratio(data, &full, &held, 0.0);
+    (full, held, ratio)
+}
+
 #[test]
-#[ignore]
-fn experiment_four_node_starts() {
-    use crate::synth::{self, FieldChannel, Machine, NetworkMachine, SynthOptions};
-    let dir = tempfile::tempdir().unwrap();
-    let seeds: Vec<u64> = std::env::var("SEEDS")
-        .unwrap_or("3,5".into())
-        .split(',')
-        .map(|s| s.parse().unwrap())
-        .collect();
-    for seed in seeds {
-        let path = dir.path().join(format!("run{seed}.mcap"));
-        let truth = synth::write(
-            &path,
-            &SynthOptions {
-                machine: Machine::Network(NetworkMachine::rc_field()),
-                field_channel: FieldChannel::Voltage,
-                seed,
-                ..SynthOptions::default().with_noise_level(1.0)
-            },
-        )
-        .unwrap();
-        let tn = truth.network.unwrap();
-        let n = tn.capacitance_j_per_k.len();
-        let truth_parts = Parts {
-            capacitance_j_per_k: tn.capacitance_j_per_k.clone(),
-            conductance_w_per_k: DMatrix::from_fn(n, n, |i, j| tn.conductance_w_per_k[i][j]),
-            loss_distribution: DMatrix::from_fn(n, 3, |i, j| tn.loss_distribution[i][j]),
-        };
-        let options = crate::pipeline::ReplayOptions {
-            model: crate::spec::ModelDescription::generator_with_field_state(),
-            ..Default::default()
-        };
-        let prepared = crate::pipeline::prepare(&path, &options).unwrap();
-        let data = &prepared.data;
-        let scaling = Scaling {
-            theta_base_k: prepared.signals.temperature_base_k,
-            p_base_w: prepared.signals.power_base,
-        };
-        let t0 = std::time::Instant::now();
-        let oe = crate::pipeline::estimate(data, &options).unwrap();
-        eprintln!("seed {seed}: oe {:.1} s nv {:?} method {:?} iters {}", t0.elapsed().as_secs_f64(), oe.noise_variance, oe.method, oe.iterations);
-        let continuous = ContinuousModel::from_discrete(&oe.model).unwrap();
-        let nearest =
-            crate::network::stage::nearest_parts(&prepared.model, &oe, &continuous, scaling)
-                .unwrap();
-        let rc = ResistanceCapacitance {
-            weights: None,
-            scaling,
-            progress: crate::progress::Observer::silent(),
-        };
-        let starts = [
-            ("nearest", nearest.clone()),
-        ];
-        let counts = data.observed_counts(&data.segments());
-        let mut full_nv: Option<Vec<f64>> = None;
-        for (name, start) in starts {
-            let t0 = std::time::Instant::now();
-            let e = if name == "pinned" {
-                rc.fit_through_coolant(data, &start, 2).unwrap()
-            } else {
-                rc.estimate_from(data, &start, oe.clone()).unwrap()
-            };
-            if name == "nearest" {
-                full_nv = Some(e.noise_variance.clone());
-            }
-            if name == "pinned" {
-                let f = full_nv.clone().unwrap();
-                let stat: f64 = (0..4).map(|c| counts[c] as f64 * (e.noise_variance[c] / f[c]).ln()).sum();
-                eprintln!("LR stat {stat:.2}  nv {:?} vs {:?}", e.noise_variance, f);
-            }
-            let secs = t0.elapsed().as_secs_f64();
-            let net = e.network.as_ref().unwrap();
-            let score = simulation_score(data, &e.model);
-            let mut c_err = 0.0_f64;
-            for (c, t) in net.parts.capacitance_j_per_k.iter().zip(&truth_parts.capacitance_j_per_k) {
-                c_err = c_err.max(relative(*c, *t));
-            }
-            let mut g_err = 0.0_f64;
-            let mut g_zero = 0.0_f64;
-            for (g, t) in net.parts.conductance_w_per_k.iter().zip(truth_parts.conductance_w_per_k.iter()) {
-                if *t > 0.0 { g_err = g_err.max(relative(*g, *t)); } else { g_zero = g_zero.max(*g); }
-            }
-            let k = (&net.parts.loss_distribution - &truth_parts.loss_distribution).amax();
-            eprintln!(
-                "seed {seed} {name:>13}: score {score:.4} evals {} {secs:.1} s: C {:.1} % G {:.1} % zeroG {:.0} k {k:.3}",
-                e.iterations, 100.0 * c_err, 100.0 * g_err, g_zero
-            );
-        }
-        eprintln!("seed {seed}: oe score {:.4}", simulation_score(data, &oe.model));
+fn heat_through_the_coolant_alone_is_told_from_conductances_the_data_need() {
+    // 0.999 quantile of χ² on 2 degrees of freedom (two conductances held): −2·ln(0.001).
+    let chi2_2_999 = -2.0 * 0.001_f64.ln();
+    // `known` has G_10 = 1 and G_20 = 2 W/K beside G_30 = 5: held at zero, the fit is
+    // far worse than the noise explains.
+    let (truth, scaling) = known();
+    let data = data_of(&truth, scaling, 20000, 0.05);
+    let (_, _, ratio) = held_against_full(&data, scaling);
+    assert!(ratio > 10.0 * chi2_2_999, "likelihood ratio {ratio}");
+    // The same machine with heat leaving only through part 3 (G_10 = G_20 = 0, the
+    // simulation's 10⁻¹²): the ratio is within χ²'s range, and the held fit recovers C,
+    // the conductances between the parts and K.
+    let mut through = truth.clone();
+    through.conductance_w_per_k[(0, 0)] = 1e-12;
+    through.conductance_w_per_k[(1, 1)] = 1e-12;
+    let data = data_of(&through, scaling, 20000, 0.05);
+    let (_, held, ratio) = held_against_full(&data, scaling);
+    assert!(ratio < chi2_2_999, "likelihood ratio {ratio}");
+    let found = &held.network.as_ref().unwrap().parts;
+    for (c, t) in found.capacitance_j_per_k.iter().zip(&through.capacitance_j_per_k) {
+        assert!(relative(*c, *t) < 0.1, "C {:?}", found.capacitance_j_per_k);
     }
+    for (i, j) in [(0, 1), (0, 2), (1, 2), (2, 2)] {
+        let (g, t) = (found.conductance_w_per_k[(i, j)], through.conductance_w_per_k[(i, j)]);
+        assert!(relative(g, t) < 0.1, "G {}", found.conductance_w_per_k);
+    }
+    // Held, not estimated: at 10⁻⁹ of the largest conductance.
+    assert!(found.conductance_w_per_k[(0, 0)] < 1e-8 * found.conductance_w_per_k.amax());
+    assert!((&found.loss_distribution - &through.loss_distribution).amax() < 0.05);
 }
