@@ -784,21 +784,29 @@ fn grey_box_from_nearest(
             .collect();
         handles
             .into_iter()
-            .map(|h| h.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)))
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            })
             .collect()
     });
     let mut failure = None;
-    let full = fits
-        .into_iter()
-        .filter_map(|fit| fit.map_err(|e| failure = Some(e)).ok())
-        .min_by(|a, b| {
-            let d = |e: &Estimate| crate::estimate::deviance(data, e, floor);
-            d(a).total_cmp(&d(b))
-        })
-        .ok_or_else(|| match failure {
-            Some(e) => format!("rc's fit failed ({e})"),
-            None => "rc's fit failed".into(),
-        })?;
+    let (start, full) = [
+        "the passive network nearest the identified model",
+        "the identified model's own network projected onto the passive set (nearer the data \
+         than rc's fit from the passive network nearest the model)",
+    ]
+    .into_iter()
+    .zip(fits)
+    .filter_map(|(start, fit)| fit.map_err(|e| failure = Some(e)).ok().map(|f| (start, f)))
+    .min_by(|(_, a), (_, b)| {
+        let d = |e: &Estimate| crate::estimate::deviance(data, e, floor);
+        d(a).total_cmp(&d(b))
+    })
+    .ok_or_else(|| match failure {
+        Some(e) => format!("rc's fit failed ({e})"),
+        None => "rc's fit failed".into(),
+    })?;
     let (chosen, coolant) = through_coolant(&rc, data, model, full, floor);
     let beyond_k = chosen
         .noise_variance
@@ -809,8 +817,7 @@ fn grey_box_from_nearest(
     Ok((
         chosen,
         format!(
-            "fitted to the data by rc, started from the passive network nearest the \
-             identified model{coolant}; it leaves at most {beyond_k:.3} K RMS unexplained \
+            "fitted to the data by rc, started from {start}{coolant}; it leaves at most {beyond_k:.3} K RMS unexplained \
              beyond the identified model's residuals"
         ),
     ))

@@ -162,7 +162,10 @@ impl ResistanceCapacitance {
         let n = parts.capacitance_j_per_k.len();
         let mut parts = parts.clone();
         let g_max = parts.conductance_w_per_k.amax();
-        let pinned: Vec<usize> = (0..n).filter(|&i| i != coolant_state).map(|i| n + i).collect();
+        let pinned: Vec<usize> = (0..n)
+            .filter(|&i| i != coolant_state)
+            .map(|i| n + i)
+            .collect();
         for i in (0..n).filter(|&i| i != coolant_state) {
             parts.conductance_w_per_k[(i, i)] = PINNED_ZERO * g_max;
         }

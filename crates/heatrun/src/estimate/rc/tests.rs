@@ -352,11 +352,18 @@ fn heat_through_the_coolant_alone_is_told_from_conductances_the_data_need() {
     let (_, held, ratio) = held_against_full(&data, scaling);
     assert!(ratio < chi2_2_999, "likelihood ratio {ratio}");
     let found = &held.network.as_ref().unwrap().parts;
-    for (c, t) in found.capacitance_j_per_k.iter().zip(&through.capacitance_j_per_k) {
+    for (c, t) in found
+        .capacitance_j_per_k
+        .iter()
+        .zip(&through.capacitance_j_per_k)
+    {
         assert!(relative(*c, *t) < 0.1, "C {:?}", found.capacitance_j_per_k);
     }
     for (i, j) in [(0, 1), (0, 2), (1, 2), (2, 2)] {
-        let (g, t) = (found.conductance_w_per_k[(i, j)], through.conductance_w_per_k[(i, j)]);
+        let (g, t) = (
+            found.conductance_w_per_k[(i, j)],
+            through.conductance_w_per_k[(i, j)],
+        );
         assert!(relative(g, t) < 0.1, "G {}", found.conductance_w_per_k);
     }
     // Held, not estimated: at 10⁻⁹ of the largest conductance.
