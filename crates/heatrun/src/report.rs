@@ -776,8 +776,15 @@ impl Report {
                 if let Some(note) = &n.scale_note {
                     let _ = writeln!(s, "  ({note})");
                 }
-                if let (Some(from), Some(d)) = (&n.fitted_from, &n.minimum_distance) {
-                    let _ = writeln!(s, "  ({})", minimum_distance_line(from, d));
+                match (&n.fitted_from, &n.minimum_distance) {
+                    (Some(from), Some(d)) => {
+                        let _ = writeln!(s, "  ({})", minimum_distance_line(from, d));
+                    }
+                    // Which network this is (rc's fit to the data): the reader must know.
+                    (Some(from), None) => {
+                        let _ = writeln!(s, "  ({from})");
+                    }
+                    _ => {}
                 }
                 let labels = self.state_labels();
                 row(

@@ -28,9 +28,10 @@ pub use error::EstimationError;
 pub use iv::InstrumentalVariables;
 pub use method::{Method, UnknownMethod};
 pub use oe::OutputError;
-pub use pem::ratio::{self as likelihood_ratio, LikelihoodRatio};
+pub use pem::ratio::LikelihoodRatio;
 pub use pem::{Disturbance, PredictionError, Predictor};
-pub use rc::{NetworkEstimate, ResistanceCapacitance};
+pub(crate) use rc::start_parts;
+pub use rc::{deviance, likelihood_ratio, NetworkEstimate, ResistanceCapacitance};
 pub use rls::{RecursiveLeastSquares, TrajectoryPoint};
 pub use wls::WeightedLeastSquares;
 

@@ -87,21 +87,93 @@ impl Estimator for ResistanceCapacitance {
             progress: self.progress.clone(),
         }
         .estimate(data)?;
-        let map = Parametrisation::of_shape(
-            data.ts_s,
-            self.scaling,
-            &start_parts(&oe.model, self.scaling),
-        );
-        let start = map.start.clone();
-        let mut estimate = self.fit_from(data, map, &start)?;
-        if let Some(network) = estimate.network.as_mut() {
-            *network.output_error = oe;
-        }
-        Ok(estimate)
+        let start = start_parts(&oe.model, self.scaling);
+        self.estimate_from_passive(data, start, oe)
     }
 }
 
 impl ResistanceCapacitance {
+    /// The network fitted to `data` from `start` (projected onto the passive set:
+    /// conductances and shares floored, each column of K summing to 1), with
+    /// `output_error` (an output-error estimate on the same data) kept beside it for
+    /// comparison. Where the fastest time constant of `output_error`'s model spans ten
+    /// samples of a coarser grid, the fit runs there first ([`coarse`], a k-th of the
+    /// evaluations' cost) and the full-rate fit starts from its network. A replay
+    /// starts from the passive network nearest `oe`'s model ([`crate::network`]): near
+    /// the minimum, so the fit takes few evaluations.
+    pub fn estimate_from(
+        &self,
+        data: &IdentificationData,
+        start: &Parts,
+        output_error: Estimate,
+    ) -> Result<Estimate> {
+        self.estimate_from_passive(data, projected(start.clone()), output_error)
+    }
+
+    /// [`ResistanceCapacitance::estimate_from`] from a `start` already projected.
+    fn estimate_from_passive(
+        &self,
+        data: &IdentificationData,
+        start: Parts,
+        output_error: Estimate,
+    ) -> Result<Estimate> {
+        self.scaling_is_valid()?;
+        // The coarse fit is a start. (Weighting the full-rate
+        // fit by `output_error`'s simulation error rather than its start's, tried, made it
+        // stiff: 2,800 evaluations on the four-node machine against 335.)
+        let coarse_fit = coarse(data, &output_error.model).and_then(|coarse| {
+            let map = Parametrisation::of_shape(coarse.ts_s, self.scaling, &start);
+            let at = map.start.clone();
+            let fit = self.fit_from(&coarse, map, &at, &[], COARSE_NEGLIGIBLE_CHI2);
+            // A failed coarse fit only loses its head start.
+            fit.ok()?.network.map(|n| projected(n.parts))
+        });
+        // The coarse network starts the fit only where it simulates the full-rate data
+        // better than the start it came from: on a grid twice as coarse as the paper's
+        // fastest mode (23.9 s) it put a part with a capacitance near zero (a mode far
+        // below Ts), which the full-rate fit kept (an eigenvalue of Φ at 0).
+        let coarse_fit = coarse_fit.filter(|coarse| {
+            let score = |parts: &Parts| {
+                let map = Parametrisation::of_shape(data.ts_s, self.scaling, parts);
+                simulation_score(data, &map.model(&map.start))
+            };
+            score(coarse) < score(&start)
+        });
+        let start = coarse_fit.unwrap_or(start);
+        let map = Parametrisation::of_shape(data.ts_s, self.scaling, &start);
+        let start = map.start.clone();
+        let mut estimate = self.fit_from(data, map, &start, &[], NEGLIGIBLE_CHI2)?;
+        if let Some(network) = estimate.network.as_mut() {
+            *network.output_error = output_error;
+        }
+        Ok(estimate)
+    }
+
+    /// The fit to `data` from `parts` with every part's conductance to the coolant but
+    /// `coolant_state`'s held at zero (pinned at 10⁻⁹ of the largest conductance, where
+    /// its logarithm stays finite): the network in which heat leaves the machine only
+    /// through the cooling water, as the calorimetric balance measures it.
+    pub fn fit_through_coolant(
+        &self,
+        data: &IdentificationData,
+        parts: &Parts,
+        coolant_state: usize,
+    ) -> Result<Estimate> {
+        let n = parts.capacitance_j_per_k.len();
+        let mut parts = parts.clone();
+        let g_max = parts.conductance_w_per_k.amax();
+        let pinned: Vec<usize> = (0..n)
+            .filter(|&i| i != coolant_state)
+            .map(|i| n + i)
+            .collect();
+        for i in (0..n).filter(|&i| i != coolant_state) {
+            parts.conductance_w_per_k[(i, i)] = PINNED_ZERO * g_max;
+        }
+        let map = Parametrisation::of_shape(data.ts_s, self.scaling, &parts);
+        let start = map.start.clone();
+        self.fit_from(data, map, &start, &pinned, NEGLIGIBLE_CHI2)
+    }
+
     fn scaling_is_valid(&self) -> Result<()> {
         let s = self.scaling;
         let ok = |v: f64| v.is_finite() && v > 0.0;
@@ -125,6 +197,8 @@ impl ResistanceCapacitance {
         data: &IdentificationData,
         map: Parametrisation,
         start: &[f64],
+        pinned: &[usize],
+        negligible_chi2: f64,
     ) -> Result<Estimate> {
         let segments = data.segments();
         let rows_used = oe::compared_instants(data, &segments);
@@ -132,23 +206,23 @@ impl ResistanceCapacitance {
         let start_model = map.model(start);
         let weights = match &self.weights {
             Some(w) => w.clone(),
-            None => oe::normalised_inverse(
+            None => capped(oe::normalised_inverse(
                 &oe::simulation_error_variance(data, &segments, &start_model)
                     .iter()
                     .map(|v| v.max(1e-24))
                     .collect::<Vec<_>>(),
-            ),
+            )),
         };
         // The rises are measured from one noisy first sample each: a constant offset per
         // output, estimated beside the network (without it the slow columns of K and the
         // conductances to the coolant absorb it; docs/src/methods/thermal-network.md).
         let mut inner = Problem::new(data, segments, &start_model, &weights).with_output_offset();
         inner.progress = Some(oe::Reporting::new(&self.progress, self.method().name()));
-        let mut problem = RcProblem::new(inner, map, start);
+        let mut problem = RcProblem::new(inner, map, start, pinned);
         let mut evaluations = 0;
         // Fewer evaluations than OE's 200·(p+1): a conductance or share that is zero in
         // truth walks its logarithm towards −∞ with ever smaller gains, and the fit stops
-        // there rather than following it.
+        // there rather than following it ([`Stall`] ends that walk sooner).
         let lm = LevenbergMarquardt::new()
             .with_patience(50)
             .with_ftol(1e-10)
@@ -156,13 +230,26 @@ impl ResistanceCapacitance {
             .with_gtol(1e-10);
         for pass in 0..2 {
             let before = problem.params.clone();
+            problem.stall = Stall {
+                negligible_chi2,
+                ..Stall::default()
+            };
             let (solved, report) = lm.minimize(problem);
             problem = solved;
             evaluations += report.number_of_evaluations;
+            let stalled = problem.stall.stalled.get();
+            if stalled {
+                // Stopped by [`Stall`]: the best point is the fit of this pass.
+                let best = problem.best.borrow().clone().map(|(_, p)| p);
+                if let Some(p) = best {
+                    problem.set_params(&p);
+                }
+            }
             // A step into parameters where the model cannot be evaluated (an exponential
             // out of range) ends the minimiser there; the fit is the last good point.
-            let stopped_on_bad_point = matches!(report.termination, TerminationReason::User(_))
-                || problem.residuals().is_none();
+            let stopped_on_bad_point = !stalled
+                && (matches!(report.termination, TerminationReason::User(_))
+                    || problem.residuals_here().is_none());
             if stopped_on_bad_point {
                 let best = problem.best.borrow().clone().map(|(_, p)| p);
                 match best {
@@ -185,7 +272,17 @@ impl ResistanceCapacitance {
                 break;
             }
             // Second pass on 1/σ_i² of the first pass's residuals (the sensor noise).
-            let next = problem.inner.residual_weights();
+            let next: Vec<f64> = capped(
+                problem
+                    .inner
+                    .residual_weights()
+                    .iter()
+                    .map(|s| s * s)
+                    .collect(),
+            )
+            .iter()
+            .map(|w| w.sqrt())
+            .collect();
             let change = next
                 .iter()
                 .zip(&problem.inner.sqrt_w)
@@ -208,10 +305,118 @@ impl ResistanceCapacitance {
     }
 }
 
-/// The start: the network of `model` (OE's), projected onto the passive set — conductances
-/// and shares floored at `thermal::rc::START_FLOOR` (of the largest conductance; of 1), each column of
-/// K renormalised to 1. Where the model has no network, a rough one from its diagonal.
-fn start_parts(model: &DiscreteModel, scaling: Scaling) -> Parts {
+/// Σ_i ln MSE_i of `model`'s simulation on `data` (outputs in their own units: the sum of
+/// logarithms weighs each output by its own scale); +∞ where it cannot be simulated.
+fn simulation_score(data: &IdentificationData, model: &DiscreteModel) -> f64 {
+    if !model.is_stable() {
+        return f64::INFINITY;
+    }
+    let score: f64 = oe::simulation_error_variance(data, &data.segments(), model)
+        .iter()
+        .map(|v| v.max(1e-300).ln())
+        .sum();
+    if score.is_nan() {
+        f64::INFINITY
+    } else {
+        score
+    }
+}
+
+/// The deviance of `estimate`'s fit to `data`, Σ_i N_i·ln max(σ̂²_i, floor) over the
+/// outputs i (N_i observed instants, σ̂²_i the output's residual variance): −2 ln L up to
+/// a constant for Gaussian white noise of unknown variance per output. `floor` (in the
+/// outputs' units squared) is the least variance taken as real: an output nearly without
+/// noise (a field winding from U_f/I_f whose electrical channels carry none: 10⁻⁶ K)
+/// would otherwise weigh its last numerical digits against the other outputs' data.
+pub fn deviance(data: &IdentificationData, estimate: &Estimate, floor: f64) -> f64 {
+    data.observed_counts(&data.segments())
+        .iter()
+        .zip(&estimate.noise_variance)
+        .map(|(&n, v)| n as f64 * v.max(floor).max(1e-300).ln())
+        .sum()
+}
+
+/// The likelihood-ratio statistic of `restricted` (a network with entries held, e.g.
+/// [`ResistanceCapacitance::fit_through_coolant`]) against `full`, both fitted to `data`:
+/// Λ = [`deviance`](restricted) − [`deviance`](full), χ²-distributed on as many degrees
+/// of freedom as entries held where those entries are zero in truth.
+pub fn likelihood_ratio(
+    data: &IdentificationData,
+    full: &Estimate,
+    restricted: &Estimate,
+    floor: f64,
+) -> f64 {
+    deviance(data, restricted, floor) - deviance(data, full, floor)
+}
+
+/// The largest weight of an output over the median output's: no output is taken as more
+/// than ten times as precise (in σ) as the median one.
+const WEIGHT_OVER_MEDIAN: f64 = 100.0;
+
+/// `weights` (1/σ_i², any scale) with none above [`WEIGHT_OVER_MEDIAN`] times their
+/// median. An output nearly without noise (a field winding read from U_f/I_f whose
+/// electrical channels carry none) would otherwise take a weight 10⁴ times the others',
+/// on which the fit stalls far from the minimum (the four-node machine: C 33 % off).
+fn capped(weights: Vec<f64>) -> Vec<f64> {
+    let mut sorted = weights.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    let cap = WEIGHT_OVER_MEDIAN * median;
+    weights.into_iter().map(|w| w.min(cap)).collect()
+}
+
+/// A conductance held at zero, relative to the largest: far below any the data could
+/// tell apart from none, its logarithm finite.
+const PINNED_ZERO: f64 = 1e-9;
+
+/// Samples of the coarse grid per fastest time constant: the coarse fit resolves every
+/// mode of the model.
+const COARSE_SAMPLES_PER_FASTEST: f64 = 10.0;
+
+/// The data on a grid k·Ts coarser, k = ⌊T_min / (10·Ts)⌋ (T_min the fastest time
+/// constant of `model`): the outputs at every k-th instant, the inputs averaged over the
+/// k instants they are held across (the zero-order hold of the coarse grid), an instant
+/// known where its output row and its block's inputs are. `None` where k < 2, the outputs
+/// are masked (stored by exception: no block average is the record) or the model has no
+/// real time constants. Only a start: the full-rate fit follows.
+fn coarse(data: &IdentificationData, model: &DiscreteModel) -> Option<IdentificationData> {
+    if data.output_observed.is_some() {
+        return None;
+    }
+    let fastest = crate::thermal::Spectrum::of(model)
+        .ok()?
+        .time_constants_s
+        .first()
+        .copied()
+        .filter(|t| t.is_finite() && *t > 0.0)?;
+    let k = (fastest / (COARSE_SAMPLES_PER_FASTEST * data.ts_s)).floor() as usize;
+    if k < 2 {
+        return None;
+    }
+    let rows = data.len() / k;
+    let (n, m) = (data.states(), data.input_count());
+    let outputs = DMatrix::from_fn(rows, n, |r, c| data.outputs[(r * k, c)]);
+    let inputs = DMatrix::from_fn(rows, m, |r, c| {
+        (r * k..r * k + k).map(|i| data.inputs[(i, c)]).sum::<f64>() / k as f64
+    });
+    let outputs_known = (0..rows).map(|r| data.outputs_known[r * k]).collect();
+    let inputs_known = (0..rows)
+        .map(|r| (r * k..r * k + k).all(|i| data.inputs_known[i]))
+        .collect();
+    Some(IdentificationData::new(
+        data.ts_s * k as f64,
+        outputs,
+        inputs,
+        outputs_known,
+        inputs_known,
+    ))
+}
+
+/// The start: the network of `model` (OE's), projected onto the passive set —
+/// conductances and shares floored at `thermal::rc::START_FLOOR` (of the largest
+/// conductance; of 1), each column of K renormalised to 1. Where the model has no
+/// network, a rough one from its diagonal.
+pub(crate) fn start_parts(model: &DiscreteModel, scaling: Scaling) -> Parts {
     let (n, m) = (model.phi.nrows(), model.gamma.ncols());
     let continuous = ContinuousModel::from_discrete(model).ok();
     let network = continuous.as_ref().and_then(|c| {
@@ -277,28 +482,77 @@ fn rough_parts(
 struct RcProblem<'a> {
     inner: Problem<'a>,
     map: Parametrisation,
-    /// [p; x0 of each segment] (x0 only where OE estimates them).
+    /// The entries of p the fit moves, increasing; the others stay pinned at their start
+    /// (a conductance held at zero: [`pinned_to_coolant`]).
+    free: Vec<usize>,
+    /// The whole of p, pinned entries included.
+    p_full: Vec<f64>,
+    /// [p's free entries; x0 of each segment] (x0 only where OE estimates them).
     params: DVector<f64>,
-    /// D = ∂Θ/∂p at `params`.
+    /// D = ∂Θ/∂p at `params`, the free entries' columns.
     d: DMatrix<f64>,
     cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
     /// The lowest objective evaluated so far and its parameters: where the minimiser
     /// stops on a point the model cannot be evaluated at, the fit returns here.
     best: RefCell<Option<(f64, DVector<f64>)>>,
+    /// Whether the fit still gains: it ends where it no longer does.
+    stall: Stall,
+}
+
+/// Evaluations in a window over which the fit must lower J by more than
+/// [`NEGLIGIBLE_CHI2`] noise variances to go on.
+const STALL_WINDOW: usize = 50;
+
+/// A change of the weighted squared error J smaller than this many noise variances σ²
+/// (χ² units, σ² ≈ J/N at the minimum) over [`STALL_WINDOW`] evaluations is no progress
+/// the data can tell apart.
+const NEGLIGIBLE_CHI2: f64 = 1.0;
+
+/// [`NEGLIGIBLE_CHI2`] of the coarse fit that starts the full-rate one ([`coarse`]): none,
+/// it runs to LM's own end. Stopped at 10 noise variances, the paper's model (noise-free,
+/// 6,000 s; tests/comfort.rs) gave a start from which the full-rate fit ended on a Φ with
+/// an eigenvalue at 0.
+const COARSE_NEGLIGIBLE_CHI2: f64 = 0.0;
+
+/// The end of a walk towards a zero conductance or share: its logarithm goes towards −∞
+/// with ever smaller gains, each step within LM's tolerances (which must stay tight: a
+/// shrunk trust region's step would meet a looser one at a bad start). On the four-node
+/// machine that walk took 1,300 of 1,900 evaluations for 7 χ² units in all; the fit
+/// stops where a window of [`STALL_WINDOW`] evaluations lowers the best J by less than
+/// [`NEGLIGIBLE_CHI2`]·J/N.
+#[derive(Debug, Clone, Default)]
+struct Stall {
+    /// Evaluations so far in this pass.
+    evaluations: std::cell::Cell<usize>,
+    /// The best J at the start of the current window.
+    window_start: std::cell::Cell<f64>,
+    /// Whether the pass was ended for want of progress.
+    stalled: std::cell::Cell<bool>,
+    /// The gain over a window, in noise variances, below which the pass ends.
+    negligible_chi2: f64,
 }
 
 impl<'a> RcProblem<'a> {
-    fn new(inner: Problem<'a>, map: Parametrisation, start: &[f64]) -> RcProblem<'a> {
+    fn new(
+        inner: Problem<'a>,
+        map: Parametrisation,
+        start: &[f64],
+        pinned: &[usize],
+    ) -> RcProblem<'a> {
         let p_theta = inner.p_theta();
-        let mut params: Vec<f64> = start.to_vec();
+        let free: Vec<usize> = (0..start.len()).filter(|q| !pinned.contains(q)).collect();
+        let mut params: Vec<f64> = free.iter().map(|&q| start[q]).collect();
         params.extend(inner.params.iter().skip(p_theta).copied());
         let mut problem = RcProblem {
             d: DMatrix::zeros(0, 0),
             inner,
             map,
+            free,
+            p_full: start.to_vec(),
             params: DVector::from_vec(params),
             cache: RefCell::new(None),
             best: RefCell::new(None),
+            stall: Stall::default(),
         };
         let params = problem.params.clone();
         problem.set_params(&params);
@@ -306,13 +560,13 @@ impl<'a> RcProblem<'a> {
     }
 
     fn p(&self) -> &[f64] {
-        &self.params.as_slice()[..self.map.len()]
+        &self.p_full
     }
 
     /// OE's evaluation in [Θ; x0] carried to [p; x0] by T = diag(D, I).
     fn evaluate(&self) -> Evaluation {
         let e = self.inner.evaluate_full();
-        let (pt, pp) = (self.inner.p_theta(), self.map.len());
+        let (pt, pp) = (self.inner.p_theta(), self.free.len());
         let rest = e.gram.nrows() - pt;
         let d = &self.d;
         let cols = pp + rest;
@@ -343,6 +597,50 @@ impl<'a> RcProblem<'a> {
         oe::cached(&self.cache, &self.params, || self.evaluate())
     }
 
+    /// The residuals in square-root form at the current parameters, `None` where the
+    /// model cannot be evaluated there (an exponential out of range, JᵀJ not definite).
+    fn residuals_here(&self) -> Option<DVector<f64>> {
+        if !self.params.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let (r, _) = self.evaluated().square_root_form()?;
+        r.iter().all(|v| v.is_finite()).then_some(r)
+    }
+
+    /// Residuals far above the best so far, for a trial point the model cannot be
+    /// evaluated at: LM rejects the step and shrinks its trust region, where `None`
+    /// would end the fit there (seeds 1, 3 and 5 of the four-node machine ended on their
+    /// third evaluation, 86 % off in a time constant). `None` before any good point.
+    fn rejected(&self) -> Option<DVector<f64>> {
+        let best = self.best.borrow().as_ref().map(|(b, _)| *b)?;
+        let rows = self.params.len() + 1;
+        Some(DVector::from_element(
+            rows,
+            (1e6 * best / rows as f64).sqrt(),
+        ))
+    }
+
+    /// Counts one evaluation with the best J so far, `lowest`; true where the window
+    /// that ends here lowered it by less than [`NEGLIGIBLE_CHI2`]·J/N ([`Stall`]).
+    fn stalled_at(&self, lowest: f64) -> bool {
+        let stall = &self.stall;
+        let k = stall.evaluations.get() + 1;
+        stall.evaluations.set(k);
+        if k == 1 {
+            stall.window_start.set(lowest);
+        }
+        if !k.is_multiple_of(STALL_WINDOW) {
+            return false;
+        }
+        let entries: usize = self.inner.counts.iter().sum();
+        let sigma2 = lowest / entries.max(1) as f64;
+        let gained = stall.window_start.get() - lowest;
+        stall.window_start.set(lowest);
+        let stalled = gained < stall.negligible_chi2 * sigma2;
+        stall.stalled.set(stalled);
+        stalled
+    }
+
     /// The estimate at the minimum, with the network and its intervals.
     fn conclude(
         &self,
@@ -357,9 +655,16 @@ impl<'a> RcProblem<'a> {
         let dof = entries.saturating_sub(self.params.len()).max(1) as f64;
         let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
         let (full, condition_number) = oe::covariance_from_gram(&evaluation.gram, sigma2);
-        let pp = self.map.len();
-        let cov_p = full.view((0, 0), (pp, pp)).into_owned();
-        let theta_cov = &self.d * &cov_p * self.d.transpose();
+        let pp = self.free.len();
+        let cov_free = full.view((0, 0), (pp, pp)).into_owned();
+        let theta_cov = &self.d * &cov_free * self.d.transpose();
+        // A pinned entry is no estimate: no variance, no covariance.
+        let mut cov_p = DMatrix::zeros(self.map.len(), self.map.len());
+        for (a, &qa) in self.free.iter().enumerate() {
+            for (b, &qb) in self.free.iter().enumerate() {
+                cov_p[(qa, qb)] = cov_free[(a, b)];
+            }
+        }
         let noise_variance: Vec<f64> = (0..n)
             .map(|c| {
                 let w = self.inner.sqrt_w[c].powi(2).max(1e-300);
@@ -410,15 +715,15 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
 
     fn set_params(&mut self, x: &DVector<f64>) {
         self.params.copy_from(x);
-        let pp = self.map.len();
+        let pp = self.free.len();
         // Logarithms within e^±LOG_RANGE of the start: the exponentials stay finite.
-        for q in 0..pp {
+        for (k, &q) in self.free.iter().enumerate() {
             let s = self.map.start[q];
-            self.params[q] = self.params[q].clamp(s - LOG_RANGE, s + LOG_RANGE);
+            self.params[k] = self.params[k].clamp(s - LOG_RANGE, s + LOG_RANGE);
+            self.p_full[q] = self.params[k];
         }
         let x = &self.params.clone();
-        let p = &x.as_slice()[..pp];
-        let theta = self.map.model(p).theta();
+        let theta = self.map.model(&self.p_full).theta();
         let pt = self.inner.p_theta();
         for (q, t) in theta.iter().enumerate() {
             self.inner.params[q] = *t;
@@ -426,7 +731,10 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
         for q in pp..x.len() {
             self.inner.params[pt + q - pp] = x[q];
         }
-        self.d = self.map.theta_jacobian(p);
+        self.d = self
+            .map
+            .theta_jacobian(&self.p_full)
+            .select_columns(&self.free);
     }
 
     fn params(&self) -> DVector<f64> {
@@ -434,17 +742,19 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        if !self.params.iter().all(|v| v.is_finite()) {
-            return None;
-        }
-        let (r, _) = self.evaluated().square_root_form()?;
-        if !r.iter().all(|v| v.is_finite()) {
-            return None;
-        }
+        let Some(r) = self.residuals_here() else {
+            return self.rejected();
+        };
         let objective = r.norm_squared();
         let mut best = self.best.borrow_mut();
         if best.as_ref().is_none_or(|(b, _)| objective < *b) {
             *best = Some((objective, self.params.clone()));
+        }
+        let lowest = best.as_ref().map_or(objective, |(b, _)| *b);
+        drop(best);
+        if self.stalled_at(lowest) {
+            // No residuals: LM stops here ([`Stall`]); the fit takes the best point.
+            return None;
         }
         Some(r)
     }

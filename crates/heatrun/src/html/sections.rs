@@ -989,7 +989,7 @@ impl Section for NetworkSection<'_> {
                     .unwrap_or_default(),
                 d.weighting
             ),
-            (Some(from), None) => format!(" It was fitted by {from}."),
+            (Some(from), None) => format!(" Which network this is: {from}."),
             _ => String::new(),
         };
         out.paragraph(&format!(

@@ -80,8 +80,10 @@ impl Balance {
         }
     }
 
-    /// The stage's whole finding: the passive network nearest the `identified` model, or
-    /// `grey_box`'s (`rc`'s estimate), scaled by this balance's c·ρ·Q where it has one.
+    /// The stage's whole finding: `grey_box`'s network (`rc`'s estimate, fitted to the
+    /// data), or else the passive network nearest the `identified` model, scaled by this
+    /// balance's c·ρ·Q where it has one. `source` says which it is and why
+    /// ([`Network::fitted_from`]).
     pub fn with_network(
         self,
         model: &ModelDescription,
@@ -89,8 +91,9 @@ impl Balance {
         identified: &Estimate,
         continuous: &ContinuousModel,
         signals: &ModelSignals,
+        source: Option<&str>,
     ) -> NetworkAnalysis {
-        let network = match grey_box {
+        let mut network = match grey_box {
             Some(estimate) => estimated_network(model, estimate, self.calorimetry.as_ref()),
             None => network(
                 model,
@@ -100,6 +103,20 @@ impl Balance {
                 self.calorimetry.as_ref(),
             ),
         };
+        let beside_another_model = grey_box.is_some() && identified.network.is_none();
+        if let (Ok(network), true) = (network.as_mut(), beside_another_model) {
+            // rc's network beside another estimator's model: the passivity figures still
+            // describe the model the replay reports (how far it is from a network).
+            if let Some(passivity) = algebraic_passivity(model, continuous, signals) {
+                network.passivity = passivity;
+            }
+        }
+        if let (Ok(network), Some(source)) = (network.as_mut(), source) {
+            network.fitted_from = Some(match network.fitted_from.take() {
+                Some(from) => format!("{from}; {source}"),
+                None => source.to_owned(),
+            });
+        }
         NetworkAnalysis {
             network,
             calorimetry: self.calorimetry,
@@ -160,6 +177,74 @@ fn network(
     Ok(nearest_network(
         algebraic, identified, &heat, scaling, coolant, &labels,
     ))
+}
+
+/// The passivity figures of the identified model's algebraic network (its heat inputs'
+/// columns), `None` where it has none.
+fn algebraic_passivity(
+    model: &ModelDescription,
+    continuous: &ContinuousModel,
+    signals: &ModelSignals,
+) -> Option<super::Passivity> {
+    use crate::spec::InputKind;
+    let heat: Vec<usize> = (0..model.inputs.len())
+        .filter(|&j| model.inputs[j].kind == InputKind::Heat)
+        .collect();
+    let scaling = Scaling {
+        theta_base_k: signals.temperature_base_k,
+        p_base_w: signals.power_base,
+    };
+    let mut labels = labels(model);
+    labels.inputs = heat.iter().map(|&j| labels.inputs[j].clone()).collect();
+    let b_heat = continuous.b_c.select_columns(&heat);
+    Network::from_continuous(&continuous.a_c, &b_heat, scaling, None, &labels)
+        .ok()
+        .map(|n| n.passivity)
+}
+
+/// The passive network nearest the `identified` model in the energy-conservation scale
+/// (every column of K summing to 1), the start of `rc`'s fit to the data in a replay:
+/// [`fit::minimum_distance`] from the algebraic network of `continuous` (the identified
+/// model's A_c, B_c). Errs (saying why) where the model has no network: an input that is
+/// not heat, or an algebraic network that cannot be formed.
+pub(crate) fn nearest_parts(
+    model: &ModelDescription,
+    identified: &Estimate,
+    continuous: &ContinuousModel,
+    scaling: Scaling,
+) -> Result<Parts, String> {
+    use crate::spec::InputKind;
+    if let Some(i) = model.inputs.iter().find(|i| i.kind != InputKind::Heat) {
+        return Err(format!("the input `{}` is not heat", i.name));
+    }
+    let heat: Vec<usize> = (0..model.inputs.len()).collect();
+    let algebraic = Network::from_continuous(
+        &continuous.a_c,
+        &continuous.b_c,
+        scaling,
+        None,
+        &labels(model),
+    )
+    .map_err(|e| e.to_string())?;
+    let (n, m) = (algebraic.capacitance_j_per_k.len(), algebraic.inputs.len());
+    let start = Parts {
+        capacitance_j_per_k: algebraic.capacitance_j_per_k.clone(),
+        conductance_w_per_k: nalgebra::DMatrix::from_fn(n, n, |i, j| {
+            algebraic.conductance_w_per_k[i][j]
+        }),
+        loss_distribution: nalgebra::DMatrix::from_fn(n, m, |i, j| {
+            algebraic.loss_distribution[i][j]
+        }),
+    };
+    let fitted = fit::minimum_distance(
+        &identified.model,
+        identified.covariance.as_ref(),
+        &heat,
+        scaling,
+        start,
+    )
+    .ok_or("no passive network near the identified model was found")?;
+    Ok(fitted.parts)
 }
 
 /// The passive network nearest the identified model ([`fit::minimum_distance`], from the
@@ -272,7 +357,7 @@ fn estimated_network(
     )
     .map_err(|e| e.to_string())?;
     network.scale_note =
-        Some("estimated in C, G and K (--method rc) with each column of K summing to 1".into());
+        Some("estimated in C, G and K by rc with each column of K summing to 1".into());
     if let Some(link) = coolant_link(model, calorimetry, None) {
         let ratio = link.conductance_w_per_k / network.conductance_w_per_k[link.state][link.state];
         network.alternative_scale = Some(AlternativeScale {

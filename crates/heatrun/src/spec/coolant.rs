@@ -228,6 +228,13 @@ pub fn resolve(
     Ok(out)
 }
 
+/// The state of the cooling-water outlet, where the model has one: the part whose
+/// conductance to the coolant is the water's flow, c·ρ·Q.
+pub fn outlet_state(description: &ModelDescription) -> Option<usize> {
+    let outlet = Signal::Profile(Quantity::CoolingWaterOutletTemp);
+    description.states.iter().position(|s| s.channel == outlet)
+}
+
 /// The cooling-water flow as a known input, for a description whose states include the
 /// coolant outlet: [`InputSource::CoolantFlow`], u_Q(k) = −c·ρ·(Q(k) − Q₀)·(θ_out(k) −
 /// θ_in(k)), of kind [`InputKind::Boundary`] (no loss, no load: it is the change of the

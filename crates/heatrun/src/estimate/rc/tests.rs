@@ -151,7 +151,9 @@ fn from_a_distant_start_noise_free_data_give_the_true_network() {
         scaling,
         progress: Default::default(),
     };
-    let e = estimator.fit_from(&data, map, &p0).unwrap();
+    let e = estimator
+        .fit_from(&data, map, &p0, &[], NEGLIGIBLE_CHI2)
+        .unwrap();
     let network = e.network.as_ref().unwrap();
     let (cg, k) = errors(&network.parts, &truth);
     assert!(cg < 1e-6 && k < 1e-7, "C, G off by {cg}, K by {k}");
@@ -260,4 +262,111 @@ fn a_constant_offset_on_every_output_is_estimated_beside_the_network() {
     for (f, t) in found.iter().zip(d) {
         assert!((f - t).abs() < 1e-7, "offset {found:?}, truth {d:?}");
     }
+}
+
+/// What `oe` would hand over: `model` as an estimate of its own.
+fn as_estimate(model: DiscreteModel) -> Estimate {
+    Estimate {
+        model,
+        method: Method::Oe,
+        rows_used: 0,
+        condition_number: f64::NAN,
+        covariance: None,
+        noise_variance: Vec::new(),
+        iterations: 0,
+        output_offset: None,
+        trajectory: None,
+        network: None,
+        predictor: None,
+    }
+}
+
+#[test]
+fn a_slow_network_is_recovered_from_a_distant_start_through_the_coarse_grid() {
+    // C twenty times `known`'s: the fastest time constant (≈ 200 s) spans ten samples of
+    // a grid 20·Ts, so the fit runs there first ([`coarse`]), then at full rate.
+    let (mut truth, scaling) = known();
+    truth
+        .capacitance_j_per_k
+        .iter_mut()
+        .for_each(|c| *c *= 20.0);
+    let data = data_of(&truth, scaling, 40_000, 0.01);
+    let map = Parametrisation::of_shape(1.0, scaling, &truth);
+    let model = map.model(&map.start);
+    let k = coarse(&data, &model).map(|c| c.ts_s);
+    assert!(k.is_some_and(|ts| ts >= 2.0), "coarse grid {k:?}");
+    // Every C 60 % high, every G halved, the shares moved 0.1 towards equal.
+    let start = Parts {
+        capacitance_j_per_k: truth.capacitance_j_per_k.iter().map(|c| c * 1.6).collect(),
+        conductance_w_per_k: truth.conductance_w_per_k.map(|g| g * 0.5),
+        loss_distribution: truth.loss_distribution.map(|v| 0.7 * v + 0.1),
+    };
+    let estimator = ResistanceCapacitance {
+        weights: None,
+        scaling,
+        progress: crate::progress::Observer::silent(),
+    };
+    let e = estimator
+        .estimate_from(&data, &start, as_estimate(model))
+        .unwrap();
+    let found = &e.network.as_ref().unwrap().parts;
+    let (cg, k) = errors(found, &truth);
+    assert!(cg < 0.02, "C, G {cg}");
+    assert!(k < 0.01, "K {k}");
+    // The start it was given is kept beside the network, for comparison.
+    assert_eq!(e.network.unwrap().output_error.method, Method::Oe);
+}
+
+/// rc's network of `data` and the same refitted with every conductance to the coolant
+/// but part 2's held at zero, and the likelihood ratio between them.
+fn held_against_full(data: &IdentificationData, scaling: Scaling) -> (Estimate, Estimate, f64) {
+    let estimator = ResistanceCapacitance {
+        weights: None,
+        scaling,
+        progress: crate::progress::Observer::silent(),
+    };
+    let full = estimator.estimate(data).unwrap();
+    let parts = full.network.as_ref().unwrap().parts.clone();
+    let held = estimator.fit_through_coolant(data, &parts, 2).unwrap();
+    let ratio = likelihood_ratio(data, &full, &held, 0.0);
+    (full, held, ratio)
+}
+
+#[test]
+fn heat_through_the_coolant_alone_is_told_from_conductances_the_data_need() {
+    // 0.999 quantile of χ² on 2 degrees of freedom (two conductances held): −2·ln(0.001).
+    let chi2_2_999 = -2.0 * 0.001_f64.ln();
+    // `known` has G_10 = 1 and G_20 = 2 W/K beside G_30 = 5: held at zero, the fit is
+    // far worse than the noise explains.
+    let (truth, scaling) = known();
+    let data = data_of(&truth, scaling, 20000, 0.05);
+    let (_, _, ratio) = held_against_full(&data, scaling);
+    assert!(ratio > 10.0 * chi2_2_999, "likelihood ratio {ratio}");
+    // The same machine with heat leaving only through part 3 (G_10 = G_20 = 0, the
+    // simulation's 10⁻¹²): the ratio is within χ²'s range, and the held fit recovers C,
+    // the conductances between the parts and K.
+    let mut through = truth.clone();
+    through.conductance_w_per_k[(0, 0)] = 1e-12;
+    through.conductance_w_per_k[(1, 1)] = 1e-12;
+    let data = data_of(&through, scaling, 20000, 0.05);
+    let (_, held, ratio) = held_against_full(&data, scaling);
+    assert!(ratio < chi2_2_999, "likelihood ratio {ratio}");
+    let found = &held.network.as_ref().unwrap().parts;
+    for (c, t) in found
+        .capacitance_j_per_k
+        .iter()
+        .zip(&through.capacitance_j_per_k)
+    {
+        assert!(relative(*c, *t) < 0.1, "C {:?}", found.capacitance_j_per_k);
+    }
+    for (i, j) in [(0, 1), (0, 2), (1, 2), (2, 2)] {
+        let (g, t) = (
+            found.conductance_w_per_k[(i, j)],
+            through.conductance_w_per_k[(i, j)],
+        );
+        assert!(relative(g, t) < 0.1, "G {}", found.conductance_w_per_k);
+    }
+    // Held, not estimated: at 10⁻⁹ of the largest conductance.
+    assert!(found.conductance_w_per_k[(0, 0)] < 1e-8 * found.conductance_w_per_k.amax());
+    assert!((&found.loss_distribution - &through.loss_distribution).amax() < 0.05);
 }

@@ -236,9 +236,10 @@ pub struct Network {
     /// themselves (`--method rc`); absent for a network derived from an identified model.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub intervals_95: Option<NetworkIntervals>,
-    /// What C, G and K were fitted from, where they are not the algebraic network of the
-    /// identified model (e.g. "minimum distance to the identified model"); the passivity
-    /// figures then still describe the identified model itself.
+    /// Which network this is, where it is not the algebraic network of the identified
+    /// model: rc's fit to the data from the nearest passive network (a replay's default),
+    /// or the "minimum distance to the identified model" and why rc did not apply; the
+    /// passivity figures then still describe the identified model itself.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fitted_from: Option<String>,
     /// The weighted distance of the fitted network to the identified model, and its χ² test.
