@@ -28,7 +28,7 @@ pub use error::EstimationError;
 pub use iv::InstrumentalVariables;
 pub use method::{Method, UnknownMethod};
 pub use oe::OutputError;
-pub use pem::ratio::LikelihoodRatio;
+pub use pem::ratio::{self as innovations_ratio, LikelihoodRatio};
 pub use pem::{Disturbance, PredictionError, Predictor};
 pub(crate) use rc::start_parts;
 pub use rc::{deviance, likelihood_ratio, NetworkEstimate, ResistanceCapacitance};
