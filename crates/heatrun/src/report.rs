@@ -453,6 +453,17 @@ impl Report {
                 threshold: c.threshold,
             }),
             kalman_gain: r.estimate.predictor.as_ref().map(|p| rows(&p.gain)),
+            innovation_variance: r
+                .estimate
+                .predictor
+                .as_ref()
+                .map(|p| p.innovation_variance.clone()),
+            // Only where the analysis propagated it: the covariance of the report's Φ, Γ.
+            theta_covariance: a
+                .uncertainty
+                .as_ref()
+                .and(r.estimate.covariance.as_ref())
+                .map(rows),
             network: Some(match &r.network.network {
                 Ok(n) => NetworkEntry::Defined(Box::new(n.clone())),
                 Err(why) => NetworkEntry::NotDefined {
