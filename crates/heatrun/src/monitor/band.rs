@@ -13,13 +13,31 @@
 
 use crate::model_file::ModelError;
 
+/// Which band the monitor compares against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BandKind {
+    /// One half-width per part for the whole recording: max(factor · RMSE_j, floor).
+    #[default]
+    Fixed,
+    /// At each instant from what the model knows then ([`model_band_k`]):
+    /// b_j(k) = factor · √(θ_base² var x̂_j(k) + σ_j²), the prediction's variance from
+    /// the covariance of Θ, the start's sensor noise and the process noise, σ_j the
+    /// sensors' noise; no floor. Where the report carries no covariance of Θ, the
+    /// prediction's variance holds the start and the process noise only.
+    Model,
+}
+
 /// The rule that sets the band from the model's error.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BandRule {
-    /// Multiple of the model's RMSE per part.
+    /// Multiple of the model's RMSE per part (fixed), or of the prediction's standard
+    /// deviation (model).
     pub factor: f64,
-    /// The narrowest band, K.
+    /// The narrowest band, K (the fixed band's).
     pub floor_k: f64,
+    /// Fixed or from the model's prediction uncertainty.
+    pub kind: BandKind,
 }
 
 impl Default for BandRule {
@@ -28,8 +46,18 @@ impl Default for BandRule {
         BandRule {
             factor: 4.0,
             floor_k: 0.5,
+            kind: BandKind::Fixed,
         }
     }
+}
+
+/// The model band at an instant, K per state: factor · √(θ_base² var_j + σ_j²), `var`
+/// the prediction's variance per state in model units², `sensor_noise_k` σ_j.
+pub fn model_band_k(factor: f64, base_k: f64, var: &[f64], sensor_noise_k: &[f64]) -> Vec<f64> {
+    var.iter()
+        .zip(sensor_noise_k)
+        .map(|(v, s)| factor * (base_k * base_k * v + s * s).sqrt())
+        .collect()
 }
 
 /// The band per state: |θ − θ̂| ≤ `half_width_k[j]` is inside.
@@ -45,6 +73,9 @@ pub struct Band {
     pub factor: f64,
     /// The floor, K.
     pub floor_k: f64,
+    /// Fixed, or from the model's prediction uncertainty at each instant (then
+    /// `half_width_k` is its mean over the instants compared, once the run is done).
+    pub kind: BandKind,
 }
 
 impl Band {
@@ -60,6 +91,7 @@ impl Band {
             source: error.source.clone(),
             factor: rule.factor,
             floor_k: rule.floor_k,
+            kind: rule.kind,
         }
     }
 }
@@ -80,6 +112,7 @@ mod tests {
             BandRule {
                 factor: 4.0,
                 floor_k: 0.5,
+                kind: BandKind::Fixed,
             },
         );
         // 4 × 0.05 = 0.2 < floor; 4 × 0.2 = 0.8; 4 × 0.5 = 2.0.

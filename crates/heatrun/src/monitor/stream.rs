@@ -27,10 +27,12 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::DVector;
 
+use super::band::{model_band_k, BandKind};
 use super::{
     description_of, grid_alignments, inlet_warning, Accumulator, Band, Detector, MonitorOptions,
     MonitorResult, MonitorTraces, StateRef,
 };
+use crate::confidence::OpenLoopVariance;
 use crate::decimate::{DecimateError, DecimatedRecording, DecimatedSeries};
 use crate::error::{Error, Result};
 use crate::grid::{GridBuilder, Ready, StretchPlan, MARGIN};
@@ -344,6 +346,12 @@ struct Runner {
     shift: Option<(f64, f64)>,
     shift_state: Option<f64>,
     x_hat: Option<DVector<f64>>,
+    /// The prediction's variance beside x̂, where the band is the model's.
+    variance: Option<OpenLoopVariance>,
+    /// The model band's factor, where the band is the model's.
+    model_band: Option<f64>,
+    /// Per state: the model band summed over the instants compared, and their count.
+    band_sum: Vec<(f64, usize)>,
     starts: usize,
     detector: Detector,
     stats: Vec<Accumulator>,
@@ -410,6 +418,9 @@ impl Runner {
             shift,
             shift_state: None,
             x_hat: None,
+            variance: None,
+            model_band: (band.kind == BandKind::Model).then_some(band.factor),
+            band_sum: vec![(0.0, 0); n],
             starts: 0,
             detector,
             stats: vec![Accumulator::default(); n],
@@ -476,8 +487,13 @@ impl Runner {
             if let Some(r) = rises {
                 self.x_hat = Some(DVector::from_vec(r));
                 self.starts += 1;
+                let start: Vec<f64> = (model.uncertainty.sensor_noise_k.iter())
+                    .map(|s| (s / self.base).powi(2))
+                    .collect();
+                self.variance = Some(OpenLoopVariance::start(model, &start));
             }
         }
+        self.set_model_band(model);
         let t_s = (time_ns - t0) as f64 / 1e9;
         let mut residuals = vec![None; n];
         for j in 0..n {
@@ -488,6 +504,8 @@ impl Runner {
             residuals[j] = measured[j].zip(theta_hat).map(|(m, p)| m - p);
             if let Some(r) = residuals[j] {
                 self.stats[j].add(r, t_s, self.band_k[j]);
+                self.band_sum[j].0 += self.band_k[j];
+                self.band_sum[j].1 += 1;
             }
             self.current.measured[j].push(measured[j]);
             self.current.predicted[j].push(theta_hat);
@@ -497,9 +515,29 @@ impl Runner {
         self.overlay.remember(time_ns, residuals);
         let u: Option<Vec<f64>> = signals.inputs.iter().map(|i| i.values.get(k)).collect();
         self.x_hat = match (self.x_hat.take(), u) {
-            (Some(x), Some(u)) => Some(&model.phi * x + &model.gamma * DVector::from_vec(u)),
-            _ => None,
+            (Some(x), Some(u)) => {
+                let u = DVector::from_vec(u);
+                if let Some(v) = &mut self.variance {
+                    v.step(model, &model.uncertainty, &x, &u);
+                }
+                Some(&model.phi * x + &model.gamma * u)
+            }
+            _ => {
+                self.variance = None;
+                None
+            }
         };
+    }
+
+    /// The model band at this instant, for the detector and the statistics (kept
+    /// as it was where the band is fixed or the model has not started).
+    fn set_model_band(&mut self, model: &ThermalModel) {
+        let (Some(factor), Some(v)) = (self.model_band, &self.variance) else {
+            return;
+        };
+        let var = v.variances(&model.uncertainty);
+        self.band_k = model_band_k(factor, self.base, &var, &model.uncertainty.sensor_noise_k);
+        self.detector.set_band(&self.band_k);
     }
 
     /// The last stretch sealed, for the observer.
@@ -526,6 +564,15 @@ impl Runner {
         self.kept.append(&mut self.current);
         let last = self.kept.time_ns.last().copied().unwrap_or(0);
         let states: Vec<String> = model.states.iter().map(|s| s.name.clone()).collect();
+        let mut band = band.clone();
+        if self.model_band.is_some() {
+            // The model band's mean over the instants compared, for the summary.
+            for (b, (sum, count)) in band.half_width_k.iter_mut().zip(&self.band_sum) {
+                if *count > 0 {
+                    *b = sum / *count as f64;
+                }
+            }
+        }
         let stats = self
             .stats
             .iter()
@@ -545,7 +592,7 @@ impl Runner {
             ts_s: model.ts_s,
             parts: model.states.iter().map(|s| s.part.clone()).collect(),
             states,
-            band: band.clone(),
+            band,
             hold_s,
             alarms: self.detector.finish(last),
             stats,

@@ -3,10 +3,11 @@
 //! - the parameters' share, ∇θ̂(k)ᵀ C_Θ ∇θ̂(k), ∇ by central differences of the whole
 //!   prediction (losses at the predicted temperatures, the phasor diagram, dead times
 //!   and the derived field winding included: [`crate::confidence::linearise`]);
-//! - the start's share where the prediction starts from measured temperatures
-//!   ([`InitialState::Measured`] or given ones): each start rise moved by ±h, the sensors'
-//!   noise σ_j at the start, Σ_j (∂θ̂(k)/∂x_j(0))² σ_j²/θ_base² (a steady start is the
-//!   model's own, inside the parameters' share);
+//! - the start's share: the samples the prediction starts from and is measured from
+//!   carry the sensors' noise σ_j, Σ_j (∂θ̂(k)/∂θ_j(0))² σ_j² by moving each by ±σ_j
+//!   (`add_start`: the start temperature, whose error decays with the modes, and the
+//!   reference of a state measured from its own initial temperature, whose error stays;
+//!   a steady start is the model's own, inside the parameters' share);
 //! - the process noise where the model has it (`pem`'s K Λ Kᵀ): P(k+1) = Φ P(k) Φᵀ +
 //!   K Λ Kᵀ from P(0) = 0, θ_base² P_jj for state j and slope² times the stator winding's
 //!   for the derived field winding.
@@ -19,6 +20,7 @@ use nalgebra::{DMatrix, DVector};
 use super::{predict_from, InitialState, LoadSchedule, Prediction};
 use crate::confidence::{linearise, Z95};
 use crate::model_file::{FieldTemperatureUse, ThermalModel, UseError};
+use crate::spec::Reference;
 
 /// The 95 % bands of a prediction.
 #[derive(Debug, Clone)]
@@ -26,7 +28,8 @@ pub struct Bands {
     /// `half_width_k[k][c]`: 1.96 σ of column c at t_k, K; columns the states in model
     /// order, then the derived field winding where there is one.
     pub half_width_k: Vec<Vec<f64>>,
-    /// What σ holds: `parameters`, `initial state`, `process noise`.
+    /// What σ holds: `parameters`, `initial state and reference`, `field line`,
+    /// `process noise`.
     pub sources: Vec<&'static str>,
 }
 
@@ -72,9 +75,14 @@ pub(super) fn add_bands(
     };
     let mut variance = linearise(model, covariance, |m| run(m, None))?.variances(covariance);
     let mut sources = vec!["parameters"];
-    if !matches!(initial, InitialState::Steady) {
-        add_start(&mut variance, model, &run)?;
-        sources.push("initial state");
+    add_start(&mut variance, model, initial, &run)?;
+    sources.push("initial state and reference");
+    if let (true, Some(sigma)) = (prediction.field_derived, model.uncertainty.field_line_rms_k) {
+        // The derived field winding's line scatters about the true temperature by σ_line.
+        for row in variance.chunks_mut(columns) {
+            row[columns - 1] += sigma * sigma;
+        }
+        sources.push("field line");
     }
     if let Some(q) = &model.uncertainty.process_noise {
         add_process_noise(&mut variance, model, q, columns);
@@ -90,26 +98,69 @@ pub(super) fn add_bands(
     Ok(())
 }
 
-/// The start's share: each start rise moved by ±σ_j/θ_base, the response's slope
-/// times the sensors' variance.
-fn add_start<F>(variance: &mut [f64], model: &ThermalModel, run: &F) -> Result<(), UseError>
+/// The start's share, each sample at the start moved by ±σ_j (the sensors' noise) and
+/// the prediction run again, var += ((θ̂₊ − θ̂₋)/2)²: the measured start temperature
+/// (decays with the model's modes) and, for a state measured from its own initial
+/// temperature ([`Reference::Initial`]), the reference the rises are measured from
+/// (stays: every predicted temperature is reference + rise). Started from the model's
+/// measured temperatures, both are one sample and move together; a start given or
+/// steady moves the reference alone (and a given start its own sample apart).
+fn add_start<F>(
+    variance: &mut [f64],
+    model: &ThermalModel,
+    initial: &InitialState,
+    run: &F,
+) -> Result<(), UseError>
 where
     F: Fn(&ThermalModel, Option<&DVector<f64>>) -> Result<Vec<f64>, UseError>,
 {
     let n = model.state_count();
-    for j in 0..n {
-        let sd = model.uncertainty.sensor_noise_k[j] / model.temperature_base_k;
-        if !(sd > 0.0) {
-            continue;
-        }
-        let step = DVector::from_fn(n, |i, _| if i == j { sd } else { 0.0 });
-        let plus = run(model, Some(&step))?;
-        let minus = run(model, Some(&(-step)))?;
+    let mut add = |plus: Vec<f64>, minus: Vec<f64>| {
         for (v, (p, q)) in variance.iter_mut().zip(plus.iter().zip(&minus)) {
-            // (∂θ̂/∂x_j · sd)² with the slope over ±sd.
             let d = 0.5 * (p - q);
             if d.is_finite() {
                 *v += d * d;
+            }
+        }
+    };
+    for j in 0..n {
+        let sd = model.uncertainty.sensor_noise_k[j];
+        if !(sd > 0.0) {
+            continue;
+        }
+        let own_reference = model.states[j].reference == Reference::Initial;
+        let moved = |delta: f64, start: bool, reference: bool| {
+            let mut m = model.clone();
+            if start {
+                m.initial_temperature_c[j] += delta;
+            }
+            if reference {
+                m.initial_reference_c[j] += delta;
+            }
+            m
+        };
+        match initial {
+            InitialState::Measured => add(
+                run(&moved(sd, true, own_reference), None)?,
+                run(&moved(-sd, true, own_reference), None)?,
+            ),
+            InitialState::Temperatures(_) | InitialState::Steady => {
+                if own_reference {
+                    add(
+                        run(&moved(sd, false, true), None)?,
+                        run(&moved(-sd, false, true), None)?,
+                    );
+                }
+                if matches!(initial, InitialState::Temperatures(_)) {
+                    let step = DVector::from_fn(n, |i, _| {
+                        if i == j {
+                            sd / model.temperature_base_k
+                        } else {
+                            0.0
+                        }
+                    });
+                    add(run(model, Some(&step))?, run(model, Some(&(-step)))?);
+                }
             }
         }
     }

@@ -8,7 +8,8 @@
 //! σ_line carried to S by the derived temperature's slope in S,
 //! var S_f += (σ_line / (dθ_f/dS))². The interval of S_max and the probability that
 //! another part limits are then read from [`DRAWS`] seeded draws of N(S, Σ_S). The
-//! overload times are linearised alike, T ± 1.96·√(∇Tᵀ C_Θ ∇T).
+//! overload times are linearised alike, T ± 1.96·√(∇Tᵀ C_Θ ∇T + var_line T), the line's
+//! share by moving the derived part's limit by ∓σ_line.
 //!
 //! The loss model's resistances and their temperature coefficient are the nameplate's,
 //! taken as exact (the report carries no uncertainty of them); their dependence on the
@@ -101,14 +102,40 @@ pub(super) fn add_intervals(
             probability_limiting: share(limiting[j]),
         })
         .collect();
+    let line = overload_field_line(model, o)?;
     for (i, ov) in rating.overloads.iter_mut().enumerate() {
         let r = parts + i;
         if let Some(t) = ov.time_to_limit_s {
-            let half = Z95 * covariance[(r, r)].max(0.0).sqrt();
+            let var = covariance[(r, r)].max(0.0) + line[i];
+            let half = Z95 * var.sqrt();
             ov.time_to_limit_s_95 = Some([(t - half).max(0.0), t + half]);
         }
     }
     Ok(())
+}
+
+/// The derived field winding's line scatter carried to each overload's time: moving
+/// the derived temperature by ±σ_line is moving its limit by ∓σ_line, so
+/// var T += ((T(limit + σ) − T(limit − σ))/2)² (0 where a time is missing).
+fn overload_field_line(model: &ThermalModel, o: &RatingOptions) -> Result<Vec<f64>, UseError> {
+    let mut out = vec![0.0; o.overloads.len()];
+    let sigma = model.uncertainty.field_line_rms_k.filter(|s| *s > 0.0);
+    let mut l = loading(model, o)?;
+    let (Some(sigma), Some(d)) = (sigma, l.parts.iter().position(|p| p.state.is_none())) else {
+        return Ok(out);
+    };
+    let rated_state = l.sim.steady_state(&l.point(l.rated_mva))?;
+    let limit = l.parts[d].limit_c;
+    for (i, &f) in o.overloads.iter().enumerate() {
+        l.parts[d].limit_c = limit + sigma;
+        let later = overload(&l, model, &rated_state, f)?.time_to_limit_s;
+        l.parts[d].limit_c = limit - sigma;
+        let sooner = overload(&l, model, &rated_state, f)?.time_to_limit_s;
+        if let (Some(a), Some(b)) = (later, sooner) {
+            out[i] = (0.5 * (a - b)).powi(2);
+        }
+    }
+    Ok(out)
 }
 
 /// Each part's own continuous limit S_j, MVA (∞ where none is reached below 4096 ×
