@@ -18,7 +18,7 @@ use crate::recording::Quantity;
 
 mod interval;
 
-pub use interval::PartLimit;
+pub use interval::{PartLimit, DRAWS as INTERVAL_DRAWS};
 
 /// Where the built-in limits come from.
 pub const LIMIT_SOURCE: &str = "IEC 60034-1:2017, Table 7 (limits of temperature rise of windings \
