@@ -11,7 +11,8 @@
 //! (a class-A PT100: ±0.15 K at 0 °C, ±0.35 K at 100 °C) can vouch for between two
 //! recordings made months apart.
 
-use crate::model_file::ModelError;
+use crate::model_file::{ModelError, ThermalModel};
+use crate::spec::Reference;
 
 /// Which band the monitor compares against.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -21,9 +22,10 @@ pub enum BandKind {
     #[default]
     Fixed,
     /// At each instant from what the model knows then ([`model_band_k`]):
-    /// b_j(k) = factor · √(θ_base² var x̂_j(k) + σ_j²), the prediction's variance from
-    /// the covariance of Θ, the start's sensor noise and the process noise, σ_j the
-    /// sensors' noise; no floor. Where the report carries no covariance of Θ, the
+    /// b_j(k) = factor · √(θ_base² var x̂_j(k) + σ_j² (+ σ_j²)), the prediction's
+    /// variance from the covariance of Θ, the start's sensor noise and the process noise,
+    /// σ_j the sensors' noise (twice where the state is measured from the model test's
+    /// one initial sample, [`measurement_variance_k2`]); no floor. Where the report carries no covariance of Θ, the
     /// prediction's variance holds the start and the process noise only.
     Model,
 }
@@ -51,12 +53,34 @@ impl Default for BandRule {
     }
 }
 
-/// The model band at an instant, K per state: factor · √(θ_base² var_j + σ_j²), `var`
-/// the prediction's variance per state in model units², `sensor_noise_k` σ_j.
-pub fn model_band_k(factor: f64, base_k: f64, var: &[f64], sensor_noise_k: &[f64]) -> Vec<f64> {
+/// The model band at an instant, K per state: factor · √(θ_base² var_j + w_j), `var`
+/// the prediction's variance per state in model units², `measurement_k2` w_j what the
+/// comparison adds whatever the model knows, K² ([`measurement_variance_k2`]).
+pub fn model_band_k(factor: f64, base_k: f64, var: &[f64], measurement_k2: &[f64]) -> Vec<f64> {
     var.iter()
-        .zip(sensor_noise_k)
-        .map(|(v, s)| factor * (base_k * base_k * v + s * s).sqrt())
+        .zip(measurement_k2)
+        .map(|(v, w)| factor * (base_k * base_k * v + w).sqrt())
+        .collect()
+}
+
+/// What a residual carries besides the prediction's variance, K² per state: the sensor's
+/// noise σ_j² at this instant, and σ_j² again for a state measured from the model test's
+/// own initial temperature ([`Reference::Initial`]): that reference was one sample, and
+/// its error stays in every predicted temperature.
+pub fn measurement_variance_k2(model: &ThermalModel) -> Vec<f64> {
+    model
+        .uncertainty
+        .sensor_noise_k
+        .iter()
+        .zip(&model.states)
+        .map(|(s, state)| {
+            let reference = if state.reference == Reference::Initial {
+                s * s
+            } else {
+                0.0
+            };
+            s * s + reference
+        })
         .collect()
 }
 

@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::DVector;
 
-use super::band::{model_band_k, BandKind};
+use super::band::{measurement_variance_k2, model_band_k, BandKind};
 use super::{
     description_of, grid_alignments, inlet_warning, Accumulator, Band, Detector, MonitorOptions,
     MonitorResult, MonitorTraces, StateRef,
@@ -350,6 +350,8 @@ struct Runner {
     variance: Option<OpenLoopVariance>,
     /// The model band's factor, where the band is the model's.
     model_band: Option<f64>,
+    /// What a residual carries besides the prediction's variance, K² per state.
+    measurement_k2: Vec<f64>,
     /// Per state: the model band summed over the instants compared, and their count.
     band_sum: Vec<(f64, usize)>,
     starts: usize,
@@ -420,6 +422,7 @@ impl Runner {
             x_hat: None,
             variance: None,
             model_band: (band.kind == BandKind::Model).then_some(band.factor),
+            measurement_k2: measurement_variance_k2(model),
             band_sum: vec![(0.0, 0); n],
             starts: 0,
             detector,
@@ -536,7 +539,7 @@ impl Runner {
             return;
         };
         let var = v.variances(&model.uncertainty);
-        self.band_k = model_band_k(factor, self.base, &var, &model.uncertainty.sensor_noise_k);
+        self.band_k = model_band_k(factor, self.base, &var, &self.measurement_k2);
         self.detector.set_band(&self.band_k);
     }
 
