@@ -221,4 +221,4 @@ impl OpenLoopVariance {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -187,3 +187,85 @@ fn add_process_noise(variance: &mut [f64], model: &ThermalModel, q: &DMatrix<f64
         p = &model.phi * p * model.phi.transpose() + q;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::confidence::tests::one_state;
+    use crate::predict::{predict, OperatingPoint};
+
+    #[test]
+    fn a_scalar_models_band_as_worked_by_hand_and_its_csv_columns() {
+        // x(k+1) = a x(k) + b u from x(0) = 0 (started at the model test's own initial
+        // temperature, its reference): θ̂(k) = 20 °C + b u (1 − a^k)/(1 − a). Its variance:
+        // the parameters' (∂θ̂/∂a σ_a)² + (∂θ̂/∂b σ_b)² and the one start sample's σ² (the
+        // start and the reference move together, so every instant moves with it).
+        let (a, b, u) = (0.95, 0.1, 3.0);
+        let sd = [1e-3, 2e-3];
+        let model = one_state(a, b, sd);
+        let schedule = LoadSchedule {
+            path: "load.csv".into(),
+            time_s: vec![0.0, 40.0],
+            points: vec![
+                OperatingPoint {
+                    channels: [("heater_w".to_owned(), u)].into(),
+                    ..OperatingPoint::default()
+                };
+                2
+            ],
+            apparent_power: vec![(0.0, 1.0); 2],
+            warnings: Vec::new(),
+        };
+        let p = predict(&model, &schedule, &InitialState::Measured).unwrap();
+        let bands = p.band_c.as_ref().expect("a band");
+        for k in 0..=40 {
+            let kf = k as f64;
+            let theta = 20.0 + b * u * (1.0 - a.powi(k)) / (1.0 - a);
+            let dxdb = u * (1.0 - a.powi(k)) / (1.0 - a);
+            let dxda = if k == 0 {
+                0.0
+            } else {
+                b * u * (1.0 - a.powi(k) - kf * a.powi(k - 1) * (1.0 - a)) / (1.0 - a).powi(2)
+            };
+            let var = (dxda * sd[0]).powi(2) + (dxdb * sd[1]).powi(2) + 0.05f64.powi(2);
+            let k = k as usize;
+            assert!((p.temperatures_c[k][0] - theta).abs() < 1e-9);
+            let half = bands.half_width_k[k][0];
+            assert!(
+                (half / (Z95 * var.sqrt()) - 1.0).abs() < 1e-4,
+                "k {k}: {half} vs {}",
+                Z95 * var.sqrt()
+            );
+        }
+        let csv = p.to_csv();
+        let mut lines = csv.lines();
+        assert_eq!(lines.next(), Some("time_s,part_c,part_c_lo95,part_c_hi95"));
+        for line in lines {
+            let v: Vec<f64> = line.split(',').map(|s| s.parse().unwrap()).collect();
+            assert!(v[2] < v[1] && v[1] < v[3], "{line}");
+        }
+    }
+
+    #[test]
+    fn without_a_covariance_there_is_no_band_and_a_warning() {
+        let mut model = one_state(0.9, 0.1, [1e-3, 1e-3]);
+        model.uncertainty.theta_covariance = None;
+        let schedule = LoadSchedule {
+            path: "load.csv".into(),
+            time_s: vec![0.0, 5.0],
+            points: vec![
+                OperatingPoint {
+                    channels: [("heater_w".to_owned(), 1.0)].into(),
+                    ..OperatingPoint::default()
+                };
+                2
+            ],
+            apparent_power: vec![(0.0, 1.0); 2],
+            warnings: Vec::new(),
+        };
+        let p = predict(&model, &schedule, &InitialState::Measured).unwrap();
+        assert!(p.band_c.is_none());
+        assert!(p.warnings.iter().any(|w| w.contains("no band")));
+        assert_eq!(p.to_csv().lines().next(), Some("time_s,part_c"));
+    }
+}

@@ -193,3 +193,100 @@ fn add_field_line(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::rate;
+    use super::*;
+    use crate::model_file::Report;
+    use std::path::Path;
+
+    /// The stator winding alone, heated by its copper loss (per unit of the paper's
+    /// nameplate): x(k+1) = a x(k) + b P_Cu(k), C_Θ = diag(σ_a², σ_b²).
+    fn winding(a: f64, b: f64, sd: [f64; 2]) -> ThermalModel {
+        let report = serde_json::json!({
+            "profile": crate::model_file::PROFILE,
+            "sample_time_s": 1.0,
+            "states": ["stator_winding_temp"],
+            "inputs": ["armature_copper_loss"],
+            "phi": [[a]],
+            "gamma": [[b]],
+            "time_constants_s": [-1.0 / a.ln()],
+            "fit": {"rmse_k": [0.05], "max_abs_error_k": [0.2]},
+            "nameplate": crate::recording::Nameplate::paper_table1(),
+            "model": {
+                "name": "one winding",
+                "states": [{"name": "stator_winding_temp", "channel": "stator_winding_temp",
+                            "reference": "initial", "part": "stator winding"}],
+                "inputs": [{"name": "armature_copper_loss",
+                            "source": {"loss": "armature_copper_loss"},
+                            "unit": "pu", "kind": "heat"}],
+                "scaling": "nameplate_per_unit"
+            },
+            "estimation": {"initial_temperature_c": [20.0], "temperature_base_k": 80.0,
+                           "power_base_mva": 100.0},
+            "theta_covariance": [[sd[0] * sd[0], 0.0], [0.0, sd[1] * sd[1]]]
+        });
+        let path = Path::new("model.json");
+        ThermalModel::from_report(&Report::from_json(&report.to_string(), path).unwrap(), path)
+            .unwrap()
+    }
+
+    fn options() -> RatingOptions {
+        RatingOptions {
+            class: None,
+            limits_c: vec![("stator_winding_temp".into(), 100.0)],
+            power_factor: Some(0.9),
+            voltage_v: None,
+            coolant_c: None,
+            overloads: vec![1.6],
+        }
+    }
+
+    /// The largest continuous power of the model with Φ, Γ = (a, b) and no covariance.
+    fn nominal(a: f64, b: f64) -> (f64, f64) {
+        let mut m = winding(a, b, [0.0, 0.0]);
+        m.uncertainty.theta_covariance = None;
+        let r = rate(&m, &options()).unwrap();
+        (r.max_continuous_apparent_power_mva, r.overloads[0].time_to_limit_s.unwrap())
+    }
+
+    #[test]
+    fn one_parts_interval_is_its_delta_method_normal_interval() {
+        // One part: S_max = S_1, so the draws' 2.5 % and 97.5 % quantiles are
+        // S ± 1.96 σ_S, σ_S² = (∂S/∂a σ_a)² + (∂S/∂b σ_b)², the slopes here by central
+        // differences of whole ratings of neighbouring models (no covariance, no draws).
+        let (a, b) = (0.999, 0.25);
+        let sd = [2e-6, 1e-4];
+        let r = rate(&winding(a, b, sd), &options()).unwrap();
+        let (s, t) = nominal(a, b);
+        assert!((r.max_continuous_apparent_power_mva - s).abs() < 1e-9 * s);
+        let slope = |h: [f64; 2]| {
+            let (sp, tp) = nominal(a + h[0], b + h[1]);
+            let (sm, tm) = nominal(a - h[0], b - h[1]);
+            ((sp - sm) / (2.0 * (h[0] + h[1])), (tp - tm) / (2.0 * (h[0] + h[1])))
+        };
+        let (sa, ta) = slope([1e-6, 0.0]);
+        let (sb, tb) = slope([0.0, 1e-4]);
+        let sigma_s = ((sa * sd[0]).powi(2) + (sb * sd[1]).powi(2)).sqrt();
+        let [lo, hi] = r.max_continuous_apparent_power_mva_95.expect("an interval");
+        assert!(lo < s && s < hi);
+        // The quantiles of 20,000 draws: within about 1 % of the half-width.
+        assert!(((s - lo) / (Z95 * sigma_s) - 1.0).abs() < 0.02, "{lo} {s} {sigma_s}");
+        assert!(((hi - s) / (Z95 * sigma_s) - 1.0).abs() < 0.02, "{hi} {s} {sigma_s}");
+        assert_eq!(r.probability_another_part_limits, Some(0.0));
+        let part = &r.part_limits[0];
+        assert!((part.standard_deviation_mva.unwrap() / sigma_s - 1.0).abs() < 1e-3);
+        // The overload's time: T ± 1.96 σ_T.
+        let sigma_t = ((ta * sd[0]).powi(2) + (tb * sd[1]).powi(2)).sqrt();
+        let [t_lo, t_hi] = r.overloads[0].time_to_limit_s_95.expect("an interval");
+        assert!(((t_hi - t_lo) / (2.0 * Z95 * sigma_t) - 1.0).abs() < 1e-2);
+        assert!(t_lo <= t && t <= t_hi);
+        // The JSON key the outside check reads: [low, high].
+        let json = serde_json::to_value(&r).unwrap();
+        assert_eq!(
+            json["max_continuous_apparent_power_mva_95"],
+            serde_json::json!([lo, hi])
+        );
+    }
+}
