@@ -17,7 +17,9 @@
 //!    and the delay from the fault to the first alarm.
 //!
 //! `HEATRUN_UNC_SEEDS` (default 12) sets the rating's runs; the prediction and monitor
-//! take half as many.
+//! take half as many. `HEATRUN_UNC_ELECTRICAL` sets the electrical channels' noise
+//! (relative; default 0.0005); `HEATRUN_UNC_DEBUG` prints each model's prediction error
+//! and half-width per state over four stretches of the day.
 
 use std::path::Path;
 
