@@ -50,7 +50,10 @@ fn heat_run(seed: u64, level: f64) -> SynthOptions {
         ..SynthOptions::default()
     }
     .with_noise_level(level);
-    match std::env::var("HEATRUN_UNC_ELECTRICAL").ok().and_then(|v| v.parse().ok()) {
+    match std::env::var("HEATRUN_UNC_ELECTRICAL")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
         Some(e) => SynthOptions {
             electrical_noise_pu: e,
             ..o
@@ -221,11 +224,15 @@ fn predictions(clean: &ThermalModel, models: &[ThermalModel]) {
             p.temperatures_c
                 .iter()
                 .enumerate()
-                .map(|(k, theta)| (theta[j] - truth_run.temperature(&truth_run.states[k], j, base)).abs())
+                .map(|(k, theta)| {
+                    (theta[j] - truth_run.temperature(&truth_run.states[k], j, base)).abs()
+                })
                 .fold(0.0, f64::max)
         })
         .collect::<Vec<_>>();
-    println!("  the noise-free run's model against the truth: largest error per state {worst:.4?} K");
+    println!(
+        "  the noise-free run's model against the truth: largest error per state {worst:.4?} K"
+    );
     let (mut inside, mut total, mut half_sum) = (0usize, 0usize, 0.0);
     println!("\n## prediction: 12-hour daily cycle with an hour at 115 % current, from the measured start");
     for (i, model) in models.iter().enumerate() {
@@ -254,13 +261,20 @@ fn predictions(clean: &ThermalModel, models: &[ThermalModel]) {
         );
         if std::env::var("HEATRUN_UNC_DEBUG").is_ok() {
             for j in 0..n {
-                for (from, to) in [(0usize, 600usize), (600, 7200), (7200, 21600), (21600, 43200)] {
+                for (from, to) in [
+                    (0usize, 600usize),
+                    (600, 7200),
+                    (7200, 21600),
+                    (21600, 43200),
+                ] {
                     let (mut e, mut w, mut c) = (0.0, 0.0, 0);
                     for k in from..to {
                         let truth = truth_run.temperature(&truth_run.states[k], j, base);
                         e += p.temperatures_c[k][j] - truth;
                         w += bands.half_width_k[k][j];
-                        c += usize::from((p.temperatures_c[k][j] - truth).abs() <= bands.half_width_k[k][j]);
+                        c += usize::from(
+                            (p.temperatures_c[k][j] - truth).abs() <= bands.half_width_k[k][j],
+                        );
                     }
                     let len = (to - from) as f64;
                     println!("    state {j} {from}-{to} s: mean error {:+.4} K, mean half-width {:.4} K, inside {:.0} %", e / len, w / len, 100.0 * c as f64 / len);
@@ -298,7 +312,10 @@ fn monitors(models: &[ThermalModel], run: &dyn Fn(String, &SynthOptions) -> std:
                 time_s: FAULT_AT_S,
                 conductance_drop: 0.3,
             };
-            let fouled = run(format!("fouled-{seed}.mcap"), &day_run(seed, 1.0, Some(fault)));
+            let fouled = run(
+                format!("fouled-{seed}.mcap"),
+                &day_run(seed, 1.0, Some(fault)),
+            );
             let h = monitor::monitor(model, &healthy, &options(kind), None).expect("monitor");
             false_alarms += h.alarms.len();
             widths.extend(h.band.half_width_k.iter().copied());

@@ -26,8 +26,7 @@ pub(crate) fn one_state(a: f64, b: f64, sd: [f64; 2]) -> ThermalModel {
         "theta_covariance": [[sd[0] * sd[0], 0.0], [0.0, sd[1] * sd[1]]]
     });
     let path = Path::new("model.json");
-    ThermalModel::from_report(&Report::from_json(&report.to_string(), path).unwrap(), path)
-        .unwrap()
+    ThermalModel::from_report(&Report::from_json(&report.to_string(), path).unwrap(), path).unwrap()
 }
 
 #[test]
@@ -38,7 +37,10 @@ fn theta_is_laid_out_row_by_row_and_read_back() {
     let theta = theta_of(&model);
     assert_eq!(theta, vec![0.9, 0.05, 0.1, 0.02, 0.95, 0.2]);
     let back = with_theta(&model, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
-    assert_eq!(back.phi, DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 4.0, 5.0]));
+    assert_eq!(
+        back.phi,
+        DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 4.0, 5.0])
+    );
     assert_eq!(back.gamma, DMatrix::from_row_slice(2, 1, &[3.0, 6.0]));
 }
 
@@ -54,8 +56,16 @@ fn the_steady_state_of_a_scalar_model_linearised_as_by_hand() {
     })
     .unwrap();
     let (ga, gb) = (b * u / (1.0 - a).powi(2), u / (1.0 - a));
-    assert!((lin.jacobian[(0, 0)] / ga - 1.0).abs() < 1e-6, "{}", lin.jacobian);
-    assert!((lin.jacobian[(0, 1)] / gb - 1.0).abs() < 1e-9, "{}", lin.jacobian);
+    assert!(
+        (lin.jacobian[(0, 0)] / ga - 1.0).abs() < 1e-6,
+        "{}",
+        lin.jacobian
+    );
+    assert!(
+        (lin.jacobian[(0, 1)] / gb - 1.0).abs() < 1e-9,
+        "{}",
+        lin.jacobian
+    );
     let var = (ga * sd[0]).powi(2) + (gb * sd[1]).powi(2);
     assert!((lin.variances(&c)[0] / var - 1.0).abs() < 1e-5);
     assert!((lin.covariance(&c)[(0, 0)] / var - 1.0).abs() < 1e-5);
@@ -106,15 +116,17 @@ fn draws_have_the_mean_and_covariance_asked_for() {
     let draws = gaussian_draws(&mean, &cov, 20_000, 7);
     let n = draws.len() as f64;
     let m: DVector<f64> = draws.iter().fold(DVector::zeros(2), |s, d| s + d) / n;
-    let c = draws
-        .iter()
-        .fold(DMatrix::zeros(2, 2), |s, d| s + (d - &m) * (d - &m).transpose())
-        / (n - 1.0);
+    let c = draws.iter().fold(DMatrix::zeros(2, 2), |s, d| {
+        s + (d - &m) * (d - &m).transpose()
+    }) / (n - 1.0);
     // Sampling errors of 20,000 draws: about 1 % of each entry's scale; 4 % allowed.
     assert!((&m - &mean).amax() < 0.06, "{m}");
     assert!((&c - &cov).amax() < 0.16, "{c}");
     // Seeded: the same draws again.
-    assert_eq!(gaussian_draws(&mean, &cov, 3, 7), gaussian_draws(&mean, &cov, 3, 7));
+    assert_eq!(
+        gaussian_draws(&mean, &cov, 3, 7),
+        gaussian_draws(&mean, &cov, 3, 7)
+    );
     let mut v = vec![3.0, 1.0, 2.0, 5.0, 4.0];
     assert_eq!(quantile(&mut v, 0.5), 3.0);
     assert_eq!(quantile(&mut v, 1.0), 5.0);

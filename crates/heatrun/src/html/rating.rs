@@ -223,8 +223,9 @@ impl Section for OverloadSection<'_> {
                     o.time_to_limit_s.map_or("none".into(), |t| fixed(t, 0)),
                     o.time_to_limit_s.map_or("–".into(), |t| sig(t / 60.0, 3)),
                     o.limiting_part.as_deref().map_or("–".into(), spoken),
-                    o.time_to_limit_s_95
-                        .map_or("–".into(), |[a, b]| format!("{} to {}", fixed(a, 0), fixed(b, 0))),
+                    o.time_to_limit_s_95.map_or("–".into(), |[a, b]| {
+                        format!("{} to {}", fixed(a, 0), fixed(b, 0))
+                    }),
                 ],
             );
         }

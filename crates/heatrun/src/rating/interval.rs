@@ -74,10 +74,11 @@ pub(super) fn add_intervals(
     let mut least = Vec::with_capacity(DRAWS);
     let mut limiting = vec![0usize; parts];
     for draw in gaussian_draws(&mean, &sub, DRAWS, SEED) {
-        let (a, s) = draw
-            .iter()
-            .enumerate()
-            .fold((0, f64::INFINITY), |m, (a, &s)| if s < m.1 { (a, s) } else { m });
+        let (a, s) =
+            draw.iter().enumerate().fold(
+                (0, f64::INFINITY),
+                |m, (a, &s)| if s < m.1 { (a, s) } else { m },
+            );
         least.push(s.max(0.0));
         limiting[finite[a]] += 1;
     }
@@ -248,7 +249,10 @@ mod tests {
         let mut m = winding(a, b, [0.0, 0.0]);
         m.uncertainty.theta_covariance = None;
         let r = rate(&m, &options()).unwrap();
-        (r.max_continuous_apparent_power_mva, r.overloads[0].time_to_limit_s.unwrap())
+        (
+            r.max_continuous_apparent_power_mva,
+            r.overloads[0].time_to_limit_s.unwrap(),
+        )
     }
 
     #[test]
@@ -264,7 +268,10 @@ mod tests {
         let slope = |h: [f64; 2]| {
             let (sp, tp) = nominal(a + h[0], b + h[1]);
             let (sm, tm) = nominal(a - h[0], b - h[1]);
-            ((sp - sm) / (2.0 * (h[0] + h[1])), (tp - tm) / (2.0 * (h[0] + h[1])))
+            (
+                (sp - sm) / (2.0 * (h[0] + h[1])),
+                (tp - tm) / (2.0 * (h[0] + h[1])),
+            )
         };
         let (sa, ta) = slope([1e-6, 0.0]);
         let (sb, tb) = slope([0.0, 1e-4]);
@@ -272,8 +279,14 @@ mod tests {
         let [lo, hi] = r.max_continuous_apparent_power_mva_95.expect("an interval");
         assert!(lo < s && s < hi);
         // The quantiles of 20,000 draws: within about 1 % of the half-width.
-        assert!(((s - lo) / (Z95 * sigma_s) - 1.0).abs() < 0.02, "{lo} {s} {sigma_s}");
-        assert!(((hi - s) / (Z95 * sigma_s) - 1.0).abs() < 0.02, "{hi} {s} {sigma_s}");
+        assert!(
+            ((s - lo) / (Z95 * sigma_s) - 1.0).abs() < 0.02,
+            "{lo} {s} {sigma_s}"
+        );
+        assert!(
+            ((hi - s) / (Z95 * sigma_s) - 1.0).abs() < 0.02,
+            "{hi} {s} {sigma_s}"
+        );
         assert_eq!(r.probability_another_part_limits, Some(0.0));
         let part = &r.part_limits[0];
         assert!((part.standard_deviation_mva.unwrap() / sigma_s - 1.0).abs() < 1e-3);
