@@ -332,6 +332,9 @@ fn the_rrd_is_written_and_quiet_prints_only_the_alarms() {
             "fault.mcap",
             "--rrd",
             "fault.rrd",
+            // The band the whole-file oracle below sets.
+            "--band",
+            "fixed",
             "-q",
         ],
         d,
