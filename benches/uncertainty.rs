@@ -244,10 +244,11 @@ fn predictions(clean: &ThermalModel, models: &[ThermalModel]) {
         let (mut a, mut t, mut h) = (0usize, 0usize, 0.0);
         for (k, theta) in p.temperatures_c.iter().enumerate() {
             let x = &truth_run.states[k];
-            for j in 0..n {
+            // The states only: the band's columns after them are the derived ones.
+            for (j, predicted) in theta.iter().enumerate() {
                 let truth = truth_run.temperature(x, j, base);
                 let w = bands.half_width_k[k][j];
-                a += usize::from((theta[j] - truth).abs() <= w);
+                a += usize::from((predicted - truth).abs() <= w);
                 t += 1;
                 h += w;
             }
