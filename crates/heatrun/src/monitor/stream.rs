@@ -85,6 +85,9 @@ pub struct Stretch<'a> {
     pub measured: &'a [Series],
     /// θ̂_j per state on them, °C.
     pub predicted: &'a [Series],
+    /// The band's half-width b_j per state on them, K (constant for the fixed band,
+    /// varying for the model's; unknown before the model has started).
+    pub band_k: &'a [Series],
     /// Per state, the instants (ns) and residuals (K) now known to lie inside an alarm
     /// and not given before (an alarm is known the hold time after its start, so these
     /// may reach back into earlier stretches).
@@ -373,6 +376,8 @@ struct Traces {
     time_ns: Vec<i64>,
     measured: Vec<Series>,
     predicted: Vec<Series>,
+    /// The band per state: the last stretch's only (the observer draws it), never kept.
+    band_k: Vec<Series>,
 }
 
 impl Traces {
@@ -381,6 +386,7 @@ impl Traces {
             time_ns: Vec::new(),
             measured: vec![Series::default(); n],
             predicted: vec![Series::default(); n],
+            band_k: vec![Series::default(); n],
         }
     }
 
@@ -394,7 +400,12 @@ impl Traces {
         for (kept, new) in self.predicted.iter_mut().zip(&other.predicted) {
             kept.extend(new);
         }
-        for s in other.measured.iter_mut().chain(other.predicted.iter_mut()) {
+        for s in other
+            .measured
+            .iter_mut()
+            .chain(other.predicted.iter_mut())
+            .chain(other.band_k.iter_mut())
+        {
             *s = Series::default();
         }
     }
@@ -512,6 +523,7 @@ impl Runner {
             }
             self.current.measured[j].push(measured[j]);
             self.current.predicted[j].push(theta_hat);
+            self.current.band_k[j].push(theta_hat.map(|_| self.band_k[j]));
         }
         self.current.time_ns.push(time_ns);
         self.detector.observe(time_ns, &residuals);
@@ -549,6 +561,7 @@ impl Runner {
             time_ns: self.current.time_ns.clone(),
             measured: self.current.measured.clone(),
             predicted: self.current.predicted.clone(),
+            band_k: self.current.band_k.clone(),
             alarm_points: self.overlay.points.clone(),
             raised: self.overlay.raised.clone(),
             samples_read,
@@ -659,6 +672,7 @@ struct StretchView {
     time_ns: Vec<i64>,
     measured: Vec<Series>,
     predicted: Vec<Series>,
+    band_k: Vec<Series>,
     alarm_points: Vec<Vec<(i64, f64)>>,
     raised: Vec<(usize, i64)>,
     samples_read: u64,
@@ -670,6 +684,7 @@ impl StretchView {
             time_ns: &self.time_ns,
             measured: &self.measured,
             predicted: &self.predicted,
+            band_k: &self.band_k,
             alarm_points: &self.alarm_points,
             raised: &self.raised,
             samples_read: self.samples_read,
