@@ -797,7 +797,8 @@ fn the_monitoring_page_shows_parts_alarms_residuals_and_the_band() {
     }
     let band = page.table("and the band set from it");
     assert_eq!(band.rows.len(), 1 + parts.len());
-    assert!(page.html.contains("b = max(4 × RMSE, 0.5 K)"));
+    // The default band: from the model's prediction variance at each instant.
+    assert!(page.html.contains("b(k) = 4 × √(var θ̂(k) + σ²)"));
     // A healthy recording: exit 0, the page says so, nothing shaded, no alarm table.
     synth_rc(d, "healthy.mcap", &["--seed", "3"]);
     run(

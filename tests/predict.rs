@@ -134,22 +134,30 @@ fn predict_follows_the_truth_within_1_k_on_a_day_the_model_never_saw_and_rating_
         dir.path(),
     );
     let (header, rows) = read_csv(&dir.path().join("pred.csv"));
-    assert_eq!(
-        header,
-        [
-            "time_s",
-            "stator_winding_temp_c",
-            "core_temp_c",
-            "cooling_water_outlet_temp_c",
-            "field_winding_temp_c"
-        ]
-    );
+    // Each temperature, derived ones too, followed by its 95 % band.
+    let parts = [
+        "stator_winding_temp",
+        "core_temp",
+        "cooling_water_outlet_temp",
+        "field_winding_temp",
+    ];
+    let mut expected = vec!["time_s".to_owned()];
+    for p in parts {
+        expected.extend([format!("{p}_c"), format!("{p}_c_lo95"), format!("{p}_c_hi95")]);
+    }
+    assert_eq!(header, expected);
+    for row in &rows {
+        for c in 0..parts.len() {
+            let (v, lo, hi) = (row[1 + 3 * c], row[2 + 3 * c], row[3 + 3 * c]);
+            assert!(lo <= v && v <= hi, "{row:?}");
+        }
+    }
     let want = true_temperatures(&truth, &np, &cycle);
     assert_eq!(rows.len(), want.len(), "one row a second over the day");
     let mut worst = [0.0f64; 3];
     for (row, theta) in rows.iter().zip(&want) {
         for j in 0..3 {
-            worst[j] = worst[j].max((row[1 + j] - theta[j]).abs());
+            worst[j] = worst[j].max((row[1 + 3 * j] - theta[j]).abs());
         }
     }
     eprintln!("largest |predicted − true| over the day, K: {worst:?}");
@@ -482,8 +490,9 @@ fn a_coolant_referenced_model_predicts_a_drifting_inlet_from_the_schedule() {
             .iter()
             .map(|(t, theta)| {
                 let row = rows.iter().find(|r| (r[0] - t).abs() < 1e-6).unwrap();
+                // Each `<state>_c` is followed by its band's two columns.
                 (0..3)
-                    .map(|j| (row[j + 1] - theta[j]).abs())
+                    .map(|j| (row[1 + 3 * j] - theta[j]).abs())
                     .fold(0.0, f64::max)
             })
             .fold(0.0, f64::max);

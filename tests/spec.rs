@@ -478,7 +478,14 @@ fn an_input_stamped_at_its_intervals_end_is_advanced_and_predicted_one_sample_ah
     let predicted: Vec<Vec<f64>> = pred
         .lines()
         .skip(1)
-        .map(|l| l.split(',').skip(1).map(|v| v.parse().unwrap()).collect())
+        // Each `<state>_c`, its band's two columns after it.
+        .map(|l| {
+            l.split(',')
+                .skip(1)
+                .step_by(3)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
         .collect();
     let u1 = |k: usize| 0.01 * rows[k.min(rows.len() - 1)].0 * 3.0;
     let p2 = |k: usize| rows[k.min(rows.len() - 1)].1;

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use heatrun::monitor::stream::StreamOptions;
-use heatrun::monitor::{BandRule, MonitorOptions};
+use heatrun::monitor::{BandKind, BandRule, MonitorOptions};
 use heatrun_rerun::RerunSink;
 
 use super::viewer::{Offer, ViewerArgs};
@@ -23,6 +23,15 @@ impl Offer for MonitorViewer {
     const CONNECT: Option<&'static str> =
         Some("Stream them to a running rerun viewer (optionally at this gRPC URL)");
     const EXCLUSIVE: bool = true;
+}
+
+/// `--band`: which band the monitor compares against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BandChoice {
+    /// From the model's prediction uncertainty at each instant, plus the sensors' noise.
+    Model,
+    /// One per part: FACTOR × the model's RMSE, at least the floor.
+    Fixed,
 }
 
 /// Arguments of `heatrun monitor`.
@@ -44,12 +53,18 @@ pub struct MonitorArgs {
     /// shorter than a tenth of this do not end the excursion).
     #[arg(long, value_name = "SECONDS", default_value_t = heatrun::monitor::DEFAULT_HOLD_S)]
     pub hold: f64,
-    /// The band per part is this multiple of the model's RMSE (validation, else fit).
+    /// The band per part is this multiple of the model's RMSE (validation, else fit), or
+    /// of the prediction's standard deviation (`--band model`).
     #[arg(long, value_name = "FACTOR", default_value_t = heatrun::monitor::BandRule::default().factor)]
     pub band_factor: f64,
-    /// The narrowest band, K.
+    /// The narrowest band, K (the fixed band's).
     #[arg(long, value_name = "K", default_value_t = heatrun::monitor::BandRule::default().floor_k)]
     pub band_floor: f64,
+    /// The band: `model` at each instant from the model's prediction uncertainty and the
+    /// sensors' noise (FACTOR × its standard deviation), or `fixed` (FACTOR × the
+    /// model's RMSE, at least the floor, for the whole recording).
+    #[arg(long, value_enum, value_name = "KIND", default_value = "model")]
+    pub band: BandChoice,
     /// Write the alarms and each part's residual statistics as JSON to this file.
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<PathBuf>,
@@ -137,6 +152,10 @@ impl TryFrom<MonitorArgs> for Monitor {
                 band: BandRule {
                     factor: args.band_factor,
                     floor_k: args.band_floor,
+                    kind: match args.band {
+                        BandChoice::Model => BandKind::Model,
+                        BandChoice::Fixed => BandKind::Fixed,
+                    },
                 },
                 hold_s: args.hold,
             },

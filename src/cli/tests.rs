@@ -95,7 +95,16 @@ fn monitor_parses_its_options_with_the_documented_defaults() {
         panic!("not monitor");
     };
     assert_eq!((m.hold, m.band_factor, m.band_floor), (600.0, 4.0, 0.5));
+    assert_eq!(m.band, super::monitor::BandChoice::Model);
     assert_eq!((m.json, m.viewer.rrd, m.viewer.connect), (None, None, None));
+    let Command::Monitor(fixed) =
+        parse(&["monitor", "--model", "r.json", "s.mcap", "--band", "fixed"])
+            .unwrap()
+            .command
+    else {
+        panic!("not monitor");
+    };
+    assert_eq!(fixed.band, super::monitor::BandChoice::Fixed);
     let Command::Monitor(m) = parse(&[
         "monitor",
         "--model",

@@ -16,15 +16,14 @@ pub fn run(request: &Rating) -> anyhow::Result<Outcome> {
     }
     if let Some(path) = &request.html {
         // The plot's curve: every 2 % from rated to twice rated current.
-        let curve = rating::rate(
+        let curve = rating::overload_curve(
             &model,
             &RatingOptions {
                 overloads: (50..=100).map(|i| f64::from(i) / 50.0).collect(),
                 ..request.options.clone()
             },
         )
-        .map_err(heatrun::Error::from)?
-        .overloads;
+        .map_err(heatrun::Error::from)?;
         heatrun::html::rating_page(&rating, &model.name, Some(&curve)).write(path)?;
     }
     print!("{}", rating.table());

@@ -36,7 +36,6 @@ pub fn residual_entity(state: &str) -> String {
 pub struct LivePublisher {
     publisher: Publisher,
     states: Vec<String>,
-    band_k: Vec<f64>,
     /// Points not yet sent, per entity, and how many in all.
     pending: BTreeMap<String, (Vec<i64>, Vec<f64>)>,
     pending_points: usize,
@@ -61,7 +60,13 @@ impl LivePublisher {
     ) -> Result<LivePublisher> {
         let publisher = Publisher::open(sink, name)?;
         for (j, state) in states.iter().enumerate() {
-            styles(&publisher.rec, j, state, band.half_width_k[j])?;
+            let label = match band.kind {
+                heatrun::monitor::BandKind::Fixed => format!("band ±{:.2} K", band.half_width_k[j]),
+                heatrun::monitor::BandKind::Model => {
+                    "band (from the model, at each instant)".into()
+                }
+            };
+            styles(&publisher.rec, j, state, &label)?;
         }
         layout(states, parts)
             .send(&publisher.rec)
@@ -69,7 +74,6 @@ impl LivePublisher {
         Ok(LivePublisher {
             publisher,
             states: states.to_vec(),
-            band_k: band.half_width_k.clone(),
             pending: BTreeMap::new(),
             pending_points: 0,
             last_sent: Instant::now(),
@@ -130,11 +134,12 @@ impl StretchObserver for LivePublisher {
             self.queue(format!("{temp}/predicted"), on_grid(t, predicted.iter()));
             let residual = (0..t.len()).map(|k| Some(measured.get(k)? - predicted.get(k)?));
             self.queue(format!("{res}/residual"), on_grid(t, residual));
-            let b = self.band_k[j];
-            let ends = [t.first(), t.last()];
+            // The band as the detector used it, instant by instant (the model band
+            // varies; the fixed one is the same at every instant).
+            let band = &s.band_k[j];
             for (side, sign) in [("band_upper", 1.0), ("band_lower", -1.0)] {
-                let points = ends.into_iter().flatten().map(|&t| (t, sign * b));
-                self.queue(format!("{res}/{side}"), points);
+                let edge = (0..t.len()).map(|k| Some(sign * band.get(k)?));
+                self.queue(format!("{res}/{side}"), on_grid(t, edge));
             }
             let alarm = s.alarm_points[j].iter().copied();
             self.queue(format!("{res}/alarm"), alarm);
@@ -149,7 +154,7 @@ impl StretchObserver for LivePublisher {
 }
 
 /// State j's series names, colours and widths.
-fn styles(rec: &RecordingStream, j: usize, state: &str, band_k: f64) -> Result<()> {
+fn styles(rec: &RecordingStream, j: usize, state: &str, band_label: &str) -> Result<()> {
     let colour = style::part(j);
     let temp = temperature_entity(state);
     let res = residual_entity(state);
@@ -171,12 +176,11 @@ fn styles(rec: &RecordingStream, j: usize, state: &str, band_k: f64) -> Result<(
         colour,
         line,
     )?;
-    let label = format!("band ±{band_k:.2} K");
     for side in ["band_upper", "band_lower"] {
         style::series(
             rec,
             &format!("{res}/{side}"),
-            &label,
+            band_label,
             style::REFERENCE,
             line,
         )?;

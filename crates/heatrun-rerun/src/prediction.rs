@@ -82,6 +82,35 @@ fn log_temperatures(rec: &RecordingStream, p: &Prediction, limits: &[Limit]) -> 
         let j = p.states.len();
         log_temperature(rec, "field_winding_temp", j, values, limits, span)?;
     }
+    log_bands(rec, p)
+}
+
+/// Each part's 95 % band, where the prediction has one: `<part>_lo95` and `<part>_hi95`
+/// in the part's colour, lightened, beside its temperature.
+fn log_bands(rec: &RecordingStream, p: &Prediction) -> Result<()> {
+    let Some(bands) = &p.band_c else {
+        return Ok(());
+    };
+    let mut names: Vec<&str> = p.states.iter().map(String::as_str).collect();
+    if p.field_derived {
+        names.push("field_winding_temp");
+    }
+    for (j, name) in names.into_iter().enumerate() {
+        let light = style::lightened(style::part(j), 0.6);
+        for (edge, sign) in [("lo95", -1.0), ("hi95", 1.0)] {
+            let entity = format!("prediction/temperature/{name}_{edge}");
+            let label = format!("{name} 95 % band ({edge}), °C");
+            style::series(rec, &entity, &label, light, style::LINE_WIDTH)?;
+            let values = p.time_s.iter().enumerate().filter_map(|(k, &s)| {
+                let value = match p.temperatures_c[k].get(j) {
+                    Some(v) => *v,
+                    None => p.field_temperature_c[k]?,
+                };
+                Some((s, value + sign * bands.half_width_k[k].get(j)?))
+            });
+            send(rec, &entity, values)?;
+        }
+    }
     Ok(())
 }
 
@@ -180,7 +209,7 @@ fn layout() -> Layout {
             "heatrun predict",
             vec![
                 view(
-                    "predicted temperatures and limits, °C",
+                    "predicted temperatures, their 95 % bands and limits, °C",
                     "prediction/temperature",
                 ),
                 view("losses", "prediction/losses"),

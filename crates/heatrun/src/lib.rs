@@ -54,6 +54,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod atomic;
+pub mod confidence;
 pub mod decimate;
 pub mod error;
 pub mod estimate;

@@ -16,6 +16,10 @@ use crate::predict::phasor::PhasorMachine;
 use crate::predict::{OperatingPoint, Simulator};
 use crate::recording::Quantity;
 
+mod interval;
+
+pub use interval::{PartLimit, DRAWS as INTERVAL_DRAWS};
+
 /// Where the built-in limits come from.
 pub const LIMIT_SOURCE: &str = "IEC 60034-1:2017, Table 7 (limits of temperature rise of windings \
      indirectly cooled by air, over a 40 °C reference coolant): stator winding item 1a (a.c. \
@@ -114,6 +118,10 @@ pub struct Overload {
     pub time_to_limit_s: Option<f64>,
     /// The part that reaches its limit first.
     pub limiting_part: Option<String>,
+    /// The 95 % interval of the time to the limit, s, [low, high]: T ± 1.96·σ_T with
+    /// σ_T² = ∇Tᵀ C_Θ ∇T, the low end at least 0 (absent without C_Θ or a limit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_to_limit_s_95: Option<[f64; 2]>,
 }
 
 /// The machine's thermal rating.
@@ -127,6 +135,19 @@ pub struct Rating {
     pub max_continuous_per_rated: f64,
     /// The part that limits it.
     pub limiting_state: String,
+    /// The 95 % interval of the largest continuous apparent power, MVA, [low, high]: the
+    /// 2.5 % and 97.5 % quantiles of min_j S_j over draws of the parts' own limits S_j
+    /// (linearised in Θ, see [`PartLimit`]); absent where the report carries no C_Θ.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_continuous_apparent_power_mva_95: Option<[f64; 2]>,
+    /// The probability that a part other than `limiting_state` limits the continuous
+    /// rating (the share of those draws whose least S_j is another part's).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub probability_another_part_limits: Option<f64>,
+    /// Each part's own continuous limit with its uncertainty (as `limits`; empty without
+    /// C_Θ).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub part_limits: Vec<PartLimit>,
     /// Power factor, voltage (kV) and coolant (°C) of the rating.
     pub power_factor: f64,
     /// Line voltage, kV.
@@ -207,8 +228,29 @@ impl Loading<'_> {
     }
 }
 
-/// Rates the machine the model describes.
+/// Rates the machine the model describes, with the 95 % intervals of the continuous
+/// rating and the overload times where the report carries the covariance of Θ (the
+/// propagation is `interval`'s, see [`PartLimit`]).
 pub fn rate(model: &ThermalModel, o: &RatingOptions) -> Result<Rating, UseError> {
+    let mut rating = rate_nominal(model, o)?;
+    match &model.uncertainty.theta_covariance {
+        Some(c) => interval::add_intervals(&mut rating, model, o, c)?,
+        None => rating.warnings.push(
+            "the report carries no covariance of Θ (`theta_covariance`): the rating has no \
+             intervals"
+                .into(),
+        ),
+    }
+    Ok(rating)
+}
+
+/// The short-time overloads alone, without intervals (the page's curve of many).
+pub fn overload_curve(model: &ThermalModel, o: &RatingOptions) -> Result<Vec<Overload>, UseError> {
+    Ok(rate_nominal(model, o)?.overloads)
+}
+
+/// The rating at the estimate Θ̂, without intervals.
+fn rate_nominal(model: &ThermalModel, o: &RatingOptions) -> Result<Rating, UseError> {
     let loading = loading(model, o)?;
     let mut warnings = loading_warnings(model, o)?;
     if o.coolant_c.is_some() && !loading.sim.coolant_applies() {
@@ -233,6 +275,9 @@ pub fn rate(model: &ThermalModel, o: &RatingOptions) -> Result<Rating, UseError>
         max_continuous_apparent_power_mva: s_max,
         max_continuous_per_rated: s_max / rated,
         limiting_state: loading.parts[limiting].name.clone(),
+        max_continuous_apparent_power_mva_95: None,
+        probability_another_part_limits: None,
+        part_limits: Vec::new(),
         power_factor: loading.power_factor,
         voltage_kv: loading.voltage_v / 1e3,
         coolant_inlet_temp_c: o.coolant_c.filter(|_| loading.sim.coolant_applies()),
@@ -423,6 +468,7 @@ fn overload(
         current_percent: 100.0 * fraction,
         time_to_limit_s: None,
         limiting_part: None,
+        time_to_limit_s_95: None,
     };
     if margin <= 0.0 {
         result.time_to_limit_s = Some(0.0);
@@ -469,6 +515,14 @@ impl Rating {
             self.max_continuous_per_rated,
             self.limiting_state
         );
+        if let Some([lo, hi]) = self.max_continuous_apparent_power_mva_95 {
+            let _ = writeln!(
+                s,
+                "  95 % interval {lo:.2} to {hi:.2} MVA (from the identification's covariance); \
+                 probability another part limits {:.1} %",
+                100.0 * self.probability_another_part_limits.unwrap_or(0.0)
+            );
+        }
         let _ = writeln!(
             s,
             "  {:<28}{:>10}{:>14}{:>14}{:>12}  limit from",
@@ -489,16 +543,18 @@ impl Rating {
         let _ = writeln!(s, "short-time overloads from the rated steady state:");
         let _ = writeln!(
             s,
-            "  {:>10}  {:>16}  first to reach its limit",
+            "  {:>10}  {:>24}  first to reach its limit",
             "current", "time to limit"
         );
         for o in &self.overloads {
-            let time = o
-                .time_to_limit_s
-                .map_or("none".into(), |t| format!("{:.0} s", t));
+            let time = match (o.time_to_limit_s, o.time_to_limit_s_95) {
+                (Some(t), Some([lo, hi])) => format!("{t:.0} s ({lo:.0} to {hi:.0})"),
+                (Some(t), None) => format!("{t:.0} s"),
+                (None, _) => "none".into(),
+            };
             let _ = writeln!(
                 s,
-                "  {:>9.0} %  {:>16}  {}",
+                "  {:>9.0} %  {:>24}  {}",
                 o.current_percent,
                 time,
                 o.limiting_part.as_deref().unwrap_or("-")

@@ -468,6 +468,17 @@ impl Report {
                     gain: d.gain.clone(),
                     increment_sd_k: d.increment_sd * r.signals.temperature_base_k,
                 }),
+            innovation_variance: r
+                .estimate
+                .predictor
+                .as_ref()
+                .map(|p| p.innovation_variance.clone()),
+            // Only where the analysis propagated it: the covariance of the report's Φ, Γ.
+            theta_covariance: a
+                .uncertainty
+                .as_ref()
+                .and(r.estimate.covariance.as_ref())
+                .map(rows),
             network: Some(match &r.network.network {
                 Ok(n) => NetworkEntry::Defined(Box::new(n.clone())),
                 Err(why) => NetworkEntry::NotDefined {

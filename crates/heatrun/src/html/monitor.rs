@@ -365,14 +365,25 @@ impl Section for BandSection<'_> {
     fn render(&self, out: &mut Markup) -> Result<(), HtmlError> {
         let r = self.result;
         let b = &r.band;
+        let rule = match b.kind {
+            crate::monitor::BandKind::Fixed => format!(
+                "Each part's band is b = max({} × RMSE, {} K), the RMSE the model's own error \
+                 ({}).",
+                b.factor, b.floor_k, b.source
+            ),
+            crate::monitor::BandKind::Model => format!(
+                "Each part's band is set at each instant from what the model knows then: \
+                 b(k) = {} × √(var θ̂(k) + σ²), the prediction's variance from the \
+                 identification's covariance, the noise of the start it ran from (and the \
+                 process noise where the model has one), σ the sensors' noise; the table and \
+                 the figures give its mean over the recording.",
+                b.factor
+            ),
+        };
         out.paragraph(&format!(
-            "Each part's band is b = max({} × RMSE, {} K), the RMSE the model's own error \
-             ({}). A residual outside its band for longer than the hold time, {} s, is an \
+            "{rule} A residual outside its band for longer than the hold time, {} s, is an \
              alarm, raised the hold time after it left the band; it ends once the residual \
              has stayed inside for {} s.",
-            b.factor,
-            b.floor_k,
-            b.source,
             r.hold_s,
             sig(CLEAR_SHARE_OF_HOLD * r.hold_s, 3)
         ));

@@ -56,6 +56,15 @@ impl PredictionView<'_> {
         parts
     }
 
+    /// The 95 % half-width of a part at instant k, K, where the prediction has a band.
+    fn half_width(&self, part: Option<usize>, k: usize) -> Option<f64> {
+        let column = part.unwrap_or(self.prediction.states.len());
+        self.prediction
+            .band_c
+            .as_ref()
+            .and_then(|b| b.half_width_k.get(k)?.get(column).copied())
+    }
+
     /// The temperature of a part at instant k, °C.
     fn temperature(&self, part: Option<usize>, k: usize) -> Option<f64> {
         match part {
@@ -286,11 +295,21 @@ impl Section for TemperaturesSection<'_> {
             .into_iter()
             .enumerate()
             .map(|(i, (name, part))| {
-                let mut lines = vec![Line::new(
+                let mut lines = Vec::new();
+                if p.band_c.is_some() {
+                    // The band's edges first, so the prediction is drawn over them.
+                    for (edge, sign) in [("95 % band", -1.0), ("", 1.0)] {
+                        let values = clock.series_s(&p.time_s, BUCKETS, |k| {
+                            Some(v.temperature(part, k)? + sign * v.half_width(part, k)?)
+                        });
+                        lines.push(Line::new(edge, palette(i), values).dashed());
+                    }
+                }
+                lines.push(Line::new(
                     "predicted",
                     palette(i),
                     clock.series_s(&p.time_s, BUCKETS, |k| v.temperature(part, k)),
-                )];
+                ));
                 if let Some(limit) = v.limit_of(&name) {
                     lines.push(
                         Line::new(
@@ -306,8 +325,17 @@ impl Section for TemperaturesSection<'_> {
             .collect();
         let chart = Chart::new(&clock.label, panels);
         out.paragraph(&format!(
-            "Figure {} shows each part's predicted temperature{}.",
+            "Figure {} shows each part's predicted temperature{}{}.",
             out.next_figure(),
+            match &p.band_c {
+                Some(b) => format!(
+                    " between the edges of its 95 % band (thin dashed: from the {}; mean \
+                     half-width {} K)",
+                    b.sources.join(", "),
+                    fixed(b.mean_half_width_k(), 3)
+                ),
+                None => String::new(),
+            },
             if v.limits.is_empty() {
                 "; no insulation class or limit was given, so no limits are drawn"
             } else {

@@ -33,6 +33,19 @@ pub fn rating_page<'a>(
             ),
         ),
         ("limited by".into(), spoken(&rating.limiting_state)),
+    ];
+    if let Some([lo, hi]) = rating.max_continuous_apparent_power_mva_95 {
+        page.facts.push((
+            "95 % interval".into(),
+            format!(
+                "{} to {} MVA; another part limits with probability {}",
+                fixed(lo, 2),
+                fixed(hi, 2),
+                fixed(rating.probability_another_part_limits.unwrap_or(0.0), 3)
+            ),
+        ));
+    }
+    page.facts.extend([
         ("power factor".into(), rating.power_factor.to_string()),
         (
             "voltage".into(),
@@ -44,7 +57,7 @@ pub fn rating_page<'a>(
                 .coolant_inlet_temp_c
                 .map_or("as in the model's test".into(), |c| format!("{c} °C")),
         ),
-    ];
+    ]);
     page.push(LimitsSection { rating })
         .push(ContinuousSection { rating })
         .push(OverloadSection {
@@ -116,6 +129,17 @@ impl Section for ContinuousSection<'_> {
             fixed(r.max_continuous_per_rated, 3),
             spoken(&r.limiting_state)
         ));
+        if let Some([lo, hi]) = r.max_continuous_apparent_power_mva_95 {
+            out.paragraph(&format!(
+                "Carried from the identification's covariance (each part's own limit \
+                 linearised in Φ and Γ, the least of them drawn {} times), its 95 % interval \
+                 is {} to {} MVA; the probability that another part limits instead is {}.",
+                crate::rating::INTERVAL_DRAWS,
+                fixed(lo, 2),
+                fixed(hi, 2),
+                fixed(r.probability_another_part_limits.unwrap_or(0.0), 3)
+            ));
+        }
         let mut table = Table::new(
             "Steady temperatures at the largest continuous power and at rated power, and \
              each part's margin at rated power (limit − temperature); the limiting part's \
@@ -187,6 +211,7 @@ impl Section for OverloadSection<'_> {
                 "time to limit, s",
                 "time to limit, min",
                 "first part",
+                "95 % interval, s",
             ]
             .map(String::from)
             .to_vec(),
@@ -198,6 +223,9 @@ impl Section for OverloadSection<'_> {
                     o.time_to_limit_s.map_or("none".into(), |t| fixed(t, 0)),
                     o.time_to_limit_s.map_or("–".into(), |t| sig(t / 60.0, 3)),
                     o.limiting_part.as_deref().map_or("–".into(), spoken),
+                    o.time_to_limit_s_95.map_or("–".into(), |[a, b]| {
+                        format!("{} to {}", fixed(a, 0), fixed(b, 0))
+                    }),
                 ],
             );
         }

@@ -313,8 +313,9 @@ pub struct FieldFromStator {
     pub intercept_c: f64,
     /// Slope, K per K.
     pub slope: f64,
-    /// RMS of the fit's residual, K.
-    #[serde(skip_deserializing)]
+    /// RMS of the fit's residual, K (read back as the derived temperature's spread;
+    /// 0 from a report without it).
+    #[serde(default)]
     pub rms_residual_k: f64,
 }
 
@@ -417,6 +418,16 @@ pub struct Report {
     /// entering a state, d(k+1) = d(k) + k_d (y(k) − x̂(k)).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disturbance: Option<DisturbanceEntry>,
+    /// The innovations' variance Λ_i per output, in the model's units (pu² where per
+    /// unit), beside `kalman_gain`: with it the process noise an open-loop prediction
+    /// accumulates, P(k+1) = Φ P(k) Φᵀ + K Λ Kᵀ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub innovation_variance: Option<Vec<f64>>,
+    /// The covariance of Θ = [Φ Γ] laid out row by row (state i's row of Φ, then of Γ:
+    /// n(n+m) entries), where the method gives one: what `rating`, `predict` and
+    /// `monitor` propagate into their intervals (var g ≈ ∇gᵀ C_Θ ∇g).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta_covariance: Option<Vec<Vec<f64>>>,
     /// The passive thermal network of the model (Fig. 9), or why it has none: always
     /// written by a replay, `None` in a report read back.
     #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]

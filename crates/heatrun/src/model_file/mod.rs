@@ -16,4 +16,4 @@ pub mod thermal_model;
 
 pub use document::{Report, PROFILE};
 pub use error::UseError;
-pub use thermal_model::{FieldTemperatureUse, ModelError, ThermalModel};
+pub use thermal_model::{FieldTemperatureUse, ModelError, ModelUncertainty, ThermalModel};

@@ -83,6 +83,29 @@ pub struct ThermalModel {
     pub field_temperature: FieldTemperatureUse,
     /// The model's own error (validation where the report has it, else the fit).
     pub error: ModelError,
+    /// What the model knows of its own uncertainty, where the report carries it.
+    pub uncertainty: ModelUncertainty,
+}
+
+/// The uncertainty a report carries beside its Φ and Γ: what `rating`, `predict` and
+/// `monitor` propagate into their intervals and bands.
+#[derive(Debug, Clone, Default)]
+pub struct ModelUncertainty {
+    /// C_Θ, the covariance of Θ = [Φ Γ] laid out row by row (n(n+m) square), in the
+    /// model's units; `None` where the report's method gives none.
+    pub theta_covariance: Option<DMatrix<f64>>,
+    /// The process noise a step adds to an open-loop prediction's state, Q = K Λ Kᵀ
+    /// (n × n, model units), from the one-step predictor's gain K and innovations'
+    /// variance Λ where the method estimated them (`pem`).
+    pub process_noise: Option<DMatrix<f64>>,
+    /// The RMS residual of the field winding's line from the stator winding's
+    /// temperature, K, where the field winding is derived: the derived temperature's
+    /// standard deviation.
+    pub field_line_rms_k: Option<f64>,
+    /// The sensors' noise per state, K: √Λ_j · θ_base where the model has innovations
+    /// (its process noise then apart), else the model's own RMSE (validation where the
+    /// report has it, else the fit: the sensor noise plus what the model misses).
+    pub sensor_noise_k: Vec<f64>,
 }
 
 impl ThermalModel {
@@ -174,7 +197,8 @@ impl ThermalModel {
             initial_temperature_c: estimation.initial_temperature_c.clone(),
             coolant_inlet_temp_c: estimation.coolant_inlet_temp_c,
             field_temperature: FieldTemperatureUse::NotNeeded,
-            error,
+            error: error.clone(),
+            uncertainty: model_uncertainty(report, path, &error.rmse_k)?,
         };
         model.field_temperature = field_temperature_use(&model, estimation)?;
         if !(model.ts_s > 0.0) {
@@ -258,6 +282,55 @@ fn matrix(
         });
     }
     Ok(DMatrix::from_fn(nrows, ncols, |i, j| rows[i][j]))
+}
+
+/// The covariance of Θ and the process noise K Λ Kᵀ a report carries, each checked for
+/// its size (n(n+m) square; n × n and n).
+fn model_uncertainty(
+    report: &Report,
+    path: &Path,
+    rmse_k: &[f64],
+) -> Result<ModelUncertainty, UseError> {
+    let (n, m) = (report.states.len(), report.inputs.len());
+    let p = n * (n + m);
+    let theta_covariance = match &report.theta_covariance {
+        Some(rows) => Some(matrix(rows, (p, p), "theta_covariance", path, (n, m))?),
+        None => None,
+    };
+    let process_noise = match (&report.kalman_gain, &report.innovation_variance) {
+        (Some(k), Some(lambda)) => {
+            let k = matrix(k, (n, n), "kalman_gain", path, (n, m))?;
+            if lambda.len() != n {
+                return Err(UseError::Shape {
+                    path: path.to_owned(),
+                    key: "innovation_variance",
+                    found: format!("{} values", lambda.len()),
+                    expected: format!("{n}"),
+                    states: n,
+                    inputs: m,
+                });
+            }
+            let lambda = DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(lambda));
+            Some(&k * lambda * k.transpose())
+        }
+        _ => None,
+    };
+    Ok(ModelUncertainty {
+        theta_covariance,
+        process_noise,
+        field_line_rms_k: report
+            .estimation
+            .field_temperature_from_stator
+            .as_ref()
+            .map(|l| l.rms_residual_k),
+        sensor_noise_k: match &report.innovation_variance {
+            Some(lambda) if lambda.len() == n => lambda
+                .iter()
+                .map(|v| v.max(0.0).sqrt() * report.estimation.temperature_base_k)
+                .collect(),
+            _ => rmse_k.to_vec(),
+        },
+    })
 }
 
 /// Refuses an input a load schedule cannot give: one taken as its change from its value

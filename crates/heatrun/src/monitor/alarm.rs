@@ -72,6 +72,12 @@ impl Detector {
         }
     }
 
+    /// Sets each state's half-width from this instant on (a band that varies with what
+    /// the model knows, [`super::BandKind::Model`]).
+    pub fn set_band(&mut self, band_k: &[f64]) {
+        self.band_k.copy_from_slice(band_k);
+    }
+
     /// The residuals (K, `None` where unknown) of every state at `time_ns`, in time order.
     pub fn observe(&mut self, time_ns: i64, residuals: &[Option<f64>]) {
         for (j, r) in residuals.iter().enumerate() {

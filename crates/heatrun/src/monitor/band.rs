@@ -11,15 +11,35 @@
 //! (a class-A PT100: ±0.15 K at 0 °C, ±0.35 K at 100 °C) can vouch for between two
 //! recordings made months apart.
 
-use crate::model_file::ModelError;
+use crate::model_file::{ModelError, ThermalModel};
+use crate::spec::Reference;
+
+/// Which band the monitor compares against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BandKind {
+    /// One half-width per part for the whole recording: max(factor · RMSE_j, floor).
+    #[default]
+    Fixed,
+    /// At each instant from what the model knows then ([`model_band_k`]):
+    /// b_j(k) = factor · √(θ_base² var x̂_j(k) + σ_j² (+ σ_j²)), the prediction's
+    /// variance from the covariance of Θ, the start's sensor noise and the process noise,
+    /// σ_j the sensors' noise (twice where the state is measured from the model test's
+    /// one initial sample, [`measurement_variance_k2`]); no floor. Where the report carries no covariance of Θ, the
+    /// prediction's variance holds the start and the process noise only.
+    Model,
+}
 
 /// The rule that sets the band from the model's error.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BandRule {
-    /// Multiple of the model's RMSE per part.
+    /// Multiple of the model's RMSE per part (fixed), or of the prediction's standard
+    /// deviation (model).
     pub factor: f64,
-    /// The narrowest band, K.
+    /// The narrowest band, K (the fixed band's).
     pub floor_k: f64,
+    /// Fixed or from the model's prediction uncertainty.
+    pub kind: BandKind,
 }
 
 impl Default for BandRule {
@@ -28,8 +48,40 @@ impl Default for BandRule {
         BandRule {
             factor: 4.0,
             floor_k: 0.5,
+            kind: BandKind::Fixed,
         }
     }
+}
+
+/// The model band at an instant, K per state: factor · √(θ_base² var_j + w_j), `var`
+/// the prediction's variance per state in model units², `measurement_k2` w_j what the
+/// comparison adds whatever the model knows, K² ([`measurement_variance_k2`]).
+pub fn model_band_k(factor: f64, base_k: f64, var: &[f64], measurement_k2: &[f64]) -> Vec<f64> {
+    var.iter()
+        .zip(measurement_k2)
+        .map(|(v, w)| factor * (base_k * base_k * v + w).sqrt())
+        .collect()
+}
+
+/// What a residual carries besides the prediction's variance, K² per state: the sensor's
+/// noise σ_j² at this instant, and σ_j² again for a state measured from the model test's
+/// own initial temperature ([`Reference::Initial`]): that reference was one sample, and
+/// its error stays in every predicted temperature.
+pub fn measurement_variance_k2(model: &ThermalModel) -> Vec<f64> {
+    model
+        .uncertainty
+        .sensor_noise_k
+        .iter()
+        .zip(&model.states)
+        .map(|(s, state)| {
+            let reference = if state.reference == Reference::Initial {
+                s * s
+            } else {
+                0.0
+            };
+            s * s + reference
+        })
+        .collect()
 }
 
 /// The band per state: |θ − θ̂| ≤ `half_width_k[j]` is inside.
@@ -45,6 +97,9 @@ pub struct Band {
     pub factor: f64,
     /// The floor, K.
     pub floor_k: f64,
+    /// Fixed, or from the model's prediction uncertainty at each instant (then
+    /// `half_width_k` is its mean over the instants compared, once the run is done).
+    pub kind: BandKind,
 }
 
 impl Band {
@@ -60,6 +115,7 @@ impl Band {
             source: error.source.clone(),
             factor: rule.factor,
             floor_k: rule.floor_k,
+            kind: rule.kind,
         }
     }
 }
@@ -80,6 +136,7 @@ mod tests {
             BandRule {
                 factor: 4.0,
                 floor_k: 0.5,
+                kind: BandKind::Fixed,
             },
         );
         // 4 × 0.05 = 0.2 < floor; 4 × 0.2 = 0.8; 4 × 0.5 = 2.0.

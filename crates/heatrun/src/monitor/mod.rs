@@ -38,7 +38,7 @@ use crate::series::Series;
 use crate::spec::{ModelDescription, Reference, Scaling, StateDescription};
 
 pub use alarm::{Alarm, Detector};
-pub use band::{Band, BandRule};
+pub use band::{Band, BandKind, BandRule};
 pub use stream::{
     monitor_stream, ObserverError, Source, StreamOptions, Stretch, StretchObserver, Watchers,
 };

@@ -151,11 +151,19 @@ impl MonitorResult {
                 n => format!("{n} alarms"),
             }
         );
-        let _ = writeln!(
-            s,
-            "band: {} × the model's RMSE ({}), at least {} K; hold {} s",
-            self.band.factor, self.band.source, self.band.floor_k, self.hold_s
-        );
+        let _ = match self.band.kind {
+            super::BandKind::Fixed => writeln!(
+                s,
+                "band: {} × the model's RMSE ({}), at least {} K; hold {} s",
+                self.band.factor, self.band.source, self.band.floor_k, self.hold_s
+            ),
+            super::BandKind::Model => writeln!(
+                s,
+                "band: {} × the standard deviation of the model's prediction and the sensors' \
+                 noise at each instant (the column: its mean); hold {} s",
+                self.band.factor, self.hold_s
+            ),
+        };
         let _ = writeln!(
             s,
             "  {:<28}{:>9}{:>10}{:>10}{:>12}{:>10}",

@@ -27,10 +27,12 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::DVector;
 
+use super::band::{measurement_variance_k2, model_band_k, BandKind};
 use super::{
     description_of, grid_alignments, inlet_warning, Accumulator, Band, Detector, MonitorOptions,
     MonitorResult, MonitorTraces, StateRef,
 };
+use crate::confidence::OpenLoopVariance;
 use crate::decimate::{DecimateError, DecimatedRecording, DecimatedSeries};
 use crate::error::{Error, Result};
 use crate::grid::{GridBuilder, Ready, StretchPlan, MARGIN};
@@ -83,6 +85,9 @@ pub struct Stretch<'a> {
     pub measured: &'a [Series],
     /// θ̂_j per state on them, °C.
     pub predicted: &'a [Series],
+    /// The band's half-width b_j per state on them, K (constant for the fixed band,
+    /// varying for the model's; unknown before the model has started).
+    pub band_k: &'a [Series],
     /// Per state, the instants (ns) and residuals (K) now known to lie inside an alarm
     /// and not given before (an alarm is known the hold time after its start, so these
     /// may reach back into earlier stretches).
@@ -344,6 +349,14 @@ struct Runner {
     shift: Option<(f64, f64)>,
     shift_state: Option<f64>,
     x_hat: Option<DVector<f64>>,
+    /// The prediction's variance beside x̂, where the band is the model's.
+    variance: Option<OpenLoopVariance>,
+    /// The model band's factor, where the band is the model's.
+    model_band: Option<f64>,
+    /// What a residual carries besides the prediction's variance, K² per state.
+    measurement_k2: Vec<f64>,
+    /// Per state: the model band summed over the instants compared, and their count.
+    band_sum: Vec<(f64, usize)>,
     starts: usize,
     detector: Detector,
     stats: Vec<Accumulator>,
@@ -363,6 +376,8 @@ struct Traces {
     time_ns: Vec<i64>,
     measured: Vec<Series>,
     predicted: Vec<Series>,
+    /// The band per state: the last stretch's only (the observer draws it), never kept.
+    band_k: Vec<Series>,
 }
 
 impl Traces {
@@ -371,6 +386,7 @@ impl Traces {
             time_ns: Vec::new(),
             measured: vec![Series::default(); n],
             predicted: vec![Series::default(); n],
+            band_k: vec![Series::default(); n],
         }
     }
 
@@ -384,7 +400,12 @@ impl Traces {
         for (kept, new) in self.predicted.iter_mut().zip(&other.predicted) {
             kept.extend(new);
         }
-        for s in other.measured.iter_mut().chain(other.predicted.iter_mut()) {
+        for s in other
+            .measured
+            .iter_mut()
+            .chain(other.predicted.iter_mut())
+            .chain(other.band_k.iter_mut())
+        {
             *s = Series::default();
         }
     }
@@ -410,6 +431,10 @@ impl Runner {
             shift,
             shift_state: None,
             x_hat: None,
+            variance: None,
+            model_band: (band.kind == BandKind::Model).then_some(band.factor),
+            measurement_k2: measurement_variance_k2(model),
+            band_sum: vec![(0.0, 0); n],
             starts: 0,
             detector,
             stats: vec![Accumulator::default(); n],
@@ -476,8 +501,13 @@ impl Runner {
             if let Some(r) = rises {
                 self.x_hat = Some(DVector::from_vec(r));
                 self.starts += 1;
+                let start: Vec<f64> = (model.uncertainty.sensor_noise_k.iter())
+                    .map(|s| (s / self.base).powi(2))
+                    .collect();
+                self.variance = Some(OpenLoopVariance::start(model, &start));
             }
         }
+        self.set_model_band(model);
         let t_s = (time_ns - t0) as f64 / 1e9;
         let mut residuals = vec![None; n];
         for j in 0..n {
@@ -488,18 +518,41 @@ impl Runner {
             residuals[j] = measured[j].zip(theta_hat).map(|(m, p)| m - p);
             if let Some(r) = residuals[j] {
                 self.stats[j].add(r, t_s, self.band_k[j]);
+                self.band_sum[j].0 += self.band_k[j];
+                self.band_sum[j].1 += 1;
             }
             self.current.measured[j].push(measured[j]);
             self.current.predicted[j].push(theta_hat);
+            self.current.band_k[j].push(theta_hat.map(|_| self.band_k[j]));
         }
         self.current.time_ns.push(time_ns);
         self.detector.observe(time_ns, &residuals);
         self.overlay.remember(time_ns, residuals);
         let u: Option<Vec<f64>> = signals.inputs.iter().map(|i| i.values.get(k)).collect();
         self.x_hat = match (self.x_hat.take(), u) {
-            (Some(x), Some(u)) => Some(&model.phi * x + &model.gamma * DVector::from_vec(u)),
-            _ => None,
+            (Some(x), Some(u)) => {
+                let u = DVector::from_vec(u);
+                if let Some(v) = &mut self.variance {
+                    v.step(model, &model.uncertainty, &x, &u);
+                }
+                Some(&model.phi * x + &model.gamma * u)
+            }
+            _ => {
+                self.variance = None;
+                None
+            }
         };
+    }
+
+    /// The model band at this instant, for the detector and the statistics (kept
+    /// as it was where the band is fixed or the model has not started).
+    fn set_model_band(&mut self, model: &ThermalModel) {
+        let (Some(factor), Some(v)) = (self.model_band, &self.variance) else {
+            return;
+        };
+        let var = v.variances(&model.uncertainty);
+        self.band_k = model_band_k(factor, self.base, &var, &self.measurement_k2);
+        self.detector.set_band(&self.band_k);
     }
 
     /// The last stretch sealed, for the observer.
@@ -508,6 +561,7 @@ impl Runner {
             time_ns: self.current.time_ns.clone(),
             measured: self.current.measured.clone(),
             predicted: self.current.predicted.clone(),
+            band_k: self.current.band_k.clone(),
             alarm_points: self.overlay.points.clone(),
             raised: self.overlay.raised.clone(),
             samples_read,
@@ -526,6 +580,15 @@ impl Runner {
         self.kept.append(&mut self.current);
         let last = self.kept.time_ns.last().copied().unwrap_or(0);
         let states: Vec<String> = model.states.iter().map(|s| s.name.clone()).collect();
+        let mut band = band.clone();
+        if self.model_band.is_some() {
+            // The model band's mean over the instants compared, for the summary.
+            for (b, (sum, count)) in band.half_width_k.iter_mut().zip(&self.band_sum) {
+                if *count > 0 {
+                    *b = sum / *count as f64;
+                }
+            }
+        }
         let stats = self
             .stats
             .iter()
@@ -545,7 +608,7 @@ impl Runner {
             ts_s: model.ts_s,
             parts: model.states.iter().map(|s| s.part.clone()).collect(),
             states,
-            band: band.clone(),
+            band,
             hold_s,
             alarms: self.detector.finish(last),
             stats,
@@ -609,6 +672,7 @@ struct StretchView {
     time_ns: Vec<i64>,
     measured: Vec<Series>,
     predicted: Vec<Series>,
+    band_k: Vec<Series>,
     alarm_points: Vec<Vec<(i64, f64)>>,
     raised: Vec<(usize, i64)>,
     samples_read: u64,
@@ -620,6 +684,7 @@ impl StretchView {
             time_ns: &self.time_ns,
             measured: &self.measured,
             predicted: &self.predicted,
+            band_k: &self.band_k,
             alarm_points: &self.alarm_points,
             raised: &self.raised,
             samples_read: self.samples_read,

@@ -9,6 +9,7 @@
 //! next (as the model's inputs hold over a sample interval): x(k+1) = Φ x(k) + Γ u(k),
 //! u(k) from the row in force at t_k and the temperatures at t_k.
 
+pub mod band;
 pub mod load;
 pub mod phasor;
 pub mod simulate;
@@ -54,15 +55,31 @@ pub struct Prediction {
     /// Whether the field winding temperature is derived from the stator winding's (not a
     /// state): it is then written as a column of its own, `field_winding_temp_c`.
     pub field_derived: bool,
+    /// Each temperature's 95 % band, where the report carries the covariance of Θ.
+    pub band_c: Option<band::Bands>,
     /// What was assumed or ignored.
     pub warnings: Vec<String>,
 }
 
-/// Runs `model` over `schedule` from `initial`.
+/// Runs `model` over `schedule` from `initial`, each temperature with its 95 % band
+/// where the report carries the covariance of Θ ([`band`]).
 pub fn predict(
     model: &ThermalModel,
     schedule: &LoadSchedule,
     initial: &InitialState,
+) -> Result<Prediction, UseError> {
+    let mut prediction = predict_from(model, schedule, initial, None)?;
+    band::add_bands(&mut prediction, model, schedule, initial)?;
+    Ok(prediction)
+}
+
+/// Runs `model` over `schedule` from `initial`, its initial rises moved by `start_offset`
+/// (model units) where given: the map [`band`] linearises.
+fn predict_from(
+    model: &ThermalModel,
+    schedule: &LoadSchedule,
+    initial: &InitialState,
+    start_offset: Option<&DVector<f64>>,
 ) -> Result<Prediction, UseError> {
     let sim = Simulator::new(model)?;
     let mut warnings = schedule.warnings.clone();
@@ -118,6 +135,9 @@ pub fn predict(
             sim.rises(theta, first)
         }
     };
+    if let Some(offset) = start_offset {
+        x += offset;
+    }
     let mut out = Prediction {
         states: model.states.iter().map(|s| s.name.clone()).collect(),
         inputs: model.inputs.iter().map(|i| i.name.clone()).collect(),
@@ -129,6 +149,7 @@ pub fn predict(
             model.field_temperature,
             FieldTemperatureUse::FromStator { .. }
         ),
+        band_c: None,
         warnings,
     };
     let mut delays = DelayLine::new(model)?;
@@ -156,23 +177,31 @@ pub fn predict(
 
 impl Prediction {
     /// The prediction as CSV: `time_s` and `<state>_c` per state, °C (and
-    /// `field_winding_temp_c` where the field winding is derived, not a state).
+    /// `field_winding_temp_c` where the field winding is derived, not a state), each
+    /// followed by its 95 % band `<state>_c_lo95`, `<state>_c_hi95` where there is one.
     pub fn to_csv(&self) -> String {
         let mut s = String::from("time_s");
-        for name in &self.states {
-            let _ = write!(s, ",{name}_c");
-        }
+        let mut names: Vec<&str> = self.states.iter().map(String::as_str).collect();
         if self.field_derived {
-            s.push_str(",field_winding_temp_c");
+            names.push("field_winding_temp");
+        }
+        for name in &names {
+            let _ = write!(s, ",{name}_c");
+            if self.band_c.is_some() {
+                let _ = write!(s, ",{name}_c_lo95,{name}_c_hi95");
+            }
         }
         s.push('\n');
         for (k, (t, theta)) in self.time_s.iter().zip(&self.temperatures_c).enumerate() {
             let _ = write!(s, "{t}");
-            for v in theta {
+            let derived = self.field_temperature_c[k].unwrap_or(f64::NAN);
+            let values = theta.iter().copied().chain(self.field_derived.then_some(derived));
+            for (c, v) in values.enumerate() {
                 let _ = write!(s, ",{v:.4}");
-            }
-            if self.field_derived {
-                let _ = write!(s, ",{:.4}", self.field_temperature_c[k].unwrap_or(f64::NAN));
+                if let Some(b) = &self.band_c {
+                    let half = b.half_width_k[k][c];
+                    let _ = write!(s, ",{:.4},{:.4}", v - half, v + half);
+                }
             }
             s.push('\n');
         }
