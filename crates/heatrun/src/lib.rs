@@ -57,6 +57,7 @@ pub mod atomic;
 pub mod decimate;
 pub mod error;
 pub mod estimate;
+pub mod fleet;
 pub mod grid;
 pub mod hidden;
 pub mod html;
