@@ -11,6 +11,7 @@
 //!
 //! Each command's file holds both layers for that command: its flags and its request.
 
+mod fleet;
 mod import;
 mod method;
 mod monitor;
@@ -27,6 +28,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+pub use fleet::{FleetArgs, FleetCommand, FleetCompare};
 pub use import::{Import, ImportArgs};
 pub use monitor::{Input, Monitor, MonitorArgs};
 pub use predict::{Predict, PredictArgs};
@@ -99,6 +101,9 @@ another profile or without the needed blocks, a recording lacking a state's chan
 lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300\n  tail -c +1 -f growing.mcap | heatrun monitor --model model.json - --connect"
     )]
     Monitor(MonitorArgs),
+    /// Commands over many units' reports of one design (`compare`).
+    #[command(after_help = "Example:\n  heatrun fleet compare reports/*.json --json compare.json")]
+    Fleet(FleetArgs),
 }
 
 /// Arguments of `heatrun info`.
@@ -152,6 +157,8 @@ pub enum Request {
     Rating(Rating),
     /// `heatrun monitor`.
     Monitor(Monitor),
+    /// `heatrun fleet compare`.
+    FleetCompare(FleetCompare),
 }
 
 impl TryFrom<Command> for Request {
@@ -171,6 +178,9 @@ impl TryFrom<Command> for Request {
             Command::Predict(args) => Request::Predict(args.into()),
             Command::Rating(args) => Request::Rating(args.into()),
             Command::Monitor(args) => Request::Monitor(args.try_into()?),
+            Command::Fleet(args) => match args.command {
+                FleetCommand::Compare(args) => Request::FleetCompare(args.try_into()?),
+            },
         })
     }
 }

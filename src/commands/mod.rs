@@ -4,6 +4,7 @@
 mod bars;
 mod completions;
 mod fleet;
+mod fleet_compare;
 pub mod hint;
 mod import;
 mod info;
@@ -53,5 +54,6 @@ pub fn dispatch(request: Request) -> anyhow::Result<Outcome> {
         Request::Predict(predict) => predict::run(&predict),
         Request::Rating(rating) => rating::run(&rating),
         Request::Monitor(monitor) => monitor::run(&monitor),
+        Request::FleetCompare(compare) => fleet_compare::run(&compare),
     }
 }
