@@ -67,7 +67,11 @@ impl TryFrom<CompareArgs> for FleetCompare {
     /// The options in the library's units (the floor a fraction), once in range.
     fn try_from(args: CompareArgs) -> anyhow::Result<FleetCompare> {
         if !(args.threshold.is_finite() && args.threshold > 0.0) {
-            return Err(Usage(format!("--threshold {}: must be a positive number", args.threshold)).into());
+            return Err(Usage(format!(
+                "--threshold {}: must be a positive number",
+                args.threshold
+            ))
+            .into());
         }
         if !(0.0..100.0).contains(&args.floor) {
             return Err(Usage(format!("--floor {}: a percentage in [0, 100)", args.floor)).into());

@@ -197,14 +197,12 @@ impl TryFrom<SynthArgs> for Synth {
         let mut options = SynthOptions {
             machine: match args.machine {
                 MachineArg::Paper => Machine::paper(),
-                MachineArg::RcUnit => Machine::Network(manufactured(
-                    NetworkMachine::rc_unit(),
-                    &args,
-                )?),
-                MachineArg::RcField => Machine::Network(manufactured(
-                    NetworkMachine::rc_field(),
-                    &args,
-                )?),
+                MachineArg::RcUnit => {
+                    Machine::Network(manufactured(NetworkMachine::rc_unit(), &args)?)
+                }
+                MachineArg::RcField => {
+                    Machine::Network(manufactured(NetworkMachine::rc_field(), &args)?)
+                }
             },
             coolant: Coolant {
                 channels: !args.no_coolant_channels,
@@ -261,7 +259,9 @@ impl TryFrom<SynthArgs> for Synth {
 fn manufactured(design: NetworkMachine, args: &SynthArgs) -> anyhow::Result<NetworkMachine> {
     match args.spread {
         None => Ok(design),
-        Some(pct) if (0.0..50.0).contains(&pct) => Ok(design.manufactured(pct / 100.0, args.unit_seed)),
+        Some(pct) if (0.0..50.0).contains(&pct) => {
+            Ok(design.manufactured(pct / 100.0, args.unit_seed))
+        }
         Some(pct) => Err(Usage(format!(
             "--spread {pct}: a manufacturing spread is a percentage in [0, 50)"
         ))

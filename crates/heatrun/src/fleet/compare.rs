@@ -243,11 +243,10 @@ pub fn read_unit(path: &Path, label: &str) -> Result<Unit, CompareError> {
         source,
     })?;
     let report = Report::from_json(&text, path)?;
-    let extended: Extended =
-        serde_json::from_str(&text).map_err(|e| CompareError::Block {
-            path: path.to_owned(),
-            message: e.to_string(),
-        })?;
+    let extended: Extended = serde_json::from_str(&text).map_err(|e| CompareError::Block {
+        path: path.to_owned(),
+        message: e.to_string(),
+    })?;
     Ok(unit_of(label, &report, &extended))
 }
 
@@ -262,12 +261,24 @@ fn unit_of(label: &str, report: &Report, extended: &Extended) -> Unit {
     let unc = extended.uncertainty.as_ref();
     for (i, &t) in report.time_constants_s.iter().enumerate() {
         let sigma = se(unc.map(|u| &u.time_constants_ci95_s), i);
-        push(&mut quantities, format!("time_constant_{}_s", i + 1), Some(t), sigma, None);
+        push(
+            &mut quantities,
+            format!("time_constant_{}_s", i + 1),
+            Some(t),
+            sigma,
+            None,
+        );
     }
     if let Some(steady) = &extended.steady_state {
         for (i, (state, &rise)) in report.states.iter().zip(&steady.rise_k).enumerate() {
             let sigma = se(unc.map(|u| &u.steady_state_ci95_k), i);
-            push(&mut quantities, format!("steady_state_rise_k.{state}"), rise, sigma, None);
+            push(
+                &mut quantities,
+                format!("steady_state_rise_k.{state}"),
+                rise,
+                sigma,
+                None,
+            );
         }
     }
     if let Some(network) = &extended.network {
@@ -275,7 +286,13 @@ fn unit_of(label: &str, report: &Report, extended: &Extended) -> Unit {
     }
     if let Some(fit) = &extended.fit {
         for (state, &f) in report.states.iter().zip(&fit.nrmse_fit_percent) {
-            push(&mut quantities, format!("fit_percent.{state}"), f, None, None);
+            push(
+                &mut quantities,
+                format!("fit_percent.{state}"),
+                f,
+                None,
+                None,
+            );
         }
     }
     Unit {
@@ -311,15 +328,18 @@ fn network_quantities(out: &mut Vec<Measured>, report: &Report, network: &Networ
     let states = &report.states;
     let g = &network.conductance_w_per_k;
     let at = |i: usize, j: usize| g.get(i).and_then(|r| r.get(j).copied().flatten());
-    let total = |i: usize| -> Option<f64> {
-        (0..states.len()).map(|j| at(i, j).map(f64::abs)).sum()
-    };
+    let total =
+        |i: usize| -> Option<f64> { (0..states.len()).map(|j| at(i, j).map(f64::abs)).sum() };
     for (state, &c) in states.iter().zip(&network.capacitance_j_per_k) {
         push(out, format!("capacitance_j_per_k.{state}"), c, None, None);
     }
     for i in 0..states.len() {
         for j in i..states.len() {
-            let other = if i == j { "coolant" } else { states[j].as_str() };
+            let other = if i == j {
+                "coolant"
+            } else {
+                states[j].as_str()
+            };
             let scale = match (total(i), total(j)) {
                 (Some(a), Some(b)) => Some(a.min(b)),
                 _ => None,
@@ -330,7 +350,13 @@ fn network_quantities(out: &mut Vec<Measured>, report: &Report, network: &Networ
     }
     for (state, row) in states.iter().zip(&network.loss_distribution) {
         for (input, &k) in report.inputs.iter().zip(row) {
-            push(out, format!("loss_share.{input}.{state}"), k, None, Some(1.0));
+            push(
+                out,
+                format!("loss_share.{input}.{state}"),
+                k,
+                None,
+                Some(1.0),
+            );
         }
     }
 }
@@ -396,10 +422,18 @@ fn check_design(units: &[Unit]) -> Result<(), CompareError> {
             expected,
         };
         if unit.states != first.states {
-            return Err(differ("states", unit.states.join(", "), first.states.join(", ")));
+            return Err(differ(
+                "states",
+                unit.states.join(", "),
+                first.states.join(", "),
+            ));
         }
         if unit.inputs != first.inputs {
-            return Err(differ("inputs", unit.inputs.join(", "), first.inputs.join(", ")));
+            return Err(differ(
+                "inputs",
+                unit.inputs.join(", "),
+                first.inputs.join(", "),
+            ));
         }
         if order(unit) != order(first) {
             let n = |u| format!("{} time constants", order(u));
@@ -509,7 +543,12 @@ impl FleetComparison {
     /// that differs, naming it and why.
     pub fn summary(&self) -> String {
         let mut out = String::new();
-        let width = self.table.iter().map(|r| r.quantity.len()).max().unwrap_or(8);
+        let width = self
+            .table
+            .iter()
+            .map(|r| r.quantity.len())
+            .max()
+            .unwrap_or(8);
         out.push_str(&format!("{:width$}", "quantity"));
         for i in 0..self.reports.len() {
             out.push_str(&format!(" {:>11}", format!("U{}", i + 1)));
@@ -548,7 +587,11 @@ impl FleetComparison {
         }
         let mut out = String::new();
         for report in &self.reports {
-            let own: Vec<&Outlier> = self.outliers.iter().filter(|o| &o.report == report).collect();
+            let own: Vec<&Outlier> = self
+                .outliers
+                .iter()
+                .filter(|o| &o.report == report)
+                .collect();
             if own.is_empty() {
                 continue;
             }
@@ -581,7 +624,11 @@ fn significant(v: f64) -> String {
     if a != 0.0 && !(1e-3..1e5).contains(&a) {
         format!("{v:.3e}")
     } else {
-        let decimals = if a == 0.0 { 0 } else { (3 - a.log10().floor() as i64).max(0) as usize };
+        let decimals = if a == 0.0 {
+            0
+        } else {
+            (3 - a.log10().floor() as i64).max(0) as usize
+        };
         format!("{v:.decimals$}")
     }
 }
@@ -638,7 +685,13 @@ mod tests {
 
     #[test]
     fn the_unit_apart_is_named_and_no_other() {
-        let units = fleet(&[(10.0, None), (10.1, None), (9.9, None), (10.05, None), (20.0, None)]);
+        let units = fleet(&[
+            (10.0, None),
+            (10.1, None),
+            (9.9, None),
+            (10.05, None),
+            (20.0, None),
+        ]);
         let c = compare(&units, &NO_FLOOR).unwrap();
         assert_eq!(c.outliers.len(), 1);
         let o = &c.outliers[0];
@@ -656,7 +709,13 @@ mod tests {
     #[test]
     fn a_difference_within_the_units_own_uncertainty_is_none() {
         // The same fleet, the far unit's own standard error 5: z = 9.975 / √(0.0741² + 25).
-        let units = fleet(&[(10.0, None), (10.1, None), (9.9, None), (10.05, None), (20.0, Some(5.0))]);
+        let units = fleet(&[
+            (10.0, None),
+            (10.1, None),
+            (9.9, None),
+            (10.05, None),
+            (20.0, Some(5.0)),
+        ]);
         let c = compare(&units, &NO_FLOOR).unwrap();
         assert!(c.outliers.is_empty(), "{:?}", c.outliers);
         let z = c.table[0].units[4].score.unwrap();
@@ -666,7 +725,13 @@ mod tests {
     #[test]
     fn the_floor_keeps_identical_units_from_a_zero_yardstick() {
         // Four identical others: MAD 0; the floor 1 % of the scale (1) makes s = 0.01.
-        let units = fleet(&[(1.0, None), (1.0, None), (1.0, None), (1.0, None), (1.005, None)]);
+        let units = fleet(&[
+            (1.0, None),
+            (1.0, None),
+            (1.0, None),
+            (1.0, None),
+            (1.005, None),
+        ]);
         let c = compare(&units, &CompareOptions::default()).unwrap();
         assert!(c.outliers.is_empty());
         assert!((c.table[0].units[4].score.unwrap() - 0.5).abs() < 1e-6);
@@ -677,7 +742,10 @@ mod tests {
         let three = fleet(&[(1.0, None), (1.0, None), (1.0, None)]);
         assert!(matches!(
             compare(&three, &NO_FLOOR),
-            Err(CompareError::TooFew { given: 3, needed: 4 })
+            Err(CompareError::TooFew {
+                given: 3,
+                needed: 4
+            })
         ));
         let mut four = fleet(&[(1.0, None), (1.0, None), (1.0, None), (1.0, None)]);
         four[2].states = vec!["core_temp".into()];

@@ -40,10 +40,17 @@ pub fn fleet_compare_page(comparison: &FleetComparison) -> Result<Page<'_>, Html
             if differing.is_empty() {
                 "none".into()
             } else {
-                differing.iter().map(|r| r.as_str()).collect::<Vec<_>>().join(", ")
+                differing
+                    .iter()
+                    .map(|r| r.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             },
         ),
-        ("threshold".into(), format!("score > {}", comparison.options.threshold)),
+        (
+            "threshold".into(),
+            format!("score > {}", comparison.options.threshold),
+        ),
     ];
     page.push(OutlierSection { comparison })
         .push(StripSection { comparison })
@@ -86,9 +93,11 @@ impl Section for OutlierSection<'_> {
         let mut table = Table::new(
             "Each unit beyond the fleet in a quantity: its value, the fleet's centre and \
              spread without it, its own standard error and the score.",
-            ["report", "quantity", "value", "centre", "spread", "own σ", "score"]
-                .map(String::from)
-                .to_vec(),
+            [
+                "report", "quantity", "value", "centre", "spread", "own σ", "score",
+            ]
+            .map(String::from)
+            .to_vec(),
         );
         for o in &c.outliers {
             table.row(
@@ -219,7 +228,10 @@ impl Section for TableSection<'_> {
             columns,
         );
         for (r, row) in c.table.iter().enumerate() {
-            let cells = row.units.iter().map(|s| s.value.map_or("–".into(), |v| sig(v, 4)));
+            let cells = row
+                .units
+                .iter()
+                .map(|s| s.value.map_or("–".into(), |v| sig(v, 4)));
             table.row(row.quantity.clone(), cells.collect());
             for (i, s) in row.units.iter().enumerate() {
                 if s.outlier {
