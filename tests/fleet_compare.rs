@@ -57,6 +57,14 @@ fn the_fouled_unit_is_named_and_no_healthy_one() {
     let out = common::heatrun_ok(&args, dir.path());
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("compare.json")).unwrap()).unwrap();
+    let schema_path = common::package_root().join("schemas/fleet-compare.schema.json");
+    let mut schemas = boon::Schemas::new();
+    let index = boon::Compiler::new()
+        .compile(schema_path.to_str().unwrap(), &mut schemas)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    if let Err(e) = schemas.validate(&json, index) {
+        panic!("compare.json against its schema: {e:#}");
+    }
     let outliers = json["outliers"].as_array().unwrap();
     let fouled = &reports[FOULED - 1];
     assert!(!outliers.is_empty(), "the fouled unit is not named");
