@@ -8,9 +8,10 @@ use super::{HtmlError, Markup, Page, Section, Table};
 use crate::fleet::compare::{FleetComparison, QuantityRow, Scored};
 
 /// The families the strips group the quantities in: (key prefix, axis label).
-const FAMILIES: [(&str, &str); 6] = [
+const FAMILIES: [(&str, &str); 7] = [
     ("time_constant_", "time constants"),
     ("steady_state_rise_k.", "steady-state rises"),
+    ("rated_rise_k.", "rises at rated load"),
     ("capacitance_j_per_k.", "capacitances"),
     ("conductance_w_per_k.", "conductances"),
     ("loss_share.", "loss shares"),
