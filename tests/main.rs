@@ -13,6 +13,7 @@
 //! | [`historian`] | a historian's `;`/decimal-comma export (storage by exception, timeouts, Bad flags, a drifting inlet) and an on-change export imported as sampled, beside the run they came from |
 //! | [`datasets`] | measured data: the TCLab validation fit, as its example runs it |
 //! | [`flaws`] | unflagged glitches and a frozen sensor left out, named, the time constants unmoved; nothing left out of clean runs |
+//! | [`fleet_compare`] | `heatrun fleet compare`: nine units of one design, the fouled cooler named and no healthy unit; bad input |
 //! | [`field_state`] | `replay --field-state`: a four-node machine whose field winding is seen through U_f/I_f |
 //! | [`network_rc`] | a known RC machine's C, G and K from the identified model and from `--method rc` |
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
@@ -36,6 +37,7 @@ mod datasets;
 mod estimators;
 mod field_state;
 mod flaws;
+mod fleet_compare;
 mod historian;
 mod html;
 mod import;

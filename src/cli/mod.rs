@@ -28,7 +28,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
-pub use fleet::{FleetArgs, FleetCommand, FleetSummary};
+pub use fleet::{FleetArgs, FleetCommand, FleetCompare, FleetSummary};
 pub use import::{Import, ImportArgs};
 pub use monitor::{Input, Monitor, MonitorArgs};
 pub use predict::{Predict, PredictArgs};
@@ -101,7 +101,9 @@ another profile or without the needed blocks, a recording lacking a state's chan
 lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300\n  tail -c +1 -f growing.mcap | heatrun monitor --model model.json - --connect"
     )]
     Monitor(MonitorArgs),
-    /// Work with a fleet's reports: `summary` reduces them into the fleet table.
+    /// Work with a fleet's reports: `summary` reduces them into the fleet table, `compare`
+    /// names the units that differ from the fleet.
+    #[command(after_help = "Examples:\n  heatrun fleet summary results/\n  heatrun fleet compare reports/*.json --json compare.json")]
     Fleet(FleetArgs),
 }
 
@@ -159,6 +161,8 @@ pub enum Request {
     Monitor(Monitor),
     /// `heatrun fleet summary`.
     FleetSummary(FleetSummary),
+    /// `heatrun fleet compare`.
+    FleetCompare(FleetCompare),
 }
 
 impl TryFrom<Command> for Request {
@@ -178,9 +182,10 @@ impl TryFrom<Command> for Request {
             Command::Predict(args) => Request::Predict(args.into()),
             Command::Rating(args) => Request::Rating(args.into()),
             Command::Monitor(args) => Request::Monitor(args.try_into()?),
-            Command::Fleet(FleetArgs {
-                command: FleetCommand::Summary(args),
-            }) => Request::FleetSummary(args.try_into()?),
+            Command::Fleet(args) => match args.command {
+                FleetCommand::Summary(args) => Request::FleetSummary(args.try_into()?),
+                FleetCommand::Compare(args) => Request::FleetCompare(args.try_into()?),
+            },
         })
     }
 }

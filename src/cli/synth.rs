@@ -99,6 +99,13 @@ pub struct SynthArgs {
     /// With --fault-at: the fraction, in [0, 1), the conductances to the coolant fall by.
     #[arg(long, value_name = "F", requires = "fault_at")]
     pub fault_conductance_drop: Option<f64>,
+    /// Network machines: a unit of the design as manufactured, every capacitance and
+    /// conductance scaled by its own factor within ±PCT % (drawn from --unit-seed).
+    #[arg(long, value_name = "PCT")]
+    pub spread: Option<f64>,
+    /// With --spread: the seed of the unit's factors (one seed, one unit).
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "spread")]
+    pub unit_seed: u64,
     /// Network machines: an unmeasured heat flow into the cooling water wandering as a
     /// random walk of KW kW per √hour from zero (a valve, the air circuit, a neighbour).
     #[arg(long, value_name = "KW")]
@@ -190,8 +197,12 @@ impl TryFrom<SynthArgs> for Synth {
         let mut options = SynthOptions {
             machine: match args.machine {
                 MachineArg::Paper => Machine::paper(),
-                MachineArg::RcUnit => Machine::Network(NetworkMachine::rc_unit()),
-                MachineArg::RcField => Machine::Network(NetworkMachine::rc_field()),
+                MachineArg::RcUnit => {
+                    Machine::Network(manufactured(NetworkMachine::rc_unit(), &args)?)
+                }
+                MachineArg::RcField => {
+                    Machine::Network(manufactured(NetworkMachine::rc_field(), &args)?)
+                }
             },
             coolant: Coolant {
                 channels: !args.no_coolant_channels,
@@ -243,6 +254,21 @@ impl TryFrom<SynthArgs> for Synth {
     }
 }
 
+/// The design's unit as manufactured with `--spread` (a percentage in [0, 50)), or the
+/// design itself.
+fn manufactured(design: NetworkMachine, args: &SynthArgs) -> anyhow::Result<NetworkMachine> {
+    match args.spread {
+        None => Ok(design),
+        Some(pct) if (0.0..50.0).contains(&pct) => {
+            Ok(design.manufactured(pct / 100.0, args.unit_seed))
+        }
+        Some(pct) => Err(Usage(format!(
+            "--spread {pct}: a manufacturing spread is a percentage in [0, 50)"
+        ))
+        .into()),
+    }
+}
+
 /// The disturbances of the command line; refused (naming the flag) for the paper's model,
 /// which has no coolant node for them to enter.
 fn disturbances(args: &SynthArgs) -> anyhow::Result<Disturbances> {
@@ -253,6 +279,7 @@ fn disturbances(args: &SynthArgs) -> anyhow::Result<Disturbances> {
             ("--pump-switch", args.pump_switch.is_some()),
             ("--fault-at", args.fault_at.is_some()),
             ("--coolant-heat-walk", args.coolant_heat_walk.is_some()),
+            ("--spread", args.spread.is_some()),
         ];
         if let Some((flag, _)) = given.iter().find(|(_, set)| *set) {
             return Err(Usage(format!(

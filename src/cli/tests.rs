@@ -854,3 +854,55 @@ fn index_picks_the_nth_recording_of_a_sorted_folder_or_listing_into_out_dir() {
         ErrorKind::ArgumentConflict
     );
 }
+
+#[test]
+fn fleet_compare_takes_reports_and_refuses_a_bad_threshold_or_floor() {
+    let request = |args: &[&str]| {
+        Request::try_from(
+            parse(&[&["fleet", "compare"][..], args].concat())
+                .unwrap()
+                .command,
+        )
+    };
+    match request(&["a.json", "b.json", "c.json", "d.json", "--json", "o.json"]).unwrap() {
+        Request::FleetCompare(c) => {
+            assert_eq!(c.reports.len(), 4);
+            assert_eq!(
+                c.options,
+                heatrun::fleet::compare::CompareOptions::default()
+            );
+            assert_eq!(c.json.as_deref(), Some(Path::new("o.json")));
+        }
+        other => panic!("not a fleet compare: {other:?}"),
+    }
+    for bad in [
+        &["a.json", "--threshold", "0"][..],
+        &["a.json", "--floor", "100"],
+    ] {
+        let err = request(bad).unwrap_err();
+        assert!(err.downcast_ref::<Usage>().is_some(), "{err}");
+    }
+    assert_eq!(
+        error(&["fleet", "compare"]),
+        ErrorKind::MissingRequiredArgument
+    );
+}
+
+#[test]
+fn synth_spread_needs_a_network_machine_and_a_percentage_in_range() {
+    let synth = |args: &[&str]| match parse(&[&["synth", "u.mcap"][..], args].concat())
+        .unwrap()
+        .command
+    {
+        Command::Synth(s) => Synth::try_from(s),
+        other => panic!("not a synth: {other:?}"),
+    };
+    assert!(synth(&["--machine", "rc-unit", "--spread", "3", "--unit-seed", "4"]).is_ok());
+    for bad in [
+        &["--spread", "3"][..],
+        &["--machine", "rc-unit", "--spread", "60"],
+    ] {
+        let err = synth(bad).unwrap_err();
+        assert!(err.downcast_ref::<Usage>().is_some(), "{err}");
+    }
+}

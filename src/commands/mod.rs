@@ -4,6 +4,7 @@
 mod bars;
 mod completions;
 mod fleet;
+mod fleet_compare;
 mod fleet_summary;
 pub mod hint;
 mod import;
@@ -59,5 +60,6 @@ pub fn dispatch(request: Request) -> anyhow::Result<Outcome> {
         Request::Rating(rating) => rating::run(&rating),
         Request::Monitor(monitor) => monitor::run(&monitor),
         Request::FleetSummary(summary) => fleet_summary::run(&summary),
+        Request::FleetCompare(compare) => fleet_compare::run(&compare),
     }
 }

@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use crate::atomic::WriteError;
 use crate::decimate::DecimateError;
 use crate::estimate::EstimationError;
+use crate::fleet::compare::CompareError;
 use crate::hidden::HiddenError;
 use crate::import::ImportError;
 use crate::model::ModelError;
@@ -96,6 +97,9 @@ pub enum Error {
     /// A synthetic heat run cannot be made.
     #[error(transparent)]
     Synth(#[from] SynthError),
+    /// A fleet's reports cannot be compared (unreadable, too few, of another design).
+    #[error(transparent)]
+    Compare(Box<CompareError>),
     /// The monitor's observer (the rerun publisher) stopped the monitor.
     #[error("{0}")]
     Observer(Box<dyn std::error::Error + Send + Sync>),
@@ -107,6 +111,12 @@ pub enum Error {
 impl From<ImportError> for Error {
     fn from(e: ImportError) -> Error {
         Error::Import(Box::new(e))
+    }
+}
+
+impl From<CompareError> for Error {
+    fn from(e: CompareError) -> Error {
+        Error::Compare(Box::new(e))
     }
 }
 
@@ -134,7 +144,8 @@ impl Error {
             | Error::HoldOutFraction { .. }
             | Error::SplitOutside { .. }
             | Error::Weights { .. }
-            | Error::ModelUse(_) => true,
+            | Error::ModelUse(_)
+            | Error::Compare(_) => true,
         }
     }
 

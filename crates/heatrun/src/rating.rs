@@ -228,6 +228,34 @@ impl Loading<'_> {
     }
 }
 
+/// Each state's steady-state rise at the nameplate's rating, K: θ_base · x with
+/// x = (I − Φ)⁻¹ Γ u(x) (eqs. 30–35, iterated as the copper losses follow the
+/// temperatures) at rated current and voltage, the field current of the rated power
+/// factor (the phasor diagram) and the coolant of the model's test: what units of one
+/// design compare on, whatever load their heat runs ended at.
+pub fn rises_at_rated(model: &ThermalModel) -> Result<Vec<f64>, UseError> {
+    let sim = Simulator::new(model)?;
+    let np = model
+        .nameplate
+        .as_ref()
+        .ok_or_else(|| model.missing("nameplate", "the rated load needs"))?;
+    let (phasor, _) = PhasorMachine::from_nameplate(np).ok_or_else(|| {
+        model.missing(
+            "nameplate.rated_field_current_a",
+            "the field current of the rated load needs",
+        )
+    })?;
+    let rated = OperatingPoint {
+        armature_current_a: np.rated_current_a,
+        field_current_a: phasor.field_current_a(1.0, 1.0, phasor.rated_power_factor),
+        line_voltage_v: np.rated_voltage_v,
+        coolant_inlet_c: None,
+        channels: Default::default(),
+    };
+    let x = sim.steady_state(&rated)?;
+    Ok(x.iter().map(|r| r * model.temperature_base_k).collect())
+}
+
 /// Rates the machine the model describes, with the 95 % intervals of the continuous
 /// rating and the overload times where the report carries the covariance of Θ (the
 /// propagation is `interval`'s, see [`PartLimit`]).

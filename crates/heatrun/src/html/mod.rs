@@ -7,9 +7,10 @@
 //! [`replay_page`] ([`sections`] holds its sections, reading the [`Replay`] and its
 //! [`Report`]); another command builds its own page from its own sections and the same
 //! pieces: [`plot::Chart`] for figures, [`Table`] for tables, [`Page::write`] to save it.
-//! `heatrun predict`, `heatrun rating` and `heatrun monitor` do so: [`predict_page`],
-//! [`rating_page`], [`monitor_page`].
+//! `heatrun predict`, `heatrun rating`, `heatrun monitor` and `heatrun fleet compare` do
+//! so: [`predict_page`], [`rating_page`], [`monitor_page`], [`fleet_compare_page`].
 
+pub mod fleet;
 pub mod markup;
 pub mod monitor;
 pub mod network;
@@ -22,6 +23,7 @@ mod style;
 use std::fmt::Write as _;
 use std::path::Path;
 
+pub use fleet::fleet_compare_page;
 pub use markup::{escape, Markup, Table};
 pub use monitor::monitor_page;
 pub use predict::{predict_page, PredictionView};

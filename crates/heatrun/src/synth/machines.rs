@@ -247,6 +247,34 @@ impl NetworkMachine {
         }
     }
 
+    /// A unit of this design as manufactured: every capacitance C_i and every stored
+    /// conductance G_ij (a symmetric pair scaled together; the coolant conductances on
+    /// the diagonal too) multiplied by its own factor 1 + s·ε, ε uniform in [−1, 1]
+    /// drawn from `unit_seed`, so that `spread` = 0.03 is a ±3 % manufacturing
+    /// tolerance. The loss shares K are the design's (where the heat arises is not a
+    /// tolerance), and the outlet's c·ρ·Q still follows the recorded flow.
+    pub fn manufactured(&self, spread: f64, unit_seed: u64) -> NetworkMachine {
+        use rand::{Rng, SeedableRng};
+        // Its own stream, apart from the noise's (seeded by the run's seed).
+        let mut rng = rand::rngs::StdRng::seed_from_u64(unit_seed ^ 0x756e_6974_7370_7264);
+        let mut factor = || 1.0 + spread * rng.random_range(-1.0..=1.0);
+        let mut unit = self.clone();
+        for c in &mut unit.capacitance_j_per_k {
+            *c *= factor();
+        }
+        let n = unit.nodes.len();
+        for i in 0..n {
+            for j in i..n {
+                let f = factor();
+                unit.conductance_w_per_k[(i, j)] *= f;
+                if i != j {
+                    unit.conductance_w_per_k[(j, i)] *= f;
+                }
+            }
+        }
+        unit
+    }
+
     /// The node a quantity is recorded from, if the network has one.
     pub fn node(&self, quantity: Quantity) -> Option<usize> {
         self.nodes.iter().position(|&q| q == quantity)

@@ -767,3 +767,45 @@ fn flaws_that_cannot_be_laid_are_refused() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_manufactured_unit_keeps_within_its_spread_and_its_seed() {
+    let design = NetworkMachine::rc_field();
+    let unit = design.manufactured(0.03, 7);
+    let ratio = |a: f64, b: f64| a / b - 1.0;
+    let mut largest: f64 = 0.0;
+    for (c, c0) in unit
+        .capacitance_j_per_k
+        .iter()
+        .zip(&design.capacitance_j_per_k)
+    {
+        largest = largest.max(ratio(*c, *c0).abs());
+    }
+    let n = design.nodes.len();
+    for i in 0..n {
+        for j in 0..n {
+            let (g, g0) = (
+                unit.conductance_w_per_k[(i, j)],
+                design.conductance_w_per_k[(i, j)],
+            );
+            assert_eq!(g, unit.conductance_w_per_k[(j, i)], "G symmetric");
+            if g0 != 0.0 {
+                largest = largest.max(ratio(g, g0).abs());
+            }
+        }
+    }
+    assert!(largest <= 0.03 && largest > 0.005, "{largest}");
+    assert_eq!(unit.loss_distribution, design.loss_distribution);
+    assert_eq!(
+        design.manufactured(0.03, 7).capacitance_j_per_k,
+        unit.capacitance_j_per_k
+    );
+    assert_ne!(
+        design.manufactured(0.03, 8).capacitance_j_per_k,
+        unit.capacitance_j_per_k
+    );
+    assert_eq!(
+        design.manufactured(0.0, 7).capacitance_j_per_k,
+        design.capacitance_j_per_k
+    );
+}
