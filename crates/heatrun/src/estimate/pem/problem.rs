@@ -1,6 +1,7 @@
-//! The prediction-error fit (see [`super`]): Levenberg–Marquardt over [Θ; K; x̂(start) of
-//! each segment], its Jacobian by the predictor's forward sensitivities, two passes of
-//! weights, and the covariance of Θ from the innovations' Gauss–Newton information.
+//! The prediction-error fit (see [`super`]): Levenberg–Marquardt over [Θ; K (where it is
+//! free, not given with a disturbance state); x̂(start) of each segment], its Jacobian by
+//! the predictor's forward sensitivities, two passes of weights, and the covariance of Θ
+//! from the innovations' Gauss–Newton information.
 
 use std::cell::RefCell;
 use std::ops::Range;
