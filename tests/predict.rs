@@ -143,7 +143,11 @@ fn predict_follows_the_truth_within_1_k_on_a_day_the_model_never_saw_and_rating_
     ];
     let mut expected = vec!["time_s".to_owned()];
     for p in parts {
-        expected.extend([format!("{p}_c"), format!("{p}_c_lo95"), format!("{p}_c_hi95")]);
+        expected.extend([
+            format!("{p}_c"),
+            format!("{p}_c_lo95"),
+            format!("{p}_c_hi95"),
+        ]);
     }
     assert_eq!(header, expected);
     for row in &rows {

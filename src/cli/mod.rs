@@ -103,7 +103,9 @@ lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun
     Monitor(MonitorArgs),
     /// Work with a fleet's reports: `summary` reduces them into the fleet table, `compare`
     /// names the units that differ from the fleet.
-    #[command(after_help = "Examples:\n  heatrun fleet summary results/\n  heatrun fleet compare reports/*.json --json compare.json")]
+    #[command(
+        after_help = "Examples:\n  heatrun fleet summary results/\n  heatrun fleet compare reports/*.json --json compare.json"
+    )]
     Fleet(FleetArgs),
 }
 

@@ -195,7 +195,10 @@ impl Prediction {
         for (k, (t, theta)) in self.time_s.iter().zip(&self.temperatures_c).enumerate() {
             let _ = write!(s, "{t}");
             let derived = self.field_temperature_c[k].unwrap_or(f64::NAN);
-            let values = theta.iter().copied().chain(self.field_derived.then_some(derived));
+            let values = theta
+                .iter()
+                .copied()
+                .chain(self.field_derived.then_some(derived));
             for (c, v) in values.enumerate() {
                 let _ = write!(s, ",{v:.4}");
                 if let Some(b) = &self.band_c {
