@@ -212,7 +212,7 @@ pub(crate) fn nearest_parts(
     identified: &Estimate,
     continuous: &ContinuousModel,
     scaling: Scaling,
-) -> Result<Parts, String> {
+) -> Result<(Parts, crate::network::MinimumDistance), String> {
     use crate::spec::InputKind;
     if let Some(i) = model.inputs.iter().find(|i| i.kind != InputKind::Heat) {
         return Err(format!("the input `{}` is not heat", i.name));
@@ -244,7 +244,7 @@ pub(crate) fn nearest_parts(
         start,
     )
     .ok_or("no passive network near the identified model was found")?;
-    Ok(fitted.parts)
+    Ok((fitted.parts, fitted.distance))
 }
 
 /// The passive network nearest the identified model ([`fit::minimum_distance`], from the
