@@ -31,11 +31,14 @@ pub enum StoreError {
         /// The store's own words.
         said: String,
     },
-    /// The store refused the credentials, or none were found.
-    #[error("{url}: no valid credentials (the store said: {said})")]
+    /// The store refused the credentials, or none were found (none in the environment,
+    /// and no instance metadata service answered).
+    #[error("{url}: no valid credentials; {hint} (the store said: {said})")]
     NoCredentials {
         /// The object's URL.
         url: String,
+        /// What to set, for this URL's store ([`credentials_hint`]).
+        hint: &'static str,
         /// The store's own words.
         said: String,
     },
@@ -88,18 +91,44 @@ impl StoreError {
         {
             return StoreError::NoSuchBucket { url, said };
         }
-        if has("InvalidAccessKeyId") || has("SignatureDoesNotMatch") || has("credential") {
-            return StoreError::NoCredentials { url, said };
+        let hint = credentials_hint(&url);
+        // Without credentials in the environment the builders ask the cloud's instance
+        // metadata service (a link-local address); off that cloud it refuses or does not
+        // answer, and its refusal ("403 Forbidden") is not the bucket's.
+        let metadata_service = has("169.254.169.254") || has("metadata.google.internal");
+        if has("InvalidAccessKeyId")
+            || has("SignatureDoesNotMatch")
+            || has("credential")
+            || metadata_service
+        {
+            return StoreError::NoCredentials { url, hint, said };
         }
         match error {
             E::NotFound { .. } => StoreError::NoSuchObject { url, said },
             E::PermissionDenied { .. } => StoreError::AccessDenied { url, said },
-            E::Unauthenticated { .. } => StoreError::NoCredentials { url, said },
+            E::Unauthenticated { .. } => StoreError::NoCredentials { url, hint, said },
             _ if has("AccessDenied") || has("403 Forbidden") => {
                 StoreError::AccessDenied { url, said }
             }
             _ => StoreError::Store { url, said },
         }
+    }
+}
+
+/// What to set so that the store of `url` finds credentials: each cloud's standard
+/// environment variables, which the builders read (`from_env`).
+pub fn credentials_hint(url: &str) -> &'static str {
+    let scheme = url.split("://").next().unwrap_or_default();
+    match scheme {
+        "s3" | "s3a" => {
+            "set AWS_ACCESS_KEY_ID and AWS_SECRET_ACCESS_KEY (and AWS_ENDPOINT for a store \
+             other than AWS), or run where an instance role provides them"
+        }
+        "gs" => "set GOOGLE_SERVICE_ACCOUNT (a key file's path) or GOOGLE_APPLICATION_CREDENTIALS",
+        "az" | "abfs" | "abfss" | "azure" | "adl" => {
+            "set AZURE_STORAGE_ACCOUNT_NAME and AZURE_STORAGE_ACCOUNT_KEY (or a SAS token)"
+        }
+        _ => "check the URL's credentials",
     }
 }
 
@@ -160,5 +189,47 @@ mod tests {
             Some("NoSuchBucket: The specified bucket does not exist")
         );
         assert_eq!(s3_code_and_message("connection refused"), None);
+    }
+
+    #[test]
+    fn a_metadata_service_refusal_is_missing_credentials_not_a_denied_bucket() {
+        // What an S3 read says on a machine with no AWS variables, off AWS (measured).
+        let said = "Error performing PUT http://169.254.169.254/latest/api/token in 12ms - \
+                    Server returned non-2xx status code: 403 Forbidden";
+        let error = object_store::Error::Generic {
+            store: "S3",
+            source: said.into(),
+        };
+        let e = StoreError::from_store("s3://bucket/run.mcap", &error);
+        assert!(matches!(e, StoreError::NoCredentials { .. }), "{e}");
+        let line = e.to_string();
+        assert!(
+            line.starts_with("s3://bucket/run.mcap: no valid credentials; set AWS_ACCESS_KEY_ID"),
+            "{line}"
+        );
+        assert!(e.is_bad_input());
+    }
+
+    #[test]
+    fn a_bucket_that_refuses_valid_credentials_is_access_denied() {
+        let error = object_store::Error::Generic {
+            store: "S3",
+            source: "GET http://127.0.0.1:9/b/k - 403 Forbidden: <Error><Code>AccessDenied</Code>\
+                     <Message>Access Denied</Message></Error>"
+                .into(),
+        };
+        let e = StoreError::from_store("s3://b/k", &error);
+        assert!(matches!(e, StoreError::AccessDenied { .. }), "{e}");
+        assert_eq!(
+            e.to_string(),
+            "s3://b/k: access denied (the store said: AccessDenied: Access Denied)"
+        );
+    }
+
+    #[test]
+    fn each_store_names_its_own_variables() {
+        assert!(credentials_hint("gs://b/k").contains("GOOGLE_"));
+        assert!(credentials_hint("az://c/k").contains("AZURE_STORAGE_ACCOUNT_NAME"));
+        assert!(credentials_hint("s3://b/k").contains("AWS_SECRET_ACCESS_KEY"));
     }
 }
