@@ -16,6 +16,9 @@ pub mod load;
 pub mod phasor;
 pub mod simulate;
 
+#[cfg(test)]
+mod hidden_tests;
+
 use std::fmt::Write as _;
 use std::path::Path;
 
