@@ -297,7 +297,9 @@ fn rate_nominal(model: &ThermalModel, o: &RatingOptions) -> Result<Rating, UseEr
     let (s_max, limiting) = max_continuous(&loading)?;
     let at_max = loading.steady(s_max)?;
     let at_rated = loading.steady(rated)?;
-    let (rated_state, _) = loading.sim.steady_state_with_states(&loading.point(rated))?;
+    let (rated_state, _) = loading
+        .sim
+        .steady_state_with_states(&loading.point(rated))?;
     let overloads = o
         .overloads
         .iter()

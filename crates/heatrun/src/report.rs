@@ -272,8 +272,12 @@ fn hidden_as_the_model(report: &mut Report, r: &Replay, h: &crate::pipeline::Hid
     let model = &h.estimate.model;
     let gain = model.steady_state_gain();
     let solve = |u: &[f64]| {
-        gain.as_ref()
-            .map(|g| (g * nalgebra::DVector::from_column_slice(u)).iter().copied().collect())
+        gain.as_ref().map(|g| {
+            (g * nalgebra::DVector::from_column_slice(u))
+                .iter()
+                .copied()
+                .collect()
+        })
     };
     match &h.analysis {
         Some(a) => {
@@ -739,8 +743,14 @@ impl Report {
             let _ = writeln!(s, "  states no sensor reads: {}", hidden.join(", "));
         }
         for c in &h.candidates {
-            let fit = c.hold_back_fit_percent.map_or("–".into(), |f| format!("{f:.2} %"));
-            let why = c.refused.as_deref().map(|r| format!(" (refused: {r})")).unwrap_or_default();
+            let fit = c
+                .hold_back_fit_percent
+                .map_or("–".into(), |f| format!("{f:.2} %"));
+            let why = c
+                .refused
+                .as_deref()
+                .map(|r| format!(" (refused: {r})"))
+                .unwrap_or_default();
             let _ = writeln!(s, "  order {}: held-back fit {fit}{why}", c.order);
         }
         matrix(s, "hidden-state Φ", &h.phi, 8);

@@ -99,7 +99,12 @@ mod tests {
         let model = known_system();
         let data = simulate_known(&model, 400, 0.0, 3);
         let a = analyse(&model, &data, &[1.0, 0.5]).unwrap();
-        for (t, l) in a.spectrum.time_constants_s.iter().zip([0.6f64, 0.92, 0.985]) {
+        for (t, l) in a
+            .spectrum
+            .time_constants_s
+            .iter()
+            .zip([0.6f64, 0.92, 0.985])
+        {
             assert!((t + 1.0 / l.ln()).abs() < 1e-6 * t, "{t}");
         }
         // y_ss = C (I − Φ)⁻¹ Γ u, solved here apart from the analysis's gain.

@@ -121,7 +121,10 @@ mod tests {
             d: DMatrix::from_row_slice(2, 1, &[0.5, 0.0]),
             state_names: vec![],
         };
-        let (y, u) = (DVector::from_vec(vec![2.0, 3.0]), DVector::from_vec(vec![2.0]));
+        let (y, u) = (
+            DVector::from_vec(vec![2.0, 3.0]),
+            DVector::from_vec(vec![2.0]),
+        );
         let x = map.state_from_outputs(&y, &u);
         assert!((x - DVector::from_vec(vec![1.0, 3.0, 0.0])).amax() < 1e-12);
     }

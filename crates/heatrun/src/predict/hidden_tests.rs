@@ -51,7 +51,9 @@ fn heat_run() -> SynthOptions {
 /// held.
 fn schedule_csv(o: &SynthOptions) -> String {
     let np = &o.nameplate;
-    let i_fn = np.rated_field_current_a.expect("the paper's nameplate has I_fn");
+    let i_fn = np
+        .rated_field_current_a
+        .expect("the paper's nameplate has I_fn");
     let mut s = String::from("time_s,armature_current_a,field_current_a,line_voltage_kv\n");
     for p in &o.profile {
         let _ = writeln!(
@@ -134,7 +136,10 @@ fn a_hidden_state_model_of_a_known_unit_round_trips_through_the_report() {
     let schedule: LoadSchedule = predict::load::read(&csv, &thermal).unwrap();
     let prediction = predict::predict(&thermal, &schedule, &InitialState::Measured).unwrap();
     assert!(prediction.band_c.is_none());
-    assert!(prediction.warnings.iter().any(|w| w.contains("hidden states")));
+    assert!(prediction
+        .warnings
+        .iter()
+        .any(|w| w.contains("hidden states")));
     let plant = synth::plant::simulate(&o).unwrap();
     let base = o.nameplate.temperature_base_k;
     let mut worst = 0.0_f64;
@@ -155,9 +160,15 @@ fn a_hidden_state_model_of_a_known_unit_round_trips_through_the_report() {
     let c = DMatrix::<f64>::identity(3, 4);
     // The true A_c, B_c held over the report's Ts (ZOH).
     let matrix = |rows: &[Vec<f64>]| DMatrix::from_fn(rows.len(), rows[0].len(), |i, j| rows[i][j]);
-    let (phi, gamma) = discretize(&matrix(&truth.a_c), &matrix(&truth.b_c), report.sample_time_s);
+    let (phi, gamma) = discretize(
+        &matrix(&truth.a_c),
+        &matrix(&truth.b_c),
+        report.sample_time_s,
+    );
     let rows = |m: &DMatrix<f64>| -> Vec<Vec<f64>> {
-        (0..m.nrows()).map(|i| m.row(i).iter().copied().collect()).collect()
+        (0..m.nrows())
+            .map(|i| m.row(i).iter().copied().collect())
+            .collect()
     };
     true_hidden.phi = rows(&phi);
     true_hidden.gamma = rows(&gamma);
@@ -200,7 +211,11 @@ fn a_hidden_state_model_of_a_known_unit_round_trips_through_the_report() {
     // The measured nodes' modes (70 s, 690 s, 4496 s) to 5 %; the hidden node's (third)
     // between its neighbours.
     for i in [0, 1, 3] {
-        assert!(time_constants_off[i] < TIME_CONSTANT_TOLERANCE, "T{}", i + 1);
+        assert!(
+            time_constants_off[i] < TIME_CONSTANT_TOLERANCE,
+            "T{}",
+            i + 1
+        );
     }
     let t = &report.time_constants_s;
     assert!(t[1] < t[2] && t[2] < t[3]);
