@@ -21,6 +21,9 @@ pub enum FieldArg {
     Temperature,
     /// No channel: the nameplate's final field temperature (the paper's method).
     Nameplate,
+    /// No channel, and rc-field's field-winding node read by no sensor: a hidden state
+    /// (the truth names it under `unmeasured`).
+    Unmeasured,
 }
 
 /// The machine of a synthetic run.
@@ -189,7 +192,7 @@ impl TryFrom<SynthArgs> for Synth {
         let disturbances = disturbances(&args)?;
         if args.machine == MachineArg::RcField && args.field == FieldArg::Nameplate {
             return Err(Usage(
-                "--machine rc-field records its field winding node: give --field voltage or --field temperature"
+                "--machine rc-field records its field winding node: give --field voltage or --field temperature (or --field unmeasured for a node no sensor reads)"
                     .into(),
             )
             .into());
@@ -220,6 +223,7 @@ impl TryFrom<SynthArgs> for Synth {
                 FieldArg::Voltage => FieldChannel::Voltage,
                 FieldArg::Temperature => FieldChannel::Temperature,
                 FieldArg::Nameplate => FieldChannel::Nameplate,
+                FieldArg::Unmeasured => FieldChannel::Unmeasured,
             },
             compress: !args.uncompressed,
             temperature_storage: match args.deadband {

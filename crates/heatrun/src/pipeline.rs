@@ -148,6 +148,10 @@ pub struct HiddenReplay {
     /// Its fit on held-out data or another recording, each segment from the initial
     /// state fitted to that segment's outputs (no measured state gives the hidden ones).
     pub validation: Option<Validation>,
+    /// Its time constants, the measured outputs' sensitivities to them and its steady
+    /// state at the replay's steady-state input; `None` where Φ has no real logarithm
+    /// (the report then gives the time constants of Φ's eigenvalues alone).
+    pub analysis: Option<crate::hidden::analysis::HiddenAnalysis>,
 }
 
 /// Everything a replay produced, stage by stage.
@@ -449,7 +453,9 @@ pub fn replay_observed(
                 )
             });
             // The hidden-state model needs nothing of the analysis either.
-            let hidden = scope.spawn(|| identify_hidden(&prepared, estimation_data, options));
+            let hidden = scope.spawn(|| {
+                identify_hidden(&prepared, estimation_data, options, steady_input.as_slice())
+            });
             let analysis = model::analyse(
                 &analysed,
                 continuous,
@@ -648,6 +654,7 @@ fn identify_hidden(
     prepared: &Prepared,
     estimation: &IdentificationData,
     options: &ReplayOptions,
+    steady_input: &[f64],
 ) -> Result<Option<HiddenReplay>> {
     let Some(spec) = &prepared.model.hidden else {
         return Ok(None);
@@ -660,9 +667,11 @@ fn identify_hidden(
     };
     let estimation_range = 0..estimation.len();
     let validation = validate_with(prepared, &estimation_range, options, &fit_on)?;
+    let analysis = crate::hidden::analysis::analyse(&estimate.model, estimation, steady_input).ok();
     Ok(Some(HiddenReplay {
         fit: fit_on(estimation, base),
         validation,
+        analysis,
         estimate,
     }))
 }

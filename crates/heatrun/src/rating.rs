@@ -262,6 +262,11 @@ pub fn rises_at_rated(model: &ThermalModel) -> Result<Vec<f64>, UseError> {
 pub fn rate(model: &ThermalModel, o: &RatingOptions) -> Result<Rating, UseError> {
     let mut rating = rate_nominal(model, o)?;
     match &model.uncertainty.theta_covariance {
+        _ if model.output.is_some() => rating.warnings.push(
+            "the model has hidden states and the report carries no covariance of their \
+             parameters: the rating has no intervals"
+                .into(),
+        ),
         Some(c) => interval::add_intervals(&mut rating, model, o, c)?,
         None => rating.warnings.push(
             "the report carries no covariance of Θ (`theta_covariance`): the rating has no \
@@ -292,7 +297,9 @@ fn rate_nominal(model: &ThermalModel, o: &RatingOptions) -> Result<Rating, UseEr
     let (s_max, limiting) = max_continuous(&loading)?;
     let at_max = loading.steady(s_max)?;
     let at_rated = loading.steady(rated)?;
-    let rated_state = loading.sim.steady_state(&loading.point(rated))?;
+    let (rated_state, _) = loading
+        .sim
+        .steady_state_with_states(&loading.point(rated))?;
     let overloads = o
         .overloads
         .iter()
@@ -490,7 +497,11 @@ fn overload(
     let p = l.point(fraction * l.rated_mva);
     let slowest = model.time_constants_s.iter().copied().fold(0.0, f64::max);
     let steps = (10.0 * slowest / model.ts_s).ceil() as usize;
-    let mut theta = l.part_temperatures(&x, &p);
+    // The measured rises y = C x + D u (x itself for a measured-state model): the rated
+    // steady state's, its inputs at its own temperatures.
+    let rated_u = steady_input(l, model, &x, &rated)?;
+    let mut y = model.outputs(&x, &rated_u);
+    let mut theta = l.part_temperatures(&y, &p);
     let (mut margin, part) = l.margin(&theta);
     let mut result = Overload {
         current_percent: 100.0 * fraction,
@@ -506,11 +517,13 @@ fn overload(
     // Before the step the machine held the rated steady state: a dead time delays the
     // overload's inputs behind the rated ones.
     let mut delays = crate::predict::DelayLine::new(model)?;
-    delays.apply(l.sim.inputs(&rated, &l.sim.temperatures(&x, &rated))?);
+    delays.apply(rated_u);
     for k in 0..steps {
-        let u = delays.apply(l.sim.inputs(&p, &l.sim.temperatures(&x, &p))?);
+        let u = delays.apply(l.sim.inputs(&p, &l.sim.temperatures(&y, &p))?);
         x = l.sim.step(&x, &u);
-        theta = l.part_temperatures(&x, &p);
+        // The feedthrough D u of the input just applied (none in a measured-state model).
+        y = model.outputs(&x, &u);
+        theta = l.part_temperatures(&y, &p);
         let (next, next_part) = l.margin(&theta);
         if next <= 0.0 {
             let fraction_of_step = margin / (margin - next);
@@ -521,6 +534,31 @@ fn overload(
         margin = next;
     }
     Ok(result)
+}
+
+/// The inputs of the steady state `x` at `p`, at its own measured temperatures: a
+/// fixed point of y = C x + D u(y) (y = x without hidden states), iterated as
+/// [`crate::predict::Simulator::steady_state`] is.
+fn steady_input(
+    l: &Loading,
+    model: &ThermalModel,
+    x: &DVector<f64>,
+    p: &OperatingPoint,
+) -> Result<DVector<f64>, UseError> {
+    let mut y = model.outputs(x, &DVector::zeros(model.inputs.len()));
+    let mut u = l.sim.inputs(p, &l.sim.temperatures(&y, p))?;
+    if model.output.is_some() {
+        for _ in 0..50 {
+            let next = model.outputs(x, &u);
+            let change = (&next - &y).amax();
+            y = next;
+            u = l.sim.inputs(p, &l.sim.temperatures(&y, p))?;
+            if change < 1e-13 {
+                break;
+            }
+        }
+    }
+    Ok(u)
 }
 
 impl Rating {

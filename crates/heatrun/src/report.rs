@@ -16,7 +16,7 @@ use crate::model_file::document::{
     LeftOutEntry, NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry, UncertaintyEntry,
     UnobservedEntry, ValidationEntry,
 };
-use crate::model_file::document::{HiddenCandidateEntry, HiddenEntry};
+use crate::model_file::document::{HiddenCandidateEntry, HiddenEntry, MeasuredStateEntry};
 use crate::model_file::{Report, PROFILE};
 use crate::pipeline::Replay;
 use crate::recording::format_time;
@@ -67,7 +67,11 @@ impl Replayed {
 
 /// The steady state against the coolant inlet where the states are measured from the
 /// inlet's initial level ([`crate::spec::Reference::InitialOf`]), else `None`.
-fn inlet_steady_state(r: &Replay) -> Option<InletSteadyState> {
+fn inlet_steady_state(
+    r: &Replay,
+    steady_state: &[f64],
+    solve: &dyn Fn(&[f64]) -> Option<Vec<f64>>,
+) -> Option<InletSteadyState> {
     use crate::spec::{InputSource, Reference};
     if !r
         .model
@@ -87,8 +91,7 @@ fn inlet_steady_state(r: &Replay) -> Option<InletSteadyState> {
         .position(|i| matches!(i.source, InputSource::BoundaryRise(_)));
     let final_rise = inlet.map_or(0.0, |j| a.steady_state_input[j]);
     let final_inlet_c = initial_inlet_c + final_rise * base;
-    let rise_above_inlet_k = a
-        .steady_state
+    let rise_above_inlet_k = steady_state
         .iter()
         .map(|y| (y - final_rise) * base)
         .collect::<Vec<f64>>();
@@ -96,9 +99,7 @@ fn inlet_steady_state(r: &Replay) -> Option<InletSteadyState> {
         Some(j) => {
             let mut u = a.steady_state_input.clone();
             u[j] = (REFERENCE_INLET_C - initial_inlet_c) / base;
-            a.continuous
-                .steady_state(&u)
-                .ok()?
+            solve(&u)?
                 .iter()
                 .map(|y| initial_inlet_c + y * base)
                 .collect()
@@ -156,12 +157,22 @@ fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// The state names of a replay, in model order.
+fn report_states(r: &Replay) -> Vec<String> {
+    r.signals.states.iter().map(|s| s.name.clone()).collect()
+}
+
 /// The hidden-state model's block: its matrices, time constants, steady-state gain, the
 /// orders tried and its fits.
-fn hidden_entry(h: &crate::pipeline::HiddenReplay) -> HiddenEntry {
+fn hidden_entry(h: &crate::pipeline::HiddenReplay, outputs: &[String]) -> HiddenEntry {
     let e = &h.estimate;
     let m = &e.model;
+    let state_names = crate::model_file::hidden::state_names(&m.c, outputs);
     HiddenEntry {
+        // The spec declares it: it is the replay's model (`hidden_as_the_model`).
+        replay_model: true,
+        measured: state_names.iter().map(|n| outputs.contains(n)).collect(),
+        state_names,
         order: m.order(),
         order_source: match e.options.order {
             crate::hidden::OrderChoice::Given(_) => "given".into(),
@@ -199,11 +210,14 @@ fn hidden_entry(h: &crate::pipeline::HiddenReplay) -> HiddenEntry {
 /// The steady state of eqs. 30-35: the rise −A_c⁻¹B_c·u (eq. 31) in K, and the
 /// temperature it means over each state's reference at the end of the recording (the
 /// initial temperature in the paper, eq. 34).
-fn steady_state_entry(r: &Replay) -> SteadyStateEntry {
+fn steady_state_entry(
+    r: &Replay,
+    steady_state: &[f64],
+    solve: &dyn Fn(&[f64]) -> Option<Vec<f64>>,
+) -> SteadyStateEntry {
     let a = &r.analysis;
     let s = &r.signals;
-    let rise_k: Vec<f64> = a
-        .steady_state
+    let rise_k: Vec<f64> = steady_state
         .iter()
         .map(|y| y * s.temperature_base_k)
         .collect();
@@ -227,8 +241,73 @@ fn steady_state_entry(r: &Replay) -> SteadyStateEntry {
             .map(|(m, t)| m - t)
             .collect(),
         measured_final_temperature_c: measured_final,
-        coolant_inlet: inlet_steady_state(r),
+        coolant_inlet: inlet_steady_state(r, steady_state, solve),
     }
+}
+
+/// The measured-state model's steady state (eqs. 30–35): −A_c⁻¹B_c u.
+fn measured_steady_state_entry(r: &Replay) -> SteadyStateEntry {
+    let c = &r.analysis.continuous;
+    steady_state_entry(r, &r.analysis.steady_state, &|u| c.steady_state(u).ok())
+}
+
+/// Makes the hidden-state model the report's model (the spec declares `[hidden]`): its
+/// time constants, assignment (to the measured output each changes most), sensitivity
+/// norms, steady state y_ss = (C (I − Φ)⁻¹ Γ + D) u, fit and validation take the
+/// top-level keys, and the measured-state model's figures move to `measured_state`.
+/// Φ, Γ and the measured-state model's analysis (A_c, eigenvalues, residuals, network,
+/// `theta_covariance`) stay where they were.
+fn hidden_as_the_model(report: &mut Report, r: &Replay, h: &crate::pipeline::HiddenReplay) {
+    use std::mem::take;
+    report.measured_state = Some(MeasuredStateEntry {
+        time_constants_s: take(&mut report.time_constants_s),
+        assignment: take(&mut report.assignment),
+        sensitivity_norms: take(&mut report.sensitivity_norms),
+        fit: report.fit.clone(),
+        steady_state: take(&mut report.steady_state),
+        uncertainty: report.uncertainty.take(),
+        validation: report.validation.take(),
+    });
+    let states = &r.signals.states;
+    let model = &h.estimate.model;
+    let gain = model.steady_state_gain();
+    let solve = |u: &[f64]| {
+        gain.as_ref().map(|g| {
+            (g * nalgebra::DVector::from_column_slice(u))
+                .iter()
+                .copied()
+                .collect()
+        })
+    };
+    match &h.analysis {
+        Some(a) => {
+            let sp = &a.spectrum;
+            report.time_constants_s = sp.time_constants_s.clone();
+            report.assignment = (a.assignment.iter().zip(&sp.time_constants_s))
+                .zip(&sp.oscillation_periods_s)
+                .map(|((&(j, norm), &t), &period)| AssignmentEntry {
+                    time_constant_s: t,
+                    oscillation_period_s: period,
+                    state: states[j].name.clone(),
+                    sensitivity_norm: norm,
+                    part: states[j].part.clone(),
+                })
+                .collect();
+            report.sensitivity_norms = a.norms.clone();
+            report.steady_state = steady_state_entry(r, &a.steady_state, &solve);
+        }
+        None => {
+            report.time_constants_s = model.time_constants_s().unwrap_or_default();
+            if let Some(y) = solve(&r.analysis.steady_state_input) {
+                report.steady_state = steady_state_entry(r, &y, &solve);
+            }
+        }
+    }
+    report.fit = FitEntry::from(&h.fit);
+    report.validation = h.validation.as_ref().map(|v| ValidationEntry {
+        source: v.source.clone(),
+        fit: FitEntry::from(&v.fit),
+    });
 }
 
 /// The recording block: the file, its channels and what was lost or ignored.
@@ -391,7 +470,7 @@ impl Report {
         let base = r.signals.temperature_base_k;
         let states = &r.signals.states;
         let oscillating = a.spectrum.has_oscillating_modes();
-        Report {
+        let mut report = Report {
             profile: PROFILE.into(),
             heatrun_version: env!("CARGO_PKG_VERSION").into(),
             sample_time_s: r.signals.ts_s,
@@ -423,7 +502,7 @@ impl Report {
                 .collect(),
             sensitivity_norms: a.sensitivities.norms.clone(),
             fit: FitEntry::from(&a.fit),
-            steady_state: steady_state_entry(r),
+            steady_state: measured_steady_state_entry(r),
             recording: recording_entry(r),
             nameplate: r.nameplate.clone(),
             model: r.model.clone(),
@@ -493,9 +572,17 @@ impl Report {
                 fit: FitEntry::from(&b.fit),
             }),
             left_out: left_out_entries(r),
-            hidden: r.hidden.as_ref().map(hidden_entry),
+            hidden: r
+                .hidden
+                .as_ref()
+                .map(|h| hidden_entry(h, &report_states(r))),
+            measured_state: None,
             warnings: r.warnings.clone(),
+        };
+        if let Some(h) = &r.hidden {
+            hidden_as_the_model(&mut report, r, h);
         }
+        report
     }
 
     /// A summary that reads like the paper's results section.
@@ -503,6 +590,7 @@ impl Report {
         let mut s = String::new();
         self.summary_recording(&mut s);
         self.summary_model(&mut s);
+        self.summary_hidden(&mut s);
         self.summary_time_constants(&mut s);
         self.summary_fit(&mut s);
         self.summary_steady_state(&mut s);
@@ -628,6 +716,59 @@ impl Report {
                 6
             )
         );
+    }
+
+    /// Where the spec declares hidden states: the hidden-state model, which the time
+    /// constants, fit and steady state below describe, and the measured-state model's
+    /// figures beside it (Φ and Γ above are the measured-state model's).
+    fn summary_hidden(&self, s: &mut String) {
+        let Some(h) = self.hidden.as_ref().filter(|h| h.replay_model) else {
+            return;
+        };
+        let hidden: Vec<&str> = (h.state_names.iter().zip(&h.measured))
+            .filter(|(_, &m)| !m)
+            .map(|(n, _)| n.as_str())
+            .collect();
+        let _ = writeln!(
+            s,
+            "the replay's model has hidden states (spec `[hidden]`): x(k+1) = Φx(k) + Γu(k), \
+             y = Cx + Du, {} states ({}), {} measured outputs; C {}; order {}",
+            h.order,
+            h.state_names.join(", "),
+            self.states.len(),
+            h.output_matrix,
+            h.order_source
+        );
+        if !hidden.is_empty() {
+            let _ = writeln!(s, "  states no sensor reads: {}", hidden.join(", "));
+        }
+        for c in &h.candidates {
+            let fit = c
+                .hold_back_fit_percent
+                .map_or("–".into(), |f| format!("{f:.2} %"));
+            let why = c
+                .refused
+                .as_deref()
+                .map(|r| format!(" (refused: {r})"))
+                .unwrap_or_default();
+            let _ = writeln!(s, "  order {}: held-back fit {fit}{why}", c.order);
+        }
+        matrix(s, "hidden-state Φ", &h.phi, 8);
+        matrix(s, "hidden-state Γ", &h.gamma, 7);
+        matrix(s, "hidden-state C", &h.c, 7);
+        if h.d.iter().flatten().any(|v| *v != 0.0) {
+            matrix(s, "hidden-state D", &h.d, 7);
+        }
+        if let Some(m) = &self.measured_state {
+            let _ = writeln!(
+                s,
+                "the time constants, fit and steady state below are the hidden-state model's; \
+                 the measured-state model (Φ, Γ above): time constants [{}] s, NRMSE fit [{}] %",
+                join(&m.time_constants_s, |v| format!("{v:.2}")),
+                join(&m.fit.nrmse_fit_percent, |v| format!("{v:.2}"))
+            );
+        }
+        let _ = writeln!(s);
     }
 
     fn summary_time_constants(&self, s: &mut String) {

@@ -17,6 +17,9 @@
 //! - [`order`]: the order n chosen on the estimation data alone (the fit of a held-back
 //!   tail of it), or given.
 //!
+//! Where it is the replay's model, [`analysis`] gives its time constants, the measured
+//! outputs' sensitivities to them and its steady state.
+//!
 //! Its input is the estimators' [`IdentificationData`] (its p columns are the measured
 //! outputs; an unobserved entry is left out of every comparison); its output a
 //! [`HiddenEstimate`].
@@ -26,6 +29,7 @@ use serde::Serialize;
 
 use crate::estimate::IdentificationData;
 
+pub mod analysis;
 pub mod order;
 pub mod refine;
 pub mod subspace;

@@ -225,6 +225,27 @@ impl SensitivityModel {
         i: usize,
         data: &IdentificationData,
         segments: &[Range<usize>],
+        visit: impl FnMut(usize, &DVector<f64>),
+    ) {
+        let start = |seg: Range<usize>| self.discrete.initial_state(data, seg);
+        self.for_each_response_from(i, data, segments, start, visit);
+    }
+
+    /// The conjugate partner of entry `i` where it is a complex pair's second entry (its
+    /// response is its partner's: one decay parameter).
+    pub fn earlier_partner(&self, i: usize) -> Option<usize> {
+        self.partners.get(i).copied().flatten().filter(|&p| p < i)
+    }
+
+    /// [`Self::for_each_response`] with each segment's initial state given by `start`
+    /// (a model with hidden states fits its own: its states are not the data's outputs).
+    /// The responses are of the states; the outputs' are C times them.
+    pub fn for_each_response_from(
+        &self,
+        i: usize,
+        data: &IdentificationData,
+        segments: &[Range<usize>],
+        start: impl Fn(Range<usize>) -> DVector<f64>,
         mut visit: impl FnMut(usize, &DVector<f64>),
     ) {
         let (n, m) = (self.discrete.phi.nrows(), self.discrete.gamma.ncols());
@@ -237,7 +258,7 @@ impl SensitivityModel {
         let mut rel = DVector::zeros(n);
         let (phi, gamma) = (&self.discrete.phi, &self.discrete.gamma);
         for seg in segments {
-            y.copy_from(&self.discrete.initial_state(data, seg.clone()));
+            y.copy_from(&start(seg.clone()));
             s.fill(0.0);
             rel.fill(0.0);
             visit(seg.start, &rel);

@@ -79,6 +79,19 @@ pub struct ValidationEntry {
 /// x(k+1) = Φ x(k) + Γ u(k), y(k) = C x(k) + D u(k), the report's `states` the outputs y.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct HiddenEntry {
+    /// Whether this is the replay's model (written by a replay of a spec with `[hidden]`):
+    /// the report's time constants, assignment, sensitivities, steady state, `fit` and
+    /// `validation` are then this model's, and `predict`, `rating` and `monitor` run it.
+    /// False (absent) in reports before it, which kept it beside the measured-state model.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub replay_model: bool,
+    /// A name per state, n: the output that reads it alone where C = [I 0] (a measured
+    /// state), else `hidden_<i>` (a state no sensor reads, or a free C's basis).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub state_names: Vec<String>,
+    /// Per state, whether a sensor reads it alone (C's row a unit vector on it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub measured: Vec<bool>,
     /// States n (measured and hidden).
     pub order: usize,
     /// How the order was set: "given" or "chosen on the estimation data".
@@ -109,6 +122,30 @@ pub struct HiddenEntry {
     pub fit: FitEntry,
     /// Fit on held-out data or another recording, where the replay validates.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validation: Option<ValidationEntry>,
+}
+
+/// The measured-state model (the paper's, C = I) of a replay whose spec declares hidden
+/// states: its figures, which the report's top-level keys give where the spec declares
+/// none. Its Φ and Γ stay the report's `phi` and `gamma` (and its analysis `a_c`,
+/// `eigenvalues_*`, `residuals`, `network`, `theta_covariance`).
+#[derive(Debug, Clone, Serialize)]
+pub struct MeasuredStateEntry {
+    /// Time constants, ascending, s.
+    pub time_constants_s: Vec<f64>,
+    /// Time constant → state.
+    pub assignment: Vec<AssignmentEntry>,
+    /// ‖T_i ∂y_k/∂T_i‖: rows states, columns time constants.
+    pub sensitivity_norms: Vec<Vec<f64>>,
+    /// Fit on the estimation instants.
+    pub fit: FitEntry,
+    /// Steady state (eqs. 30–35).
+    pub steady_state: SteadyStateEntry,
+    /// 95 % intervals, where the method gives a covariance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<UncertaintyEntry>,
+    /// Fit on held-out data or another recording.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub validation: Option<ValidationEntry>,
 }
 
@@ -450,6 +487,10 @@ pub struct Report {
     /// The model with hidden states, where the spec declares one (`[hidden]`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hidden: Option<HiddenEntry>,
+    /// The measured-state model's figures where the hidden-state model is the replay's
+    /// (`hidden.replay_model`): what the top-level keys held before.
+    #[serde(default, skip_serializing_if = "Option::is_none", skip_deserializing)]
+    pub measured_state: Option<MeasuredStateEntry>,
     /// Warnings.
     #[serde(skip_deserializing)]
     pub warnings: Vec<String>,

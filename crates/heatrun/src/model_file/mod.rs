@@ -6,14 +6,17 @@
 //! the report's one type ([`Report`], serialised both ways, with the profile version
 //! [`PROFILE`] it is read against), [`thermal_model`] the [`ThermalModel`] built from a
 //! report, and [`error`] what is wrong with a report, a load schedule or a request made
-//! of the model ([`UseError`]). Building a report from a replay is
+//! of the model ([`UseError`]); [`hidden`] the output map y = C x + D u of a model
+//! with hidden states. Building a report from a replay is
 //! [`crate::report`]'s, above the pipeline, so that reading a model never reaches back
 //! into the stages that made it.
 
 pub mod document;
 pub mod error;
+pub mod hidden;
 pub mod thermal_model;
 
 pub use document::{Report, PROFILE};
 pub use error::UseError;
+pub use hidden::OutputMap;
 pub use thermal_model::{FieldTemperatureUse, ModelError, ModelUncertainty, ThermalModel};

@@ -5,10 +5,11 @@
 
 use std::path::{Path, PathBuf};
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 
 use super::document::{EstimationEntry, Report};
 use super::error::UseError;
+use super::hidden::OutputMap;
 use crate::losses::{FieldTemperatureSource, HeatSource};
 use crate::recording::{Nameplate, Quantity, Signal};
 use crate::spec::{InputDescription, InputSource, Reference, Scaling, StateDescription};
@@ -85,6 +86,10 @@ pub struct ThermalModel {
     pub error: ModelError,
     /// What the model knows of its own uncertainty, where the report carries it.
     pub uncertainty: ModelUncertainty,
+    /// Where the model has hidden states (the report's `hidden` block is the replay's
+    /// model): y = C x + D u, Φ and Γ then of its n states and `states` its p measured
+    /// outputs. `None`: the measured-state model, y = x.
+    pub output: Option<OutputMap>,
 }
 
 /// The uncertainty a report carries beside its Φ and Γ: what `rating`, `predict` and
@@ -121,6 +126,11 @@ impl ThermalModel {
         let (n, m) = (report.states.len(), report.inputs.len());
         let phi = matrix(&report.phi, (n, n), "phi", path, (n, m))?;
         let gamma = matrix(&report.gamma, (n, m), "gamma", path, (n, m))?;
+        // A hidden-state model replaces the measured-state one (`n` stays the outputs').
+        let hidden = match report.hidden.as_ref().filter(|h| h.replay_model) {
+            Some(h) => Some(super::hidden::read(h, &report.states, m, path)?),
+            None => None,
+        };
         let (description, estimation) = (&report.model, &report.estimation);
         if description.states.len() != n || description.inputs.len() != m {
             return Err(UseError::Shape {
@@ -180,12 +190,31 @@ impl ThermalModel {
         };
         per_state(&error.rmse_k, "fit.rmse_k")?;
         per_state(&error.max_abs_error_k, "fit.max_abs_error_k")?;
+        let uncertainty = match hidden {
+            // The report carries no covariance of the hidden model's parameters, nor a
+            // predictor of its states: no band or interval is made for it.
+            Some(_) => ModelUncertainty {
+                sensor_noise_k: error.rmse_k.clone(),
+                field_line_rms_k: report
+                    .estimation
+                    .field_temperature_from_stator
+                    .as_ref()
+                    .map(|l| l.rms_residual_k),
+                ..ModelUncertainty::default()
+            },
+            None => model_uncertainty(report, path, &error.rmse_k)?,
+        };
+        let (phi, gamma, output) = match hidden {
+            Some((phi, gamma, output)) => (phi, gamma, Some(output)),
+            None => (phi, gamma, None),
+        };
         let mut model = ThermalModel {
             path: path.to_owned(),
             name: description.name.clone(),
             ts_s: report.sample_time_s,
             phi,
             gamma,
+            output,
             time_constants_s: report.time_constants_s.clone(),
             states: description.states.clone(),
             inputs: description.inputs.clone(),
@@ -198,7 +227,7 @@ impl ThermalModel {
             coolant_inlet_temp_c: estimation.coolant_inlet_temp_c,
             field_temperature: FieldTemperatureUse::NotNeeded,
             error: error.clone(),
-            uncertainty: model_uncertainty(report, path, &error.rmse_k)?,
+            uncertainty,
         };
         model.field_temperature = field_temperature_use(&model, estimation)?;
         if !(model.ts_s > 0.0) {
@@ -207,9 +236,34 @@ impl ThermalModel {
         Ok(model)
     }
 
-    /// n.
+    /// The measured temperatures (the report's `states`): n for a measured-state model,
+    /// the p outputs of one with hidden states.
     pub fn state_count(&self) -> usize {
         self.states.len()
+    }
+
+    /// The model's own states, n (measured and hidden): Φ's order.
+    pub fn order(&self) -> usize {
+        self.phi.nrows()
+    }
+
+    /// The measured outputs of state `x` at input `u`: y = C x + D u, or x itself for a
+    /// measured-state model.
+    pub fn outputs(&self, x: &DVector<f64>, u: &DVector<f64>) -> DVector<f64> {
+        match &self.output {
+            Some(o) => o.outputs(x, u),
+            None => x.clone(),
+        }
+    }
+
+    /// The state a start from measured outputs `y` (at input `u`) takes: y itself for a
+    /// measured-state model, the least-norm x with C x + D u = y for one with hidden
+    /// states ([`OutputMap::state_from_outputs`]).
+    pub fn state_from_outputs(&self, y: &DVector<f64>, u: &DVector<f64>) -> DVector<f64> {
+        match &self.output {
+            Some(o) => o.state_from_outputs(y, u),
+            None => y.clone(),
+        }
     }
 
     /// The index of the state measured by `quantity`'s channel.

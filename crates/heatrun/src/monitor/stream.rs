@@ -494,27 +494,45 @@ impl Runner {
                 StateRef::FromSignals => signals.states[j].reference_at(k),
             })
             .collect();
+        // The inputs now, for the feedthrough D u of a model with hidden states.
+        let u_now: Option<DVector<f64>> = signals
+            .inputs
+            .iter()
+            .map(|i| i.values.get(k))
+            .collect::<Option<Vec<f64>>>()
+            .map(DVector::from_vec);
         if self.x_hat.is_none() {
             let rises: Option<Vec<f64>> = (0..n)
                 .map(|j| Some((measured[j]? - reference[j]?) / self.base))
                 .collect();
             if let Some(r) = rises {
-                self.x_hat = Some(DVector::from_vec(r));
+                // A model with hidden states starts from the least-norm state giving the
+                // measured rises (`OutputMap::state_from_outputs`); its band is the fixed
+                // one (the open-loop variance assumes y = x).
+                let zero = DVector::zeros(model.inputs.len());
+                let u = u_now.as_ref().unwrap_or(&zero);
+                self.x_hat = Some(model.state_from_outputs(&DVector::from_vec(r), u));
                 self.starts += 1;
                 let start: Vec<f64> = (model.uncertainty.sensor_noise_k.iter())
                     .map(|s| (s / self.base).powi(2))
                     .collect();
-                self.variance = Some(OpenLoopVariance::start(model, &start));
+                self.variance = model
+                    .output
+                    .is_none()
+                    .then(|| OpenLoopVariance::start(model, &start));
             }
         }
         self.set_model_band(model);
         let t_s = (time_ns - t0) as f64 / 1e9;
         let mut residuals = vec![None; n];
+        let y_hat = self.x_hat.as_ref().map(|x| match &u_now {
+            Some(u) => model.outputs(x, u),
+            None => model.outputs(x, &DVector::zeros(model.inputs.len())),
+        });
         for j in 0..n {
-            let theta_hat = self
-                .x_hat
+            let theta_hat = y_hat
                 .as_ref()
-                .and_then(|x| Some(reference[j]? + self.base * x[j]));
+                .and_then(|y| Some(reference[j]? + self.base * y[j]));
             residuals[j] = measured[j].zip(theta_hat).map(|(m, p)| m - p);
             if let Some(r) = residuals[j] {
                 self.stats[j].add(r, t_s, self.band_k[j]);
@@ -528,10 +546,8 @@ impl Runner {
         self.current.time_ns.push(time_ns);
         self.detector.observe(time_ns, &residuals);
         self.overlay.remember(time_ns, residuals);
-        let u: Option<Vec<f64>> = signals.inputs.iter().map(|i| i.values.get(k)).collect();
-        self.x_hat = match (self.x_hat.take(), u) {
+        self.x_hat = match (self.x_hat.take(), u_now) {
             (Some(x), Some(u)) => {
-                let u = DVector::from_vec(u);
                 if let Some(v) = &mut self.variance {
                     v.step(model, &model.uncertainty, &x, &u);
                 }

@@ -61,6 +61,15 @@ pub(super) fn add_bands(
     schedule: &LoadSchedule,
     initial: &InitialState,
 ) -> Result<(), UseError> {
+    if model.output.is_some() {
+        // No fake band: the delta method needs C_Θ of the hidden model's own Φ, Γ, C, D.
+        prediction.warnings.push(
+            "the model has hidden states and the report carries no covariance of their \
+             parameters: the prediction has no band"
+                .into(),
+        );
+        return Ok(());
+    }
     let Some(covariance) = &model.uncertainty.theta_covariance else {
         prediction.warnings.push(
             "the report carries no covariance of Θ (`theta_covariance`): the prediction has \

@@ -7,12 +7,17 @@
 //! temperatures ([`simulate`]); an apparent-power schedule gets its field current from
 //! the salient-pole phasor diagram ([`phasor`]). Each schedule row holds until the
 //! next (as the model's inputs hold over a sample interval): x(k+1) = Φ x(k) + Γ u(k),
-//! u(k) from the row in force at t_k and the temperatures at t_k.
+//! u(k) from the row in force at t_k and the temperatures at t_k. A model with hidden
+//! states predicts its measured outputs y = C x + D u (the report's `states`); its
+//! hidden states are simulated but not written (they are no part's temperature).
 
 pub mod band;
 pub mod load;
 pub mod phasor;
 pub mod simulate;
+
+#[cfg(test)]
+mod hidden_tests;
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -107,7 +112,7 @@ fn predict_from(
     let steps = ((t_end - t0) / ts + 1e-9).floor() as usize;
     let first = schedule.point_at(t0);
     let n = model.state_count();
-    let mut x = match initial {
+    let rises = match initial {
         InitialState::Measured => DVector::from_fn(n, |j, _| {
             let theta0 = model.initial_temperature_c[j];
             let r0 = match &model.states[j].reference {
@@ -135,6 +140,16 @@ fn predict_from(
             sim.rises(theta, first)
         }
     };
+    // The model's own start: the measured rises themselves, or, with hidden states, the
+    // steady state's states or the least-norm state giving the measured rises.
+    let mut x = match initial {
+        _ if model.output.is_none() => rises,
+        InitialState::Steady => sim.steady_state_with_states(first)?.0,
+        _ => {
+            let u = sim.inputs(first, &sim.temperatures(&rises, first))?;
+            model.state_from_outputs(&rises, &u)
+        }
+    };
     if let Some(offset) = start_offset {
         x += offset;
     }
@@ -153,10 +168,14 @@ fn predict_from(
         warnings,
     };
     let mut delays = DelayLine::new(model)?;
+    // The input last applied, for the feedthrough D u of a model with hidden states:
+    // the losses are computed at y = C x + D u(k−1), then the temperatures given are
+    // C x + D u(k) (exact where D = 0, the default).
+    let mut last_u = DVector::zeros(model.inputs.len());
     for k in 0..=steps {
         let t = t0 + k as f64 * ts;
         let p = schedule.point_at(t);
-        let theta = sim.temperatures(&x, p);
+        let theta = sim.temperatures(&model.outputs(&x, &last_u), p);
         let now = sim.inputs(p, &theta)?;
         let u = if delays.reads_ahead() {
             // An advanced input (`advance_s`) acts as u(k + 1): the schedule one sample on.
@@ -165,6 +184,11 @@ fn predict_from(
         } else {
             delays.apply(now)
         };
+        let theta = match &model.output {
+            Some(_) => sim.temperatures(&model.outputs(&x, &u), p),
+            None => theta,
+        };
+        last_u.copy_from(&u);
         out.field_temperature_c
             .push(sim.field_temperature_c(&theta, p));
         out.time_s.push(t);

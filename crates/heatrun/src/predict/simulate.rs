@@ -1,5 +1,6 @@
 //! The model run forward: temperatures from rises, the inputs of an operating point at
-//! the predicted temperatures, one step x(k+1) = Φ x(k) + Γ u(k), and the steady state.
+//! the predicted temperatures, one step x(k+1) = Φ x(k) + Γ u(k), and the steady state;
+//! the temperatures are the measured outputs y = C x + D u of a model with hidden states.
 
 use std::collections::VecDeque;
 
@@ -16,7 +17,7 @@ use crate::spec::{InputSource, Reference};
 pub struct Simulator<'a> {
     /// The model.
     pub model: &'a ThermalModel,
-    /// (I − Φ)⁻¹ Γ: the steady rise per unit input (eq. 31 in discrete form).
+    /// (I − Φ)⁻¹ Γ: the steady state per unit input (eq. 31 in discrete form).
     steady_gain: DMatrix<f64>,
     /// The stator winding state, where the loss model needs its temperature.
     stator: Option<usize>,
@@ -25,7 +26,7 @@ pub struct Simulator<'a> {
 impl<'a> Simulator<'a> {
     /// Checks that the model's inputs can be computed from operating points.
     pub fn new(model: &'a ThermalModel) -> Result<Simulator<'a>, UseError> {
-        let n = model.state_count();
+        let n = model.order();
         let losses = model
             .inputs
             .iter()
@@ -100,7 +101,8 @@ impl<'a> Simulator<'a> {
         }
     }
 
-    /// Temperatures θ_j = θ_ref,j + θ_base · x_j, °C, of rises `x` (pu) at `p`.
+    /// Temperatures θ_j = θ_ref,j + θ_base · x_j, °C, of the measured rises `x` (pu) at
+    /// `p` (a model with hidden states: its outputs y, [`ThermalModel::outputs`]).
     pub fn temperatures(&self, x: &DVector<f64>, p: &OperatingPoint) -> Vec<f64> {
         (0..x.len())
             .map(|j| self.offset(j, p) + self.model.temperature_base_k * x[j])
@@ -198,22 +200,33 @@ impl<'a> Simulator<'a> {
         &self.model.phi * x + &self.model.gamma * u
     }
 
-    /// The steady state of `p`: x = (I − Φ)⁻¹ Γ u(x), iterated because the copper
-    /// losses grow with the temperatures they cause (a contraction: R changes by
+    /// The steady rises of the measured temperatures at `p`: y = C (I − Φ)⁻¹ Γ u(y) + D u(y)
+    /// (y = x = (I − Φ)⁻¹ Γ u(x) for a measured-state model), iterated because the
+    /// copper losses grow with the temperatures they cause (a contraction: R changes by
     /// 1/(235 + θ) per kelvin).
     pub fn steady_state(&self, p: &OperatingPoint) -> Result<DVector<f64>, UseError> {
-        let n = self.model.state_count();
-        let mut x = DVector::zeros(n);
+        Ok(self.steady_state_with_states(p)?.1)
+    }
+
+    /// The steady state of `p` as (the model's states x, the measured rises y): for a
+    /// model with hidden states, the hidden ones too (see [`Self::steady_state`]).
+    pub fn steady_state_with_states(
+        &self,
+        p: &OperatingPoint,
+    ) -> Result<(DVector<f64>, DVector<f64>), UseError> {
+        let mut x = DVector::zeros(self.model.order());
+        let mut y = DVector::zeros(self.model.state_count());
         for _ in 0..200 {
-            let u = self.inputs(p, &self.temperatures(&x, p))?;
-            let next = &self.steady_gain * u;
-            let change = (&next - &x).amax();
-            x = next;
+            let u = self.inputs(p, &self.temperatures(&y, p))?;
+            x = &self.steady_gain * &u;
+            let next = self.model.outputs(&x, &u);
+            let change = (&next - &y).amax();
+            y = next;
             if change < 1e-13 {
                 break;
             }
         }
-        Ok(x)
+        Ok((x, y))
     }
 }
 

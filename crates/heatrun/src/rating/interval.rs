@@ -54,7 +54,7 @@ pub(super) fn add_intervals(
     let map = |m: &ThermalModel| -> Result<Vec<f64>, UseError> {
         let l = loading(m, o)?;
         let mut out = part_limits(&l)?;
-        let rated_state = l.sim.steady_state(&l.point(l.rated_mva))?;
+        let (rated_state, _) = l.sim.steady_state_with_states(&l.point(l.rated_mva))?;
         for &f in &o.overloads {
             let t = overload(&l, m, &rated_state, f)?.time_to_limit_s;
             out.push(t.unwrap_or(f64::NAN));
@@ -125,7 +125,7 @@ fn overload_field_line(model: &ThermalModel, o: &RatingOptions) -> Result<Vec<f6
     let (Some(sigma), Some(d)) = (sigma, l.parts.iter().position(|p| p.state.is_none())) else {
         return Ok(out);
     };
-    let rated_state = l.sim.steady_state(&l.point(l.rated_mva))?;
+    let (rated_state, _) = l.sim.steady_state_with_states(&l.point(l.rated_mva))?;
     let limit = l.parts[d].limit_c;
     for (i, &f) in o.overloads.iter().enumerate() {
         l.parts[d].limit_c = limit + sigma;

@@ -166,6 +166,19 @@ pub enum FieldChannel {
     Temperature,
     /// Neither: the nameplate's final field temperature (the paper's method).
     Nameplate,
+    /// Neither, and the machine's field-winding node (where it has one) is read by no
+    /// sensor: a hidden state, for the hidden-state models (`[hidden]`). The nameplate
+    /// keeps its final field temperature, from which a replay scales R_f as for
+    /// `Nameplate`; the truth names the node (`Truth::unmeasured`).
+    Unmeasured,
+}
+
+impl FieldChannel {
+    /// Whether the recording has no field channel (the nameplate's final field
+    /// temperature stands in for it).
+    pub fn from_nameplate(self) -> bool {
+        matches!(self, FieldChannel::Nameplate | FieldChannel::Unmeasured)
+    }
 }
 
 /// One operating point, held from `start_fraction` of the run until the next.
@@ -389,7 +402,7 @@ fn channel_list(o: &SynthOptions) -> Vec<(Quantity, &'static str)> {
     match o.field_channel {
         FieldChannel::Voltage => channels.push((Quantity::FieldVoltage, "V")),
         FieldChannel::Temperature => channels.push((Quantity::FieldWindingTemp, "degC")),
-        FieldChannel::Nameplate => {}
+        FieldChannel::Nameplate | FieldChannel::Unmeasured => {}
     }
     // The field winding's node, if the machine has one, is recorded by the field channel.
     channels.extend(
@@ -438,7 +451,7 @@ fn check_machine(o: &SynthOptions) -> Result<()> {
         )));
     }
     if network.node(Quantity::FieldWindingTemp).is_none()
-        && o.field_channel == FieldChannel::Nameplate
+        && o.field_channel.from_nameplate()
         && d.start_above_k != 0.0
     {
         return Err(SynthError::Options(
@@ -512,7 +525,7 @@ fn add_channels(writer: &mut RecordingWriter, o: &SynthOptions) -> Result<Vec<Sy
 /// The nameplate and the test record.
 fn write_records(writer: &mut RecordingWriter, o: &SynthOptions) -> Result<()> {
     let mut nameplate = o.nameplate.clone();
-    if o.field_channel != FieldChannel::Nameplate {
+    if !o.field_channel.from_nameplate() {
         // The field temperature is measured: the paper's method is not needed.
         nameplate.field_winding_final_temp_c = None;
     }

@@ -20,7 +20,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::machines::{Machine, NetworkMachine};
-use super::{FieldChannel, OperatingPoint, SynthOptions};
+use super::{OperatingPoint, SynthOptions};
 use super::{Result, SynthError};
 use crate::losses;
 use crate::model::ContinuousModel;
@@ -332,7 +332,7 @@ pub fn simulate(o: &SynthOptions) -> Result<Trajectory> {
     let (th_0, iterate) = match &o.machine {
         Machine::Model { .. } => (
             reference_c[winding] + base * x0[winding],
-            o.field_channel == FieldChannel::Nameplate,
+            o.field_channel.from_nameplate(),
         ),
         Machine::Network(_) => (o.coolant.inlet_temp_c, true),
     };

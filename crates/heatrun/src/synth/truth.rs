@@ -53,6 +53,11 @@ pub struct Truth {
     /// Where the network changes during the run (a pump switch, a fault).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub changes: Vec<NetworkChange>,
+    /// The states no channel records (hidden states: the field winding's node of a
+    /// machine run with `FieldChannel::Unmeasured`), by profile name; absent where
+    /// every state is recorded.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub unmeasured: Vec<String>,
     /// The flaws laid on the written samples, if any were asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub flaws: Option<super::FlawRecord>,
@@ -197,6 +202,16 @@ pub fn truth_of(o: &SynthOptions, traj: &Trajectory) -> Result<Truth> {
         },
         network,
         changes,
+        unmeasured: match o.field_channel {
+            super::FieldChannel::Unmeasured => o
+                .machine
+                .states()
+                .into_iter()
+                .filter(|&q| q == crate::recording::Quantity::FieldWindingTemp)
+                .map(|q| q.name().into())
+                .collect(),
+            _ => Vec::new(),
+        },
         flaws: None,
     })
 }
