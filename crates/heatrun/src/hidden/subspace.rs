@@ -202,7 +202,7 @@ impl Subspace {
             .map_err(|_| HiddenError::Singular {
                 what: "shift invariance",
             })?;
-        let phi = pinv * lower;
+        let phi = stabilised(pinv * lower);
         // C in data units: the factorisation saw y/σ_y.
         let c = DMatrix::from_fn(p, order, |j, s| obs[(j, s)] * self.y_scale[j]);
         let model = fit_input_matrices(data, phi, c, feedthrough)?;
@@ -210,6 +210,24 @@ impl Subspace {
             OutputMatrix::Free => Ok(model),
             OutputMatrix::Measured => measured_basis(model),
         }
+    }
+}
+
+/// Largest pole modulus of a start: the refinement only takes steps that keep
+/// ρ(Φ) < 1 ([`super::refine`]), so it must start inside the unit circle.
+pub const START_RADIUS: f64 = 0.999;
+
+/// Φ pulled inside the unit circle where the shift invariance left it outside (noise,
+/// or a drift the data cannot tell from an integrator): Φ' = Φ · r/ρ(Φ), r =
+/// [`START_RADIUS`], which scales every pole by the same factor and keeps the
+/// eigenvectors, as SITB's `n4sid` enforces stability of its estimate. A stable Φ is
+/// returned unchanged. Γ, D and x0 are then fitted to the data given Φ'.
+pub fn stabilised(phi: DMatrix<f64>) -> DMatrix<f64> {
+    let radius = crate::thermal::matrix::spectral_radius(&phi);
+    if radius.is_finite() && radius >= START_RADIUS {
+        phi * (START_RADIUS / radius)
+    } else {
+        phi
     }
 }
 
