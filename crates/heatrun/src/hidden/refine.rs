@@ -17,7 +17,7 @@ use std::ops::Range;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
-use super::subspace::stabilised;
+use super::subspace::{radius_limit, stabilised};
 use super::{HiddenError, HiddenStateModel, OutputMatrix};
 use crate::estimate::IdentificationData;
 
@@ -78,6 +78,8 @@ struct Problem<'a> {
     fixed_c: DMatrix<f64>,
     sqrt_w: Vec<f64>,
     params: DVector<f64>,
+    /// The largest pole modulus a step may reach (`subspace::radius_limit`).
+    radius_limit: f64,
 }
 
 impl Problem<'_> {
@@ -234,14 +236,15 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        // A step out of the stable region (ρ(Φ) ≥ 1) is refused: an output-error model
-        // must simulate, and on a short record a mildly unstable Φ (ρ = 1.003, the
-        // glass furnace's drift) can fit the estimation data better while it diverges
-        // on any later data. A residual larger than any the start gave makes LM refuse
-        // the step and raise its damping, where `None` would end the minimisation; the
-        // start is stable (`subspace::stabilised`), so every accepted point is.
+        // A step out of the stable region (ρ(Φ) ≥ ρ_max < 1, `subspace::radius_limit`)
+        // is refused: an output-error model must simulate, and on a short record a
+        // mildly unstable Φ (ρ = 1.003, the glass furnace's drift) or an integrator can
+        // fit the estimation data better while it diverges or drifts on any later data.
+        // A residual larger than any the start gave makes LM refuse the step and raise
+        // its damping, where `None` would end the minimisation; the start is inside
+        // (`subspace::stabilised`), so every accepted point is.
         let model = self.model();
-        if !(model.spectral_radius() < 1.0) {
+        if !(model.spectral_radius() < self.radius_limit) {
             return Some(DVector::from_element(self.rows(), REFUSED));
         }
         // A step to a barely stable Φ may still overflow the simulation: the same.
@@ -311,7 +314,12 @@ pub fn refine(
         }
     };
     // Inside the unit circle, where every step must stay (a no-op for the subspace start).
-    put(&mut params, 0, &stabilised(start.phi.clone()));
+    let longest = segments.iter().map(|s| s.len()).max().unwrap_or(1);
+    put(
+        &mut params,
+        0,
+        &stabilised(start.phi.clone(), radius_limit(longest)),
+    );
     put(&mut params, layout.gamma(), &start.gamma);
     if layout.free_c {
         put(&mut params, layout.c(), &start.c);
@@ -330,6 +338,7 @@ pub fn refine(
         fixed_c: start.c.clone(),
         sqrt_w: output_weights(data).iter().map(|w| w.sqrt()).collect(),
         params,
+        radius_limit: radius_limit(longest),
     };
     let (solved, report) = LevenbergMarquardt::new()
         .with_patience(30)
@@ -394,6 +403,7 @@ mod tests {
                 fixed_c: start.c.clone(),
                 sqrt_w: vec![1.0, 2.0],
                 params: DVector::from_fn(layout.len(), |i, _| 0.01 * (i % 7) as f64),
+                radius_limit: 1.0,
             };
             problem
                 .params
@@ -465,6 +475,7 @@ mod tests {
             fixed_c: truth.c.clone(),
             sqrt_w: vec![1.0, 1.0],
             params,
+            radius_limit: radius_limit(300),
         };
         let r = problem.residuals().unwrap();
         assert_eq!(r.len(), 600);
