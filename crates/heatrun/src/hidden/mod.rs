@@ -14,8 +14,8 @@
 //!   the outputs, which are linear in them);
 //! - [`refine`]: output error, the simulation error of the measured outputs minimised
 //!   by Levenberg–Marquardt over Φ, Γ, C, D and each segment's x0;
-//! - [`order`]: the order n chosen on the estimation data alone (the fit of a held-back
-//!   tail of it), or given.
+//! - [`order`]: the order n chosen on the estimation data alone (the fits of its
+//!   held-back tail and head, each from a model of the rest), or given.
 //!
 //! Its input is the estimators' [`IdentificationData`] (its p columns are the measured
 //! outputs; an unobserved entry is left out of every comparison); its output a
