@@ -322,7 +322,7 @@ def glassfurnace(root):
     report("DaISy glass furnace (u1..u3 -> y1..y6; estimate 0..747, validate 748..1246)",
            names, [y[:748] for y in ys], u[:748], [y[748:] for y in ys], u[748:],
            orders=((1, 1), (2, 2), (2, 4)))
-    for order in (4, 7):
+    for order in (4, 8):
         hidden_reference("", names, [y[:748] for y in ys], u[:748], [y[748:] for y in ys],
                          u[748:], order, feedthrough=True)
     # MIMO ARX(1): x(k) = Φ x(k-1) + Σ_l Γ_l u(k-l), all six outputs as states, no constant
