@@ -131,7 +131,13 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         println!("validation fit % (simulated through): {f:.1?} mean {mean:.1}");
     }
     if let (Some(report), Some(spec)) = (value("--measured-report"), value("--measured-spec")) {
-        measured_state_fit(&report, &spec, &recording, &value("--split-at"), &value("--validate"))?;
+        measured_state_fit(
+            &report,
+            &spec,
+            &recording,
+            &value("--split-at"),
+            &value("--validate"),
+        )?;
     }
     Ok(())
 }
