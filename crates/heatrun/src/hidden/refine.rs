@@ -461,25 +461,30 @@ mod tests {
             feedthrough: false,
             segments: 1,
         };
-        let mut params = DVector::zeros(layout.len());
-        let unstable = truth.phi.map(|v| v * 1.02);
-        for (i, row) in unstable.row_iter().enumerate() {
-            for (j, v) in row.iter().enumerate() {
-                params[i * 3 + j] = *v;
+        // Outside the unit circle (ρ = 1.0047), and inside it but past the record's bound
+        // (ρ = 0.9990 > exp(−1/300) = 0.9967, τ = 1000 s on a 300 s record): both refused;
+        // the truth (ρ = 0.985) is not.
+        for (scale, refused) in [(1.02, true), (0.999 / 0.985, true), (1.0, false)] {
+            let mut params = DVector::zeros(layout.len());
+            let phi = truth.phi.map(|v| v * scale);
+            for (i, row) in phi.row_iter().enumerate() {
+                for (j, v) in row.iter().enumerate() {
+                    params[i * 3 + j] = *v;
+                }
             }
+            let problem = Problem {
+                data: &data,
+                segments: data.segments(),
+                layout,
+                fixed_c: truth.c.clone(),
+                sqrt_w: vec![1.0, 1.0],
+                params,
+                radius_limit: radius_limit(300),
+            };
+            let r = problem.residuals().unwrap();
+            assert_eq!(r.len(), 600);
+            assert_eq!(r.iter().all(|&v| v == REFUSED), refused, "scale {scale}");
         }
-        let problem = Problem {
-            data: &data,
-            segments: data.segments(),
-            layout,
-            fixed_c: truth.c.clone(),
-            sqrt_w: vec![1.0, 1.0],
-            params,
-            radius_limit: radius_limit(300),
-        };
-        let r = problem.residuals().unwrap();
-        assert_eq!(r.len(), 600);
-        assert!(r.iter().all(|&v| v == REFUSED));
     }
 
     #[test]
