@@ -14,8 +14,8 @@
 //!   the outputs, which are linear in them);
 //! - [`refine`]: output error, the simulation error of the measured outputs minimised
 //!   by Levenberg–Marquardt over Φ, Γ, C, D and each segment's x0;
-//! - [`order`]: the order n chosen on the estimation data alone (the fit of a held-back
-//!   tail of it), or given.
+//! - [`order`]: the order n chosen on the estimation data alone (the fits of its
+//!   held-back tail and head, each from a model of the rest), or given.
 //!
 //! Where it is the replay's model, [`analysis`] gives its time constants, the measured
 //! outputs' sensitivities to them and its steady state.

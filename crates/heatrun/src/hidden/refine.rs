@@ -17,8 +17,12 @@ use std::ops::Range;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
+use super::subspace::{radius_limit, stabilised};
 use super::{HiddenError, HiddenStateModel, OutputMatrix};
 use crate::estimate::IdentificationData;
+
+/// The residual entry of a refused step (unstable Φ, or a simulation that overflows).
+const REFUSED: f64 = 1e10;
 
 /// A refined model and what it cost.
 #[derive(Debug, Clone)]
@@ -74,6 +78,8 @@ struct Problem<'a> {
     fixed_c: DMatrix<f64>,
     sqrt_w: Vec<f64>,
     params: DVector<f64>,
+    /// The largest pole modulus a step may reach (`subspace::radius_limit`).
+    radius_limit: f64,
 }
 
 impl Problem<'_> {
@@ -118,6 +124,15 @@ impl Problem<'_> {
         xs
     }
 
+    /// Residual entries: the observed outputs compared.
+    fn rows(&self) -> usize {
+        self.segments
+            .iter()
+            .flat_map(|seg| seg.clone())
+            .map(|k| (0..self.layout.p).filter(|&j| self.compared(k, j)).count())
+            .sum()
+    }
+
     fn input(&self, k: usize) -> DVector<f64> {
         DVector::from_fn(self.layout.m, |l, _| self.data.inputs[(k, l)])
     }
@@ -139,12 +154,7 @@ impl Problem<'_> {
     /// The Jacobian of the residuals (rows as [`Problem::residuals_of`]).
     fn jacobian_of(&self, model: &HiddenStateModel) -> DMatrix<f64> {
         let l = self.layout;
-        let rows: usize = self
-            .segments
-            .iter()
-            .flat_map(|seg| seg.clone())
-            .map(|k| (0..l.p).filter(|&j| self.compared(k, j)).count())
-            .sum();
+        let rows = self.rows();
         let mut jac = DMatrix::zeros(rows, l.len());
         let mut row0 = 0;
         for (s, seg) in self.segments.iter().enumerate() {
@@ -226,16 +236,26 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        // A step to an unstable Φ overflows the simulation; a large finite residual
-        // makes LM refuse the step and raise its damping, where `None` would end it.
-        let r = self.residuals_of(&self.model());
+        // A step out of the stable region (ρ(Φ) ≥ ρ_max < 1, `subspace::radius_limit`)
+        // is refused: an output-error model must simulate, and on a short record a
+        // mildly unstable Φ (ρ = 1.003, the glass furnace's drift) or an integrator can
+        // fit the estimation data better while it diverges or drifts on any later data.
+        // A residual larger than any the start gave makes LM refuse the step and raise
+        // its damping, where `None` would end the minimisation; the start is inside
+        // (`subspace::stabilised`), so every accepted point is.
+        let model = self.model();
+        if !(model.spectral_radius() < self.radius_limit) {
+            return Some(DVector::from_element(self.rows(), REFUSED));
+        }
+        // A step to a barely stable Φ may still overflow the simulation: the same.
+        let r = self.residuals_of(&model);
         Some(DVector::from_iterator(
             r.len(),
             r.into_iter().map(|v| {
                 if v.is_finite() {
-                    v.clamp(-1e10, 1e10)
+                    v.clamp(-REFUSED, REFUSED)
                 } else {
-                    1e10
+                    REFUSED
                 }
             }),
         ))
@@ -293,7 +313,13 @@ pub fn refine(
             }
         }
     };
-    put(&mut params, 0, &start.phi);
+    // Inside the unit circle, where every step must stay (a no-op for the subspace start).
+    let longest = segments.iter().map(|s| s.len()).max().unwrap_or(1);
+    put(
+        &mut params,
+        0,
+        &stabilised(start.phi.clone(), radius_limit(longest)),
+    );
     put(&mut params, layout.gamma(), &start.gamma);
     if layout.free_c {
         put(&mut params, layout.c(), &start.c);
@@ -312,6 +338,7 @@ pub fn refine(
         fixed_c: start.c.clone(),
         sqrt_w: output_weights(data).iter().map(|w| w.sqrt()).collect(),
         params,
+        radius_limit: radius_limit(longest),
     };
     let (solved, report) = LevenbergMarquardt::new()
         .with_patience(30)
@@ -323,6 +350,7 @@ pub fn refine(
         return Err(HiddenError::Diverged);
     }
     let model = solved.model();
+    // Refused steps keep ρ < 1 from a stable start; an unstable start stays where it was.
     let radius = model.spectral_radius();
     if !(radius < 1.0) {
         return Err(HiddenError::Unstable { order: n, radius });
@@ -375,6 +403,7 @@ mod tests {
                 fixed_c: start.c.clone(),
                 sqrt_w: vec![1.0, 2.0],
                 params: DVector::from_fn(layout.len(), |i, _| 0.01 * (i % 7) as f64),
+                radius_limit: 1.0,
             };
             problem
                 .params
@@ -396,6 +425,65 @@ mod tests {
                     "param {q}: {err}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn an_unstable_start_is_pulled_inside_and_the_refinement_stays_there() {
+        // Φ scaled by 1.03: its slowest pole at 1.0146, outside the unit circle.
+        let truth = known_system();
+        let data = simulate_known(&truth, 1500, 0.01, 11);
+        let start = HiddenStateModel {
+            phi: truth.phi.map(|v| v * 1.03),
+            ..truth.clone()
+        };
+        assert!(start.spectral_radius() > 1.0);
+        let refined = refine(&data, &start, OutputMatrix::Measured, false).unwrap();
+        // The same minimum as from the truth itself (the noise moves both alike).
+        let reference = refine(&data, &truth, OutputMatrix::Measured, false).unwrap();
+        let got = refined.model.time_constants_s().unwrap();
+        let want = reference.model.time_constants_s().unwrap();
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g / w - 1.0).abs() < 0.01, "{got:?} vs {want:?}");
+        }
+        assert!(refined.weighted_sse <= reference.weighted_sse * (1.0 + 1e-6));
+    }
+
+    #[test]
+    fn a_step_out_of_the_stable_region_is_refused() {
+        let truth = known_system();
+        let data = simulate_known(&truth, 300, 0.01, 3);
+        let layout = Layout {
+            n: 3,
+            m: 2,
+            p: 2,
+            free_c: false,
+            feedthrough: false,
+            segments: 1,
+        };
+        // Outside the unit circle (ρ = 1.0047), and inside it but past the record's bound
+        // (ρ = 0.9990 > exp(−1/300) = 0.9967, τ = 1000 s on a 300 s record): both refused;
+        // the truth (ρ = 0.985) is not.
+        for (scale, refused) in [(1.02, true), (0.999 / 0.985, true), (1.0, false)] {
+            let mut params = DVector::zeros(layout.len());
+            let phi = truth.phi.map(|v| v * scale);
+            for (i, row) in phi.row_iter().enumerate() {
+                for (j, v) in row.iter().enumerate() {
+                    params[i * 3 + j] = *v;
+                }
+            }
+            let problem = Problem {
+                data: &data,
+                segments: data.segments(),
+                layout,
+                fixed_c: truth.c.clone(),
+                sqrt_w: vec![1.0, 1.0],
+                params,
+                radius_limit: radius_limit(300),
+            };
+            let r = problem.residuals().unwrap();
+            assert_eq!(r.len(), 600);
+            assert_eq!(r.iter().all(|&v| v == REFUSED), refused, "scale {scale}");
         }
     }
 

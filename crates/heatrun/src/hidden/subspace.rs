@@ -202,7 +202,8 @@ impl Subspace {
             .map_err(|_| HiddenError::Singular {
                 what: "shift invariance",
             })?;
-        let phi = pinv * lower;
+        let longest = data.segments().iter().map(|s| s.len()).max().unwrap_or(1);
+        let phi = stabilised(pinv * lower, radius_limit(longest));
         // C in data units: the factorisation saw y/σ_y.
         let c = DMatrix::from_fn(p, order, |j, s| obs[(j, s)] * self.y_scale[j]);
         let model = fit_input_matrices(data, phi, c, feedthrough)?;
@@ -210,6 +211,32 @@ impl Subspace {
             OutputMatrix::Free => Ok(model),
             OutputMatrix::Measured => measured_basis(model),
         }
+    }
+}
+
+/// How far inside a radius limit a pulled-in start is put: ρ = limit · (1 − 10⁻³).
+const START_MARGIN: f64 = 1e-3;
+
+/// The largest pole modulus a model identified on segments of at most `longest`
+/// instants may have: ρ_max = exp(−1/N), a time constant no longer than the record
+/// (τ = −Ts / ln ρ ≤ N·Ts). A slower mode is a drift the record cannot tell from an
+/// integrator or an offset: output error on a short record otherwise ends at ρ → 1 (the
+/// glass furnace and TCLab at τ ≈ 10⁹ s), with a meaningless steady-state gain.
+pub fn radius_limit(longest: usize) -> f64 {
+    (-1.0 / longest.max(1) as f64).exp()
+}
+
+/// Φ pulled inside the circle of radius `limit` where the shift invariance left it on
+/// or outside (noise, or a drift the data cannot tell from an integrator): Φ' = Φ · r/ρ(Φ)
+/// with r = limit · (1 − 10⁻³), which scales every pole by the same factor and keeps the
+/// eigenvectors, as SITB's `n4sid` enforces stability of its estimate. Φ inside is
+/// returned unchanged. Γ, D and x0 are then fitted to the data given Φ'.
+pub fn stabilised(phi: DMatrix<f64>, limit: f64) -> DMatrix<f64> {
+    let radius = crate::thermal::matrix::spectral_radius(&phi);
+    if radius.is_finite() && radius >= limit {
+        phi * (limit * (1.0 - START_MARGIN) / radius)
+    } else {
+        phi
     }
 }
 
