@@ -844,8 +844,8 @@ fn the_default_recovers_the_disturbance_fixtures_truth_within_the_bar() {
     }
     let base = r.signals.temperature_base_k;
     let refs = r.signals.initial_references();
-    for j in 0..refs.len() {
-        let got = refs[j] + base * r.analysis.steady_state[j];
+    for (j, reference) in refs.iter().enumerate() {
+        let got = reference + base * r.analysis.steady_state[j];
         let want = truth.coolant.inlet_initial_c + truth.steady_state_rise_k[j];
         assert!((got - want).abs() < 1.0, "state {j}: {got} °C against {want} °C");
     }

@@ -62,6 +62,7 @@ pub(super) fn fit(
         state,
         counts: data.observed_counts(&data.segments()),
         r: difference_variance(data, start),
+        floor: super::ratio::exact_floor(&start.noise_variance),
     };
     let mut at = search.profile(&start.model, initial_states)?;
     let (mut best_cost, mut best) = search
@@ -141,6 +142,9 @@ struct Search<'a> {
     counts: Vec<usize>,
     /// R's diagonal, σ_c² (see [`difference_variance`]).
     r: Vec<f64>,
+    /// The variance below which an output is taken as exact, from `oe`'s
+    /// ([`super::ratio::exact_floor`]).
+    floor: f64,
 }
 
 impl Search<'_> {
@@ -154,7 +158,7 @@ impl Search<'_> {
     fn profile_cost(&self, at: f64, model: &DiscreteModel, x0: &[DVector<f64>]) -> Option<f64> {
         let gain = kalman_gain(&model.phi, self.state, self.q(at), &self.r)?;
         let variance = problem::innovation_variance(self.data, model, x0, self.state, gain)?;
-        Some(cost(&self.counts, &variance))
+        Some(cost(&self.counts, &variance, self.floor))
     }
 
     /// The best log₁₀(q / σ_j²) with Θ of `model` held: on [`GRID`]'s half-decades, then
@@ -191,7 +195,7 @@ impl Search<'_> {
         if let Some(d) = e.predictor.as_mut().and_then(|p| p.disturbance.as_mut()) {
             d.increment_sd = q.sqrt();
         }
-        Ok(Some((cost(&self.counts, &e.noise_variance), e)))
+        Ok(Some((cost(&self.counts, &e.noise_variance, self.floor), e)))
     }
 }
 
@@ -223,12 +227,14 @@ fn golden_minimum(f: impl Fn(f64) -> f64, bracket: (f64, f64), best: (f64, f64))
     at
 }
 
-/// Σ_c N_c ln σ̂_c²: −2 × the innovations' concentrated log-likelihood, up to a constant.
-fn cost(counts: &[usize], variance: &[f64]) -> f64 {
+/// Σ_c N_c ln max(σ̂_c², floor): −2 × the innovations' concentrated log-likelihood, up
+/// to a constant, an output without noise held at the floor of R
+/// ([`super::ratio::exact_floor`]): otherwise the search would chase its rounding.
+fn cost(counts: &[usize], variance: &[f64], floor: f64) -> f64 {
     counts
         .iter()
         .zip(variance)
-        .map(|(n, v)| *n as f64 * v.max(1e-300).ln())
+        .map(|(n, v)| *n as f64 * v.max(floor).ln())
         .sum()
 }
 
