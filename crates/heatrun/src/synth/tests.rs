@@ -821,18 +821,23 @@ fn the_default_recovers_the_disturbance_fixtures_truth_within_the_bar() {
     let dir = temp_dir("walk");
     let path = dir.join("walk.mcap");
     let truth = write(&path, &example::unmeasured_heat(3.0, 1)).unwrap();
-    let r = crate::pipeline::replay(
-        &path,
-        &crate::pipeline::ReplayOptions {
-            choose_estimator: true,
-            ..crate::pipeline::ReplayOptions::default()
-        },
-    )
-    .unwrap();
+    let options = crate::pipeline::ReplayOptions {
+        choose_estimator: true,
+        ..crate::pipeline::ReplayOptions::default()
+    };
+    let r = crate::pipeline::replay(&path, &options).unwrap();
     std::fs::remove_dir_all(&dir).ok();
     assert_eq!(r.estimate.method, crate::pipeline::Method::Pem);
-    let d = r.estimate.predictor.as_ref().and_then(|p| p.disturbance.as_ref());
-    assert_eq!(d.map(|d| d.state), Some(2), "the walk enters the outlet's node");
+    let d = r
+        .estimate
+        .predictor
+        .as_ref()
+        .and_then(|p| p.disturbance.as_ref());
+    assert_eq!(
+        d.map(|d| d.state),
+        Some(2),
+        "the walk enters the outlet's node"
+    );
     for (got, want) in r
         .analysis
         .spectrum
@@ -847,8 +852,22 @@ fn the_default_recovers_the_disturbance_fixtures_truth_within_the_bar() {
     for (j, reference) in refs.iter().enumerate() {
         let got = reference + base * r.analysis.steady_state[j];
         let want = truth.coolant.inlet_initial_c + truth.steady_state_rise_k[j];
-        assert!((got - want).abs() < 1.0, "state {j}: {got} °C against {want} °C");
+        assert!(
+            (got - want).abs() < 1.0,
+            "state {j}: {got} °C against {want} °C"
+        );
     }
-    // The innovations, which the predictor's likelihood takes for white, are analysed.
+    // The innovations, which the predictor's likelihood takes for white, are analysed,
+    // and the report, its summary and the HTML page show them.
     assert!(r.analysis.innovations.is_some());
+    let replayed = crate::report::Replayed::new(r);
+    assert!(replayed.report.innovations.is_some());
+    assert!(replayed
+        .summary
+        .contains("innovations (one-step predictor)"));
+    let page = crate::html::replay_page(&replayed, &options)
+        .render()
+        .unwrap();
+    assert!(page.contains("autocorrelation of the innovations"));
+    assert!(page.contains("innovations: lags 1–"));
 }
