@@ -811,27 +811,24 @@ impl Section for ResidualsSection<'_> {
         let r = self.report;
         let res = &r.residuals;
         let ts = r.sample_time_s;
-        let lines = state_labels(r)
-            .into_iter()
-            .zip(&res.autocorrelation)
-            .enumerate()
-            .map(|(k, (name, ac))| {
-                let points = ac
-                    .iter()
-                    .enumerate()
-                    .map(|(lag, v)| (lag as f64 * ts, *v))
-                    .collect();
-                Line::new(name, palette(k), vec![points])
-            })
-            .collect();
+        let lines = autocorrelation_lines(r, &res.autocorrelation);
         let mut panel = Panel::new("autocorrelation of y − ŷ", lines);
         panel.band = Some((-res.band99, res.band99));
+        let mut panels = vec![panel];
+        // A predictor's innovations y(k) − ŷ(k|k−1) are what its likelihood assumes
+        // white: where the estimate has one (pem), they are drawn below the simulation's.
+        if let Some(inn) = &r.innovations {
+            let lines = autocorrelation_lines(r, &inn.autocorrelation);
+            let mut panel = Panel::new("autocorrelation of the innovations y − ŷ(k|k−1)", lines);
+            panel.band = Some((-inn.band99, inn.band99));
+            panels.push(panel);
+        }
         let lag_unit = if ts == 1.0 {
             "lag, s (samples)".to_owned()
         } else {
             format!("lag, s (Ts = {ts} s)")
         };
-        let chart = Chart::new(lag_unit, vec![panel]);
+        let chart = Chart::new(lag_unit, panels);
         out.paragraph(&format!(
             "A model that has captured the dynamics leaves residuals that are white and uncorrelated \
              with the inputs. Figure {} shows their autocorrelation; the shaded band is ±{} , the 99 % \
@@ -842,7 +839,12 @@ impl Section for ResidualsSection<'_> {
         out.figure(
             &chart.to_svg()?,
             &format!(
-                "Autocorrelation of the simulation residuals, lags 0–{}.",
+                "Autocorrelation of the simulation residuals{}, lags 0–{}.",
+                if r.innovations.is_some() {
+                    " (above) and of the one-step predictor's innovations (below)"
+                } else {
+                    ""
+                },
                 res.max_lag
             ),
         );
@@ -856,6 +858,15 @@ impl Section for ResidualsSection<'_> {
                 .map(|v| fixed(v * 100.0, 1))
                 .collect(),
         );
+        if let Some(inn) = &r.innovations {
+            t.row(
+                format!("innovations: lags 1–{} outside the band, %", inn.max_lag),
+                inn.autocorrelation_outside_band
+                    .iter()
+                    .map(|v| fixed(v * 100.0, 1))
+                    .collect(),
+            );
+        }
         for (j, input) in r.inputs.iter().enumerate() {
             t.row(
                 format!(
@@ -871,6 +882,24 @@ impl Section for ResidualsSection<'_> {
         out.table(&t);
         Ok(())
     }
+}
+
+/// One line per state of an autocorrelation `[state][lag]` against the lag in seconds.
+fn autocorrelation_lines(r: &Report, autocorrelation: &[Vec<f64>]) -> Vec<Line> {
+    let ts = r.sample_time_s;
+    state_labels(r)
+        .into_iter()
+        .zip(autocorrelation)
+        .enumerate()
+        .map(|(k, (name, ac))| {
+            let points = ac
+                .iter()
+                .enumerate()
+                .map(|(lag, v)| (lag as f64 * ts, *v))
+                .collect();
+            Line::new(name, palette(k), vec![points])
+        })
+        .collect()
 }
 
 /// The recursive estimate's convergence: its time constants along the recording.

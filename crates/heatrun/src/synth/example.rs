@@ -64,3 +64,23 @@ pub fn rich_heat_run() -> Vec<OperatingPoint> {
         })
         .collect()
 }
+
+/// The disturbance fixture (issue 23 item 4): the RC unit's heat run of 5.8 h at 1 s
+/// (the default schedule) whose cooling water also takes an unmeasured heat, a random
+/// walk q(k+1) = q(k) + W·√(Ts / 1 h)·ε_k of `walk_kw_per_sqrt_h` = W, with the sensors'
+/// noise σ 0.05 K at 0.01 K resolution; its truth is what [`super::write`] returns (time
+/// constants, steady-state rises, the walk's course). Small enough to make in a test
+/// (~0.1 s), so it is made there rather than kept in `fixtures/`.
+pub fn unmeasured_heat(walk_kw_per_sqrt_h: f64, seed: u64) -> super::SynthOptions {
+    super::SynthOptions {
+        machine: super::Machine::Network(super::NetworkMachine::rc_unit()),
+        disturbances: super::Disturbances {
+            coolant_heat_walk_kw_per_sqrt_h: walk_kw_per_sqrt_h,
+            ..super::Disturbances::default()
+        },
+        temperature_noise_k: 0.05,
+        temperature_resolution_k: 0.01,
+        seed,
+        ..super::SynthOptions::default()
+    }
+}

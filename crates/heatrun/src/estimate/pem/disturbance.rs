@@ -10,33 +10,45 @@
 //! stable for every q > 0 (the pair (Φ_a, C_a) is detectable: d reaches the outputs
 //! through x_j). One number, q, then stands for the disturbance, where a free K_a would
 //! spend n(n + 1) on it, and its descent from K_a = 0 runs into unstable predictors (the
-//! slow modes of a heat run sit at 1 − 10⁻⁴). For each q, Θ and the start states are
-//! fitted by prediction error with K_a held; q maximises the innovations' concentrated
-//! likelihood −½ Σ_c N_c ln σ̂_c² over a grid of decades and a golden-section refinement
-//!, and K_a is made once
-//! more from the fitted Φ for the last fit. As q → 0 the gain
-//! vanishes and the fit is `oe`'s: the likelihood ratio against it
-//! ([`super::ratio`]) tests q = 0.
+//! slow modes of a heat run sit at 1 − 10⁻⁴).
+//!
+//! q and Θ maximise the innovations' concentrated likelihood −½ Σ_c N_c ln σ̂_c²
+//! together, by alternating: q is profiled with Θ and the start states held (one pass
+//! of the filter per q, no sensitivities: a grid of half-decades refined by golden
+//! section), then Θ and the start states are fitted by prediction error with that q's
+//! K_a held (from the last fit: a warm start), and again until q settles (a few rounds:
+//! Θ moves little once q is near its optimum). Each round raises the likelihood or the
+//! fit is not taken. A Θ fit per q tried, as the search first did, costs some 14 fits
+//! for the same optimum. As q → 0 the gain vanishes and the fit is `oe`'s: the
+//! likelihood ratio against it ([`super::ratio`]) tests q = 0.
 
 use nalgebra::{DMatrix, DVector};
 
 use super::problem::{self, GainModel};
 use super::PredictionError;
-use crate::estimate::{Estimate, IdentificationData, Result};
+use crate::estimate::{DiscreteModel, Estimate, IdentificationData, Result};
 
-/// The grid of log₁₀(q / σ_j²) the search starts on: from a walk far below the sensors'
-/// noise (10⁻¹¹: a fraction of a millikelvin over a day) to one that moves the state as
-/// much as the noise within a few hundred samples (10⁻⁴).
-const GRID: std::ops::RangeInclusive<i32> = -11..=-4;
+/// The grid of log₁₀(q / σ_j²) the profile starts on, in half-decades: from a walk far
+/// below the sensors' noise (10⁻¹²: a fraction of a millikelvin over a day) to one that
+/// moves the state as much as the noise within a hundred samples (10⁻³).
+const GRID: (f64, f64) = (-12.0, -3.0);
 
-/// Golden-section steps refining the best decade (to about a fifth of a decade: the
-/// likelihood is flat in q near its maximum).
-const GOLDEN_STEPS: usize = 5;
+/// Golden-section steps refining the profile's best grid point within half a decade
+/// either side (to ~0.01 decade: each step is one pass of the filter).
+const GOLDEN_STEPS: usize = 10;
 
-/// The fit with a disturbance entering `state`: the intensity q searched, Θ and the
-/// start states fitted for each (see the module's documentation), R from the residuals'
-/// differences ([`difference_variance`]): `oe`'s residual variances, which the
-/// disturbance inflates, would make the gain's R too large and its q with it.
+/// Rounds of (profile q, fit Θ) at most; the alternation stops sooner where q moved by
+/// less than [`SETTLED_DECADES`].
+const ROUNDS: usize = 4;
+
+/// A change of log₁₀ q below which the alternation has settled (the likelihood is flat
+/// in q near its maximum: a tenth of a decade changes the gain by ~10 %).
+const SETTLED_DECADES: f64 = 0.1;
+
+/// The fit with a disturbance entering `state`: q and Θ by alternation (see the
+/// module's documentation), R from the residuals' differences ([`difference_variance`]):
+/// `oe`'s residual variances, which the disturbance inflates, would make the gain's R
+/// too large and its q with it.
 pub(super) fn fit(
     pem: &PredictionError,
     data: &IdentificationData,
@@ -47,19 +59,49 @@ pub(super) fn fit(
     let search = Search {
         pem,
         data,
-        start,
-        initial_states,
         state,
         counts: data.observed_counts(&data.segments()),
+        r: difference_variance(data, start),
+        floor: super::ratio::exact_floor(&start.noise_variance),
     };
-    let r = difference_variance(data, start);
-    let found = search.over(&r, None)?;
-    // K_a once more from the fitted Φ, which the gain was not made from.
-    let phi = found.estimate.model.phi.clone();
-    Ok(match search.fit_at(found.q, &r, &phi)? {
-        Some((_, e)) => e,
-        None => found.estimate,
-    })
+    let mut at = search.profile(&start.model, initial_states)?;
+    let (mut best_cost, mut best) = search
+        .fit_at(at, start, initial_states)?
+        .ok_or_else(no_filter)?;
+    for _ in 1..ROUNDS {
+        let x0 = fitted_initial_states(&best);
+        let next = search.profile(&best.model, &x0)?;
+        let settled = (next - at).abs() < SETTLED_DECADES;
+        // Θ is refitted at the settled q too: its K_a is made from the fitted Φ, which
+        // the last gain was not.
+        if let Some((c, e)) = search.fit_at(next, &best, &x0)? {
+            if c < best_cost {
+                (best_cost, best) = (c, e);
+            }
+        }
+        at = next;
+        if settled {
+            break;
+        }
+    }
+    Ok(best)
+}
+
+/// The error of a search that found no stable filter at any intensity.
+fn no_filter() -> crate::estimate::EstimationError {
+    crate::estimate::EstimationError::MinimisationFailed {
+        termination: levenberg_marquardt::TerminationReason::User(
+            "no stable Kalman filter for any disturbance intensity",
+        ),
+    }
+}
+
+/// The start states a fit ended at (x̂(start) of each segment).
+fn fitted_initial_states(e: &Estimate) -> Vec<DVector<f64>> {
+    e.predictor
+        .as_ref()
+        .map(|p| p.initial_states.clone())
+        .unwrap_or_default()
 }
 
 /// R from `start`'s simulation residuals e: Var(e(k+1) − e(k)) / 2 per output over
@@ -92,102 +134,107 @@ fn difference_variance(data: &IdentificationData, start: &Estimate) -> Vec<f64> 
         .collect()
 }
 
-/// The best fit a search found, and its intensity q.
-struct Found {
-    q: f64,
-    estimate: Estimate,
-}
-
-/// What every fit of the search shares.
+/// What every step of the search shares.
 struct Search<'a> {
     pem: &'a PredictionError,
     data: &'a IdentificationData,
-    start: &'a Estimate,
-    initial_states: &'a [DVector<f64>],
     state: usize,
     counts: Vec<usize>,
+    /// R's diagonal, σ_c² (see [`difference_variance`]).
+    r: Vec<f64>,
+    /// The variance below which an output is taken as exact, from `oe`'s
+    /// ([`super::ratio::exact_floor`]).
+    floor: f64,
 }
 
 impl Search<'_> {
-    /// The fit with K_a of intensity `q`, R = diag(`r`) and Φ = `phi`, and its cost
-    /// ([`cost`]); `None` where the Riccati equation has no solution.
-    fn fit_at(&self, q: f64, r: &[f64], phi: &DMatrix<f64>) -> Result<Option<(f64, Estimate)>> {
-        let Some(gain) = kalman_gain(phi, self.state, q, r) else {
+    /// q = 10^`at` σ_j²: the intensity at log₁₀(q / σ_j²) = `at`.
+    fn q(&self, at: f64) -> f64 {
+        10f64.powf(at) * self.r[self.state]
+    }
+
+    /// The profile's cost Σ_c N_c ln σ̂_c² at log₁₀(q / σ_j²) = `at` with Θ of `model`
+    /// and the start states held; `None` where there is no stable filter.
+    fn profile_cost(&self, at: f64, model: &DiscreteModel, x0: &[DVector<f64>]) -> Option<f64> {
+        let gain = kalman_gain(&model.phi, self.state, self.q(at), &self.r)?;
+        let variance = problem::innovation_variance(self.data, model, x0, self.state, gain)?;
+        Some(cost(&self.counts, &variance, self.floor))
+    }
+
+    /// The best log₁₀(q / σ_j²) with Θ of `model` held: on [`GRID`]'s half-decades, then
+    /// golden section within half a decade either side.
+    fn profile(&self, model: &DiscreteModel, x0: &[DVector<f64>]) -> Result<f64> {
+        let steps = ((GRID.1 - GRID.0) * 2.0).round() as usize;
+        let (at, cost_at) = (0..=steps)
+            .map(|i| GRID.0 + 0.5 * i as f64)
+            .filter_map(|s| self.profile_cost(s, model, x0).map(|c| (s, c)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .ok_or_else(no_filter)?;
+        let cost_of = |s: f64| self.profile_cost(s, model, x0).unwrap_or(f64::INFINITY);
+        Ok(golden_minimum(cost_of, (at - 0.5, at + 0.5), (at, cost_at)))
+    }
+
+    /// The fit at log₁₀(q / σ_j²) = `at`, K_a from `start`'s Φ, Θ and the start states
+    /// from `start` and `x0`, and its cost ([`cost`]); `None` where the Riccati equation
+    /// has no solution.
+    fn fit_at(
+        &self,
+        at: f64,
+        start: &Estimate,
+        x0: &[DVector<f64>],
+    ) -> Result<Option<(f64, Estimate)>> {
+        let q = self.q(at);
+        let Some(gain) = kalman_gain(&start.model.phi, self.state, q, &self.r) else {
             return Ok(None);
         };
         let model = GainModel::Disturbance {
             state: self.state,
             gain,
         };
-        let mut e = problem::fit(self.pem, self.data, self.start, self.initial_states, &model)?;
+        let mut e = problem::fit(self.pem, self.data, start, x0, &model)?;
         if let Some(d) = e.predictor.as_mut().and_then(|p| p.disturbance.as_mut()) {
             d.increment_sd = q.sqrt();
         }
-        Ok(Some((cost(&self.counts, &e.noise_variance), e)))
-    }
-
-    /// The best log₁₀(q / r_j): on [`GRID`] (or at `centre`), refined by golden section
-    /// within a decade either side.
-    fn over(&self, r: &[f64], centre: Option<f64>) -> Result<Found> {
-        let phi = &self.start.model.phi;
-        let q_of = |s: f64| 10f64.powf(s) * r[self.state];
-        let points: Vec<f64> = match centre {
-            Some(c) => vec![c],
-            None => GRID.map(f64::from).collect(),
-        };
-        let mut best: Option<(f64, f64, Estimate)> = None;
-        for s in points {
-            if let Some((c, e)) = self.fit_at(q_of(s), r, phi)? {
-                if best.as_ref().is_none_or(|b| c < b.1) {
-                    best = Some((s, c, e));
-                }
-            }
-        }
-        let Some((mut at, mut cost_at, mut estimate)) = best else {
-            return Err(crate::estimate::EstimationError::MinimisationFailed {
-                termination: levenberg_marquardt::TerminationReason::User(
-                    "no stable Kalman filter for any disturbance intensity",
-                ),
-            });
-        };
-        let (mut low, mut high) = (at - 1.0, at + 1.0);
-        for _ in 0..GOLDEN_STEPS {
-            let trial = if at - low > high - at {
-                at - 0.382 * (at - low)
-            } else {
-                at + 0.382 * (high - at)
-            };
-            match self.fit_at(q_of(trial), r, phi)? {
-                Some((c, e)) if c < cost_at => {
-                    if trial < at {
-                        high = at;
-                    } else {
-                        low = at;
-                    }
-                    (at, cost_at, estimate) = (trial, c, e);
-                }
-                _ => {
-                    if trial < at {
-                        low = trial;
-                    } else {
-                        high = trial;
-                    }
-                }
-            }
-        }
-        Ok(Found {
-            q: q_of(at),
-            estimate,
-        })
+        Ok(Some((cost(&self.counts, &e.noise_variance, self.floor), e)))
     }
 }
 
-/// Σ_c N_c ln σ̂_c²: −2 × the innovations' concentrated log-likelihood, up to a constant.
-fn cost(counts: &[usize], variance: &[f64]) -> f64 {
+/// The minimum of `f` on `bracket` by golden section from a known point `best` inside
+/// it: each step tries the golden point of the larger side and keeps the smaller value.
+fn golden_minimum(f: impl Fn(f64) -> f64, bracket: (f64, f64), best: (f64, f64)) -> f64 {
+    let (mut low, mut high) = bracket;
+    let (mut at, mut value) = best;
+    for _ in 0..GOLDEN_STEPS {
+        let trial = if at - low > high - at {
+            at - 0.382 * (at - low)
+        } else {
+            at + 0.382 * (high - at)
+        };
+        let v = f(trial);
+        if v < value {
+            if trial < at {
+                high = at;
+            } else {
+                low = at;
+            }
+            (at, value) = (trial, v);
+        } else if trial < at {
+            low = trial;
+        } else {
+            high = trial;
+        }
+    }
+    at
+}
+
+/// Σ_c N_c ln max(σ̂_c², floor): −2 × the innovations' concentrated log-likelihood, up
+/// to a constant, an output without noise held at the floor of R
+/// ([`super::ratio::exact_floor`]): otherwise the search would chase its rounding.
+fn cost(counts: &[usize], variance: &[f64], floor: f64) -> f64 {
     counts
         .iter()
         .zip(variance)
-        .map(|(n, v)| *n as f64 * v.max(1e-300).ln())
+        .map(|(n, v)| *n as f64 * v.max(floor).ln())
         .sum()
 }
 

@@ -66,6 +66,33 @@ pub(super) fn fit(
     Ok(conclude(&problem, rows_used, evaluations))
 }
 
+/// The innovations' variance per output, SSE_c / N_c, of the predictor with Θ of
+/// `model`, the given K_a (d entering `state`) and each segment's x̂(start) held at
+/// `initial_states`: one pass of the filter, no sensitivities, the profile
+/// ℓ(q | Θ) = −½ Σ_c N_c ln σ̂_c²(q, Θ) the disturbance's search runs on (a fit costs
+/// hundreds of such passes). `None` where Φ or the predictor is not stable.
+pub(super) fn innovation_variance(
+    data: &IdentificationData,
+    model: &DiscreteModel,
+    initial_states: &[DVector<f64>],
+    state: usize,
+    gain: DMatrix<f64>,
+) -> Option<Vec<f64>> {
+    let n = data.states();
+    let mut problem = Problem::new(data, data.segments(), model, initial_states, &vec![1.0; n]);
+    problem.fix_gain(state, gain);
+    if !problem.stable() {
+        return None;
+    }
+    let sse = problem.pass(None);
+    let variance: Vec<f64> = sse
+        .iter()
+        .zip(&problem.counts)
+        .map(|(s, c)| s / (*c).max(1) as f64)
+        .collect();
+    variance.iter().all(|v| v.is_finite()).then_some(variance)
+}
+
 /// Levenberg–Marquardt, in two passes when no weights are given: the second with Λ⁻¹ of
 /// the first pass's innovations.
 fn minimise(mut problem: Problem<'_>, weights_given: bool) -> Result<(Problem<'_>, usize)> {

@@ -70,13 +70,27 @@ impl LikelihoodRatio {
     }
 }
 
-/// Σ_c N_c ln(σ̂²_oe,c / σ̂²_pem,c).
+/// Σ_c N_c ln(σ̂²_oe,c / σ̂²_pem,c), each variance held at or above [`exact_floor`] of
+/// `oe`'s: an output without noise adds nothing either way.
 fn statistic(counts: &[usize], oe_variance: &[f64], pem_variance: &[f64]) -> f64 {
+    let floor = exact_floor(oe_variance);
     counts
         .iter()
         .zip(oe_variance.iter().zip(pem_variance))
-        .map(|(n, (oe, pem))| *n as f64 * (oe.max(1e-300) / pem.max(1e-300)).ln())
+        .map(|(n, (oe, pem))| *n as f64 * (oe.max(floor) / pem.max(floor)).ln())
         .sum()
+}
+
+/// An output's variance below 10⁻⁶ of the noisiest output's (an RMS a thousandth of it)
+/// is taken as exact: ε² max_c σ_c², ε = 10⁻³. Such an output (the field winding's
+/// temperature read from U_f / I_f without noise) carries no noise the Gaussian
+/// likelihood can weigh: ln σ̂² → −∞ as a fit reproduces it to rounding, so that
+/// 21,000 samples of it swing −½ Σ N_c ln σ̂_c² by 10⁵ to 10⁷ and drown what the noisy
+/// outputs say. Held at the floor, its term is constant wherever the fit reproduces it.
+pub(crate) fn exact_floor(variances: &[f64]) -> f64 {
+    const EPSILON: f64 = 1e-3;
+    let largest = variances.iter().copied().fold(0.0_f64, f64::max);
+    (EPSILON * EPSILON * largest).max(1e-300)
 }
 
 /// χ²_ν's 0.99 quantile by Wilson and Hilferty's cube-root normal approximation,
@@ -123,5 +137,14 @@ mod tests {
         let lr = LikelihoodRatio::intensity(&[10_000], &[1.0], &[0.9995]);
         assert!((lr.critical - 5.412).abs() < 0.001);
         assert!(lr.rejects_zero_gain() == (lr.statistic > 5.412));
+    }
+
+    #[test]
+    fn an_output_without_noise_does_not_decide_the_ratio() {
+        // A noisy output 1 % worse under pem, an exact one reproduced 10⁷ times closer:
+        // unfloored, 10⁴·ln 10⁷ ≈ 1.6·10⁵ would take pem; the noisy output says oe.
+        let lr = LikelihoodRatio::intensity(&[10_000, 10_000], &[1.0, 1e-15], &[1.01, 1e-22]);
+        assert!((lr.statistic - 10_000.0 * (1.0_f64 / 1.01).ln()).abs() < 1e-6);
+        assert!(!lr.rejects_zero_gain());
     }
 }
