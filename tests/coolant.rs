@@ -359,6 +359,8 @@ fn a_pump_switch_is_carried_into_the_model_as_the_heat_the_flow_change_carries()
             "report.json",
             "--rrd",
             "pump.rrd",
+            "--network",
+            "nearest",
             "-q",
         ],
         dir.path(),
@@ -375,6 +377,7 @@ fn a_pump_switch_is_carried_into_the_model_as_the_heat_the_flow_change_carries()
     // The paper's formulation, with a constant flow assumed, is refused or far off.
     let options = ReplayOptions {
         reference: ReferencePolicy::Initial,
+        network: heatrun::NetworkChoice::Nearest,
         ..ReplayOptions::default()
     };
     if let Ok(paper) = replay(&mcap, &options) {

@@ -26,6 +26,8 @@ fn run(level: f64, seed: u64, method: Method) -> (Replay, Truth) {
             &path,
             &ReplayOptions {
                 method,
+                // The estimator is under test, not the network: no rc fit.
+                network: heatrun::NetworkChoice::Nearest,
                 ..ReplayOptions::default()
             },
         )

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use heatrun::estimate::Method;
-use heatrun::pipeline::{ReplayOptions, ValidationSource};
+use heatrun::pipeline::{NetworkChoice, ReplayOptions, ValidationSource};
 use heatrun::progress::Observer;
 use heatrun::recording::RecordingError;
 use heatrun::spec::coolant::ReferencePolicy;
@@ -30,6 +30,17 @@ pub enum ReferenceArg {
     Initial,
     /// The coolant inlet's initial level, its drift an input where it varies.
     Inlet,
+}
+
+/// Which network the replay prints beside the model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
+pub enum NetworkArg {
+    /// The nearest passive network where the data cannot tell it from the model, else
+    /// rc's fit of C, G and K to the data (seconds longer on a noisy run).
+    #[default]
+    Best,
+    /// The passive network nearest the identified model, without rc's fit: the fast replay.
+    Nearest,
 }
 
 /// How `replay` prints its summary.
@@ -80,6 +91,10 @@ pub struct ReplayArgs {
     /// Machine file (TOML) whose keys override the recording's nameplate.
     #[arg(long, value_name = "FILE.toml")]
     pub machine: Option<PathBuf>,
+    /// The thermal network printed beside an oe model: the best for the data, or the
+    /// nearest passive network to the model (faster; rc's fit not run).
+    #[arg(long, value_enum, default_value_t)]
+    pub network: NetworkArg,
     /// Identification method (oe: unbiased under sensor noise, the most accurate)
     /// [default: the spec's, else oe].
     #[arg(long, value_parser = super::method::parser())]
@@ -499,5 +514,9 @@ fn library_options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
             ReferenceArg::Inlet => ReferencePolicy::Inlet,
         },
         progress: Observer::silent(),
+        network: match args.network {
+            NetworkArg::Best => NetworkChoice::Best,
+            NetworkArg::Nearest => NetworkChoice::Nearest,
+        },
     })
 }

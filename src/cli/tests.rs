@@ -9,7 +9,7 @@ use heatrun::estimate::Method;
 
 use super::predict::InitialArg;
 use super::rating::ClassArg;
-use super::replay::ReferenceArg;
+use super::replay::{NetworkArg, ReferenceArg};
 use super::synth::{FieldArg, MachineArg, ProfileArg};
 use super::*;
 
@@ -230,6 +230,19 @@ fn replay_defaults_are_the_documented_ones() {
     assert!(!r.viewer.spawn && !r.raw && !r.quiet && !r.field_state);
     assert_eq!(r.out_dir, PathBuf::from("."));
     assert_eq!(r.jobs, None);
+}
+
+#[test]
+fn the_network_is_the_best_unless_the_nearest_is_asked_for() {
+    assert_eq!(replay(&[]).network, NetworkArg::Best);
+    assert_eq!(
+        replay(&["--network", "nearest"]).network,
+        NetworkArg::Nearest
+    );
+    assert_eq!(
+        error(&["replay", "--network", "closest"]),
+        ErrorKind::InvalidValue
+    );
 }
 
 #[test]

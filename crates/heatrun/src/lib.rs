@@ -90,7 +90,7 @@ pub use estimate::{Estimate, IdentificationData, Method};
 pub use model::ModelAnalysis;
 pub use model_file::{Report, ThermalModel};
 pub use network::NetworkAnalysis;
-pub use pipeline::{replay, Replay, ReplayOptions};
+pub use pipeline::{replay, NetworkChoice, Replay, ReplayOptions};
 pub use recording::{RecordingSummary, Sample};
 pub use signals::ModelSignals;
 pub use spec::ModelDescription;

@@ -65,6 +65,22 @@ pub struct ReplayOptions {
     pub reference: ReferencePolicy,
     /// Told how reading and estimation go ([`crate::progress`]); silent by default.
     pub progress: Observer,
+    /// Which network the replay prints beside an `oe` model ([`NetworkChoice`]).
+    pub network: NetworkChoice,
+}
+
+/// Which thermal network a replay prints beside an `oe` model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NetworkChoice {
+    /// The best network for the data: the passive network nearest the identified model
+    /// where the data cannot tell it from that model (χ² p ≥ 0.05, or no noise), else rc's
+    /// fit of C, G, K to the data started from it.
+    #[default]
+    Best,
+    /// The passive network nearest the identified model (minimum distance to Φ, Γ),
+    /// without rc's fit: the fast replay, for a user who needs the model and not the
+    /// network (rc takes seconds to tens of seconds on a noisy four-node run).
+    Nearest,
 }
 
 /// Data the model is validated on, not estimated from.
@@ -102,6 +118,7 @@ impl Default for ReplayOptions {
             model: ModelDescription::generator(),
             reference: ReferencePolicy::Auto,
             progress: Observer::silent(),
+            network: NetworkChoice::Best,
         }
     }
 }
@@ -718,6 +735,15 @@ fn network_source(
                  the network"
             )),
         },
+        Method::Oe if options.network == NetworkChoice::Nearest => NetworkSource {
+            grey_box: None,
+            refit: with_output_offset(data, options, estimate),
+            said: Some(
+                "the passive network nearest the identified model, as asked (--network \
+                 nearest): rc's fit to the data was not run"
+                    .into(),
+            ),
+        },
         Method::Oe => {
             // The nearest network is judged as the network stage would print it: from
             // `oe`'s Θ re-estimated with the first sample's offset where that applies.
@@ -1178,9 +1204,19 @@ pub fn estimate_chosen(
         progress: options.progress.clone(),
         disturbance_state: Some(state),
     };
-    let estimate = pem
-        .refine(data, &fitted.estimate, &fitted.initial_states)
-        .map_err(Error::from)?;
+    // Where no predictor with the disturbance state can be fitted (no intensity gives a
+    // stable Kalman filter: a frozen stretch makes the residuals far from white, and the
+    // data offer the filter nothing to follow), the default keeps `oe` and says why:
+    // the choice is the default's, not the user's, so its failure is not theirs either.
+    let estimate = match pem.refine(data, &fitted.estimate, &fitted.initial_states) {
+        Ok(estimate) => estimate,
+        Err(e) => {
+            let reason = format!(
+                "oe's residuals are not white, but no predictor with a disturbance state could be fitted ({e}): oe kept"
+            );
+            return Ok((fitted.estimate, Some(choice(Method::Oe, reason, None))));
+        }
+    };
     let counts = data.observed_counts(&segments);
     let lr = match estimate.predictor.as_ref() {
         Some(p) if p.disturbance.is_some() => crate::estimate::LikelihoodRatio::intensity(

@@ -627,8 +627,23 @@ impl Section for TimeConstantsSection<'_> {
              time constant belongs to.",
             first + charts.len().saturating_sub(1)
         ));
+        // The charts are the measured-state model's responses; where the hidden-state model
+        // is the replay's, the report's top-level assignment is the hidden model's (another
+        // count of time constants), so the captions take the measured-state model's own.
+        let assignment = match &self.report.measured_state {
+            Some(measured) => {
+                out.paragraph(
+                    "The charts are the measured-state model's; the tables above are the \
+                     hidden-state model's, the replay's model.",
+                );
+                &measured.assignment
+            }
+            None => &self.report.assignment,
+        };
         for (i, chart) in charts.iter().enumerate() {
-            let a = &self.report.assignment[i];
+            let Some(a) = assignment.get(i) else {
+                break;
+            };
             out.figure(
                 &chart.to_svg()?,
                 &format!(
