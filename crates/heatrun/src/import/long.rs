@@ -60,8 +60,13 @@ impl<'a> LongRows<'a> {
         let mut by_tag = HashMap::new();
         let mut tags = Vec::new();
         for c in &map.columns {
+            // A map read from a file is checked for this; one built in code may not be.
             let ColumnSource::Tag(tag) = &c.source else {
-                unreachable!("a long map's columns are checked to name tags")
+                return Err(ImportError::MapValue {
+                    path: map.path.clone(),
+                    key: format!("[[column]] {}", c.source),
+                    message: "a long table's signals are picked by `tag`, not `column`".into(),
+                });
             };
             by_tag.insert(tag.clone(), tags.len());
             tags.push(TagPlan {

@@ -425,8 +425,13 @@ impl<'a> Rows<'a> {
         let time = RowTime::plan(&map.time, decimal_comma, |c| shape.find(c))?;
         let mut columns = Vec::new();
         for c in &map.columns {
+            // A map read from a file is checked for this; one built in code may not be.
             let ColumnSource::Column(column) = &c.source else {
-                unreachable!("a wide map's columns are checked to name columns")
+                return Err(ImportError::MapValue {
+                    path: map.path.clone(),
+                    key: format!("[[column]] {}", c.source),
+                    message: "a wide table's signals are picked by `column`, not `tag`".into(),
+                });
             };
             let (index, label) = shape.find(column)?;
             let quality = c
