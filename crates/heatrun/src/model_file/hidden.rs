@@ -53,25 +53,8 @@ pub(super) fn read(
     path: &Path,
 ) -> Result<(DMatrix<f64>, DMatrix<f64>, OutputMap), UseError> {
     let (p, m, n) = (outputs.len(), inputs, h.order);
-    let matrix = |rows: &[Vec<f64>], (r, c): (usize, usize), key: &'static str| {
-        if rows.len() != r || rows.iter().any(|row| row.len() != c) {
-            return Err(UseError::Shape {
-                path: path.to_owned(),
-                key,
-                found: format!(
-                    "{} rows of [{}] entries",
-                    rows.len(),
-                    rows.iter()
-                        .map(|row| row.len().to_string())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-                expected: format!("{r} × {c}"),
-                states: n,
-                inputs: m,
-            });
-        }
-        Ok(DMatrix::from_fn(r, c, |i, j| rows[i][j]))
+    let matrix = |rows: &[Vec<f64>], shape: (usize, usize), key: &'static str| {
+        super::thermal_model::matrix(rows, shape, key, path, (n, m))
     };
     let phi = matrix(&h.phi, (n, n), "hidden.phi")?;
     let gamma = matrix(&h.gamma, (n, m), "hidden.gamma")?;

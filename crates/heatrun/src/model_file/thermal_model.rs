@@ -311,7 +311,9 @@ impl ThermalModel {
     }
 }
 
-fn matrix(
+/// The `nrows × ncols` matrix of a report's `key` (rows of numbers), or the one-line
+/// error naming the key, the shape found and the one expected.
+pub(super) fn matrix(
     rows: &[Vec<f64>],
     (nrows, ncols): (usize, usize),
     key: &'static str,
