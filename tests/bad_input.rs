@@ -403,3 +403,47 @@ fn errors_say_what_to_do_next() {
     );
     assert!(!dir.path().join("o.mcap").exists());
 }
+
+/// A build without object storage (the README's) refuses a URL in one line that says
+/// how to build heatrun with it, and writes nothing.
+#[cfg(not(feature = "object-store"))]
+#[test]
+fn a_storage_url_without_the_object_store_feature_says_how_to_build_it() {
+    let dir = common::tempdir();
+    let stderr = fails_with_2(dir.path(), "s3://heat-runs/unit1.mcap");
+    assert!(
+        stderr.contains("s3://heat-runs/unit1.mcap: this heatrun was built without object storage")
+            && stderr.contains("--features object-store"),
+        "{stderr}"
+    );
+}
+
+/// A build without Parquet refuses a Parquet table in one line, exit 2, nothing written.
+#[cfg(not(feature = "parquet"))]
+#[test]
+fn a_parquet_table_without_the_parquet_feature_says_how_to_build_it() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    // Parquet's magic bytes at both ends are all the build without it looks at.
+    std::fs::write(d.join("export.parquet"), b"PAR1\0\0\0\0PAR1").unwrap();
+    std::fs::write(
+        d.join("map.toml"),
+        "[time]\ncolumn = \"time\"\n[[column]]\ncolumn = \"T\"\nchannel = \"T\"\nunit = \"degC\"\n",
+    )
+    .unwrap();
+    for args in [
+        &["import", "export.parquet", "--map", "map.toml", "--out", "run.mcap"][..],
+        &["import", "--guess", "export.parquet"][..],
+    ] {
+        let out = heatrun(args, d);
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+        assert!(
+            stderr.contains("export.parquet: a Parquet table, and this heatrun was built without Parquet")
+                && stderr.contains("--features parquet"),
+            "{stderr}"
+        );
+        assert!(!d.join("run.mcap").exists());
+    }
+}

@@ -77,6 +77,8 @@ fn a_field_winding_seen_only_through_its_resistance_is_a_fourth_state_in_every_o
             "report.json",
             "--rrd",
             "field.rrd",
+            "--network",
+            "nearest",
             "-q",
         ],
         dir.path(),

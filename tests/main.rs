@@ -19,12 +19,14 @@
 //! | [`spec`] | `replay --spec`: a known two-node network through a TOML spec; bad specs |
 //! | [`html`] | `replay --html`: the page parsed, its sections, figures and tables; nothing outside it |
 //! | [`monitor`] | `heatrun monitor`: healthy recordings raise nothing, a fouled cooler an alarm in time; bad input |
-//! | [`tables`] | long tables (sorted by time, grouped by tag) and Parquet (wide, long) imported as the wide text export; a night run in Zurich's wall-clock time through the clock change, against its truth; a skipped hour |
+//! | [`tables`] | long tables (sorted by time, grouped by tag) imported as the wide text export; a night run in Zurich's wall-clock time through the clock change, against its truth; a skipped hour; a Parquet table refused in one line by a build without Parquet |
+//! | `parquet` | (feature `parquet`) Parquet tables (wide, long) imported as the text export; local timestamps through the clock change |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
-//! | [`object_store`] | `s3://` recordings, prefixes as fleets, `--index`, `fleet summary` and store errors, against moto's S3 server on loopback |
+//! | `object_store` | (feature `object-store`) `s3://` recordings, prefixes as fleets, `--index`, `fleet summary` and store errors, against moto's S3 server on loopback |
 //!
 //! A new test file `tests/NAME.rs` becomes `mod NAME;` here; shared helpers are in
-//! [`common`].
+//! [`common`]. The two feature-gated files run with `cargo test --release --all-features`
+//! (as `.ci/run` does); the README's `cargo test --release` builds without them.
 
 mod common;
 
@@ -44,9 +46,12 @@ mod import;
 mod layouts;
 mod monitor;
 mod network_rc;
+#[cfg(feature = "object-store")]
 mod object_store;
 mod outputs;
 mod paper;
+#[cfg(feature = "parquet")]
+mod parquet;
 mod predict;
 mod recovery;
 mod spec;

@@ -1443,6 +1443,8 @@ mod tests {
                 &path,
                 &ReplayOptions {
                     choose_estimator: choose,
+                    // The estimator's bars only: rc's network fit has no part in them.
+                    network: NetworkChoice::Nearest,
                     ..ReplayOptions::default()
                 },
             )

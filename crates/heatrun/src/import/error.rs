@@ -156,6 +156,15 @@ pub enum ImportError {
         /// What the CSV reader found.
         message: String,
     },
+    /// A Parquet table, given to a build without the `parquet` feature.
+    #[error(
+        "{path}: a Parquet table, and this heatrun was built without Parquet; build it with \
+         `cargo build --release --features parquet` (or export the table as CSV)"
+    )]
+    ParquetNotBuilt {
+        /// The table.
+        path: PathBuf,
+    },
     /// The table holds no data rows.
     #[error("{path}: no data rows")]
     NoData {

@@ -5,7 +5,9 @@ use std::path::Path;
 
 use super::error::ImportError;
 use super::map::{is_channel_name, Delimiter, InputLayout};
+#[cfg(feature = "parquet")]
 use super::parquet::ParquetTable;
+#[cfg(feature = "parquet")]
 use super::source::RowSource;
 use super::table::{self, Table};
 use super::time;
@@ -30,7 +32,7 @@ struct Column {
 /// time to fill in) and one `[[column]]` per other column, named after the header
 /// with the unit it gives (`T1 (degC)`, `Q1 [%]`).
 pub fn guess_map(input: &Path) -> Result<String, ImportError> {
-    if super::parquet::is_parquet(input)? {
+    if super::source::is_parquet(input)? {
         return guess_parquet(input);
     }
     let lines = table::first_lines(input, 0, None)?;
@@ -83,8 +85,17 @@ pub fn guess_map(input: &Path) -> Result<String, ImportError> {
     Ok(out)
 }
 
+/// A build without the `parquet` feature refuses a Parquet table in one line.
+#[cfg(not(feature = "parquet"))]
+fn guess_parquet(input: &Path) -> Result<String, ImportError> {
+    Err(ImportError::ParquetNotBuilt {
+        path: input.to_owned(),
+    })
+}
+
 /// The map of a Parquet file: its columns from the schema, the first rows' cells as
 /// text; no `[input]` text keys.
+#[cfg(feature = "parquet")]
 fn guess_parquet(input: &Path) -> Result<String, ImportError> {
     let mut table = ParquetTable::open(input)?;
     let header = table.header();

@@ -28,6 +28,7 @@ mod error;
 mod guess;
 mod long;
 mod map;
+#[cfg(feature = "parquet")]
 mod parquet;
 mod row_time;
 mod source;
@@ -164,25 +165,39 @@ struct Opened {
     decimal_comma: bool,
 }
 
+/// A Parquet table with its header and first data row.
+#[cfg(feature = "parquet")]
+fn open_parquet(input: &Path) -> Result<Opened, ImportError> {
+    let mut table = parquet::ParquetTable::open(input)?;
+    let header = table.header();
+    if !table.next_row()? {
+        return Err(ImportError::NoData {
+            path: input.to_owned(),
+        });
+    }
+    Ok(Opened {
+        fields: header.len(),
+        header: Some(header),
+        source: Box::new(table),
+        // The schema names the columns; messages point at the first row.
+        header_place: Place::Row(1),
+        decimal_comma: false,
+    })
+}
+
+/// A build without the `parquet` feature refuses a Parquet table in one line.
+#[cfg(not(feature = "parquet"))]
+fn open_parquet(input: &Path) -> Result<Opened, ImportError> {
+    Err(ImportError::ParquetNotBuilt {
+        path: input.to_owned(),
+    })
+}
+
 /// Opens a Parquet file (known by its magic bytes) or a delimited text table, and
 /// reads its header and first data row.
 fn open(input: &Path, map: &ImportMap) -> Result<Opened, ImportError> {
-    if parquet::is_parquet(input)? {
-        let mut table = parquet::ParquetTable::open(input)?;
-        let header = table.header();
-        if !table.next_row()? {
-            return Err(ImportError::NoData {
-                path: input.to_owned(),
-            });
-        }
-        return Ok(Opened {
-            fields: header.len(),
-            header: Some(header),
-            source: Box::new(table),
-            // The schema names the columns; messages point at the first row.
-            header_place: Place::Row(1),
-            decimal_comma: false,
-        });
+    if source::is_parquet(input)? {
+        return open_parquet(input);
     }
     let lines = table::first_lines(input, map.input.skip_lines, map.input.comment)?;
     let dialect = table::resolve_dialect(&map.input, &lines);

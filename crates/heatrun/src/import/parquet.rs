@@ -5,7 +5,6 @@
 //! times for the map's zone).
 
 use std::fs::File;
-use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
 use parquet::basic::{LogicalType, TimeUnit};
@@ -16,16 +15,6 @@ use parquet::record::Field;
 use super::error::{ImportError, Place};
 use super::source::{Cell, RowSource};
 use super::time::Stamp;
-
-/// Whether the file starts with Parquet's magic bytes `PAR1`.
-pub fn is_parquet(path: &Path) -> Result<bool, ImportError> {
-    let mut magic = [0u8; 4];
-    let mut file = File::open(path).map_err(|error| ImportError::Read {
-        path: path.to_owned(),
-        error,
-    })?;
-    Ok(file.read_exact(&mut magic).is_ok() && &magic == b"PAR1")
-}
 
 /// How a column's integers are to be read.
 #[derive(Debug, Clone, Copy)]

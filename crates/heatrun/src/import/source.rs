@@ -1,11 +1,27 @@
 //! A table as rows of cells, whatever it is stored in: the delimited text tables of
-//! [`super::table`] and the Parquet files of [`super::parquet`] both are a
+//! [`super::table`] and the Parquet files of `super::parquet` (the `parquet` feature) both are a
 //! [`RowSource`], which the wide and the long imports read alike.
+
+use std::io::Read as _;
+use std::path::Path;
 
 use super::error::{ImportError, Place};
 use super::time::Stamp;
 
+/// Whether the file starts with Parquet's magic bytes `PAR1` (known whether or not this
+/// build reads Parquet, so that a build without it can say so).
+pub fn is_parquet(path: &Path) -> Result<bool, ImportError> {
+    let mut magic = [0u8; 4];
+    let mut file = std::fs::File::open(path).map_err(|error| ImportError::Read {
+        path: path.to_owned(),
+        error,
+    })?;
+    Ok(file.read_exact(&mut magic).is_ok() && &magic == b"PAR1")
+}
+
 /// One cell of a row, as the table holds it.
+// Numbers, times and nulls come from Parquet alone: a build without it never makes them.
+#[cfg_attr(not(feature = "parquet"), allow(dead_code))]
 #[derive(Debug, Clone, PartialEq)]
 pub enum Cell<'a> {
     /// Text, as a delimited table holds every cell (and Parquet its strings).

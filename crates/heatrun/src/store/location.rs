@@ -132,8 +132,9 @@ fn parse_url(text: &str) -> Result<Url, StoreError> {
 
 /// A URL path segment as its object's name (`%20` → space).
 fn percent_decoded(segment: &str) -> String {
-    object_store::path::Path::from_url_path(segment)
-        .map(|p| p.to_string())
+    percent_encoding::percent_decode_str(segment)
+        .decode_utf8()
+        .map(|name| name.into_owned())
         .unwrap_or_else(|_| segment.to_owned())
 }
 

@@ -12,10 +12,20 @@
 //! (for S3: `AWS_ACCESS_KEY_ID`, `AWS_SECRET_ACCESS_KEY`, `AWS_REGION`, `AWS_ENDPOINT_URL`,
 //! and `AWS_ALLOW_HTTP=true` for a plain-http endpoint). Errors name the URL and what the
 //! store said ([`StoreError`]).
+//!
+//! The stores' clients are the `object-store` feature (off by default, to keep a clean
+//! build of the README's commands within their budget); a build without it reads and
+//! writes local paths alike and refuses a URL in one line ([`StoreError::NotBuilt`]).
 
 mod error;
 mod location;
+#[cfg(feature = "object-store")]
 mod remote;
+#[cfg(not(feature = "object-store"))]
+#[path = "without_remote.rs"]
+mod remote;
+#[cfg(feature = "object-store")]
+mod said;
 
 use std::io::{Read, Seek, SeekFrom};
 use std::ops::Range;
