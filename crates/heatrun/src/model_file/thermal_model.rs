@@ -97,7 +97,9 @@ pub struct ThermalModel {
 #[derive(Debug, Clone, Default)]
 pub struct ModelUncertainty {
     /// C_Θ, the covariance of Θ = [Φ Γ] laid out row by row (n(n+m) square), in the
-    /// model's units; `None` where the report's method gives none.
+    /// model's units; for a model with hidden states, of θ_h = [Φ Γ; C D] row by row
+    /// ((n + p)(n + m) square, the report's `hidden.parameter_covariance`); `None` where
+    /// the report gives none.
     pub theta_covariance: Option<DMatrix<f64>>,
     /// The process noise a step adds to an open-loop prediction's state, Q = K Λ Kᵀ
     /// (n × n, model units), from the one-step predictor's gain K and innovations'
@@ -190,10 +192,11 @@ impl ThermalModel {
         };
         per_state(&error.rmse_k, "fit.rmse_k")?;
         per_state(&error.max_abs_error_k, "fit.max_abs_error_k")?;
-        let uncertainty = match hidden {
-            // The report carries no covariance of the hidden model's parameters, nor a
-            // predictor of its states: no band or interval is made for it.
-            Some(_) => ModelUncertainty {
+        let uncertainty = match &hidden {
+            // The covariance of the hidden model's own θ_h = [Φ Γ; C D] where the report
+            // carries it (no predictor of its states: no process noise).
+            Some(h) => ModelUncertainty {
+                theta_covariance: h.covariance.clone(),
                 sensor_noise_k: error.rmse_k.clone(),
                 field_line_rms_k: report
                     .estimation
@@ -205,7 +208,7 @@ impl ThermalModel {
             None => model_uncertainty(report, path, &error.rmse_k)?,
         };
         let (phi, gamma, output) = match hidden {
-            Some((phi, gamma, output)) => (phi, gamma, Some(output)),
+            Some(h) => (h.phi, h.gamma, Some(h.output)),
             None => (phi, gamma, None),
         };
         let mut model = ThermalModel {
