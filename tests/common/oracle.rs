@@ -28,7 +28,8 @@ pub fn monitor_whole_file(
 ) -> Result<MonitorResult> {
     let description = description_of(model)?;
     let in_file = |e: heatrun::signals::SignalError| Error::from(e).in_recording(recording);
-    let (summary, decimated) = read(recording, model, &description, None)?;
+    let (summary, mut decimated) = read(recording, model, &description, None)?;
+    heatrun::monitor::with_model_field_line(model, &mut decimated);
     let signals =
         signals::compute(&description, &decimated, model.nameplate.as_ref()).map_err(in_file)?;
     let references = references(model, &signals, &decimated);

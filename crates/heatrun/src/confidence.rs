@@ -2,13 +2,15 @@
 //! `rating`, `predict` and `monitor` share to give their figures an interval.
 //!
 //! Three sources, as the report carries them ([`ModelUncertainty`]):
-//! - the parameters: C_Θ, the covariance of Θ = [Φ Γ] row by row, propagated by
+//! - the parameters: C_Θ, the covariance of Θ = [Φ Γ] row by row (of θ_h = [Φ Γ; C D]
+//!   for a model with hidden states, y = C x + D u: `hidden::covariance`), propagated by
 //!   linearisation (the delta method), var g ≈ ∇gᵀ C_Θ ∇g, with ∇g by central differences
 //!   of the whole map Θ ↦ g ([`linearise`]) where the map is nonlinear (losses at the
 //!   predicted temperatures, a bisection, a time to a limit), or by the exact forward
 //!   sensitivities of the recursion x(k+1) = Φ x(k) + Γ u(k) where the inputs are
 //!   measured ([`OpenLoopVariance`]);
-//! - the initial state, read from sensors with noise σ_j: P(0) = diag(σ_j²);
+//! - the initial state, read from sensors with noise σ_j: P(0) = diag(σ_j²) (C⁺ diag(σ_j²)
+//!   C⁺ᵀ for a start x(0) = C⁺ (y − D u) of a model with hidden states);
 //! - the process noise of a model with a one-step predictor (`pem`): P(k+1) = Φ P(k) Φᵀ
 //!   + K Λ Kᵀ.
 //!
@@ -29,35 +31,37 @@ use crate::model_file::{ModelUncertainty, ThermalModel, UseError};
 
 pub use crate::thermal::Z95;
 
-/// Θ of `model`, laid out as the report's `theta_covariance`: state i's row of Φ, then
-/// of Γ.
+/// Θ of `model`, laid out as its covariance (`ModelUncertainty::theta_covariance`): the
+/// rows of [Φ Γ] (the report's `theta_covariance`), and for a model with hidden states
+/// then the rows of [C D] (θ_h = [Φ Γ; C D] row by row, its `hidden.parameter_covariance`).
 pub fn theta_of(model: &ThermalModel) -> Vec<f64> {
     let (n, m) = (model.phi.nrows(), model.gamma.ncols());
-    (0..n)
+    let rows = n + model.output.as_ref().map_or(0, |o| o.c.nrows());
+    (0..rows)
         .flat_map(|i| (0..n + m).map(move |j| (i, j)))
-        .map(|(i, j)| {
-            if j < n {
-                model.phi[(i, j)]
-            } else {
-                model.gamma[(i, j - n)]
-            }
+        .map(|(i, j)| match (i < n, j < n) {
+            (true, true) => model.phi[(i, j)],
+            (true, false) => model.gamma[(i, j - n)],
+            // Rows past n exist only with an output map.
+            (false, true) => model.output.as_ref().map_or(0.0, |o| o.c[(i - n, j)]),
+            (false, false) => model.output.as_ref().map_or(0.0, |o| o.d[(i - n, j - n)]),
         })
         .collect()
 }
 
-/// `model` with Φ and Γ from `theta` (laid out as [`theta_of`]); everything else, the
-/// time constants included, as it was.
+/// `model` with Φ and Γ (and C, D of a model with hidden states) from `theta` (laid out
+/// as [`theta_of`]); everything else, the time constants included, as it was.
 pub fn with_theta(model: &ThermalModel, theta: &[f64]) -> ThermalModel {
     let (n, m) = (model.phi.nrows(), model.gamma.ncols());
     let mut out = model.clone();
-    for i in 0..n {
-        for j in 0..n + m {
-            let v = theta[i * (n + m) + j];
-            if j < n {
-                out.phi[(i, j)] = v;
-            } else {
-                out.gamma[(i, j - n)] = v;
-            }
+    for (k, &v) in theta.iter().enumerate() {
+        let (i, j) = (k / (n + m), k % (n + m));
+        match (&mut out.output, i < n, j < n) {
+            (_, true, true) => out.phi[(i, j)] = v,
+            (_, true, false) => out.gamma[(i, j - n)] = v,
+            (Some(o), false, true) => o.c[(i - n, j)] = v,
+            (Some(o), false, false) => o.d[(i - n, j - n)] = v,
+            (None, false, _) => {}
         }
     }
     out
@@ -153,13 +157,17 @@ pub fn quantile(values: &mut [f64], q: f64) -> f64 {
 }
 
 /// The variance of an open-loop prediction x̂(k+1) = Φ x̂(k) + Γ u(k) with measured
-/// inputs, carried step by step beside it:
+/// inputs, and of its outputs ŷ = C x̂ + D u (ŷ = x̂ without hidden states), carried step
+/// by step beside it:
 ///
 /// - the parameters' share by the exact forward sensitivities S(k) = ∂x̂(k)/∂Θ,
 ///   S(k+1) = Φ S(k) + E(k), E(k) holding z(k) = [x̂(k); u(k)] in state i's row under
-///   Θ's entries of that row, so var = diag(S C_Θ Sᵀ);
-/// - the start's and the process noise's share, P(0) = diag(σ_j² / θ_base²),
-///   P(k+1) = Φ P(k) Φᵀ + Q (Q = K Λ Kᵀ where the model has it, else 0).
+///   Θ's entries of that row; the outputs' ∂ŷ/∂Θ = C S + F(k), F(k) holding z(k) in
+///   output r's row under the entries of row r of [C D]; var = diag((∂ŷ/∂Θ) C_Θ (∂ŷ/∂Θ)ᵀ);
+/// - the start's and the process noise's share, P(0) = C⁺ diag(σ_j² / θ_base²) C⁺ᵀ
+///   (the start x̂(0) = C⁺ (y(0) − D u(0)) from the measured outputs; diag(σ²) for a
+///   measured-state model), P(k+1) = Φ P(k) Φᵀ + Q (Q = K Λ Kᵀ where the model has it,
+///   else 0), the outputs' C P Cᵀ.
 ///
 /// In the model's units (per unit of the temperature base where scaled).
 #[derive(Debug, Clone)]
@@ -169,14 +177,58 @@ pub struct OpenLoopVariance {
 }
 
 impl OpenLoopVariance {
-    /// The variance at a (re)start from the measured state, whose sensors' noise is
-    /// `start_variance` per state (model units²): no parameter share yet.
+    /// The variance at a (re)start from the measured outputs, whose sensors' noise is
+    /// `start_variance` per output (model units²): no parameter share yet.
     pub fn start(model: &ThermalModel, start_variance: &[f64]) -> OpenLoopVariance {
-        let (n, m) = (model.phi.nrows(), model.gamma.ncols());
+        let n = model.phi.nrows();
+        let outputs = DMatrix::from_diagonal(&DVector::from_column_slice(start_variance));
+        let state = match &model.output {
+            Some(o) => {
+                let pinv = o
+                    .c
+                    .clone()
+                    .pseudo_inverse(1e-12)
+                    .unwrap_or_else(|_| DMatrix::zeros(o.c.ncols(), o.c.nrows()));
+                &pinv * outputs * pinv.transpose()
+            }
+            None => outputs,
+        };
         OpenLoopVariance {
-            sensitivity: DMatrix::zeros(n, n * (n + m)),
-            state: DMatrix::from_diagonal(&DVector::from_column_slice(start_variance)),
+            sensitivity: DMatrix::zeros(n, theta_of(model).len()),
+            state,
         }
+    }
+
+    /// The start's own sensitivity for a model with hidden states: x̂(0) = C⁺ (y − D u)
+    /// moves with C and D, S(0) = ∂x̂(0)/∂Θ by central differences over the entries of
+    /// [C D] with a variance (steps of 10⁻⁶ of each entry, at least 10⁻⁹; x̂(0) is smooth
+    /// in C of full row rank). Nothing changes without hidden states, or without C_Θ.
+    pub fn with_start_sensitivity(
+        mut self,
+        model: &ThermalModel,
+        y: &DVector<f64>,
+        u: &DVector<f64>,
+    ) -> OpenLoopVariance {
+        let (Some(_), Some(cov)) = (&model.output, &model.uncertainty.theta_covariance) else {
+            return self;
+        };
+        let n = model.phi.nrows();
+        let theta = theta_of(model);
+        let first = n * (n + model.gamma.ncols());
+        for q in first..theta.len() {
+            if !(cov[(q, q)] > 0.0) {
+                continue;
+            }
+            let h = (1e-6 * theta[q].abs()).max(1e-9);
+            let mut step = theta.clone();
+            step[q] = theta[q] + h;
+            let plus = with_theta(model, &step).state_from_outputs(y, u);
+            step[q] = theta[q] - h;
+            let minus = with_theta(model, &step).state_from_outputs(y, u);
+            self.sensitivity
+                .set_column(q, &((plus - minus) / (2.0 * h)));
+        }
+        self
     }
 
     /// One step with the state x̂(k) and input u(k) the prediction stepped with.
@@ -201,20 +253,39 @@ impl OpenLoopVariance {
         }
     }
 
-    /// Each state's prediction variance now, model units²: the parameters' share
-    /// (where the report has C_Θ) plus the start's and the process noise's.
-    pub fn variances(&self, uncertainty: &ModelUncertainty) -> Vec<f64> {
-        let n = self.state.nrows();
+    /// Each measured output's prediction variance now, model units², at the state x̂
+    /// and input u of this instant: the parameters' share (where the report has C_Θ)
+    /// plus the start's and the process noise's.
+    pub fn variances(
+        &self,
+        model: &ThermalModel,
+        uncertainty: &ModelUncertainty,
+        x: &DVector<f64>,
+        u: &DVector<f64>,
+    ) -> Vec<f64> {
+        let (n, m) = (model.phi.nrows(), model.gamma.ncols());
+        let (outputs, state) = match &model.output {
+            Some(o) => {
+                let mut s = &o.c * &self.sensitivity;
+                for r in 0..o.c.nrows() {
+                    for (j, z) in x.iter().chain(u.iter()).enumerate() {
+                        s[(r, (n + r) * (n + m) + j)] += z;
+                    }
+                }
+                (s, &o.c * &self.state * o.c.transpose())
+            }
+            None => (self.sensitivity.clone(), self.state.clone()),
+        };
         let parameters = uncertainty.theta_covariance.as_ref().map(|c| {
-            let sc = &self.sensitivity * c;
-            (0..n)
-                .map(|i| sc.row(i).dot(&self.sensitivity.row(i)))
+            let sc = &outputs * c;
+            (0..outputs.nrows())
+                .map(|i| sc.row(i).dot(&outputs.row(i)))
                 .collect::<Vec<_>>()
         });
-        (0..n)
+        (0..outputs.nrows())
             .map(|i| {
                 let p = parameters.as_ref().map_or(0.0, |v| v[i]);
-                (p + self.state[(i, i)]).max(0.0)
+                (p + state[(i, i)]).max(0.0)
             })
             .collect()
     }

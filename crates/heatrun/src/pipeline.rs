@@ -169,6 +169,10 @@ pub struct HiddenReplay {
     /// state at the replay's steady-state input; `None` where Φ has no real logarithm
     /// (the report then gives the time constants of Φ's eigenvalues alone).
     pub analysis: Option<crate::hidden::analysis::HiddenAnalysis>,
+    /// The covariance of its parameters at the optimum (`hidden::covariance`), which
+    /// predict, rating and monitor carry into their bands; `None` where no output entry
+    /// was observed.
+    pub covariance: Option<crate::hidden::covariance::HiddenCovariance>,
 }
 
 /// Everything a replay produced, stage by stage.
@@ -685,10 +689,12 @@ fn identify_hidden(
     let estimation_range = 0..estimation.len();
     let validation = validate_with(prepared, &estimation_range, options, &fit_on)?;
     let analysis = crate::hidden::analysis::analyse(&estimate.model, estimation, steady_input).ok();
+    let covariance = crate::hidden::covariance::covariance(estimation, &estimate);
     Ok(Some(HiddenReplay {
         fit: fit_on(estimation, base),
         validation,
         analysis,
+        covariance,
         estimate,
     }))
 }

@@ -257,17 +257,18 @@ pub fn rises_at_rated(model: &ThermalModel) -> Result<Vec<f64>, UseError> {
 }
 
 /// Rates the machine the model describes, with the 95 % intervals of the continuous
-/// rating and the overload times where the report carries the covariance of Θ (the
-/// propagation is `interval`'s, see [`PartLimit`]).
+/// rating and the overload times where the report carries the covariance of Θ (of
+/// θ_h = [Φ Γ; C D] for a model with hidden states, its parts' temperatures the outputs
+/// y = C x + D u; the propagation is `interval`'s, see [`PartLimit`]).
 pub fn rate(model: &ThermalModel, o: &RatingOptions) -> Result<Rating, UseError> {
     let mut rating = rate_nominal(model, o)?;
     match &model.uncertainty.theta_covariance {
-        _ if model.output.is_some() => rating.warnings.push(
+        Some(c) => interval::add_intervals(&mut rating, model, o, c)?,
+        None if model.output.is_some() => rating.warnings.push(
             "the model has hidden states and the report carries no covariance of their \
-             parameters: the rating has no intervals"
+             parameters (`hidden.parameter_covariance`): the rating has no intervals"
                 .into(),
         ),
-        Some(c) => interval::add_intervals(&mut rating, model, o, c)?,
         None => rating.warnings.push(
             "the report carries no covariance of Θ (`theta_covariance`): the rating has no \
              intervals"

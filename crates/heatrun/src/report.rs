@@ -16,7 +16,9 @@ use crate::model_file::document::{
     LeftOutEntry, NetworkEntry, RecordingEntry, ResidualEntry, SteadyStateEntry, UncertaintyEntry,
     UnobservedEntry, ValidationEntry,
 };
-use crate::model_file::document::{HiddenCandidateEntry, HiddenEntry, MeasuredStateEntry};
+use crate::model_file::document::{
+    HiddenCandidateEntry, HiddenCovarianceEntry, HiddenEntry, MeasuredStateEntry,
+};
 use crate::model_file::{Report, PROFILE};
 use crate::pipeline::Replay;
 use crate::recording::format_time;
@@ -203,6 +205,12 @@ fn hidden_entry(h: &crate::pipeline::HiddenReplay, outputs: &[String]) -> Hidden
         validation: h.validation.as_ref().map(|v| ValidationEntry {
             source: v.source.clone(),
             fit: FitEntry::from(&v.fit),
+        }),
+        parameter_covariance: h.covariance.as_ref().map(|c| HiddenCovarianceEntry {
+            layout: crate::model_file::HIDDEN_COVARIANCE_LAYOUT.into(),
+            matrix: rows(&c.covariance),
+            output_noise_variance: c.noise_variance.clone(),
+            basis_directions: c.basis_directions,
         }),
     }
 }

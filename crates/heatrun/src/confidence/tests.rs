@@ -89,7 +89,7 @@ fn the_open_loop_variance_follows_the_closed_form_of_a_scalar_model() {
         let dxdb = u * (1.0 - a.powi(k)) / (1.0 - a);
         let dxda = b * u * (1.0 - a.powi(k) - kf * a.powi(k - 1) * (1.0 - a)) / (1.0 - a).powi(2);
         let want = (dxda * sd[0]).powi(2) + (dxdb * sd[1]).powi(2) + a.powi(2 * k) * p0;
-        let got = v.variances(&model.uncertainty)[0];
+        let got = v.variances(&model, &model.uncertainty, &x, &uu)[0];
         assert!((got / want - 1.0).abs() < 1e-10, "k {k}: {got} vs {want}");
     }
 }
@@ -106,7 +106,78 @@ fn process_noise_accumulates_to_its_stationary_variance() {
         v.step(&model, &model.uncertainty, &x, &u);
     }
     let want = 0.01 / (1.0 - 0.81);
-    assert!((v.variances(&model.uncertainty)[0] / want - 1.0).abs() < 1e-12);
+    assert!((v.variances(&model, &model.uncertainty, &x, &u)[0] / want - 1.0).abs() < 1e-12);
+}
+
+/// Two states, one of them hidden, read through y = [1 0.4] x + 0.2 u (C and D free),
+/// one input; C_θ over θ_h = [Φ Γ; C D] row by row (3 × 3 + 3 = 9 entries) a seeded
+/// positive definite matrix.
+fn hidden_two_state() -> ThermalModel {
+    let mut model = one_state(0.9, 0.1, [0.0, 0.0]);
+    model.phi = DMatrix::from_row_slice(2, 2, &[0.92, 0.05, 0.03, 0.97]);
+    model.gamma = DMatrix::from_row_slice(2, 1, &[0.08, 0.02]);
+    model.output = Some(crate::model_file::OutputMap {
+        c: DMatrix::from_row_slice(1, 2, &[1.0, 0.4]),
+        d: DMatrix::from_row_slice(1, 1, &[0.2]),
+        state_names: vec!["hidden_1".into(), "hidden_2".into()],
+    });
+    let a = DMatrix::from_fn(9, 9, |i, j| ((i * 7 + j * 3) % 11) as f64 / 11.0 - 0.45);
+    model.uncertainty.theta_covariance = Some((&a * a.transpose() + DMatrix::identity(9, 9)) * 1e-6);
+    model
+}
+
+#[test]
+fn a_hidden_models_layout_adds_the_rows_of_c_and_d() {
+    let model = hidden_two_state();
+    assert_eq!(
+        theta_of(&model),
+        vec![0.92, 0.05, 0.08, 0.03, 0.97, 0.02, 1.0, 0.4, 0.2]
+    );
+    let back = with_theta(&model, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
+    let o = back.output.as_ref().unwrap();
+    assert_eq!(o.c, DMatrix::from_row_slice(1, 2, &[7.0, 8.0]));
+    assert_eq!(o.d, DMatrix::from_row_slice(1, 1, &[9.0]));
+    assert_eq!(back.gamma, DMatrix::from_row_slice(2, 1, &[3.0, 6.0]));
+}
+
+#[test]
+fn a_hidden_models_output_variance_is_the_delta_method_of_its_simulation() {
+    // The recursion's exact sensitivities against central differences of the whole
+    // open-loop simulation y(k) = C x(k) + D u(k) from x(0) = C⁺ (y0 − D u(0)), over a
+    // varying input; no start noise (its share is checked apart below).
+    let model = hidden_two_state();
+    let cov = model.uncertainty.theta_covariance.clone().unwrap();
+    let input = |k: usize| DVector::from_element(1, if k % 20 < 10 { 3.0 } else { 0.5 });
+    let y0 = DVector::from_element(1, 0.7);
+    let simulate = |m: &ThermalModel| -> Result<Vec<f64>, UseError> {
+        let mut x = m.state_from_outputs(&y0, &input(0));
+        let mut out = Vec::new();
+        for k in 0..50 {
+            out.push(m.outputs(&x, &input(k))[0]);
+            x = &m.phi * &x + &m.gamma * input(k);
+        }
+        Ok(out)
+    };
+    let want = linearise(&model, &cov, simulate).unwrap().variances(&cov);
+    let mut v =
+        OpenLoopVariance::start(&model, &[0.0]).with_start_sensitivity(&model, &y0, &input(0));
+    let mut x = model.state_from_outputs(&y0, &input(0));
+    for (k, want) in want.iter().enumerate() {
+        let got = v.variances(&model, &model.uncertainty, &x, &input(k))[0];
+        assert!(
+            (got - want).abs() < 1e-4 * want + 1e-15,
+            "k {k}: {got} vs {want}"
+        );
+        v.step(&model, &model.uncertainty, &x, &input(k));
+        x = &model.phi * &x + &model.gamma * input(k);
+    }
+    // The start's share: C C⁺ σ² C⁺ᵀ Cᵀ = σ² at the start, the outputs read back.
+    let mut start = OpenLoopVariance::start(&model, &[0.0025]);
+    let mut none = model.clone();
+    none.uncertainty.theta_covariance = None;
+    let at0 = start.variances(&none, &none.uncertainty, &x, &input(0))[0];
+    assert!((at0 / 0.0025 - 1.0).abs() < 1e-12, "{at0}");
+    start.step(&none, &none.uncertainty, &x, &input(0));
 }
 
 #[test]

@@ -18,7 +18,9 @@
 //!   held-back tail and head, each from a model of the rest), or given.
 //!
 //! Where it is the replay's model, [`analysis`] gives its time constants, the measured
-//! outputs' sensitivities to them and its steady state.
+//! outputs' sensitivities to them and its steady state; [`covariance`] the covariance
+//! of its parameters (Gauss–Newton at the optimum, the changes of basis left out), which
+//! the bands and intervals of the uses of the model carry through y = C x + D u.
 //!
 //! Its input is the estimators' [`IdentificationData`] (its p columns are the measured
 //! outputs; an unobserved entry is left out of every comparison); its output a
@@ -30,6 +32,7 @@ use serde::Serialize;
 use crate::estimate::IdentificationData;
 
 pub mod analysis;
+pub mod covariance;
 pub mod order;
 pub mod refine;
 pub mod subspace;

@@ -366,6 +366,83 @@ pub fn refine(
     })
 }
 
+/// The simulation errors of `model` on `data` linearised in its parameters: what
+/// the covariance of a refined model is made from (`super::covariance`).
+#[derive(Debug, Clone)]
+pub(crate) struct Linearised {
+    /// ∂(y − ŷ)/∂θ, one row per observed output entry (segment by segment, instant by
+    /// instant, output by output), unweighted; the columns θ laid out as `refine` lays
+    /// them out: Φ row by row (n²), Γ row by row (n·m), C row by row (p·n) where free,
+    /// D row by row (p·m) where estimated, then each segment's x0 (n each).
+    pub jacobian: DMatrix<f64>,
+    /// y − ŷ per row.
+    pub residuals: Vec<f64>,
+    /// The output each row compares.
+    pub outputs: Vec<usize>,
+}
+
+/// [`Linearised`] at `model` with each segment's initial state `initial_states` (one per
+/// `data.segments()`), the parameters free as `refine` frees them (`output_matrix`,
+/// `feedthrough`). The same exact sensitivities LM used, with unit weights.
+pub(crate) fn linearised_at(
+    data: &IdentificationData,
+    model: &HiddenStateModel,
+    initial_states: &[DVector<f64>],
+    output_matrix: OutputMatrix,
+    feedthrough: bool,
+) -> Linearised {
+    let segments = data.segments();
+    let (n, m, p) = (model.order(), model.gamma.ncols(), model.c.nrows());
+    let layout = Layout {
+        n,
+        m,
+        p,
+        free_c: output_matrix == OutputMatrix::Free,
+        feedthrough,
+        segments: segments.len(),
+    };
+    let mut params = DVector::zeros(layout.len());
+    let mut put = |at: usize, mat: &DMatrix<f64>| {
+        for (i, row) in mat.row_iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                params[at + i * mat.ncols() + j] = *v;
+            }
+        }
+    };
+    put(0, &model.phi);
+    put(layout.gamma(), &model.gamma);
+    if layout.free_c {
+        put(layout.c(), &model.c);
+    }
+    if feedthrough {
+        put(layout.d(), &model.d);
+    }
+    for (s, x0) in initial_states.iter().enumerate().take(layout.segments) {
+        params.rows_mut(layout.x0(s), n).copy_from(x0);
+    }
+    let problem = Problem {
+        data,
+        segments,
+        layout,
+        fixed_c: model.c.clone(),
+        sqrt_w: vec![1.0; p],
+        params,
+        radius_limit: 1.0,
+    };
+    let at = &problem;
+    let outputs = at
+        .segments
+        .iter()
+        .flat_map(|seg| seg.clone())
+        .flat_map(|k| (0..p).filter(move |&j| at.compared(k, j)))
+        .collect();
+    Linearised {
+        jacobian: problem.jacobian_of(model),
+        residuals: problem.residuals_of(model),
+        outputs,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -123,7 +123,31 @@ pub struct HiddenEntry {
     /// Fit on held-out data or another recording, where the replay validates.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub validation: Option<ValidationEntry>,
+    /// The covariance of its parameters, where the replay made one (absent in reports
+    /// before it): what predict, rating and monitor carry into their 95 % bands.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parameter_covariance: Option<HiddenCovarianceEntry>,
 }
+
+/// The covariance of a hidden-state model's parameters at the output-error optimum,
+/// Gauss–Newton: C_θ = (Σ J_kjᵀ J_kj / σ̂_j²)⁺, the changes of basis that leave the outputs
+/// unchanged left out of the pseudo-inverse (`heatrun::hidden::covariance`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct HiddenCovarianceEntry {
+    /// How the parameters are laid out: "[phi gamma; c d] row by row", entry (i, j) of
+    /// that (n + p) × (n + m) matrix at index i·(n + m) + j.
+    pub layout: String,
+    /// C_θ, (n + p)(n + m) square, rows; model units (per unit where scaled). The rows and
+    /// columns of entries held fixed (C = [I 0], D = 0) are zero.
+    pub matrix: Vec<Vec<f64>>,
+    /// σ̂_j² per measured output it assumes, model units².
+    pub output_noise_variance: Vec<f64>,
+    /// Directions of the changes of basis left out (n² with C free, (n − p)·n with C fixed).
+    pub basis_directions: usize,
+}
+
+/// The layout of [`HiddenCovarianceEntry::matrix`].
+pub const HIDDEN_COVARIANCE_LAYOUT: &str = "[phi gamma; c d] row by row";
 
 /// The measured-state model (the paper's, C = I) of a replay whose spec declares hidden
 /// states: its figures, which the report's top-level keys give where the spec declares

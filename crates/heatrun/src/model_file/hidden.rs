@@ -10,7 +10,7 @@ use std::path::Path;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::document::HiddenEntry;
+use super::document::{HiddenEntry, HIDDEN_COVARIANCE_LAYOUT};
 use super::error::UseError;
 
 /// How the measured outputs read a hidden-state model's states: y = C x + D u.
@@ -44,14 +44,28 @@ impl OutputMap {
     }
 }
 
+/// A report's hidden-state model read back: Φ, Γ, the output map and, where the report
+/// carries it, the covariance of θ_h = [Φ Γ; C D] row by row.
+pub(super) struct HiddenRead {
+    /// Φ (n × n).
+    pub phi: DMatrix<f64>,
+    /// Γ (n × m).
+    pub gamma: DMatrix<f64>,
+    /// y = C x + D u.
+    pub output: OutputMap,
+    /// C_θ ((n + p)(n + m) square), where the report has `parameter_covariance`.
+    pub covariance: Option<DMatrix<f64>>,
+}
+
 /// The hidden-state model of a report's `hidden` block, checked against the report's p
-/// outputs and m inputs: (Φ, Γ, the output map).
+/// outputs and m inputs, with the covariance of its parameters where the report has it
+/// (its layout the one this heatrun writes, its size (n + p)(n + m)).
 pub(super) fn read(
     h: &HiddenEntry,
     outputs: &[String],
     inputs: usize,
     path: &Path,
-) -> Result<(DMatrix<f64>, DMatrix<f64>, OutputMap), UseError> {
+) -> Result<HiddenRead, UseError> {
     let (p, m, n) = (outputs.len(), inputs, h.order);
     let matrix = |rows: &[Vec<f64>], shape: (usize, usize), key: &'static str| {
         super::thermal_model::matrix(rows, shape, key, path, (n, m))
@@ -60,8 +74,34 @@ pub(super) fn read(
     let gamma = matrix(&h.gamma, (n, m), "hidden.gamma")?;
     let c = matrix(&h.c, (p, n), "hidden.c")?;
     let d = matrix(&h.d, (p, m), "hidden.d")?;
+    let covariance = match &h.parameter_covariance {
+        Some(entry) => {
+            if entry.layout != HIDDEN_COVARIANCE_LAYOUT {
+                return Err(UseError::Shape {
+                    path: path.to_owned(),
+                    key: "hidden.parameter_covariance.layout",
+                    found: format!("`{}`", entry.layout),
+                    expected: format!("`{HIDDEN_COVARIANCE_LAYOUT}`"),
+                    states: n,
+                    inputs: m,
+                });
+            }
+            let size = (n + p) * (n + m);
+            Some(matrix(
+                &entry.matrix,
+                (size, size),
+                "hidden.parameter_covariance.matrix",
+            )?)
+        }
+        None => None,
+    };
     let state_names = state_names(&c, outputs);
-    Ok((phi, gamma, OutputMap { c, d, state_names }))
+    Ok(HiddenRead {
+        phi,
+        gamma,
+        output: OutputMap { c, d, state_names },
+        covariance,
+    })
 }
 
 /// Each state's name: the output that reads it alone (a unit row of C, zero elsewhere

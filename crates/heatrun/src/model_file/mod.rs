@@ -16,7 +16,9 @@ pub mod error;
 pub mod hidden;
 pub mod thermal_model;
 
-pub use document::{Report, PROFILE};
+pub use document::{Report, HIDDEN_COVARIANCE_LAYOUT, PROFILE};
 pub use error::UseError;
 pub use hidden::OutputMap;
-pub use thermal_model::{FieldTemperatureUse, ModelError, ModelUncertainty, ThermalModel};
+pub use thermal_model::{
+    FieldScaling, FieldTemperatureUse, ModelError, ModelUncertainty, ThermalModel,
+};

@@ -97,7 +97,9 @@ pub struct ThermalModel {
 #[derive(Debug, Clone, Default)]
 pub struct ModelUncertainty {
     /// C_Θ, the covariance of Θ = [Φ Γ] laid out row by row (n(n+m) square), in the
-    /// model's units; `None` where the report's method gives none.
+    /// model's units; for a model with hidden states, of θ_h = [Φ Γ; C D] row by row
+    /// ((n + p)(n + m) square, the report's `hidden.parameter_covariance`); `None` where
+    /// the report gives none.
     pub theta_covariance: Option<DMatrix<f64>>,
     /// The process noise a step adds to an open-loop prediction's state, Q = K Λ Kᵀ
     /// (n × n, model units), from the one-step predictor's gain K and innovations'
@@ -107,10 +109,60 @@ pub struct ModelUncertainty {
     /// temperature, K, where the field winding is derived: the derived temperature's
     /// standard deviation.
     pub field_line_rms_k: Option<f64>,
+    /// Where the field winding's line is the paper's scaling of the stator winding's rise
+    /// to the nameplate's final field temperature F (no field channel: θ_f = θ_Cu0 +
+    /// s·(θ_Cu − θ_Cu0), s = (F − θ_Cu0)/(θ_Cu,end − θ_Cu0)), its two samples
+    /// [θ_Cu0, θ_Cu,end] and F, °C: each sample was read with the stator winding's noise,
+    /// which moves the line (its residual is zero, so `field_line_rms_k` holds nothing).
+    pub field_scaling_c: Option<FieldScaling>,
     /// The sensors' noise per state, K: √Λ_j · θ_base where the model has innovations
     /// (its process noise then apart), else the model's own RMSE (validation where the
     /// report has it, else the fit: the sensor noise plus what the model misses).
     pub sensor_noise_k: Vec<f64>,
+}
+
+/// The two samples of the paper's field scaling and the final field temperature, °C
+/// ([`ModelUncertainty::field_scaling_c`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FieldScaling {
+    /// θ_Cu0, the stator winding's temperature at the start.
+    pub start_c: f64,
+    /// θ_Cu,end, at the end of the model's heat run.
+    pub end_c: f64,
+    /// F, the nameplate's final field winding temperature.
+    pub final_field_c: f64,
+}
+
+impl FieldScaling {
+    /// The scaling of a report: θ_Cu0 = a/(1 − s) and θ_Cu,end = θ_Cu0 + (F − θ_Cu0)/s
+    /// from its line θ_f = a + s·θ_Cu, where the line is the scaling
+    /// (`ScaledArmatureRise`) and s ∉ {0, 1}.
+    fn of(report: &Report) -> Option<FieldScaling> {
+        let e = &report.estimation;
+        let Some(FieldTemperatureSource::ScaledArmatureRise { final_temp_c, .. }) =
+            &e.field_temperature
+        else {
+            return None;
+        };
+        let final_temp_c = *final_temp_c;
+        let line = e.field_temperature_from_stator.as_ref()?;
+        let s = line.slope;
+        if !(s.is_finite() && s != 0.0 && s != 1.0) {
+            return None;
+        }
+        let start_c = line.intercept_c / (1.0 - s);
+        Some(FieldScaling {
+            start_c,
+            end_c: start_c + (final_temp_c - start_c) / s,
+            final_field_c: final_temp_c,
+        })
+    }
+
+    /// The line θ_f = a + s·θ_Cu of these samples: (a, s).
+    pub fn line(&self) -> (f64, f64) {
+        let s = (self.final_field_c - self.start_c) / (self.end_c - self.start_c);
+        (self.start_c * (1.0 - s), s)
+    }
 }
 
 impl ThermalModel {
@@ -190,22 +242,24 @@ impl ThermalModel {
         };
         per_state(&error.rmse_k, "fit.rmse_k")?;
         per_state(&error.max_abs_error_k, "fit.max_abs_error_k")?;
-        let uncertainty = match hidden {
-            // The report carries no covariance of the hidden model's parameters, nor a
-            // predictor of its states: no band or interval is made for it.
-            Some(_) => ModelUncertainty {
+        let uncertainty = match &hidden {
+            // The covariance of the hidden model's own θ_h = [Φ Γ; C D] where the report
+            // carries it (no predictor of its states: no process noise).
+            Some(h) => ModelUncertainty {
+                theta_covariance: h.covariance.clone(),
                 sensor_noise_k: error.rmse_k.clone(),
                 field_line_rms_k: report
                     .estimation
                     .field_temperature_from_stator
                     .as_ref()
                     .map(|l| l.rms_residual_k),
+                field_scaling_c: FieldScaling::of(report),
                 ..ModelUncertainty::default()
             },
             None => model_uncertainty(report, path, &error.rmse_k)?,
         };
         let (phi, gamma, output) = match hidden {
-            Some((phi, gamma, output)) => (phi, gamma, Some(output)),
+            Some(h) => (h.phi, h.gamma, Some(h.output)),
             None => (phi, gamma, None),
         };
         let mut model = ThermalModel {
@@ -379,6 +433,7 @@ fn model_uncertainty(
             .field_temperature_from_stator
             .as_ref()
             .map(|l| l.rms_residual_k),
+        field_scaling_c: FieldScaling::of(report),
         sensor_noise_k: match &report.innovation_variance {
             Some(lambda) if lambda.len() == n => lambda
                 .iter()

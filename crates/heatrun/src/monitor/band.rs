@@ -26,7 +26,9 @@ pub enum BandKind {
     /// variance from the covariance of Θ, the start's sensor noise and the process noise,
     /// σ_j the sensors' noise (twice where the state is measured from the model test's
     /// one initial sample, [`measurement_variance_k2`]); no floor. Where the report carries no covariance of Θ, the
-    /// prediction's variance holds the start and the process noise only.
+    /// prediction's variance holds the start and the process noise only. For a model with
+    /// hidden states, var ŷ_j of its outputs y = C x + D u, from the covariance of
+    /// θ_h = [Φ Γ; C D] ([`crate::confidence::OpenLoopVariance`]).
     Model,
 }
 

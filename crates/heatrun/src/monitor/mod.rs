@@ -9,8 +9,9 @@
 //! exactly as they were when the model was identified. Then the model runs beside it:
 //! x̂(k+1) = Φ x̂(k) + Γ u(k), from the recording's own first measured state (the
 //! machine may be anywhere when a service recording starts) and again after every gap
-//! in the inputs. The predicted temperature is θ̂_j = θ_ref,j + θ_base·x̂_j; the residual
-//! r_j = θ_j − θ̂_j goes to the [`alarm::Detector`] against the [`band::Band`].
+//! in the inputs. The predicted temperature is θ̂_j = θ_ref,j + θ_base·ŷ_j, ŷ = x̂ (or,
+//! for a model with hidden states, ŷ = C x̂ + D u, started from x̂ = C⁺ (y − D u)); the
+//! residual r_j = θ_j − θ̂_j goes to the [`alarm::Detector`] against the [`band::Band`].
 //!
 //! References: a state measured from its initial temperature (the paper's formulation)
 //! is measured from the model test's θ_ref,j, shifted by the coolant inlet's difference
@@ -27,12 +28,15 @@ pub mod band;
 pub mod output;
 pub mod stream;
 
+#[cfg(test)]
+mod hidden_tests;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::decimate::DecimatedRecording;
 use crate::error::Result;
-use crate::model_file::{ThermalModel, UseError};
+use crate::model_file::{FieldTemperatureUse, ThermalModel, UseError};
 use crate::recording::{Alignment, Quantity, SampleSink, Signal};
 use crate::series::Series;
 use crate::spec::{ModelDescription, Reference, Scaling, StateDescription};
@@ -214,6 +218,46 @@ pub fn description_of(model: &ThermalModel) -> Result<ModelDescription, UseError
         return Err(model.missing("nameplate", "the loss model and the per-unit bases need"));
     }
     Ok(description)
+}
+
+/// Gives `decimated` the field winding's temperature by the model's own line,
+/// θ_f = a + b·θ_Cu (`FieldTemperatureUse::FromStator`: the report's
+/// `estimation.field_temperature_from_stator`), where the recording has neither a
+/// `field_winding_temp` nor a `field_voltage` channel and the model derives θ_f so.
+///
+/// Why: the loss model would otherwise scale the field winding's temperature from the
+/// stator winding's rise *over the stretch at hand* to the nameplate's final field
+/// temperature (the paper's method for a heat run that ends at rated load). A service
+/// recording neither starts cold nor ends at rated load, and a stretch of it may barely
+/// rise (the loss model then refuses it, `FieldScalingRise`); the line the model's own
+/// heat run was scaled by is the one its Γ was identified with, and the one `predict`
+/// and `rating` use. A recording with a field channel is left as it is.
+pub fn with_model_field_line(model: &ThermalModel, decimated: &mut DecimatedRecording) {
+    let FieldTemperatureUse::FromStator { intercept_c, slope } = model.field_temperature else {
+        return;
+    };
+    if decimated.get(Quantity::FieldWindingTemp).is_some()
+        || decimated.get(Quantity::FieldVoltage).is_some()
+    {
+        return;
+    }
+    let Some(stator) = decimated.get(Quantity::StatorWindingTemp) else {
+        return;
+    };
+    let values: Series = stator
+        .values
+        .iter()
+        .map(|t| t.map(|t| intercept_c + slope * t))
+        .collect();
+    let signal = Signal::Profile(Quantity::FieldWindingTemp);
+    let series = crate::decimate::DecimatedSeries {
+        signal: signal.clone(),
+        unit: "degC".into(),
+        values,
+        sensors: 0,
+        observed: None,
+    };
+    decimated.series.insert(signal, series);
 }
 
 /// Where each signal's samples sit on the model's grid: the description's alignments,

@@ -296,7 +296,8 @@ impl<'m, 'w> Live<'m, 'w> {
                 Err(e) => return Err(e.into()),
             }
         }
-        let sealed = self.grid.seal(ready, last)?;
+        let mut sealed = self.grid.seal(ready, last)?;
+        super::with_model_field_line(self.model, &mut sealed.decimated);
         let anchors = self.anchors.as_mut().expect("anchored above");
         let np = self.model.nameplate.as_ref();
         let signals = signals::compute_anchored(&self.description, &sealed.decimated, np, anchors)?;
@@ -507,22 +508,22 @@ impl Runner {
                 .collect();
             if let Some(r) = rises {
                 // A model with hidden states starts from the least-norm state giving the
-                // measured rises (`OutputMap::state_from_outputs`); its band is the fixed
-                // one (the open-loop variance assumes y = x).
+                // measured rises (`OutputMap::state_from_outputs`), its variance carried
+                // through y = C x + D u.
                 let zero = DVector::zeros(model.inputs.len());
                 let u = u_now.as_ref().unwrap_or(&zero);
-                self.x_hat = Some(model.state_from_outputs(&DVector::from_vec(r), u));
+                let y = DVector::from_vec(r);
+                self.x_hat = Some(model.state_from_outputs(&y, u));
                 self.starts += 1;
                 let start: Vec<f64> = (model.uncertainty.sensor_noise_k.iter())
                     .map(|s| (s / self.base).powi(2))
                     .collect();
-                self.variance = model
-                    .output
-                    .is_none()
-                    .then(|| OpenLoopVariance::start(model, &start));
+                self.variance = Some(
+                    OpenLoopVariance::start(model, &start).with_start_sensitivity(model, &y, u),
+                );
             }
         }
-        self.set_model_band(model);
+        self.set_model_band(model, u_now.as_ref());
         let t_s = (time_ns - t0) as f64 / 1e9;
         let mut residuals = vec![None; n];
         let y_hat = self.x_hat.as_ref().map(|x| match &u_now {
@@ -562,11 +563,13 @@ impl Runner {
 
     /// The model band at this instant, for the detector and the statistics (kept
     /// as it was where the band is fixed or the model has not started).
-    fn set_model_band(&mut self, model: &ThermalModel) {
-        let (Some(factor), Some(v)) = (self.model_band, &self.variance) else {
+    fn set_model_band(&mut self, model: &ThermalModel, u: Option<&DVector<f64>>) {
+        let (Some(factor), Some(v), Some(x)) = (self.model_band, &self.variance, &self.x_hat)
+        else {
             return;
         };
-        let var = v.variances(&model.uncertainty);
+        let zero = DVector::zeros(model.inputs.len());
+        let var = v.variances(model, &model.uncertainty, x, u.unwrap_or(&zero));
         self.band_k = model_band_k(factor, self.base, &var, &self.measurement_k2);
         self.detector.set_band(&self.band_k);
     }

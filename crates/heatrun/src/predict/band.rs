@@ -2,7 +2,9 @@
 //!
 //! - the parameters' share, ∇θ̂(k)ᵀ C_Θ ∇θ̂(k), ∇ by central differences of the whole
 //!   prediction (losses at the predicted temperatures, the phasor diagram, dead times
-//!   and the derived field winding included: [`crate::confidence::linearise`]);
+//!   and the derived field winding included: [`crate::confidence::linearise`]); for a
+//!   model with hidden states Θ is θ_h = [Φ Γ; C D] and the prediction its measured
+//!   outputs y = C x + D u, from x(0) = C⁺ (y(0) − D u(0)), which moves with C and D;
 //! - the start's share: the samples the prediction starts from and is measured from
 //!   carry the sensors' noise σ_j, Σ_j (∂θ̂(k)/∂θ_j(0))² σ_j² by moving each by ±σ_j
 //!   (`add_start`: the start temperature, whose error decays with the modes, and the
@@ -61,21 +63,16 @@ pub(super) fn add_bands(
     schedule: &LoadSchedule,
     initial: &InitialState,
 ) -> Result<(), UseError> {
-    if model.output.is_some() {
-        // No fake band: the delta method needs C_Θ of the hidden model's own Φ, Γ, C, D.
-        prediction.warnings.push(
-            "the model has hidden states and the report carries no covariance of their \
-             parameters: the prediction has no band"
-                .into(),
-        );
-        return Ok(());
-    }
     let Some(covariance) = &model.uncertainty.theta_covariance else {
-        prediction.warnings.push(
+        prediction.warnings.push(if model.output.is_some() {
+            "the model has hidden states and the report carries no covariance of their \
+             parameters (`hidden.parameter_covariance`): the prediction has no band"
+                .into()
+        } else {
             "the report carries no covariance of Θ (`theta_covariance`): the prediction has \
              no band"
-                .into(),
-        );
+                .into()
+        });
         return Ok(());
     };
     let columns = model.state_count() + usize::from(prediction.field_derived);

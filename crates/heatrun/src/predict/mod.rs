@@ -78,8 +78,8 @@ pub fn predict(
     Ok(prediction)
 }
 
-/// Runs `model` over `schedule` from `initial`, its initial rises moved by `start_offset`
-/// (model units) where given: the map [`band`] linearises.
+/// Runs `model` over `schedule` from `initial`, its initial rises (the measured outputs)
+/// moved by `start_offset` (model units) where given: the map [`band`] linearises.
 fn predict_from(
     model: &ThermalModel,
     schedule: &LoadSchedule,
@@ -151,7 +151,8 @@ fn predict_from(
         }
     };
     if let Some(offset) = start_offset {
-        x += offset;
+        // An offset of the measured rises: the state's C⁺ offset with hidden states.
+        x += model.state_from_outputs(offset, &DVector::zeros(model.inputs.len()));
     }
     let mut out = Prediction {
         states: model.states.iter().map(|s| s.name.clone()).collect(),
