@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use nalgebra::DMatrix;
 
 use crate::model_file::{Report, ThermalModel};
-use crate::pipeline::{replay, ReplayOptions};
+use crate::pipeline::{replay, NetworkChoice, ReplayOptions};
 use crate::predict::{self, InitialState, LoadSchedule};
 use crate::rating::{self, RatingOptions};
 use crate::spec::hidden::{HiddenSpec, OutputMatrixSpec};
@@ -98,6 +98,8 @@ fn a_hidden_state_model_of_a_known_unit_round_trips_through_the_report() {
             // of up to five states takes seconds, not minutes.
             ts_s: 10.0,
             model,
+            // The round trip uses the model alone: rc's network fit has no part in it.
+            network: NetworkChoice::Nearest,
             ..ReplayOptions::default()
         },
     )
@@ -285,7 +287,7 @@ fn four_state_model(dir: &std::path::Path, name: &str, o: &SynthOptions) -> Ther
         &ReplayOptions {
             ts_s: 10.0,
             model,
-            network: crate::pipeline::NetworkChoice::Nearest,
+            network: NetworkChoice::Nearest,
             ..ReplayOptions::default()
         },
     )
