@@ -5,6 +5,7 @@
 use rerun::RecordingStream;
 
 use crate::Result;
+use heatrun::hidden::traces::OutputSensitivities;
 use heatrun::model::ModelAnalysis;
 use heatrun::pipeline::Replay;
 use heatrun::signals::ModelSignals;
@@ -31,6 +32,42 @@ pub(super) fn log_sensitivities(
             let mut failed = None;
             responses.for_each(i, |instant, rel| {
                 points.push((t[instant], rel[k]));
+                if points.len() == SERIES_SLICE && failed.is_none() {
+                    failed = send_series(rec, &entity, points.drain(..)).err();
+                }
+            });
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            send_series(rec, &entity, points.into_iter())?;
+        }
+    }
+    Ok(())
+}
+
+/// The hidden-state model's output sensitivity responses T_i ∂ŷ/∂T_i = T_i C ∂x/∂T_i
+/// behind its assignment (the report's, where the spec declares `[hidden]`), over the
+/// estimation instants, one measured output at a time in its part's colour, under the
+/// entities the measured-state model's would take. Nothing where the model has no
+/// analysis (Φ without a real logarithm: the report then has no assignment either).
+pub(super) fn log_hidden_sensitivities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let Some(h) = replay.hidden.as_ref().filter(|h| h.analysis.is_some()) else {
+        return Ok(());
+    };
+    let Ok(responses) = OutputSensitivities::new(&h.estimate.model) else {
+        return Ok(());
+    };
+    let t = &replay.signals.time_ns;
+    let range = replay.estimation_range.clone();
+    for i in 0..responses.time_constants_s().len() {
+        for (j, state) in replay.signals.states.iter().enumerate() {
+            let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
+            let name = format!("{}, pu", short_part(&state.part));
+            style::series(rec, &entity, &name, style::part(j), style::LINE_WIDTH)?;
+            let mut points = Vec::with_capacity(SERIES_SLICE);
+            let mut failed = None;
+            responses.for_each(i, &replay.data, range.clone(), |instant, y| {
+                points.push((t[instant], y[j]));
                 if points.len() == SERIES_SLICE && failed.is_none() {
                     failed = send_series(rec, &entity, points.drain(..)).err();
                 }

@@ -18,7 +18,8 @@
 //!   held-back tail and head, each from a model of the rest), or given.
 //!
 //! Where it is the replay's model, [`analysis`] gives its time constants, the measured
-//! outputs' sensitivities to them and its steady state.
+//! outputs' sensitivities to them and its steady state, and [`traces`] what the .rrd and
+//! the HTML page draw of it (its simulated outputs, its output sensitivity responses).
 //!
 //! Its input is the estimators' [`IdentificationData`] (its p columns are the measured
 //! outputs; an unobserved entry is left out of every comparison); its output a
@@ -33,6 +34,7 @@ pub mod analysis;
 pub mod order;
 pub mod refine;
 pub mod subspace;
+pub mod traces;
 
 pub use order::{identify, HiddenEstimate, HiddenOptions, OrderCandidate, OrderChoice};
 
