@@ -137,8 +137,8 @@ mod tests {
                     sum_sq[j] += y[j] * y[j];
                 }
             });
-            for j in 0..2 {
-                let rms = (sum_sq[j] / count as f64).sqrt();
+            for (j, sum) in sum_sq.iter().enumerate() {
+                let rms = (sum / count as f64).sqrt();
                 assert!((rms - a.norms[j][i]).abs() <= 1e-12 * rms.max(1e-300), "{i} {j}");
             }
         }
@@ -188,8 +188,8 @@ mod tests {
             moved.simulate(&data, 0..300, &x0)
         };
         let s = OutputSensitivities::new(&model).unwrap();
-        for i in 0..3 {
-            let t = -1.0 / lambda[i];
+        for (i, l) in lambda.iter().enumerate() {
+            let t = -1.0 / l;
             assert!((s.time_constants_s()[i] - t).abs() < 1e-9 * t);
             let h = 1e-5 * t;
             let difference = (at(i, t + h) - at(i, t - h)) * (t / (2.0 * h));

@@ -541,7 +541,7 @@ impl Section for ModelSection<'_> {
             ));
         }
         out.table(&Table::matrix(
-            &format!("Φ (eq. 19){whose}."),
+            format!("Φ (eq. 19){whose}."),
             "Φ",
             &states,
             &states,
@@ -549,7 +549,7 @@ impl Section for ModelSection<'_> {
             num,
         ));
         out.table(&Table::matrix(
-            &format!("Γ (eq. 20){whose}."),
+            format!("Γ (eq. 20){whose}."),
             "Γ",
             &states,
             &inputs,
@@ -557,7 +557,7 @@ impl Section for ModelSection<'_> {
             num,
         ));
         out.table(&Table::matrix(
-            &format!("A_c (eq. 22){whose}, 1/s."),
+            format!("A_c (eq. 22){whose}, 1/s."),
             "A_c",
             &states,
             &states,
@@ -565,7 +565,7 @@ impl Section for ModelSection<'_> {
             num,
         ));
         out.table(&Table::matrix(
-            &format!("B_c (eq. 23){whose}, 1/s."),
+            format!("B_c (eq. 23){whose}, 1/s."),
             "B_c",
             &states,
             &inputs,
@@ -665,18 +665,20 @@ pub struct TimeConstantsSection<'a> {
 impl TimeConstantsSection<'_> {
     fn tables(&self, out: &mut Markup) {
         let r = self.report;
-        let (caption, rows) = if hidden_is_the_model(r) {
+        let (caption, rows, corner) = if hidden_is_the_model(r) {
             (
                 "Time constants T_i = −1/λ_i (eq. 26) of the hidden-state model, with 95 % intervals \
                  where the report has them, and the part each belongs to: the measured output whose \
                  response T_i C ∂x/∂T_i it changes most (eqs. 27–29 through C; several may share one).",
                 "rows the measured outputs",
+                "output",
             )
         } else {
             (
                 "Time constants T_i = −1/λ_i (eq. 26) with 95 % intervals (delta method), and the part each \
                  belongs to: the state whose response it changes most (eqs. 27–29).",
                 "rows the states",
+                "state",
             )
         };
         let mut t = Table::new(
@@ -711,7 +713,7 @@ impl TimeConstantsSection<'_> {
                 "Sensitivity norms ‖T_i ∂y_k/∂T_i‖ (RMS over the estimation instants, in the states' \
                  unit): {rows}, columns the time constants; the largest of each column is marked."
             ),
-            "state",
+            corner,
             &labels,
             &columns,
             &r.sensitivity_norms,
@@ -865,11 +867,12 @@ impl Section for FitSection<'_> {
             "{model} against the measurements, over the {} instants it was estimated on.",
             r.fit.samples
         ));
-        out.table(&fit_table(
-            "Fit per part of the simulated model (eq. 8).",
-            r,
-            &r.fit,
-        ));
+        let caption = if hidden_is_the_model(r) {
+            "Fit per part of the hidden-state model's outputs."
+        } else {
+            "Fit per part of the simulated model (eq. 8)."
+        };
+        out.table(&fit_table(caption, r, &r.fit));
         Ok(())
     }
 }
@@ -1036,8 +1039,8 @@ impl Section for ResidualsSection<'_> {
         let chart = Chart::new(lag_unit, panels);
         out.paragraph(&format!(
             "A model that has captured the dynamics leaves residuals that are white and uncorrelated \
-             with the inputs. Figure {} shows their autocorrelation{}; the shaded band is ±{} , the \
-             99 % band of a white sequence.",
+             with the inputs. Figure {} shows the autocorrelation of the residuals{}; the shaded band \
+             is ±{} , the 99 % band of a white sequence.",
             out.next_figure(),
             of_the_measured_state_model(r),
             sig(res.band99, 3)
