@@ -121,16 +121,17 @@ fn sensitivities(replay: &Replay) -> Option<Node> {
     let (time_constants_s, what) = match &replay.hidden {
         Some(h) => (
             &h.analysis.as_ref()?.spectrum.time_constants_s,
-            "T ∂ŷ/∂T of the hidden-state model's outputs",
+            "T ∂ŷ/∂T (hidden-state model)",
         ),
         None => (&replay.analysis.spectrum.time_constants_s, "T ∂y/∂T"),
     };
+    let unit = super::traces::sensitivity_unit(&replay.model);
     let views = time_constants_s
         .iter()
         .enumerate()
         .map(|(i, t)| {
             View::time_series(
-                format!("T{} = {:.1} s: {what}, pu", i + 1, t),
+                format!("T{} = {:.1} s: {what}, {unit}", i + 1, t),
                 format!("sensitivity/T{}", i + 1),
             )
             .into()

@@ -173,6 +173,15 @@ pub(super) fn rise_unit(model: &ModelDescription, j: usize) -> String {
     }
 }
 
+/// The unit of a relative sensitivity T ∂y/∂T: the states' (pu of the temperature base
+/// for the generator, K for a spec's temperatures as recorded).
+pub(super) fn sensitivity_unit(model: &ModelDescription) -> &'static str {
+    match model.scaling {
+        Scaling::NameplatePerUnit => "pu",
+        Scaling::AsRecorded => "K",
+    }
+}
+
 /// Title of the inputs' plot: the generator's heat sources in kW, or a spec's inputs.
 pub(super) fn input_title(replay: &Replay) -> String {
     match replay.model.scaling {
