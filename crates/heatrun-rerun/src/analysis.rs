@@ -5,32 +5,75 @@
 use rerun::RecordingStream;
 
 use crate::Result;
+use heatrun::hidden::traces::OutputSensitivities;
 use heatrun::model::ModelAnalysis;
 use heatrun::pipeline::Replay;
 use heatrun::signals::ModelSignals;
+use heatrun::spec::ModelDescription;
 
 use super::style;
-use super::traces::{on_grid, send_by_lag, send_series, short_part, SERIES_SLICE};
+use super::traces::{
+    on_grid, send_by_lag, send_series, sensitivity_unit, short_part, SERIES_SLICE,
+};
 
 /// The sensitivity responses T_i ∂ŷ/∂T_i behind the assignment, as the analysis kept
 /// them (over the instants the model was estimated on), one state at a time, each in its
 /// part's colour.
 pub(super) fn log_sensitivities(
     rec: &RecordingStream,
+    model: &ModelDescription,
     signals: &ModelSignals,
     analysis: &ModelAnalysis,
 ) -> Result<()> {
     let responses = &analysis.sensitivities.responses;
     let t = &signals.time_ns;
+    let unit = sensitivity_unit(model);
     for i in 0..analysis.spectrum.time_constants_s.len() {
         for (k, state) in signals.states.iter().enumerate() {
             let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
-            let name = format!("{}, pu", short_part(&state.part));
+            let name = format!("{}, {unit}", short_part(&state.part));
             style::series(rec, &entity, &name, style::part(k), style::LINE_WIDTH)?;
             let mut points = Vec::with_capacity(SERIES_SLICE);
             let mut failed = None;
             responses.for_each(i, |instant, rel| {
                 points.push((t[instant], rel[k]));
+                if points.len() == SERIES_SLICE && failed.is_none() {
+                    failed = send_series(rec, &entity, points.drain(..)).err();
+                }
+            });
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            send_series(rec, &entity, points.into_iter())?;
+        }
+    }
+    Ok(())
+}
+
+/// The hidden-state model's output sensitivity responses T_i ∂ŷ/∂T_i = T_i C ∂x/∂T_i
+/// behind its assignment (the report's, where the spec declares `[hidden]`), over the
+/// estimation instants, one measured output at a time in its part's colour, under the
+/// entities the measured-state model's would take. Nothing where the model has no
+/// analysis (Φ without a real logarithm: the report then has no assignment either).
+pub(super) fn log_hidden_sensitivities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let Some(h) = replay.hidden.as_ref().filter(|h| h.analysis.is_some()) else {
+        return Ok(());
+    };
+    let Ok(responses) = OutputSensitivities::new(&h.estimate.model) else {
+        return Ok(());
+    };
+    let t = &replay.signals.time_ns;
+    let range = replay.estimation_range.clone();
+    let unit = sensitivity_unit(&replay.model);
+    for i in 0..responses.time_constants_s().len() {
+        for (j, state) in replay.signals.states.iter().enumerate() {
+            let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
+            let name = format!("{}, {unit}", short_part(&state.part));
+            style::series(rec, &entity, &name, style::part(j), style::LINE_WIDTH)?;
+            let mut points = Vec::with_capacity(SERIES_SLICE);
+            let mut failed = None;
+            responses.for_each(i, &replay.data, range.clone(), |instant, y| {
+                points.push((t[instant], y[j]));
                 if points.len() == SERIES_SLICE && failed.is_none() {
                     failed = send_series(rec, &entity, points.drain(..)).err();
                 }

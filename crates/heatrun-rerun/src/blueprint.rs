@@ -10,11 +10,9 @@ use super::traces::{input_title, rise_unit, short_part, state_unit, temperature_
 
 /// The viewer layout of a replay (`full_rate`: the raw channels were published).
 pub fn blueprint(replay: &Replay, full_rate: bool) -> Layout {
-    let mut tabs = vec![
-        overview(replay),
-        sensitivities(replay),
-        residual_analysis(replay),
-    ];
+    let mut tabs = vec![overview(replay)];
+    tabs.extend(sensitivities(replay));
+    tabs.push(residual_analysis(replay));
     if replay.estimate.trajectory.is_some() {
         tabs.push(recursive_estimate());
     }
@@ -67,7 +65,15 @@ fn tab_titled(tabs: &Node, want: &str) -> Option<usize> {
 }
 
 /// The first screen: a plot per part, then residuals, inputs and the model's figures.
+/// With `[hidden]` the model drawn is the hidden-state one (the replay's), the
+/// measured-state model thin and grey beside it, and the titles say so.
 fn overview(replay: &Replay) -> Node {
+    let hidden = replay.hidden.is_some();
+    let compared = if hidden {
+        "measured, hidden-state model ŷ = Cx + Du (grey: measured-state model)"
+    } else {
+        "measured and model"
+    };
     let per_part: Vec<Node> = replay
         .signals
         .states
@@ -76,7 +82,7 @@ fn overview(replay: &Replay) -> Node {
         .map(|(j, s)| {
             View::time_series(
                 format!(
-                    "{}: measured and model, {}",
+                    "{}: {compared}, {}",
                     short_part(&s.part),
                     state_unit(&replay.model, j)
                 ),
@@ -86,10 +92,16 @@ fn overview(replay: &Replay) -> Node {
         })
         .collect();
     let residual_unit = rise_unit(&replay.model, 0);
+    let whose = if hidden {
+        " of the hidden-state model"
+    } else {
+        ""
+    };
     let bottom = Node::horizontal(
         "residuals, inputs, model",
         vec![
-            View::time_series(format!("residual y − ŷ, {residual_unit}"), "residual").into(),
+            View::time_series(format!("residual y − ŷ{whose}, {residual_unit}"), "residual")
+                .into(),
             View::time_series(input_title(replay), "loss").into(),
             View::new(ViewKind::TextDocument, "time constants and fit", "model").into(),
         ],
@@ -102,27 +114,40 @@ fn overview(replay: &Replay) -> Node {
     .with_shares([3.0, 2.0])
 }
 
-/// T_i ∂y/∂T_i per time constant: the responses behind the assignment.
-fn sensitivities(replay: &Replay) -> Node {
-    let views = replay
-        .analysis
-        .spectrum
-        .time_constants_s
+/// T_i ∂y/∂T_i per time constant: the responses behind the assignment, the replay's
+/// model's (with `[hidden]`, the measured outputs' T_i C ∂x/∂T_i of the hidden-state
+/// model; none where its Φ has no real logarithm, as the report has no assignment then).
+fn sensitivities(replay: &Replay) -> Option<Node> {
+    let (time_constants_s, what) = match &replay.hidden {
+        Some(h) => (
+            &h.analysis.as_ref()?.spectrum.time_constants_s,
+            "T ∂ŷ/∂T (hidden-state model)",
+        ),
+        None => (&replay.analysis.spectrum.time_constants_s, "T ∂y/∂T"),
+    };
+    let unit = super::traces::sensitivity_unit(&replay.model);
+    let views = time_constants_s
         .iter()
         .enumerate()
         .map(|(i, t)| {
             View::time_series(
-                format!("T{} = {:.1} s: T ∂y/∂T, pu", i + 1, t),
+                format!("T{} = {:.1} s: {what}, {unit}", i + 1, t),
                 format!("sensitivity/T{}", i + 1),
             )
             .into()
         })
         .collect();
-    Node::horizontal("sensitivities", views)
+    Some(Node::horizontal("sensitivities", views))
 }
 
-/// Per part: the residual's autocorrelation and cross-correlations against the lag.
+/// Per part: the residual's autocorrelation and cross-correlations against the lag (the
+/// report's `residuals`: the measured-state model's, which the title says with `[hidden]`).
 fn residual_analysis(replay: &Replay) -> Node {
+    let whose = if replay.hidden.is_some() {
+        " of the measured-state model"
+    } else {
+        ""
+    };
     let views = replay
         .signals
         .states
@@ -130,7 +155,7 @@ fn residual_analysis(replay: &Replay) -> Node {
         .map(|st| {
             View::time_series(
                 format!(
-                    "{}: residual correlation (x: lag, samples)",
+                    "{}: residual correlation{whose} (x: lag, samples)",
                     short_part(&st.part)
                 ),
                 format!("residual_correlation/{}", st.name),
@@ -138,7 +163,7 @@ fn residual_analysis(replay: &Replay) -> Node {
             .into()
         })
         .collect();
-    Node::horizontal("residual analysis", views)
+    Node::horizontal(format!("residual analysis{whose}"), views)
 }
 
 /// `--method rls`: the running estimate.

@@ -19,6 +19,8 @@ use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeC
 
 mod analysis;
 pub mod blueprint;
+#[cfg(test)]
+mod hidden_tests;
 pub mod layout;
 pub mod monitor;
 pub mod network;
@@ -295,24 +297,35 @@ pub const LAG_TIMELINE: &str = "lag";
 
 /// What the model and its analysis determine: the model temperatures and residuals, the
 /// sensitivity responses and the residuals' correlations.
+///
+/// Where the spec declares hidden states the replay's model is the hidden one, known only
+/// when the replay ends ([`log_rest`] draws it): the measured-state model's temperatures
+/// are then drawn beside it, labelled, and its sensitivities not at all (the report's
+/// time constants are the hidden model's); its residual correlations, which the report's
+/// `residuals` hold, stay under a tab that names them.
 fn log_model(
     rec: &RecordingStream,
     stages: traces::Stages<'_>,
     analysis: &ModelAnalysis,
 ) -> Result<()> {
     traces::log_model_temperatures(rec, stages, analysis)?;
-    analysis::log_sensitivities(rec, stages.signals, analysis)?;
+    if stages.model.hidden.is_none() {
+        analysis::log_sensitivities(rec, stages.model, stages.signals, analysis)?;
+    }
     analysis::log_residual_correlation(rec, stages.signals, analysis)
 }
 
-/// What only the whole replay determines: the calorimetric balance, the recursive
-/// estimate, the network, the figures and the summary.
+/// What only the whole replay determines: the hidden-state model's outputs, residuals
+/// and sensitivities where it is the replay's model, the calorimetric balance, the
+/// recursive estimate, the network, the figures and the summary.
 fn log_rest(
     rec: &RecordingStream,
     replay: &Replay,
     report: &Report,
     summary_text: &str,
 ) -> Result<()> {
+    traces::log_hidden_temperatures(rec, replay)?;
+    analysis::log_hidden_sensitivities(rec, replay)?;
     traces::log_calorimetry(rec, replay)?;
     analysis::log_trajectory(rec, replay)?;
     network::log_network(rec, replay)?;

@@ -5,9 +5,22 @@ use std::fmt::Write as _;
 
 use heatrun::model_file::Report;
 
-/// Markdown: the time constants (eq. 26) and their parts, and the fit (eq. 25) per part.
+/// Markdown: the time constants (eq. 26) and their parts, and the fit (eq. 25) per part,
+/// of the report's model (with `[hidden]` the hidden-state model's, which the panel names).
 pub fn model_figures(report: &Report) -> String {
-    let mut s = String::from("**Time constants** (eq. 26)\n\n| | T, s | part |\n|---|---:|---|\n");
+    let hidden = report.hidden.as_ref().filter(|h| h.replay_model);
+    let mut s = String::new();
+    if let Some(h) = hidden {
+        let _ = writeln!(
+            s,
+            "**Hidden-state model** y = Cx + Du: {} states, {} measured (C {}; order {})\n",
+            h.order,
+            h.measured.iter().filter(|m| **m).count(),
+            h.output_matrix,
+            h.order_source
+        );
+    }
+    s.push_str("**Time constants** (eq. 26)\n\n| | T, s | part |\n|---|---:|---|\n");
     let ci = report
         .uncertainty
         .as_ref()
@@ -34,11 +47,24 @@ pub fn model_figures(report: &Report) -> String {
             part, fit.nrmse_fit_percent[j], fit.rmse_k[j], fit.max_abs_error_k[j]
         );
     }
-    let _ = writeln!(
-        s,
-        "\nmethod `{}`, Ts = {} s, {} instants",
-        report.method, report.sample_time_s, fit.samples
-    );
+    match hidden {
+        // The method names the measured-state model's estimator, not the hidden model's.
+        Some(_) => {
+            let _ = writeln!(
+                s,
+                "\nsubspace start and output error, each segment from its fitted state; \
+                 the measured-state model (grey) by `{}`; Ts = {} s, {} instants",
+                report.method, report.sample_time_s, fit.samples
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "\nmethod `{}`, Ts = {} s, {} instants",
+                report.method, report.sample_time_s, fit.samples
+            );
+        }
+    }
     s
 }
 

@@ -173,6 +173,15 @@ pub(super) fn rise_unit(model: &ModelDescription, j: usize) -> String {
     }
 }
 
+/// The unit of a relative sensitivity T ∂y/∂T: the states' (pu of the temperature base
+/// for the generator, K for a spec's temperatures as recorded).
+pub(super) fn sensitivity_unit(model: &ModelDescription) -> &'static str {
+    match model.scaling {
+        Scaling::NameplatePerUnit => "pu",
+        Scaling::AsRecorded => "K",
+    }
+}
+
 /// Title of the inputs' plot: the generator's heat sources in kW, or a spec's inputs.
 pub(super) fn input_title(replay: &Replay) -> String {
     match replay.model.scaling {
@@ -248,35 +257,100 @@ pub(super) fn log_measured(rec: &RecordingStream, stages: Stages<'_>) -> Result<
     Ok(())
 }
 
-/// The model temperature per part beside the measured one, and the residual y − ŷ in
-/// the part's colour.
+/// Which model a simulated trace is, and so where and how it is drawn.
+#[derive(Clone, Copy, PartialEq)]
+enum Simulated {
+    /// The replay's model (the measured-state one, or the hidden-state one the spec
+    /// declares): `temperature/<state>/model` in the part's colour, and its residuals.
+    ReplayModel {
+        /// The legend's name before the unit.
+        label: &'static str,
+    },
+    /// The measured-state model beside a hidden-state replay model:
+    /// `temperature/<state>/measured_state_model`, thin and grey, no residuals (the
+    /// residual plot is the replay's model's).
+    MeasuredStateBeside,
+}
+
+/// The legend of the replay's model where the spec declares hidden states.
+pub(super) const HIDDEN_MODEL_LABEL: &str = "hidden-state model ŷ = Cx + Du";
+
+/// The measured-state model's temperature per part beside the measured one, and its
+/// residual y − ŷ in the part's colour; where the spec declares hidden states (the
+/// replay's model is then the hidden one, [`log_hidden_temperatures`]), the same trace
+/// drawn thin and grey as the measured-state model's, without residuals.
 pub(super) fn log_model_temperatures(
     rec: &RecordingStream,
     stages: Stages<'_>,
     analysis: &ModelAnalysis,
 ) -> Result<()> {
+    let which = match stages.model.hidden {
+        Some(_) => Simulated::MeasuredStateBeside,
+        None => Simulated::ReplayModel { label: "model" },
+    };
+    let sim = &analysis.simulated;
+    log_simulated(rec, stages, |k, j| sim[(k, j)], which)
+}
+
+/// The hidden-state model's measured outputs ŷ = C x + D u per part, each segment from
+/// the initial state the replay fitted to it (estimation and validation apart), and its
+/// residuals y − ŷ: the replay's model where the spec declares `[hidden]`.
+pub(super) fn log_hidden_temperatures(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+    let Some(h) = &replay.hidden else {
+        return Ok(());
+    };
+    let sim = heatrun::hidden::traces::simulated_outputs(
+        &h.estimate.model,
+        &replay.data,
+        replay.estimation_range.clone(),
+    );
+    let label = HIDDEN_MODEL_LABEL;
+    log_simulated(
+        rec,
+        replay.into(),
+        |k, j| sim[(k, j)],
+        Simulated::ReplayModel { label },
+    )
+}
+
+/// Sends the simulated rises `sim(k, state)` (pu; NaN where not simulated) as
+/// temperatures over each state's reference, and for the replay's model the residuals
+/// where the estimator compared.
+fn log_simulated(
+    rec: &RecordingStream,
+    stages: Stages<'_>,
+    sim: impl Fn(usize, usize) -> f64,
+    which: Simulated,
+) -> Result<()> {
     let s = stages.signals;
     let t = &s.time_ns;
     let base = s.temperature_base_k;
-    let sim = &analysis.simulated;
     for (j, state) in s.states.iter().enumerate() {
-        let (_, model) = temperature_entities(&state.name);
-        let (unit, colour) = (state_unit(stages.model, j), style::part(j));
-        style::series(
-            rec,
-            &model,
-            &format!("model, {unit}"),
-            colour,
-            style::LINE_WIDTH,
-        )?;
+        let unit = state_unit(stages.model, j);
+        let (entity, name, colour) = match which {
+            Simulated::ReplayModel { label } => (
+                temperature_entities(&state.name).1,
+                format!("{label}, {unit}"),
+                style::part(j),
+            ),
+            Simulated::MeasuredStateBeside => (
+                format!("{}/measured_state_model", temperature_entity(&state.name)),
+                format!("measured-state model, {unit}"),
+                style::REFERENCE,
+            ),
+        };
+        style::series(rec, &entity, &name, colour, style::LINE_WIDTH)?;
         send_series(
             rec,
-            &model,
+            &entity,
             on_grid(
                 t,
-                (0..s.len()).map(|k| Some(state.reference_at(k)? + base * sim[(k, j)])),
+                (0..s.len()).map(|k| Some(state.reference_at(k)? + base * sim(k, j))),
             ),
         )?;
+        if which == Simulated::MeasuredStateBeside {
+            continue;
+        }
         let residual = format!("residual/{}", state.name);
         let label = format!(
             "{}, {}",
@@ -293,7 +367,7 @@ pub(super) fn log_model_temperatures(
                 // is in the measured trace, not among the residuals.
                 (0..s.len()).map(|k| {
                     let y = s.rise_pu(j, k).filter(|_| stages.data.observed(k, j))?;
-                    Some(base * (y - sim[(k, j)]))
+                    Some(base * (y - sim(k, j)))
                 }),
             ),
         )?;

@@ -175,6 +175,18 @@ pub struct HiddenReplay {
     pub covariance: Option<crate::hidden::covariance::HiddenCovariance>,
 }
 
+impl HiddenReplay {
+    /// The slowest time constant of the hidden-state model, s: its analysis's (A_c =
+    /// ln(Φ)/Ts, eq. 26), else the slowest −Ts/ln|λ| of Φ's eigenvalues; `None` for an
+    /// unstable Φ.
+    pub fn slowest_time_constant_s(&self) -> Option<f64> {
+        match &self.analysis {
+            Some(a) => a.spectrum.time_constants_s.last().copied(),
+            None => self.estimate.model.time_constants_s()?.last().copied(),
+        }
+    }
+}
+
 /// Everything a replay produced, stage by stage.
 #[derive(Debug, Clone)]
 pub struct Replay {
@@ -529,6 +541,20 @@ pub fn replay_observed(
         })?;
     drop(analysed);
     drop(held_back);
+    // Where the spec declares hidden states, the hidden model is the replay's: whether the
+    // final load was held long enough is judged against its slowest time constant (the
+    // network stage judged the measured-state model's), for the warning, the report and
+    // the page alike.
+    let mut network = network;
+    if let Some(slowest) = hidden.as_ref().and_then(HiddenReplay::slowest_time_constant_s) {
+        let e = &network.equilibrium;
+        network.equilibrium = crate::network::equilibrium::Equilibrium::assess(
+            &e.states,
+            e.rate_of_rise.clone(),
+            e.held_s,
+            slowest,
+        );
+    }
     let mut warnings = warnings::collect(&prepared.for_warnings(), &analysis, &network);
     warnings.extend(warnings::left_out(&left_out));
     Ok(Replay {

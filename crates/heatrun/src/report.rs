@@ -670,9 +670,27 @@ impl Report {
         let _ = writeln!(s);
     }
 
+    /// Whether the report's model is a hidden-state one (the spec declares `[hidden]`):
+    /// then Φ, Γ, A_c, B_c, the residuals and the network are the measured-state model's,
+    /// and the summary says so where it prints them.
+    fn hidden_is_the_model(&self) -> bool {
+        self.hidden.as_ref().is_some_and(|h| h.replay_model)
+    }
+
+    /// " of the measured-state model" where the report's model is a hidden-state one (the
+    /// figure so labelled is not the replay's model's), else nothing.
+    fn of_the_measured_state_model(&self) -> &'static str {
+        if self.hidden_is_the_model() {
+            " of the measured-state model"
+        } else {
+            ""
+        }
+    }
+
     fn summary_model(&self, s: &mut String) {
-        matrix(s, "Φ (eq. 19)", &self.phi, 8);
-        matrix(s, "Γ (eq. 20)", &self.gamma, 7);
+        let whose = self.of_the_measured_state_model();
+        matrix(s, &format!("Φ (eq. 19){whose}"), &self.phi, 8);
+        matrix(s, &format!("Γ (eq. 20){whose}"), &self.gamma, 7);
         let delayed: Vec<String> = self
             .model
             .inputs
@@ -706,18 +724,18 @@ impl Report {
         }
         let _ = writeln!(
             s,
-            "eigenvalues of Φ (eq. 21): [{}]",
+            "eigenvalues of Φ (eq. 21){whose}: [{}]",
             complex_list(
                 &self.eigenvalues_discrete,
                 self.eigenvalues_discrete_imag.as_deref(),
                 5
             )
         );
-        matrix(s, "A_c (eq. 22), 1/s", &self.a_c, 8);
-        matrix(s, "B_c (eq. 23), 1/s", &self.b_c, 7);
+        matrix(s, &format!("A_c (eq. 22){whose}, 1/s"), &self.a_c, 8);
+        matrix(s, &format!("B_c (eq. 23){whose}, 1/s"), &self.b_c, 7);
         let _ = writeln!(
             s,
-            "eigenvalues of A_c (eq. 24): [{}] 1/s",
+            "eigenvalues of A_c (eq. 24){whose}: [{}] 1/s",
             complex_list(
                 &self.eigenvalues_continuous,
                 self.eigenvalues_continuous_imag.as_deref(),
@@ -804,9 +822,14 @@ impl Report {
                 self.state_unit()
             );
         }
+        let rows = if self.hidden_is_the_model() {
+            "rows: the measured outputs, T_i C ∂x/∂T_i"
+        } else {
+            "rows: states"
+        };
         let _ = writeln!(
             s,
-            "sensitivity norms ‖T_i ∂y_k/∂T_i‖, {} (rows: states; columns: T1..Tn):",
+            "sensitivity norms ‖T_i ∂y_k/∂T_i‖, {} ({rows}; columns: T1..Tn):",
             self.state_unit()
         );
         for (label, row) in self.state_labels().iter().zip(&self.sensitivity_norms) {
@@ -829,7 +852,12 @@ impl Report {
             .iter()
             .map(|l| format!("{l:>16}"))
             .collect();
-        let _ = writeln!(s, "fit of the simulated model (eq. 8) {header}");
+        let title = if self.hidden_is_the_model() {
+            "fit of the hidden-state model, x0 fitted"
+        } else {
+            "fit of the simulated model (eq. 8)"
+        };
+        let _ = writeln!(s, "{title:<35}{header}");
         row(s, "  SNR, dB (eq. 25)", &self.fit.snr_db, 3);
         row(s, "  NRMSE fit, %", &self.fit.nrmse_fit_percent, 2);
         row(s, "  RMSE, K", &self.fit.rmse_k, 3);
@@ -856,9 +884,14 @@ impl Report {
             format!("({})", units.join(", "))
         };
         let _ = writeln!(s);
+        let how = if self.hidden_is_the_model() {
+            "y_ss = (C (I − Φ)⁻¹ Γ + D) u of the hidden-state model"
+        } else {
+            "eqs. 30-35"
+        };
         let _ = writeln!(
             s,
-            "steady state for u = [{}] {unit} (eqs. 30-35)",
+            "steady state for u = [{}] {unit} ({how})",
             join(&ss.input_pu, |v| format!("{v:.7}"))
         );
         row(s, "  predicted rise, K (eq. 32)", &ss.rise_k, 3);
@@ -923,7 +956,11 @@ impl Report {
         match &self.network {
             None => {}
             Some(NetworkEntry::NotDefined { not_defined }) => {
-                let _ = writeln!(s, "thermal network (Fig. 9): none: {not_defined}");
+                let _ = writeln!(
+                    s,
+                    "thermal network (Fig. 9){}: none: {not_defined}",
+                    self.of_the_measured_state_model()
+                );
             }
             Some(NetworkEntry::Defined(n)) => {
                 let scale = match n.scale_from {
@@ -932,7 +969,11 @@ impl Report {
                         "energy conservation, Σ_i k_ij = 1"
                     }
                 };
-                let _ = writeln!(s, "thermal network (Fig. 9), scale from {scale}:");
+                let _ = writeln!(
+                    s,
+                    "thermal network (Fig. 9){}, scale from {scale}:",
+                    self.of_the_measured_state_model()
+                );
                 if let Some(note) = &n.scale_note {
                     let _ = writeln!(s, "  ({note})");
                 }
@@ -1038,8 +1079,10 @@ impl Report {
         let _ = writeln!(s);
         let _ = writeln!(
             s,
-            "residuals (simulation error): lags 1-{} outside the 99 % band ±{:.4}, % of lags",
-            res.max_lag, res.band99
+            "residuals (simulation error){}: lags 1-{} outside the 99 % band ±{:.4}, % of lags",
+            self.of_the_measured_state_model(),
+            res.max_lag,
+            res.band99
         );
         let outside: Vec<f64> = res
             .autocorrelation_outside_band

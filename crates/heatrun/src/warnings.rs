@@ -1,7 +1,8 @@
 //! The warnings a replay gives its user, built by one pure function from what the stages
 //! returned: data lost to damage, gaps, implausible or dropped samples, channels that stop
 //! early, time constants that two states claimed, and a steady state that lies beyond
-//! what the recording shows.
+//! what the recording shows (judged against the replay's model's slowest time constant:
+//! the hidden-state model's where the spec declares one, as the pipeline assesses it).
 
 use crate::decimate::DecimatedRecording;
 use crate::model::ModelAnalysis;
@@ -48,10 +49,16 @@ pub fn collect(
         ));
     }
     out.extend(network.equilibrium.warning());
+    // With `[hidden]` the report's time constants are the hidden-state model's (ranked on
+    // the measured outputs, no one-to-one rule): a conflict is the measured-state model's.
+    let whose = match prepared.model.hidden {
+        Some(_) => "the measured-state model's time constant",
+        None => "the time constant",
+    };
     for a in &analysis.assignment {
         if a.resolved_conflict {
             out.push(format!(
-                "the time constant {:.1} s was claimed by two states; it was assigned one-to-one",
+                "{whose} {:.1} s was claimed by two states; it was assigned one-to-one",
                 a.time_constant_s
             ));
         }

@@ -20,7 +20,9 @@
 //! Where it is the replay's model, [`analysis`] gives its time constants, the measured
 //! outputs' sensitivities to them and its steady state; [`covariance`] the covariance
 //! of its parameters (Gauss–Newton at the optimum, the changes of basis left out), which
-//! the bands and intervals of the uses of the model carry through y = C x + D u.
+//! the bands and intervals of the uses of the model carry through y = C x + D u; and
+//! [`traces`] what the .rrd and the HTML page draw of it (its simulated outputs, its
+//! output sensitivity responses).
 //!
 //! Its input is the estimators' [`IdentificationData`] (its p columns are the measured
 //! outputs; an unobserved entry is left out of every comparison); its output a
@@ -36,6 +38,7 @@ pub mod covariance;
 pub mod order;
 pub mod refine;
 pub mod subspace;
+pub mod traces;
 
 pub use order::{identify, HiddenEstimate, HiddenOptions, OrderCandidate, OrderChoice};
 

@@ -11,6 +11,8 @@
 //! so: [`predict_page`], [`rating_page`], [`monitor_page`], [`fleet_compare_page`].
 
 pub mod fleet;
+#[cfg(test)]
+mod hidden_tests;
 pub mod markup;
 pub mod monitor;
 pub mod network;

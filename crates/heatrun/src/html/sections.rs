@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use super::markup::{fixed, si, sig, Markup, Table};
 use super::network::{diagram, short_name};
-use super::plot::{palette, Chart, Line, Panel, Thinning, TimeAxis, MEASURED, MODEL};
+use super::plot::{palette, Chart, Line, Panel, Thinning, TimeAxis, GREY, MEASURED, MODEL};
 use super::{HtmlError, Section};
 use crate::estimate::Method;
 use crate::model_file::document::{FitEntry, NetworkEntry};
@@ -15,6 +15,23 @@ use crate::spec::Scaling;
 
 /// Buckets a time series is thinned to (up to four points each): enough for a page's width.
 const BUCKETS: usize = 800;
+
+/// Whether the report's model is a hidden-state one (the spec declares `[hidden]`): Φ,
+/// Γ, A_c, B_c, the residuals and the network are then the measured-state model's, and
+/// the page says so where it shows them.
+fn hidden_is_the_model(r: &Report) -> bool {
+    r.hidden.as_ref().is_some_and(|h| h.replay_model)
+}
+
+/// " of the measured-state model" where the report's model is a hidden-state one, else
+/// nothing: for the captions of what stays the measured-state model's.
+fn of_the_measured_state_model(r: &Report) -> &'static str {
+    if hidden_is_the_model(r) {
+        " of the measured-state model"
+    } else {
+        ""
+    }
+}
 
 /// The page's title: the heat run's test id or file, or the spec's name.
 pub fn recording_title(report: &Report) -> String {
@@ -88,10 +105,28 @@ pub fn header_facts(report: &Report) -> Vec<(String, String)> {
         .map(|v| fixed(*v, 1))
         .collect();
     facts.push(("NRMSE fit, %".into(), fit.join(", ")));
-    facts.push((
-        "estimator".into(),
-        format!("{} (heatrun {})", report.method, report.heatrun_version),
-    ));
+    match report.hidden.as_ref().filter(|h| h.replay_model) {
+        // The time constants and fit above are the hidden-state model's; the method is
+        // the measured-state model's estimator.
+        Some(h) => {
+            facts.push((
+                "model".into(),
+                format!(
+                    "hidden states: {} states, {} measured (subspace start, output error)",
+                    h.order,
+                    report.model.states.len()
+                ),
+            ));
+            facts.push((
+                "measured-state model".into(),
+                format!("{} (heatrun {})", report.method, report.heatrun_version),
+            ));
+        }
+        None => facts.push((
+            "estimator".into(),
+            format!("{} (heatrun {})", report.method, report.heatrun_version),
+        )),
+    }
     facts
 }
 
@@ -349,31 +384,40 @@ pub struct TemperaturesSection<'a> {
 }
 
 impl TemperaturesSection<'_> {
-    fn chart(&self, j: usize, axis: &TimeAxis) -> Chart {
+    /// State `j` measured against the replay's model's simulated rises `sim` (N × states,
+    /// pu), its residual below; with `[hidden]`, `sim` is the hidden-state model's outputs
+    /// and the measured-state model's simulation is drawn beside it in grey.
+    fn chart(&self, j: usize, axis: &TimeAxis, sim: &nalgebra::DMatrix<f64>) -> Chart {
         let r = self.replay;
         let s = &r.signals;
         let state = &s.states[j];
         let base = s.temperature_base_k;
-        let sim = &r.analysis.simulated;
         let (unit, rise_unit) = state_units(&r.model.states[j].unit);
         let measured = grid_series(r, axis, state.measured.iter());
-        let model = grid_series(
-            r,
-            axis,
-            (0..s.len()).map(|k| Some(state.reference_at(k)? + base * sim[(k, j)])),
-        );
+        let temperature = |sim: &nalgebra::DMatrix<f64>| {
+            grid_series(
+                r,
+                axis,
+                (0..s.len()).map(|k| Some(state.reference_at(k)? + base * sim[(k, j)])),
+            )
+        };
         let residual = grid_series(
             r,
             axis,
             (0..s.len()).map(|k| s.rise_pu(j, k).map(|y| base * (y - sim[(k, j)]))),
         );
-        let mut top = Panel::new(
-            format!("{}, {unit}", short_name(&state.part)),
-            vec![
-                Line::new("measured", MEASURED, measured),
-                Line::new("model", MODEL, model).dashed(),
-            ],
-        );
+        let mut lines = vec![Line::new("measured", MEASURED, measured)];
+        if r.hidden.is_some() {
+            lines.push(Line::new(
+                "measured-state model",
+                GREY,
+                temperature(&r.analysis.simulated),
+            ));
+            lines.push(Line::new("hidden-state model", MODEL, temperature(sim)).dashed());
+        } else {
+            lines.push(Line::new("model", MODEL, temperature(sim)).dashed());
+        }
+        let mut top = Panel::new(format!("{}, {unit}", short_name(&state.part)), lines);
         top.weight = 2;
         let bottom = Panel::new(
             format!("residual, {rise_unit}"),
@@ -397,12 +441,33 @@ impl Section for TemperaturesSection<'_> {
         let axis = TimeAxis::of_ns(&r.signals.time_ns);
         let n = r.signals.states.len();
         let first = out.next_figure();
-        out.paragraph(&format!(
-            "Figures {first}–{} compare each measured temperature with the model simulated \
-             from the initial state through the whole recording (eq. 8; the paper's Figs. 3–5), \
-             with the residual y − ŷ below.",
-            first + n - 1
-        ));
+        // The replay's model: the hidden-state one's outputs where the spec declares it,
+        // each segment from the state fitted to it, as its fit and validation are taken.
+        let hidden = r.hidden.as_ref().map(|h| {
+            crate::hidden::traces::simulated_outputs(
+                &h.estimate.model,
+                &r.data,
+                r.estimation_range.clone(),
+            )
+        });
+        let sim = hidden.as_ref().unwrap_or(&r.analysis.simulated);
+        if hidden.is_some() {
+            out.paragraph(&format!(
+                "Figures {first}–{} compare each measured temperature with the replay's model, \
+                 the hidden-state model's output ŷ = C x + D u (dashed), simulated through each \
+                 segment from the initial state fitted to its outputs (the estimation instants \
+                 and the validation apart), with its residual y − ŷ below; the measured-state \
+                 model (eq. 8, from the measured initial state) is drawn in grey beside it.",
+                first + n - 1
+            ));
+        } else {
+            out.paragraph(&format!(
+                "Figures {first}–{} compare each measured temperature with the model simulated \
+                 from the initial state through the whole recording (eq. 8; the paper's Figs. 3–5), \
+                 with the residual y − ŷ below.",
+                first + n - 1
+            ));
+        }
         if r.estimation_range.end < r.signals.len() {
             let t_ns = r.signals.time_ns[r.estimation_range.end];
             out.note(
@@ -416,14 +481,19 @@ impl Section for TemperaturesSection<'_> {
         }
         for (j, state) in r.signals.states.iter().enumerate() {
             let fit = &self.report.fit;
+            let model = if hidden.is_some() {
+                "hidden-state model (dashed; grey: the measured-state model)"
+            } else {
+                "model (dashed)"
+            };
             let caption = format!(
-                "{}: measured and model (dashed); below, the residual. NRMSE fit {} %, SNR {} dB, RMSE {} K.",
+                "{}: measured and {model}; below, the residual. NRMSE fit {} %, SNR {} dB, RMSE {} K.",
                 state.part,
                 fixed(fit.nrmse_fit_percent[j], 2),
                 fixed(fit.snr_db[j], 1),
                 sig(fit.rmse_k[j], 3)
             );
-            out.figure(&self.chart(j, &axis).to_svg()?, &caption);
+            out.figure(&self.chart(j, &axis, sim).to_svg()?, &caption);
         }
         Ok(())
     }
@@ -454,13 +524,24 @@ impl Section for ModelSection<'_> {
             }
             Scaling::AsRecorded => "the channels' units",
         };
-        out.paragraph(&format!(
-            "The discrete model x(k) = Φ x(k−1) + Γ u(k−1) and its continuous equivalent \
-             dx/dt = A_c x + B_c u, in {unit}; rows are the states, in model order."
-        ));
         let num = |v: f64| sig(v, 6);
+        hidden_model_tables(out, r, &inputs, unit);
+        let whose = of_the_measured_state_model(r);
+        if hidden_is_the_model(r) {
+            out.paragraph(&format!(
+                "Beside it, the measured-state model (every state a measured temperature): \
+                 x(k) = Φ x(k−1) + Γ u(k−1) and dx/dt = A_c x + B_c u, in {unit}; rows are the \
+                 states, in model order. Its residuals and thermal network are the ones shown \
+                 below."
+            ));
+        } else {
+            out.paragraph(&format!(
+                "The discrete model x(k) = Φ x(k−1) + Γ u(k−1) and its continuous equivalent \
+                 dx/dt = A_c x + B_c u, in {unit}; rows are the states, in model order."
+            ));
+        }
         out.table(&Table::matrix(
-            "Φ (eq. 19).",
+            format!("Φ (eq. 19){whose}."),
             "Φ",
             &states,
             &states,
@@ -468,7 +549,7 @@ impl Section for ModelSection<'_> {
             num,
         ));
         out.table(&Table::matrix(
-            "Γ (eq. 20).",
+            format!("Γ (eq. 20){whose}."),
             "Γ",
             &states,
             &inputs,
@@ -476,7 +557,7 @@ impl Section for ModelSection<'_> {
             num,
         ));
         out.table(&Table::matrix(
-            "A_c (eq. 22), 1/s.",
+            format!("A_c (eq. 22){whose}, 1/s."),
             "A_c",
             &states,
             &states,
@@ -484,7 +565,7 @@ impl Section for ModelSection<'_> {
             num,
         ));
         out.table(&Table::matrix(
-            "B_c (eq. 23), 1/s.",
+            format!("B_c (eq. 23){whose}, 1/s."),
             "B_c",
             &states,
             &inputs,
@@ -492,7 +573,7 @@ impl Section for ModelSection<'_> {
             num,
         ));
         let mut t = Table::new(
-            "Eigenvalues of Φ (eq. 21) and of A_c (eq. 24).",
+            format!("Eigenvalues of Φ (eq. 21) and of A_c (eq. 24){whose}."),
             vec!["".into(), "of Φ".into(), "of A_c, 1/s".into()],
         );
         for (i, (d, c)) in r
@@ -508,6 +589,70 @@ impl Section for ModelSection<'_> {
     }
 }
 
+/// The hidden-state model's Φ, Γ, C (and D where not zero) where it is the report's
+/// model; nothing otherwise.
+fn hidden_model_tables(out: &mut Markup, r: &Report, inputs: &[String], unit: &str) {
+    let Some(h) = r.hidden.as_ref().filter(|h| h.replay_model) else {
+        return;
+    };
+    let hidden: Vec<&str> = (h.state_names.iter().zip(&h.measured))
+        .filter(|(_, &m)| !m)
+        .map(|(n, _)| n.as_str())
+        .collect();
+    out.paragraph(&format!(
+        "The replay's model has hidden states (the spec's `[hidden]`): x(k+1) = Φ x(k) + Γ u(k), \
+         y(k) = C x(k) + D u(k), in {unit}, with {} states of which the {} measured temperatures \
+         are the outputs y (C {}; order {}){}. Its time constants, sensitivities, fit, steady \
+         state and validation are the ones this page gives.",
+        h.order,
+        r.model.states.len(),
+        h.output_matrix,
+        h.order_source,
+        if hidden.is_empty() {
+            String::new()
+        } else {
+            format!("; states no sensor reads: {}", hidden.join(", "))
+        }
+    ));
+    let num = |v: f64| sig(v, 6);
+    let outputs = state_labels(r);
+    let states = &h.state_names;
+    out.table(&Table::matrix(
+        "Φ of the hidden-state model.",
+        "Φ",
+        states,
+        states,
+        &h.phi,
+        num,
+    ));
+    out.table(&Table::matrix(
+        "Γ of the hidden-state model.",
+        "Γ",
+        states,
+        inputs,
+        &h.gamma,
+        num,
+    ));
+    out.table(&Table::matrix(
+        "C of the hidden-state model: rows the measured outputs, columns the states.",
+        "C",
+        &outputs,
+        states,
+        &h.c,
+        num,
+    ));
+    if h.d.iter().flatten().any(|v| *v != 0.0) {
+        out.table(&Table::matrix(
+            "D of the hidden-state model.",
+            "D",
+            &outputs,
+            inputs,
+            &h.d,
+            num,
+        ));
+    }
+}
+
 /// Time constants with their intervals and parts, the sensitivity norms and responses
 /// (eqs. 26–29, the paper's Figs. 6–8).
 pub struct TimeConstantsSection<'a> {
@@ -520,9 +665,24 @@ pub struct TimeConstantsSection<'a> {
 impl TimeConstantsSection<'_> {
     fn tables(&self, out: &mut Markup) {
         let r = self.report;
+        let (caption, rows, corner) = if hidden_is_the_model(r) {
+            (
+                "Time constants T_i = −1/λ_i (eq. 26) of the hidden-state model, with 95 % intervals \
+                 where the report has them, and the part each belongs to: the measured output whose \
+                 response T_i C ∂x/∂T_i it changes most (eqs. 27–29 through C; several may share one).",
+                "rows the measured outputs",
+                "output",
+            )
+        } else {
+            (
+                "Time constants T_i = −1/λ_i (eq. 26) with 95 % intervals (delta method), and the part each \
+                 belongs to: the state whose response it changes most (eqs. 27–29).",
+                "rows the states",
+                "state",
+            )
+        };
         let mut t = Table::new(
-            "Time constants T_i = −1/λ_i (eq. 26) with 95 % intervals (delta method), and the part each \
-             belongs to: the state whose response it changes most (eqs. 27–29).",
+            caption,
             ["", "T, s", "95 % interval, ± s", "T, h", "part", "‖T ∂y/∂T‖"]
                 .map(String::from)
                 .to_vec(),
@@ -549,9 +709,11 @@ impl TimeConstantsSection<'_> {
             .map(|i| format!("T{i}"))
             .collect();
         let mut norms = Table::matrix(
-            "Sensitivity norms ‖T_i ∂y_k/∂T_i‖ (RMS over the estimation instants, in the states' unit): \
-             rows the states, columns the time constants; the largest of each column is marked.",
-            "state",
+            format!(
+                "Sensitivity norms ‖T_i ∂y_k/∂T_i‖ (RMS over the estimation instants, in the states' \
+                 unit): {rows}, columns the time constants; the largest of each column is marked."
+            ),
+            corner,
             &labels,
             &columns,
             &r.sensitivity_norms,
@@ -565,11 +727,33 @@ impl TimeConstantsSection<'_> {
         out.table(&norms);
     }
 
-    /// One chart per time constant: T_i ∂ŷ_k/∂T_i of every state over time.
+    /// One chart per time constant: T_i ∂ŷ_k/∂T_i of every state over time; with
+    /// `[hidden]`, of every measured output to the hidden-state model's time constants
+    /// (T_i C ∂x/∂T_i), none where its Φ has no real logarithm.
     fn charts(&self) -> Vec<Chart> {
         let r = self.replay;
-        let a = &r.analysis;
-        let tcs = &a.spectrum.time_constants_s;
+        let Some(h) = &r.hidden else {
+            let a = &r.analysis;
+            let tcs = &a.spectrum.time_constants_s;
+            return self.charts_of(tcs, |i, visit| a.sensitivities.responses.for_each(i, visit));
+        };
+        let Ok(responses) = crate::hidden::traces::OutputSensitivities::new(&h.estimate.model)
+        else {
+            return Vec::new();
+        };
+        self.charts_of(responses.time_constants_s(), |i, visit| {
+            responses.for_each(i, &r.data, r.estimation_range.clone(), visit)
+        })
+    }
+
+    /// One chart per time constant of `tcs`, of the responses `responses(i, visit)` gives
+    /// (`visit(k, values)`, one value per state or measured output, at instant k).
+    fn charts_of(
+        &self,
+        tcs: &[f64],
+        responses: impl Fn(usize, &mut dyn FnMut(usize, &[f64])),
+    ) -> Vec<Chart> {
+        let r = self.replay;
         let t = &r.signals.time_ns;
         let axis = TimeAxis::of_ns(t);
         let unit = match r.model.scaling {
@@ -584,7 +768,7 @@ impl TimeConstantsSection<'_> {
                 .iter()
                 .map(|_| Thinning::new(t.len(), BUCKETS))
                 .collect();
-            a.sensitivities.responses.for_each(i, |k, rel| {
+            responses(i, &mut |k, rel| {
                 for (state, th) in thin.iter_mut().enumerate() {
                     th.push(k, axis.x_ns(t[k]), Some(rel[state]));
                 }
@@ -621,25 +805,23 @@ impl Section for TimeConstantsSection<'_> {
         self.tables(out);
         let charts = self.charts();
         let first = out.next_figure();
-        out.paragraph(&format!(
-            "Figures {first}–{} show the sensitivity responses T_i ∂ŷ/∂T_i of every state to each \
-             time constant (the paper's Figs. 6–8): the state that responds most is the part the \
-             time constant belongs to.",
-            first + charts.len().saturating_sub(1)
-        ));
-        // The charts are the measured-state model's responses; where the hidden-state model
-        // is the replay's, the report's top-level assignment is the hidden model's (another
-        // count of time constants), so the captions take the measured-state model's own.
-        let assignment = match &self.report.measured_state {
-            Some(measured) => {
-                out.paragraph(
-                    "The charts are the measured-state model's; the tables above are the \
-                     hidden-state model's, the replay's model.",
-                );
-                &measured.assignment
-            }
-            None => &self.report.assignment,
+        let what = if hidden_is_the_model(self.report) {
+            "T_i ∂ŷ/∂T_i = T_i C ∂x/∂T_i of every measured output to each time constant of the \
+             hidden-state model (the paper's Figs. 6–8 through C): the output that responds most"
+        } else {
+            "T_i ∂ŷ/∂T_i of every state to each time constant (the paper's Figs. 6–8): the state \
+             that responds most"
         };
+        if !charts.is_empty() {
+            out.paragraph(&format!(
+                "Figures {first}–{} show the sensitivity responses {what} is the part the time \
+                 constant belongs to.",
+                first + charts.len() - 1
+            ));
+        }
+        // The charts are the replay's model's responses, as the tables above: with
+        // `[hidden]` the hidden-state model's, whose assignment the report's is.
+        let assignment = &self.report.assignment;
         for (i, chart) in charts.iter().enumerate() {
             let Some(a) = assignment.get(i) else {
                 break;
@@ -675,16 +857,22 @@ impl Section for FitSection<'_> {
 
     fn render(&self, out: &mut Markup) -> Result<(), HtmlError> {
         let r = self.report;
+        let model = if hidden_is_the_model(r) {
+            "The hidden-state model's outputs, simulated through each segment from the initial \
+             state fitted to its outputs,"
+        } else {
+            "The model simulated from the measured initial state"
+        };
         out.paragraph(&format!(
-            "The model simulated from the measured initial state against the measurements, over the \
-             {} instants it was estimated on.",
+            "{model} against the measurements, over the {} instants it was estimated on.",
             r.fit.samples
         ));
-        out.table(&fit_table(
-            "Fit per part of the simulated model (eq. 8).",
-            r,
-            &r.fit,
-        ));
+        let caption = if hidden_is_the_model(r) {
+            "Fit per part of the hidden-state model's outputs."
+        } else {
+            "Fit per part of the simulated model (eq. 8)."
+        };
+        out.table(&fit_table(caption, r, &r.fit));
         Ok(())
     }
 }
@@ -742,8 +930,13 @@ impl Section for SteadyStateSection<'_> {
             .zip(&ss.input_pu)
             .map(|(i, u)| format!("{} = {} {}", i.name.replace('_', " "), sig(*u, 5), i.unit))
             .collect();
+        let formula = if hidden_is_the_model(r) {
+            "of the hidden-state model's outputs, y_ss = (C (I − Φ)⁻¹ Γ + D) u,"
+        } else {
+            "−A_c⁻¹B_c u"
+        };
         out.paragraph(&format!(
-            "The steady state −A_c⁻¹B_c u for the last measured input ({}), against the measured end \
+            "The steady state {formula} for the last measured input ({}), against the measured end \
              of the recording.",
             inputs.join(", ")
         ));
@@ -846,15 +1039,17 @@ impl Section for ResidualsSection<'_> {
         let chart = Chart::new(lag_unit, panels);
         out.paragraph(&format!(
             "A model that has captured the dynamics leaves residuals that are white and uncorrelated \
-             with the inputs. Figure {} shows their autocorrelation; the shaded band is ±{} , the 99 % \
-             band of a white sequence.",
+             with the inputs. Figure {} shows the autocorrelation of the residuals{}; the shaded band \
+             is ±{} , the 99 % band of a white sequence.",
             out.next_figure(),
+            of_the_measured_state_model(r),
             sig(res.band99, 3)
         ));
         out.figure(
             &chart.to_svg()?,
             &format!(
-                "Autocorrelation of the simulation residuals{}, lags 0–{}.",
+                "Autocorrelation of the simulation residuals{}{}, lags 0–{}.",
+                of_the_measured_state_model(r),
                 if r.innovations.is_some() {
                     " (above) and of the one-step predictor's innovations (below)"
                 } else {
@@ -865,7 +1060,13 @@ impl Section for ResidualsSection<'_> {
         );
         let mut columns = vec!["".to_owned()];
         columns.extend(state_labels(r));
-        let mut t = Table::new("Whiteness and input correlation of the residuals.", columns);
+        let mut t = Table::new(
+            format!(
+                "Whiteness and input correlation of the residuals{}.",
+                of_the_measured_state_model(r)
+            ),
+            columns,
+        );
         t.row(
             format!("lags 1–{} outside the band, %", res.max_lag),
             res.autocorrelation_outside_band
@@ -1037,9 +1238,10 @@ impl Section for NetworkSection<'_> {
             _ => String::new(),
         };
         out.paragraph(&format!(
-            "The identified A_c and B_c as a lumped network of thermal capacitances and resistances \
+            "The identified A_c and B_c{} as a lumped network of thermal capacitances and resistances \
              (the paper's Fig. 9): C·dθ/dt = −L·θ + K·P, with the scale of C from {scale}.{fitted} \
              Figure {} draws it.",
+            of_the_measured_state_model(self.report),
             out.next_figure()
         ));
         out.figure(
@@ -1232,8 +1434,14 @@ impl Section for ValidationSection<'_> {
         let Some(v) = &self.report.validation else {
             return Ok(());
         };
+        let start = if hidden_is_the_model(self.report) {
+            "the hidden-state model's outputs, each segment from the initial state fitted to its \
+             outputs (no sensor gives the hidden states)"
+        } else {
+            "from the measured state at its start"
+        };
         out.paragraph(&format!(
-            "The model simulated on {} ({} instants), from the measured state at its start.",
+            "The model simulated on {} ({} instants), {start}.",
             v.source, v.fit.samples
         ));
         out.table(&fit_table(
