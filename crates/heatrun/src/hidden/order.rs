@@ -138,6 +138,9 @@ pub struct HiddenEstimate {
     pub estimation_cost: f64,
 }
 
+/// One order's refined model, or why there is none.
+type RefinedOrder = Result<Refined, HiddenError>;
+
 /// Every order of `orders`, ascending, identified on `data`, each the best of its
 /// starts ([`Starts::best`]) with the order below's model among them; and the singular
 /// values of the subspace step. Err where `data` cannot be decomposed at all.
@@ -146,7 +149,7 @@ fn chain(
     orders: std::ops::RangeInclusive<usize>,
     options: &HiddenOptions,
     largest: usize,
-) -> Result<(Vec<Result<Refined, HiddenError>>, Vec<f64>), HiddenError> {
+) -> Result<(Vec<RefinedOrder>, Vec<f64>), HiddenError> {
     let starts = Starts::new(data, largest)?;
     let mut smaller: Option<HiddenStateModel> = None;
     let mut out = Vec::new();
