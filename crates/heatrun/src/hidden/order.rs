@@ -258,8 +258,8 @@ impl Pooled {
 /// furnace's 748 instants judged the orders on 2 × 150 of one drift, TCLab's delays on
 /// 2 × 120. (Simulated instead from the state the model of the rest carries into each
 /// fold, no fold output used, TCLab's orders 3…5, which fit the estimation file at 97-98 %,
-/// cross-validate below zero: the slowest mode, held at the record's length, carries
-/// the state of one stretch across the next as a drift; docs/src/validation/datasets.md.)
+/// cross-validate below zero, likely the slowest mode, held at the record's length,
+/// carrying one stretch's state across the next as a drift; docs/src/validation/datasets.md.)
 fn cross_validated(
     data: &IdentificationData,
     orders: std::ops::RangeInclusive<usize>,
