@@ -424,7 +424,7 @@ mod tests {
     #[test]
     fn the_order_chosen_on_the_data_is_the_true_one() {
         let truth = known_system();
-        let data = simulate_known(&truth, 3000, 0.01, 7);
+        let data = simulate_known(&truth, 1500, 0.01, 7);
         let options = HiddenOptions {
             order: OrderChoice::Chosen { largest: 5 },
             ..HiddenOptions::default()
