@@ -125,12 +125,14 @@ fn tclab_validation_fit_holds() {
 }
 
 /// The structure `examples/tclab_mimo_heaters/run` uses (issue 23): `hidden.toml`, the two
-/// thermistors two states of a model whose order is chosen on the estimation file alone,
-/// heater 1 acting 5 s late. Measured at the commit that chose it
-/// (docs/src/validation/datasets.md, "With hidden states"): order 4 (hold-back fit 78.3 %
-/// against 48.9 % for order 3), validation T1 93.9 %, T2 89.7 % from the initial state
-/// fitted to the validation outputs, the slowest time constant at the record's length
-/// (595 s, the bound on the poles), heater 1's steady-state gain on T1 58.4 K/W. A change that makes the chosen structure fit the
+/// thermistors two states of a model whose order is chosen on the estimation file alone
+/// (five-fold cross-validation, each order the best of several starts), heater 1 acting 12 s
+/// late (the least estimation cost of 0…15 s). Measured at the commit that chose it
+/// (docs/src/validation/datasets.md, "With hidden states"): order 4 (cross-validated fit
+/// 80.5 % against 71.5 % for order 3; order 5 refused, no better on the estimation file),
+/// validation T1 91.7 %, T2 88.8 % from the initial state fitted to the validation outputs,
+/// the slowest time constant at the record's length (588 s, the bound on the poles), heater
+/// 1's steady-state gain on T1 46.7 K/W. A change that makes the chosen structure fit the
 /// real data worse, or chooses another order, fails here.
 #[test]
 fn tclab_hidden_state_model_holds_its_fit() {
@@ -158,6 +160,7 @@ fn tclab_hidden_state_model_holds_its_fit() {
             .unwrap();
     let hidden = &report["hidden"];
     assert_eq!(hidden["order"], 4, "{}", hidden["candidates"]);
+    assert_eq!(report["model"]["inputs"][0]["delay_s"], 12.0);
     // The hidden model's validation: in the `hidden` block, or the report's own where the
     // hidden model is the replay's main model.
     let fit = report
@@ -165,12 +168,12 @@ fn tclab_hidden_state_model_holds_its_fit() {
         .or_else(|| report.pointer("/validation/fit/nrmse_fit_percent"))
         .map(numbers)
         .unwrap();
-    assert!(fit[0] > 93.5 && fit[1] > 89.2, "validation fit {fit:?}");
+    assert!(fit[0] > 91.2 && fit[1] > 88.3, "validation fit {fit:?}");
     let tau = numbers(&hidden["time_constants_s"]);
     assert_eq!(tau.len(), 4);
     assert!(tau[3] <= 600.0, "{tau:?}");
     let gain_11 = hidden["steady_state_gain"][0][0].as_f64().unwrap();
-    assert!((gain_11 - 58.4).abs() < 4.0, "gain {gain_11} K/W");
+    assert!((gain_11 - 46.7).abs() < 4.0, "gain {gain_11} K/W");
 }
 
 /// Imports `data` with `examples/<example>/map.toml` and replays it with the example's

@@ -10,6 +10,9 @@
 //! estimation and validation data (each segment from its fitted initial state; with a
 //! split also simulated through from the estimation part, no validation output used).
 //!
+//! With `--cv-methods iv,wls,oe` it also cross-validates the measured-state estimators
+//! named (C = I, D = 0) on the estimation part's folds, as the order is, and validates them.
+//!
 //! With `--measured-report REPORT --measured-spec SPEC` it also prints the validation
 //! fit of a measured-state replay's model (REPORT's Φ, Γ on SPEC's signals: C = I, D = 0)
 //! under the same protocol (x0 fitted to the validation outputs), beside the hidden one.
@@ -17,7 +20,9 @@
 use std::path::PathBuf;
 
 use heatrun::estimate::IdentificationData;
-use heatrun::hidden::order::{compare, fit_of, mean_fit_percent};
+use heatrun::hidden::order::{
+    compare, fit_of, folds as folds_of, mean_fit_percent, without, Pooled,
+};
 use heatrun::hidden::{self, HiddenOptions, OrderChoice, OutputMatrix};
 use heatrun::pipeline::{prepare, ReplayOptions};
 use heatrun::spec::coolant::ReferencePolicy;
@@ -92,11 +97,12 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let estimate = hidden::identify(&estimation, &options)?;
     for c in &estimate.candidates {
         println!(
-            "order {:2}: hold-back fit {:>7} %  AIC {:>10}  {}",
+            "order {:2}: cross-validated fit {:>7} %  AIC {:>10}  cost 2J/N {:>9}  {}",
             c.order,
             c.hold_back_fit_percent
                 .map_or("-".into(), |f| format!("{f:.1}")),
             c.aic.map_or("-".into(), |a| format!("{a:.0}")),
+            c.estimation_cost.map_or("-".into(), |a| format!("{a:.5}")),
             c.refused.as_deref().unwrap_or("")
         );
     }
@@ -106,6 +112,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         m.order(),
         options.output_matrix,
         options.feedthrough
+    );
+    println!(
+        "estimation cost 2J/N: {:.6} ({} evaluations)",
+        estimate.estimation_cost, estimate.evaluations
     );
     println!("time constants s: {:.2?}", m.time_constants_s());
     println!(
@@ -130,6 +140,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         let mean = f.iter().sum::<f64>() / f.len() as f64;
         println!("validation fit % (simulated through): {f:.1?} mean {mean:.1}");
     }
+    if let Some(methods) = value("--cv-methods") {
+        for method in methods.split(',') {
+            measured_state_cv(method, &estimation, &validation, &replay, options.folds())?;
+        }
+    }
     if let (Some(report), Some(spec)) = (value("--measured-report"), value("--measured-spec")) {
         measured_state_fit(
             &report,
@@ -139,6 +154,50 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             &value("--validate"),
         )?;
     }
+    Ok(())
+}
+
+/// A measured-state estimator (`method`: iv, wls, oe, …) judged as the hidden order is:
+/// cross-validated on `folds` contiguous folds of the estimation data (each simulated by
+/// the model of the rest, x0 fitted to its outputs, errors pooled), then identified on all
+/// of it and validated under the same protocol.
+fn measured_state_cv(
+    method: &str,
+    estimation: &IdentificationData,
+    validation: &IdentificationData,
+    replay: &ReplayOptions,
+    folds: usize,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let options = ReplayOptions {
+        method: method.parse()?,
+        ..replay.clone()
+    };
+    let identify = |data: &IdentificationData| -> Result<hidden::HiddenStateModel, String> {
+        let e = heatrun::pipeline::estimate(data, &options).map_err(|e| e.to_string())?;
+        let n = e.model.phi.nrows();
+        Ok(hidden::HiddenStateModel {
+            phi: e.model.phi.clone(),
+            gamma: e.model.gamma.clone(),
+            c: nalgebra::DMatrix::identity(n, n),
+            d: nalgebra::DMatrix::zeros(n, e.model.gamma.ncols()),
+            ts_s: estimation.ts_s,
+        })
+    };
+    let mut pooled = Pooled::new(estimation.states());
+    for fold in folds_of(estimation.len(), folds) {
+        let model = identify(&without(estimation, fold.clone()))?;
+        let held = estimation.slice(fold);
+        pooled.add(&held, &model.simulate_segments(&held));
+    }
+    let model = identify(estimation)?;
+    println!(
+        "measured-state {method}: cross-validated fit {:.1} %, estimation fit {:.1?}, \
+         validation fit (x0 fitted) {:.1?}, time constants {:.1?}",
+        pooled.fit_percent(),
+        per_output(&model, estimation),
+        per_output(&model, validation),
+        model.time_constants_s()
+    );
     Ok(())
 }
 

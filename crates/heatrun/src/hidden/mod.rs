@@ -14,8 +14,10 @@
 //!   the outputs, which are linear in them);
 //! - [`refine`]: output error, the simulation error of the measured outputs minimised
 //!   by Levenberg–Marquardt over Φ, Γ, C, D and each segment's x0;
-//! - [`order`]: the order n chosen on the estimation data alone (the fits of its
-//!   held-back tail and head, each from a model of the rest), or given.
+//! - [`starts`]: several starts for each order (the subspace start at two horizons, the
+//!   order below's model with a state added), the refined model of least cost kept;
+//! - [`order`]: the order n chosen on the estimation data alone (five-fold
+//!   cross-validation: each fifth simulated by the model of the rest), or given.
 //!
 //! Where it is the replay's model, [`analysis`] gives its time constants, the measured
 //! outputs' sensitivities to them and its steady state; [`covariance`] the covariance
@@ -37,6 +39,7 @@ pub mod analysis;
 pub mod covariance;
 pub mod order;
 pub mod refine;
+pub mod starts;
 pub mod subspace;
 pub mod traces;
 
@@ -56,7 +59,7 @@ pub enum OutputMatrix {
 }
 
 /// Errors of hidden-state identification.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Debug, Clone, thiserror::Error, PartialEq)]
 pub enum HiddenError {
     /// Too few complete windows for the block Hankel matrices.
     #[error(

@@ -178,9 +178,11 @@ pub struct MeasuredStateEntry {
 pub struct HiddenCandidateEntry {
     /// The order n.
     pub order: usize,
-    /// Mean NRMSE fit (%) on the held-back fifth of the estimation data.
+    /// The five-fold cross-validated NRMSE fit (%) on the estimation data (each fifth
+    /// simulated by the model of the rest, x0 fitted to its outputs; errors pooled per
+    /// output, averaged over the outputs).
     pub hold_back_fit_percent: Option<f64>,
-    /// Akaike's criterion on the rest of the estimation data.
+    /// Akaike's criterion on all the estimation data.
     pub aic: Option<f64>,
     /// Why the order gave no model, where it gave none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
