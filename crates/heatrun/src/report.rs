@@ -777,7 +777,7 @@ impl Report {
                 .as_deref()
                 .map(|r| format!(" (refused: {r})"))
                 .unwrap_or_default();
-            let _ = writeln!(s, "  order {}: held-back fit {fit}{why}", c.order);
+            let _ = writeln!(s, "  order {}: cross-validated fit {fit}{why}", c.order);
         }
         matrix(s, "hidden-state Φ", &h.phi, 8);
         matrix(s, "hidden-state Γ", &h.gamma, 7);

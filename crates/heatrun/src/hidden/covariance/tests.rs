@@ -61,6 +61,7 @@ fn mean_square_z(output_matrix: OutputMatrix, draws: u64) -> f64 {
                 ..HiddenOptions::default()
             },
             evaluations: refined.evaluations,
+            estimation_cost: refined.weighted_sse / refined.compared.max(1) as f64,
         };
         let cov = covariance(&data, &estimate).unwrap();
         assert_eq!(cov.covariance.nrows(), (3 + 2) * (3 + 2));
@@ -103,6 +104,7 @@ fn the_fixed_entries_have_no_variance_and_the_basis_changes_are_counted() {
             ..HiddenOptions::default()
         },
         evaluations: 0,
+        estimation_cost: refined.weighted_sse / refined.compared.max(1) as f64,
     };
     let cov = covariance(&data, &estimate).unwrap();
     // (n − p)·n = 3 directions of T⁻¹'s hidden row.
