@@ -68,7 +68,7 @@ pub(super) fn read(
 ) -> Result<HiddenRead, UseError> {
     let (p, m, n) = (outputs.len(), inputs, h.order);
     let matrix = |rows: &[Vec<f64>], shape: (usize, usize), key: &'static str| {
-        super::thermal_model::matrix(rows, shape, key, path, (n, m))
+        super::shape::matrix(rows, shape, key, path, (n, m))
     };
     let phi = matrix(&h.phi, (n, n), "hidden.phi")?;
     let gamma = matrix(&h.gamma, (n, m), "hidden.gamma")?;

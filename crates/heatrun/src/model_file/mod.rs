@@ -14,6 +14,7 @@
 pub mod document;
 pub mod error;
 pub mod hidden;
+mod shape;
 pub mod thermal_model;
 
 pub use document::{Report, HIDDEN_COVARIANCE_LAYOUT, PROFILE};

@@ -10,6 +10,7 @@ use nalgebra::{DMatrix, DVector};
 use super::document::{EstimationEntry, Report};
 use super::error::UseError;
 use super::hidden::OutputMap;
+use super::shape::matrix;
 use crate::losses::{FieldTemperatureSource, HeatSource};
 use crate::recording::{Nameplate, Quantity, Signal};
 use crate::spec::{InputDescription, InputSource, Reference, Scaling, StateDescription};
@@ -363,35 +364,6 @@ impl ThermalModel {
             needed_for: needed_for.into(),
         }
     }
-}
-
-/// The `nrows × ncols` matrix of a report's `key` (rows of numbers), or the one-line
-/// error naming the key, the shape found and the one expected.
-pub(super) fn matrix(
-    rows: &[Vec<f64>],
-    (nrows, ncols): (usize, usize),
-    key: &'static str,
-    path: &Path,
-    (n, m): (usize, usize),
-) -> Result<DMatrix<f64>, UseError> {
-    if rows.len() != nrows || rows.iter().any(|r| r.len() != ncols) {
-        return Err(UseError::Shape {
-            path: path.to_owned(),
-            key,
-            found: format!(
-                "{} rows of [{}] entries",
-                rows.len(),
-                rows.iter()
-                    .map(|r| r.len().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            expected: format!("{nrows} × {ncols}"),
-            states: n,
-            inputs: m,
-        });
-    }
-    Ok(DMatrix::from_fn(nrows, ncols, |i, j| rows[i][j]))
 }
 
 /// The covariance of Θ and the process noise K Λ Kᵀ a report carries, each checked for
