@@ -945,7 +945,10 @@ fn grey_box_from_nearest(
         None => "rc's fit failed".into(),
     })?;
     let held: Vec<Estimate> = held.into_iter().flatten().collect();
-    let (chosen, coolant) = through_coolant(&rc, data, model, full, held, floor);
+    let (chosen, coolant, held_at) = through_coolant(&rc, data, model, full, held, floor);
+    // The network chosen at the capped weights, refitted at each output's own weight where
+    // one is above the cap (an output read without noise); itself otherwise.
+    let chosen = rc.heavier(data, &chosen, held_at).unwrap_or(chosen);
     let beyond_k = chosen
         .noise_variance
         .iter()
@@ -966,7 +969,8 @@ fn grey_box_from_nearest(
 /// ([`ResistanceCapacitance::fit_through_coolant`]), where the likelihood-ratio test
 /// cannot tell them apart ([`THROUGH_COOLANT_LEVEL`]): a conductance the data cannot
 /// see otherwise takes a few kW/K that bend C and G by 10 % (the four-node machine,
-/// docs/src/methods/thermal-network.md). With what the text says of it.
+/// docs/src/methods/thermal-network.md). With what the text says of it, and the cooling
+/// water's state where the network returned is the held one.
 fn through_coolant(
     rc: &ResistanceCapacitance,
     data: &IdentificationData,
@@ -974,12 +978,12 @@ fn through_coolant(
     full: Estimate,
     held_from_starts: Vec<Estimate>,
     floor: f64,
-) -> (Estimate, String) {
+) -> (Estimate, String, Option<usize>) {
     let (Some(water), Some(parts)) = (
         crate::spec::coolant::outlet_state(model),
         full.network.as_ref().map(|n| n.parts.clone()),
     ) else {
-        return (full, String::new());
+        return (full, String::new(), None);
     };
     let held_parts = parts.capacitance_j_per_k.len() - 1;
     // The held network refitted from the free one's parts, beside those fitted from rc's
@@ -996,7 +1000,7 @@ fn through_coolant(
             d(a).total_cmp(&d(b))
         })
     else {
-        return (full, String::new());
+        return (full, String::new(), None);
     };
     let ratio = crate::estimate::likelihood_ratio(data, &full, &held, floor);
     let p = network::fit::chi_square_survival(ratio.max(0.0), held_parts);
@@ -1006,7 +1010,7 @@ fn through_coolant(
              water's, they fit the data worse: likelihood ratio {ratio:.1} on {held_parts} \
              degrees of freedom, p = {p:.1e})"
         );
-        return (full, said);
+        return (full, said, None);
     }
     if let (Some(h), Some(f)) = (held.network.as_mut(), full.network) {
         h.output_error = f.output_error;
@@ -1016,7 +1020,7 @@ fn through_coolant(
          coolant are held at zero, which fits the data as well (likelihood ratio {ratio:.2} on \
          {held_parts} degrees of freedom, p = {p:.2})"
     );
-    (held, said)
+    (held, said, Some(water))
 }
 
 /// What the network is fitted to after `oe`: its Θ re-estimated with the constant output
