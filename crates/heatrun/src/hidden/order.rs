@@ -251,7 +251,8 @@ impl Pooled {
     }
 }
 
-/// Each order of `orders` cross-validated on `data`: K = round(1/hold_back) contiguous
+/// Each order of `orders` cross-validated on `data` from `fold_fits` (each fold's chain
+/// of models fitted on the rest, [`chains`]): K = round(1/hold_back) contiguous
 /// folds, each held back in turn and simulated from the initial state fitted to its own
 /// outputs ([`Pooled`]), the protocol of the validation (SITB `compare`'s). Rather than a
 /// tail and a head (two folds of a fifth), every instant is held back once: the glass
@@ -263,19 +264,13 @@ impl Pooled {
 fn cross_validated(
     data: &IdentificationData,
     orders: std::ops::RangeInclusive<usize>,
-    options: &HiddenOptions,
-    largest: usize,
+    fold_fits: Vec<(Range<usize>, Result<Vec<RefinedOrder>, HiddenError>)>,
 ) -> Vec<Result<f64, String>> {
-    let k = options.folds();
     let count = orders.clone().count();
     let mut pooled = vec![Ok(Pooled::new(data.states())); count];
-    for fold in folds(data.len(), k) {
-        let held = data.slice(fold.clone());
-        let rest = without(data, fold);
-        let fits = match chain(&rest, orders.clone(), options, largest) {
-            Ok((fits, _)) => fits,
-            Err(e) => (0..count).map(|_| Err(e.clone())).collect(),
-        };
+    for (fold, fits) in fold_fits {
+        let held = data.slice(fold);
+        let fits = fits.unwrap_or_else(|e| (0..count).map(|_| Err(e.clone())).collect());
         for (slot, refined) in pooled.iter_mut().zip(fits) {
             let failed = match (&mut *slot, refined) {
                 (Ok(p), Ok(r)) => {
@@ -296,6 +291,41 @@ fn cross_validated(
         .collect()
 }
 
+/// The chains of orders of every job: all of `data` first (`None`), then each fold of
+/// the cross-validation held back (`Some(fold)`: the chain on the rest), on rayon's
+/// threads (the jobs are independent; their results come back in order, so the choice
+/// does not depend on the number of cores).
+fn chains(
+    data: &IdentificationData,
+    orders: std::ops::RangeInclusive<usize>,
+    options: &HiddenOptions,
+    largest: usize,
+    held_back: Vec<Range<usize>>,
+) -> (
+    Result<(Vec<RefinedOrder>, Vec<f64>), HiddenError>,
+    Vec<(Range<usize>, Result<Vec<RefinedOrder>, HiddenError>)>,
+) {
+    use rayon::prelude::*;
+    let jobs: Vec<Option<Range<usize>>> =
+        std::iter::once(None).chain(held_back.into_iter().map(Some)).collect();
+    let mut done: Vec<_> = jobs
+        .into_par_iter()
+        .map(|job| match job {
+            None => (None, chain(data, orders.clone(), options, largest)),
+            Some(fold) => {
+                let rest = without(data, fold.clone());
+                (Some(fold), chain(&rest, orders.clone(), options, largest))
+            }
+        })
+        .collect();
+    let whole = done.remove(0).1;
+    let folds = done
+        .into_iter()
+        .filter_map(|(fold, fits)| Some((fold?, fits.map(|(f, _)| f))))
+        .collect();
+    (whole, folds)
+}
+
 /// Identifies a hidden-state model from `data` (its estimation part only): the order
 /// given, or chosen by cross-validation on `data` ([`cross_validated`]: the smallest
 /// order within [`PARSIMONY_POINTS`] of the best); each order the best of its starts.
@@ -314,11 +344,16 @@ pub fn identify(
     };
     // Every order up to the one wanted, on all the data: the order below is a start.
     let lowest = smallest.min(top);
-    let (mut fits, singular_values) = chain(data, lowest..=top, options, largest)?;
+    let held_back = match options.order {
+        OrderChoice::Given(_) => Vec::new(),
+        OrderChoice::Chosen { .. } => folds(data.len(), options.folds()),
+    };
+    let (whole, fold_fits) = chains(data, lowest..=top, options, largest, held_back);
+    let (mut fits, singular_values) = whole?;
     let (order, candidates) = match options.order {
         OrderChoice::Given(n) => (n, Vec::new()),
         OrderChoice::Chosen { .. } => {
-            let held = cross_validated(data, lowest..=top, options, largest);
+            let held = cross_validated(data, lowest..=top, fold_fits);
             let candidates: Vec<OrderCandidate> = (lowest..=top)
                 .zip(held)
                 .enumerate()

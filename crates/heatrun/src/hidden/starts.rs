@@ -78,9 +78,17 @@ impl Starts {
         let warm = smaller
             .filter(|m| m.order() + 1 == order)
             .map(|m| Ok(augmented(m)));
+        // Each start refined on a thread of its own (rayon's), then compared in order: the
+        // same model as one after the other, whatever the number of cores.
+        use rayon::prelude::*;
+        let starts: Vec<Result<HiddenStateModel, HiddenError>> =
+            subspace_starts.chain(warm).collect();
+        let refined: Vec<Result<Refined, HiddenError>> = starts
+            .into_par_iter()
+            .map(|start| start.and_then(|s| refine(data, &s, output_matrix, feedthrough)))
+            .collect();
         let mut best: Option<Result<Refined, HiddenError>> = None;
-        for start in subspace_starts.chain(warm) {
-            let refined = start.and_then(|s| refine(data, &s, output_matrix, feedthrough));
+        for refined in refined {
             best = Some(match (best, refined) {
                 (None, r) => r,
                 (Some(Err(_)), Ok(r)) => Ok(r),
