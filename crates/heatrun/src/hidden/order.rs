@@ -141,6 +141,12 @@ pub struct HiddenEstimate {
 /// One order's refined model, or why there is none.
 type RefinedOrder = Result<Refined, HiddenError>;
 
+/// A fold held back, and the chain of orders fitted on the rest (or why there is none).
+type FoldChain = (Range<usize>, Result<Vec<RefinedOrder>, HiddenError>);
+
+/// The chain of orders on all the data, with the subspace step's singular values.
+type WholeChain = Result<(Vec<RefinedOrder>, Vec<f64>), HiddenError>;
+
 /// Every order of `orders`, ascending, identified on `data`, each the best of its
 /// starts ([`Starts::best`]) with the order below's model among them; and the singular
 /// values of the subspace step. Err where `data` cannot be decomposed at all.
@@ -264,7 +270,7 @@ impl Pooled {
 fn cross_validated(
     data: &IdentificationData,
     orders: std::ops::RangeInclusive<usize>,
-    fold_fits: Vec<(Range<usize>, Result<Vec<RefinedOrder>, HiddenError>)>,
+    fold_fits: Vec<FoldChain>,
 ) -> Vec<Result<f64, String>> {
     let count = orders.clone().count();
     let mut pooled = vec![Ok(Pooled::new(data.states())); count];
@@ -301,10 +307,7 @@ fn chains(
     options: &HiddenOptions,
     largest: usize,
     held_back: Vec<Range<usize>>,
-) -> (
-    Result<(Vec<RefinedOrder>, Vec<f64>), HiddenError>,
-    Vec<(Range<usize>, Result<Vec<RefinedOrder>, HiddenError>)>,
-) {
+) -> (WholeChain, Vec<FoldChain>) {
     use rayon::prelude::*;
     let jobs: Vec<Option<Range<usize>>> =
         std::iter::once(None).chain(held_back.into_iter().map(Some)).collect();
