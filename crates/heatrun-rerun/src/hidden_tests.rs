@@ -19,7 +19,7 @@ use rerun::log::{Chunk, LogMsg};
 use rerun::StoreKind;
 
 /// Each time-series entity of the recording store: its (time ns, value) rows, in order.
-fn series(path: &std::path::Path) -> BTreeMap<String, Vec<(i64, f64)>> {
+pub(crate) fn series(path: &std::path::Path) -> BTreeMap<String, Vec<(i64, f64)>> {
     let component = rerun::Scalars::descriptor_scalars().component;
     let timeline = rerun::TimelineName::try_new(crate::TIMELINE).unwrap();
     let mut out: BTreeMap<String, Vec<(i64, f64)>> = BTreeMap::new();

@@ -21,6 +21,8 @@ mod analysis;
 pub mod blueprint;
 #[cfg(test)]
 mod hidden_tests;
+#[cfg(test)]
+mod inputs_tests;
 pub mod layout;
 pub mod monitor;
 pub mod network;

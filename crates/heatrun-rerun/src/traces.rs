@@ -137,7 +137,7 @@ pub(super) fn log_calorimetry(rec: &RecordingStream, replay: &Replay) -> Result<
     let sum = (0..s.len()).map(|k| {
         s.inputs
             .iter()
-            .filter(|i| i.kind == InputKind::Heat)
+            .filter(|i| i.kind != InputKind::Boundary)
             .map(|i| i.values.get(k))
             .sum::<Option<f64>>()
             .map(|v| v * scale)
@@ -234,10 +234,11 @@ pub(super) fn log_measured(rec: &RecordingStream, stages: Stages<'_>) -> Result<
     }
     let scale = input_plot_scale(stages.model, s);
     let per_unit = stages.model.scaling == Scaling::NameplatePerUnit;
-    // The losses; a coolant inlet's rise is a temperature, published with the
-    // decimated quantities (its channel), not among the heat sources.
-    let heat = s.inputs.iter().filter(|i| i.kind == InputKind::Heat);
-    for (j, input) in heat.enumerate() {
+    // The losses, and a spec's inputs that are not heat (a lamp's voltage to a power, a
+    // fan's speed: the plot's title names their units); a coolant inlet's rise is a
+    // temperature, published with the decimated quantities (its channel), not here.
+    let plotted = s.inputs.iter().filter(|i| i.kind != InputKind::Boundary);
+    for (j, input) in plotted.enumerate() {
         let entity = format!("loss/{}", input.name);
         let unit = if per_unit { "kW" } else { input.unit.as_str() };
         let name = format!("{}, {unit}", input.name.replace('_', " "));
