@@ -7,45 +7,13 @@
 //! simulation is the trace it must not be.
 
 use std::collections::BTreeMap;
-use std::io::BufReader;
 
-use heatrun::pipeline::{replay, ReplayOptions};
-use heatrun::report::Replayed;
+use heatrun::pipeline::ReplayOptions;
 use heatrun::spec::hidden::{HiddenSpec, OutputMatrixSpec};
 use heatrun::spec::ModelDescription;
 use heatrun::synth::{self, FieldChannel, Machine, NetworkMachine, SynthOptions};
-use rerun::external::re_log_encoding::DecoderApp;
-use rerun::log::{Chunk, LogMsg};
-use rerun::StoreKind;
 
-/// Each time-series entity of the recording store: its (time ns, value) rows, in order.
-pub(crate) fn series(path: &std::path::Path) -> BTreeMap<String, Vec<(i64, f64)>> {
-    let component = rerun::Scalars::descriptor_scalars().component;
-    let timeline = rerun::TimelineName::try_new(crate::TIMELINE).unwrap();
-    let mut out: BTreeMap<String, Vec<(i64, f64)>> = BTreeMap::new();
-    let file = std::fs::File::open(path).unwrap();
-    for msg in DecoderApp::decode_eager(BufReader::new(file)).unwrap() {
-        let LogMsg::ArrowMsg(store, arrow) = msg.unwrap() else {
-            continue;
-        };
-        if store.kind() == StoreKind::Blueprint {
-            continue;
-        }
-        let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
-        let Some(times) = chunk.timelines().get(&timeline) else {
-            continue;
-        };
-        let values = chunk.iter_slices::<f64>(component).map(|v| v[0]);
-        let rows: Vec<(i64, f64)> = times.times_raw().iter().copied().zip(values).collect();
-        out.entry(chunk.entity_path().to_string())
-            .or_default()
-            .extend(rows);
-    }
-    for rows in out.values_mut() {
-        rows.sort_by_key(|r| r.0);
-    }
-    out
-}
+use crate::rrd_testing::replayed_and_drawn;
 
 #[test]
 fn an_rrd_of_a_hidden_replay_draws_the_hidden_models_outputs() {
@@ -75,10 +43,7 @@ fn an_rrd_of_a_hidden_replay_draws_the_hidden_models_outputs() {
         model,
         ..ReplayOptions::default()
     };
-    let replayed = Replayed::new(replay(&mcap, &options).unwrap());
-    let rrd = dir.path().join("run.rrd");
-    crate::publish(&replayed, &crate::RerunSink::Rrd(rrd.clone())).unwrap();
-    let drawn = series(&rrd);
+    let (replayed, drawn) = replayed_and_drawn(&mcap, &options);
 
     let r = &replayed.replay;
     let h = r.hidden.as_ref().expect("the spec declares [hidden]");

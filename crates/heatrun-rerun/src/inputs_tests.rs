@@ -2,12 +2,11 @@
 //! a spec's inputs that are not heat (a lamp's voltage to a power, a fan's speed), which
 //! its title already named by their units and which were left out before.
 
-use heatrun::pipeline::{replay, ReplayOptions};
-use heatrun::report::Replayed;
+use heatrun::pipeline::ReplayOptions;
 use heatrun::spec::{InputKind, ModelDescription};
 use heatrun::synth::{self, SynthOptions};
 
-use crate::hidden_tests::series;
+use crate::rrd_testing::replayed_and_drawn;
 
 #[test]
 fn an_input_that_is_not_heat_is_drawn_among_the_inputs() {
@@ -21,10 +20,7 @@ fn an_input_that_is_not_heat_is_drawn_among_the_inputs() {
         model,
         ..ReplayOptions::default()
     };
-    let replayed = Replayed::new(replay(&mcap, &options).unwrap());
-    let rrd = dir.path().join("run.rrd");
-    crate::publish(&replayed, &crate::RerunSink::Rrd(rrd.clone())).unwrap();
-    let drawn = series(&rrd);
+    let (replayed, drawn) = replayed_and_drawn(&mcap, &options);
     let s = &replayed.replay.signals;
     let kw = s.power_base / 1e3;
     for input in &s.inputs {

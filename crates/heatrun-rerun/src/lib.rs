@@ -23,6 +23,8 @@ pub mod blueprint;
 mod hidden_tests;
 #[cfg(test)]
 mod inputs_tests;
+#[cfg(test)]
+mod rrd_testing;
 pub mod layout;
 pub mod monitor;
 pub mod network;

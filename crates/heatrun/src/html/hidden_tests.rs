@@ -64,6 +64,8 @@ fn the_summary_and_the_page_of_a_hidden_replay_describe_the_hidden_model() {
 
     // The page: the hidden model's matrices, its temperatures and sensitivities drawn.
     let page = crate::html::replay_page(&replayed, &options).render().unwrap();
+    assert!(page.contains("(hidden-state model: subspace start, output error, Ts = 10 s)"));
+    assert!(!page.contains(&format!("({} estimate, Ts", report.method)));
     assert!(page.contains("Φ of the hidden-state model."));
     assert!(page.contains("C of the hidden-state model"));
     assert!(page.contains("measured and hidden-state model (dashed"));

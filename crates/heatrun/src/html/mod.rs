@@ -157,10 +157,7 @@ pub fn replay_page<'a>(replayed: &'a Replayed, options: &'a ReplayOptions) -> Pa
     let (replay, report) = (&replayed.replay, &replayed.report);
     let mut page = Page::new(
         format!("{}: thermal model", sections::recording_title(report)),
-        format!(
-            "Identified by heatrun {} from {} ({} estimate, Ts = {} s)",
-            report.heatrun_version, report.recording.path, report.method, report.sample_time_s
-        ),
+        sections::subtitle(report),
     );
     page.facts = sections::header_facts(report);
     page.push(RecordingSection { report })

@@ -23,6 +23,21 @@ fn hidden_is_the_model(r: &Report) -> bool {
     r.hidden.as_ref().is_some_and(|h| h.replay_model)
 }
 
+/// The page's subtitle: which heatrun, which recording, how the model was estimated (the
+/// hidden-state model's own way where it is the report's model, not the measured-state
+/// model's estimator beside it) and at which sample time.
+pub(super) fn subtitle(r: &Report) -> String {
+    let how = if hidden_is_the_model(r) {
+        "hidden-state model: subspace start, output error".to_string()
+    } else {
+        format!("{} estimate", r.method)
+    };
+    format!(
+        "Identified by heatrun {} from {} ({how}, Ts = {} s)",
+        r.heatrun_version, r.recording.path, r.sample_time_s
+    )
+}
+
 /// " of the measured-state model" where the report's model is a hidden-state one, else
 /// nothing: for the captions of what stays the measured-state model's.
 fn of_the_measured_state_model(r: &Report) -> &'static str {

@@ -1,0 +1,54 @@
+//! Tests' access to what an .rrd draws: a recording replayed, published to an .rrd and read
+//! back with rerun's own decoder, apart from the publisher.
+
+use std::collections::BTreeMap;
+use std::io::BufReader;
+use std::path::Path;
+
+use heatrun::pipeline::{replay, ReplayOptions};
+use heatrun::report::Replayed;
+use rerun::external::re_log_encoding::DecoderApp;
+use rerun::log::{Chunk, LogMsg};
+use rerun::StoreKind;
+
+/// `mcap` replayed with `options` and published to an .rrd beside it; with each
+/// time-series entity the .rrd holds ([`series`]).
+pub(crate) fn replayed_and_drawn(
+    mcap: &Path,
+    options: &ReplayOptions,
+) -> (Replayed, BTreeMap<String, Vec<(i64, f64)>>) {
+    let replayed = Replayed::new(replay(mcap, options).unwrap());
+    let rrd = mcap.with_extension("rrd");
+    crate::publish(&replayed, &crate::RerunSink::Rrd(rrd.clone())).unwrap();
+    let drawn = series(&rrd);
+    (replayed, drawn)
+}
+
+/// Each time-series entity of the recording store: its (time ns, value) rows, in order.
+fn series(path: &std::path::Path) -> BTreeMap<String, Vec<(i64, f64)>> {
+    let component = rerun::Scalars::descriptor_scalars().component;
+    let timeline = rerun::TimelineName::try_new(crate::TIMELINE).unwrap();
+    let mut out: BTreeMap<String, Vec<(i64, f64)>> = BTreeMap::new();
+    let file = std::fs::File::open(path).unwrap();
+    for msg in DecoderApp::decode_eager(BufReader::new(file)).unwrap() {
+        let LogMsg::ArrowMsg(store, arrow) = msg.unwrap() else {
+            continue;
+        };
+        if store.kind() == StoreKind::Blueprint {
+            continue;
+        }
+        let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
+        let Some(times) = chunk.timelines().get(&timeline) else {
+            continue;
+        };
+        let values = chunk.iter_slices::<f64>(component).map(|v| v[0]);
+        let rows: Vec<(i64, f64)> = times.times_raw().iter().copied().zip(values).collect();
+        out.entry(chunk.entity_path().to_string())
+            .or_default()
+            .extend(rows);
+    }
+    for rows in out.values_mut() {
+        rows.sort_by_key(|r| r.0);
+    }
+    out
+}
