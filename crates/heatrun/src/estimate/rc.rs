@@ -162,10 +162,7 @@ impl ResistanceCapacitance {
         let n = parts.capacitance_j_per_k.len();
         let mut parts = parts.clone();
         let g_max = parts.conductance_w_per_k.amax();
-        let pinned: Vec<usize> = (0..n)
-            .filter(|&i| i != coolant_state)
-            .map(|i| n + i)
-            .collect();
+        let pinned = held_to_coolant(n, coolant_state);
         for i in (0..n).filter(|&i| i != coolant_state) {
             parts.conductance_w_per_k[(i, i)] = PINNED_ZERO * g_max;
         }
@@ -208,8 +205,8 @@ impl ResistanceCapacitance {
         }
         let parts = network.parts.clone();
         let n = parts.capacitance_j_per_k.len();
-        let pinned: Vec<usize> = coolant_state
-            .map(|w| (0..n).filter(|&i| i != w).map(|i| n + i).collect())
+        let pinned = coolant_state
+            .map(|w| held_to_coolant(n, w))
             .unwrap_or_default();
         let map = Parametrisation::of_shape(data.ts_s, self.scaling, &parts);
         let start = map.start.clone();
@@ -467,6 +464,16 @@ fn capped_at(weights: Vec<f64>, cap: f64) -> Vec<f64> {
 fn cap_binds(weights: &[f64], cap: f64) -> bool {
     let limit = cap * median(weights);
     weights.iter().any(|w| *w > limit)
+}
+
+/// The parameters pinned in a network of `n` parts where heat leaves only through
+/// `coolant_state`: every other part's conductance to the coolant (the p layout's
+/// n + i).
+fn held_to_coolant(n: usize, coolant_state: usize) -> Vec<usize> {
+    (0..n)
+        .filter(|&i| i != coolant_state)
+        .map(|i| n + i)
+        .collect()
 }
 
 /// The median (the upper one of an even count).
