@@ -948,7 +948,17 @@ fn grey_box_from_nearest(
     let (chosen, coolant, held_at) = through_coolant(&rc, data, model, full, held, floor);
     // The network chosen at the capped weights, refitted at each output's own weight where
     // one is above the cap (an output read without noise); itself otherwise.
-    let chosen = rc.heavier(data, &chosen, held_at).unwrap_or(chosen);
+    // A failed refit keeps the capped network, and the text says so.
+    let (chosen, refit) = match rc.heavier(data, &chosen, held_at) {
+        Ok(heavier) => (heavier, String::new()),
+        Err(e) => (
+            chosen,
+            format!(
+                "; its refit at an exact output's own weight failed ({e}), so it is the fit at \
+                 capped weights"
+            ),
+        ),
+    };
     let beyond_k = chosen
         .noise_variance
         .iter()
@@ -959,7 +969,7 @@ fn grey_box_from_nearest(
         chosen,
         format!(
             "fitted to the data by rc, started from {start}{coolant}; it leaves at most {beyond_k:.3} K RMS unexplained \
-             beyond the identified model's residuals"
+             beyond the identified model's residuals{refit}"
         ),
     ))
 }

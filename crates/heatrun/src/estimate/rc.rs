@@ -160,12 +160,8 @@ impl ResistanceCapacitance {
         coolant_state: usize,
     ) -> Result<Estimate> {
         let n = parts.capacitance_j_per_k.len();
-        let mut parts = parts.clone();
-        let g_max = parts.conductance_w_per_k.amax();
         let pinned = held_to_coolant(n, coolant_state);
-        for i in (0..n).filter(|&i| i != coolant_state) {
-            parts.conductance_w_per_k[(i, i)] = PINNED_ZERO * g_max;
-        }
+        let parts = pinned_at_zero(parts, &pinned);
         let map = Parametrisation::of_shape(data.ts_s, self.scaling, &parts);
         let start = map.start.clone();
         self.fit_from(data, map, &start, &pinned, (NEGLIGIBLE_CHI2, false))
@@ -203,11 +199,12 @@ impl ResistanceCapacitance {
         if self.weights.is_some() || own.is_empty() || !cap_binds(&own, WEIGHT_OVER_MEDIAN) {
             return Ok(estimate.clone());
         }
-        let parts = network.parts.clone();
-        let n = parts.capacitance_j_per_k.len();
+        let n = network.parts.capacitance_j_per_k.len();
         let pinned = coolant_state
             .map(|w| held_to_coolant(n, w))
             .unwrap_or_default();
+        // The network reports a held conductance as 0; its logarithm starts finite again.
+        let parts = pinned_at_zero(&network.parts, &pinned);
         let map = Parametrisation::of_shape(data.ts_s, self.scaling, &parts);
         let start = map.start.clone();
         let mut heavier = self.fit_from(data, map, &start, &pinned, (NEGLIGIBLE_CHI2, true))?;
@@ -476,6 +473,19 @@ fn held_to_coolant(n: usize, coolant_state: usize) -> Vec<usize> {
         .collect()
 }
 
+/// `parts` with the conductances to the coolant that `pinned` holds (p indices n + i, as
+/// [`held_to_coolant`] gives them) at [`PINNED_ZERO`] of the largest conductance: zero
+/// for the network, a finite logarithm for the fit.
+fn pinned_at_zero(parts: &Parts, pinned: &[usize]) -> Parts {
+    let n = parts.capacitance_j_per_k.len();
+    let mut parts = parts.clone();
+    let g_max = parts.conductance_w_per_k.amax();
+    for i in pinned.iter().filter(|&&q| (n..2 * n).contains(&q)).map(|q| q - n) {
+        parts.conductance_w_per_k[(i, i)] = PINNED_ZERO * g_max;
+    }
+    parts
+}
+
 /// The median (the upper one of an even count).
 fn median(values: &[f64]) -> f64 {
     let mut sorted = values.to_vec();
@@ -681,6 +691,32 @@ impl<'a> RcProblem<'a> {
         &self.p_full
     }
 
+    /// The parts whose conductance to the coolant the fit holds ([`pinned_at_zero`]).
+    fn held_parts(&self, n: usize) -> impl Iterator<Item = usize> + '_ {
+        (0..n).filter(move |i| !self.free.contains(&(n + i)))
+    }
+
+    /// The network at p, a conductance to the coolant the fit holds at 0: what the data
+    /// say of it is that heat does not leave there.
+    fn reported_parts(&self, p: &[f64]) -> Parts {
+        let mut parts = self.map.parts(p);
+        let n = parts.capacitance_j_per_k.len();
+        for i in self.held_parts(n) {
+            parts.conductance_w_per_k[(i, i)] = 0.0;
+        }
+        parts
+    }
+
+    /// The 95 % intervals at p, none for a held conductance (it is not estimated).
+    fn reported_intervals(&self, p: &[f64], cov_p: &DMatrix<f64>) -> NetworkIntervals {
+        let mut intervals = self.map.intervals(p, cov_p);
+        let n = intervals.capacitance_j_per_k.len();
+        for i in self.held_parts(n) {
+            intervals.conductance_w_per_k[i][i] = None;
+        }
+        intervals
+    }
+
     /// OE's evaluation in [Θ; x0] carried to [p; x0] by T = diag(D, I).
     fn evaluate(&self) -> Evaluation {
         let e = self.inner.evaluate_full();
@@ -842,9 +878,9 @@ impl<'a> RcProblem<'a> {
             output_offset: self.inner.output_offset(),
             trajectory: None,
             network: Some(Box::new(NetworkEstimate {
-                parts: self.map.parts(p),
+                parts: self.reported_parts(p),
                 scaling: self.map.scaling,
-                intervals: self.map.intervals(p, &cov_p),
+                intervals: self.reported_intervals(p, &cov_p),
                 covariance: cov_p,
                 output_error: Box::new(start_estimate),
             })),

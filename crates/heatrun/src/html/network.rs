@@ -2,7 +2,7 @@
 //! its capacitance C_i and its resistance R_i0 = 1/G_i0 to the coolant rail, and the
 //! resistances R_ij = 1/G_ij between parts (neighbours side by side, the others as arcs
 //! above). A negative conductance (a model that is no passive network there) is drawn
-//! dashed in red.
+//! dashed in red; a zero one (no heat path) as an open circuit, its leads dotted in grey.
 
 use std::fmt::Write as _;
 
@@ -102,15 +102,27 @@ pub fn diagram(network: &Network) -> String {
 fn stroke(g: f64) -> &'static str {
     if g < 0.0 {
         "stroke=\"#c0392b\" stroke-dasharray=\"6 4\""
+    } else if g == 0.0 {
+        "stroke=\"#9aa0a6\" stroke-dasharray=\"2 4\""
     } else {
         "stroke=\"#1d1d1f\""
+    }
+}
+
+/// The resistor's zigzag through `points`; none for G = 0: no heat path, an open
+/// circuit between the leads (a conductance rc holds at zero, or one the model has not).
+fn body(g: f64, points: String) -> String {
+    if g == 0.0 {
+        String::new()
+    } else {
+        format!("<polyline points=\"{points}\"/>")
     }
 }
 
 fn resistance_label(g: f64, r: Option<f64>) -> String {
     match r {
         Some(r) if g > 0.0 => format!("R {}", si(r, "K/W")),
-        _ if g == 0.0 => "G = 0".into(),
+        _ if g == 0.0 => "open: G = 0".into(),
         _ => format!("G {} < 0", si(g, "W/K")),
     }
 }
@@ -154,10 +166,10 @@ fn resistor_horizontal(s: &mut String, x0: f64, x1: f64, y: f64, g: f64, r: Opti
     let _ = writeln!(
         s,
         "<g fill=\"none\" stroke-width=\"2\" {}><line x1=\"{x0}\" y1=\"{y}\" x2=\"{a}\" y2=\"{y}\"/>\
-         <polyline points=\"{}\"/><line x1=\"{b}\" y1=\"{y}\" x2=\"{x1}\" y2=\"{y}\"/></g>\
+         {}<line x1=\"{b}\" y1=\"{y}\" x2=\"{x1}\" y2=\"{y}\"/></g>\
          <text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"12\">{}</text>",
         stroke(g),
-        zigzag((a, y), (b, y), 7.0),
+        body(g, zigzag((a, y), (b, y), 7.0)),
         (x0 + x1) / 2.0,
         y - 13.0,
         escape(&resistance_label(g, r))
@@ -169,10 +181,10 @@ fn resistor_vertical(s: &mut String, x: f64, y0: f64, y1: f64, g: f64, r: Option
     let _ = writeln!(
         s,
         "<g fill=\"none\" stroke-width=\"2\" {}><line x1=\"{x}\" y1=\"{y0}\" x2=\"{x}\" y2=\"{a}\"/>\
-         <polyline points=\"{}\"/><line x1=\"{x}\" y1=\"{b}\" x2=\"{x}\" y2=\"{y1}\"/></g>\
+         {}<line x1=\"{x}\" y1=\"{b}\" x2=\"{x}\" y2=\"{y1}\"/></g>\
          <text x=\"{}\" y=\"{}\" text-anchor=\"end\" font-size=\"12\">{}</text>",
         stroke(g),
-        zigzag((x, a), (x, b), 7.0),
+        body(g, zigzag((x, a), (x, b), 7.0)),
         x - 11.0,
         (a + b) / 2.0 + 4.0,
         escape(&resistance_label(g, r))
@@ -212,10 +224,10 @@ fn arc(s: &mut String, xa: f64, xb: f64, top: f64, h: f64, g: f64, r: Option<f64
     let _ = writeln!(
         s,
         "<g fill=\"none\" stroke-width=\"2\" {}><polyline points=\"{xa},{top} {xa},{peak} {a},{peak}\"/>\
-         <polyline points=\"{}\"/><polyline points=\"{b},{peak} {xb},{peak} {xb},{top}\"/></g>\
+         {}<polyline points=\"{b},{peak} {xb},{peak} {xb},{top}\"/></g>\
          <text x=\"{}\" y=\"{}\" text-anchor=\"start\" font-size=\"12\">{}</text>",
         stroke(g),
-        zigzag((a, peak), (b, peak), 6.0),
+        body(g, zigzag((a, peak), (b, peak), 6.0)),
         b + 8.0,
         peak - 6.0,
         escape(&resistance_label(g, r))
@@ -270,7 +282,8 @@ mod tests {
         assert!(svg.contains("C 9.00 MJ/K"), "{svg}");
         assert!(svg.contains("R 250 µK/W"), "{svg}");
         assert!(svg.contains("R 1.00 mK/W"), "{svg}");
-        assert!(svg.contains("G = 0"), "{svg}");
-        assert_eq!(svg.matches("<polyline").count(), 3 + 2 + 3);
+        // …and drawn open: its arc's two leads, no zigzag between them.
+        assert!(svg.contains("open: G = 0"), "{svg}");
+        assert_eq!(svg.matches("<polyline").count(), 3 + 2 + 2);
     }
 }

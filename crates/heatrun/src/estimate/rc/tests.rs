@@ -366,8 +366,14 @@ fn heat_through_the_coolant_alone_is_told_from_conductances_the_data_need() {
         );
         assert!(relative(g, t) < 0.1, "G {}", found.conductance_w_per_k);
     }
-    // Held, not estimated: at 10⁻⁹ of the largest conductance.
-    assert!(found.conductance_w_per_k[(0, 0)] < 1e-8 * found.conductance_w_per_k.amax());
+    // Held, not estimated: the fit holds them at 10⁻⁹ of the largest conductance, the
+    // network says 0 (no resistor drawn, "G = 0").
+    assert_eq!(found.conductance_w_per_k[(0, 0)], 0.0);
+    assert_eq!(found.conductance_w_per_k[(1, 1)], 0.0);
+    assert!(found.conductance_w_per_k[(2, 2)] > 0.0);
+    let intervals = &held.network.as_ref().unwrap().intervals.conductance_w_per_k;
+    assert!(intervals[0][0].is_none() && intervals[1][1].is_none());
+    assert!(intervals[2][2].is_some());
     assert!((&found.loss_distribution - &through.loss_distribution).amax() < 0.05);
 }
 
