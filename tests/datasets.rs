@@ -130,7 +130,8 @@ fn tclab_validation_fit_holds() {
 /// late (the least estimation cost of 0…15 s). Measured at the commit that chose it
 /// (docs/src/validation/datasets.md, "With hidden states"): order 4 (cross-validated fit
 /// 80.5 % against 71.5 % for order 3; order 5 refused, no better on the estimation file),
-/// validation T1 91.7 %, T2 88.8 % from the initial state fitted to the validation outputs,
+/// validation T1 91.9 %, T2 89.1 % (the heater commands held between samples: the map's
+/// `interpolation = "step"`) from the initial state fitted to the validation outputs,
 /// the slowest time constant at the record's length (588 s, the bound on the poles), heater
 /// 1's steady-state gain on T1 46.7 K/W. A change that makes the chosen structure fit the
 /// real data worse, or chooses another order, fails here.
@@ -168,7 +169,9 @@ fn tclab_hidden_state_model_holds_its_fit() {
         .or_else(|| report.pointer("/validation/fit/nrmse_fit_percent"))
         .map(numbers)
         .unwrap();
-    assert!(fit[0] > 91.2 && fit[1] > 88.3, "validation fit {fit:?}");
+    // Just under the measured 91.88 / 89.05 %: the heater commands drawn as lines between
+    // the 3 s samples (91.65 / 88.75 %) fail here.
+    assert!(fit[0] > 91.7 && fit[1] > 88.9, "validation fit {fit:?}");
     let tau = numbers(&hidden["time_constants_s"]);
     assert_eq!(tau.len(), 4);
     assert!(tau[3] <= 600.0, "{tau:?}");

@@ -5,7 +5,9 @@ use std::path::Path;
 use heatrun::decimate::{ChannelGrid, DecimatedRecording};
 use heatrun::grid::GridBuilder;
 use heatrun::recording::RecordingIndex;
-use heatrun::recording::{self, format_time, RecordingSummary, SensorChannel, Storage};
+use heatrun::recording::{
+    self, format_time, Interpolation, RecordingSummary, SensorChannel, Storage,
+};
 use heatrun::spec::ModelDescription;
 use heatrun::store::Location;
 
@@ -99,13 +101,17 @@ fn print_channels(file: &Path, summary: &RecordingSummary, grid: Option<&Decimat
 fn timing(c: &SensorChannel, g: Option<&ChannelGrid>) -> String {
     let period = g.map_or("?".into(), |g| format!("{:.3}", g.nominal_period_s));
     let gaps = g.map_or("?".into(), |g| g.gaps.to_string());
+    let held = match c.interpolation {
+        Interpolation::Step => "  held between samples (step)",
+        Interpolation::Linear => "",
+    };
     match c.storage {
-        Storage::Sampled => format!("period {period:>8} s  gaps {gaps}"),
+        Storage::Sampled => format!("period {period:>8} s  gaps {gaps}{held}"),
         Storage::Exception {
             deadband,
             max_interval_s,
         } => format!(
-            "stored by exception (deadband {deadband} {}, at most every {}), median spacing {period} s  gaps {gaps}",
+            "stored by exception (deadband {deadband} {}, at most every {}), median spacing {period} s  gaps {gaps}{held}",
             c.unit,
             max_interval_s.map_or("-".into(), |m| format!("{m} s"))
         ),

@@ -4,7 +4,8 @@
 //! [`DecimatedRecording`]: one value or `None` per grid instant t_k = k·Ts and
 //! signal. A channel faster than the grid is block-averaged over its window
 //! (see [`Alignment`]), which is also its anti-alias filter; a slower channel is
-//! interpolated linearly between neighbouring samples. Where a channel has no
+//! interpolated linearly between neighbouring samples, or held from one to the next where
+//! its metadata says so (a command: [`Interpolation::Step`]). Where a channel has no
 //! data — an empty window, or neighbours further apart than 1.5 of its nominal
 //! sample period — the value is `None`: a gap is recorded, never bridged.
 //! Several sensors of one signal are averaged where they have data.
@@ -22,7 +23,8 @@ use serde::Serialize;
 /// The decimation stage's result.
 pub type Result<T, E = DecimateError> = std::result::Result<T, E>;
 use crate::recording::{
-    format_time, Alignment, Quantity, Sample, SampleSink, SensorChannel, Signal, Storage,
+    format_time, Alignment, Interpolation, Quantity, Sample, SampleSink, SensorChannel, Signal,
+    Storage,
 };
 use crate::series::Series;
 
@@ -466,6 +468,10 @@ impl Decimator {
                 .get(idx)
                 .map(|c| c.topic.clone())
                 .unwrap_or_default();
+            let interpolation = channels
+                .get(idx)
+                .map(|c| c.interpolation)
+                .unwrap_or_default();
             let windows = ch.occupied_windows();
             drop(ch);
             let jump = match storage {
@@ -482,6 +488,7 @@ impl Decimator {
                 ts_ns,
                 alignment: self.alignment(&signal),
                 storage,
+                interpolation,
                 lo,
                 len,
             };
@@ -550,6 +557,8 @@ struct Placement {
     /// Where the signal's values sit: the instant, or the interval after it.
     alignment: Alignment,
     storage: Storage,
+    /// How the value runs between samples, where they are interpolated.
+    interpolation: Interpolation,
     /// First grid index and number of instants.
     lo: i64,
     len: usize,
@@ -640,8 +649,9 @@ impl Placement {
         }
     }
 
-    /// A channel slower than the grid, or stored by exception: linear interpolation at
-    /// each instant's reference time between the points around it, never across more than
+    /// A channel slower than the grid, or stored by exception: at each instant's reference
+    /// time, the line between the points around it, or the earlier point's value for a
+    /// [`Interpolation::Step`] channel (held until the next sample), never across more than
     /// `limit` s. `hold` carries the last point forward up to `limit` (a channel stored by
     /// exception: no new sample means no change).
     fn interpolated(&self, points: &[Point], limit: f64, hold: bool, laid: &mut Laid) {
@@ -676,7 +686,12 @@ impl Placement {
             }
             let b = points[j + 1];
             if b.t_s - a.t_s <= limit {
-                let value = a.value + (b.value - a.value) * (t - a.t_s) / (b.t_s - a.t_s);
+                let value = match self.interpolation {
+                    Interpolation::Linear => {
+                        a.value + (b.value - a.value) * (t - a.t_s) / (b.t_s - a.t_s)
+                    }
+                    Interpolation::Step => a.value,
+                };
                 laid.values.set(i, Some(value));
             } else {
                 laid.grid.gap_instants += 1;
@@ -834,10 +849,42 @@ mod tests {
             unit: quantity.canonical_unit().into(),
             unit_scale: 1.0,
             storage: Storage::Sampled,
+            interpolation: Interpolation::Linear,
         }
     }
 
     const S: u64 = 1_000_000_000;
+
+    #[test]
+    fn a_step_channel_is_held_between_its_samples() {
+        // A heater command read every 3 s, 0 % until it is set to 10 % at t = 30 s, on a
+        // 1 s grid of interval means (the instant i stands for [i, i + 1) s, its reference
+        // time i + 0.5 s). Held, it is 0 up to the interval that starts at 30 s and 10 from
+        // there; as a line it ramps over 27…30 s (5 % at 28.5 s), its step 1.5 s early.
+        let of = |interpolation| {
+            let q1 = SensorChannel {
+                signal: Signal::Free("Q1".into()),
+                topic: "/lab/Q1".into(),
+                interpolation,
+                ..channel(0, Quantity::CoreTemp)
+            };
+            let mut d = Decimator::new(1.0, BTreeMap::new()).unwrap();
+            d.channel(&q1);
+            for k in 0..=20u64 {
+                d.sample(sample(0, 3 * k * S, if k >= 10 { 10.0 } else { 0.0 }));
+            }
+            let r = d.finish(std::slice::from_ref(&q1)).unwrap();
+            r.get_signal(&Signal::Free("Q1".into())).unwrap().values.clone()
+        };
+        let held = of(Interpolation::Step);
+        for i in 0..60 {
+            let want = if i >= 30 { 10.0 } else { 0.0 };
+            assert_eq!(held.get(i), Some(want), "instant {i}");
+        }
+        let line = of(Interpolation::Linear);
+        assert!((line.get(28).unwrap() - 5.0).abs() < 1e-9, "{:?}", line.get(28));
+        assert_eq!(line.get(30), Some(10.0));
+    }
 
     fn decimator(chans: &[SensorChannel]) -> Decimator {
         let alignments = crate::spec::ModelDescription::generator().alignments();

@@ -53,7 +53,7 @@ impl Default for WriterOptions {
 
 /// How a channel's samples were stored (profile: channel metadata `storage`): the
 /// reader's own type, so what is written is what is read.
-pub use crate::recording::Storage;
+pub use crate::recording::{Interpolation, Storage};
 
 /// A channel to add to a recording.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,6 +69,8 @@ pub struct ChannelSpec {
     pub sensor: Option<String>,
     /// How the samples were stored.
     pub storage: Storage,
+    /// How the value runs between samples (metadata `interpolation`, written where `step`).
+    pub interpolation: Interpolation,
 }
 
 impl ChannelSpec {
@@ -81,6 +83,7 @@ impl ChannelSpec {
             unit: unit.to_owned(),
             sensor: None,
             storage: Storage::Sampled,
+            interpolation: Interpolation::Linear,
         }
     }
 
@@ -94,6 +97,12 @@ impl ChannelSpec {
     /// The same channel with another storage.
     pub fn with_storage(mut self, storage: Storage) -> ChannelSpec {
         self.storage = storage;
+        self
+    }
+
+    /// The same channel with another way between samples.
+    pub fn with_interpolation(mut self, interpolation: Interpolation) -> ChannelSpec {
+        self.interpolation = interpolation;
         self
     }
 
@@ -115,6 +124,9 @@ impl ChannelSpec {
             if let Some(h) = max_interval_s {
                 m.insert("max_interval_s".to_owned(), format!("{h}"));
             }
+        }
+        if self.interpolation == Interpolation::Step {
+            m.insert("interpolation".to_owned(), "step".to_owned());
         }
         m
     }

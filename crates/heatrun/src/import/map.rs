@@ -28,6 +28,8 @@
 //! storage = "exception"        # optional: "sampled" (default) or "exception"
 //! deadband = 0.1               # with exception: in the channel's unit
 //! max_interval_s = 600         # with exception: the heartbeat
+//! interpolation = "step"       # optional: "linear" (default) or "step" (a command, held
+//!                              # from one sample to the next)
 //!
 //! # A long table (layout = "long") names the columns of its rows, and picks its
 //! # signals by tag instead of by column:
@@ -59,7 +61,7 @@ use serde::Deserialize;
 
 use super::error::ImportError;
 use crate::recording::Quantity;
-use crate::writer::{ChannelSpec, Quality, Storage};
+use crate::writer::{ChannelSpec, Interpolation, Quality, Storage};
 
 /// A column of the table, as the map names it.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Deserialize)]
@@ -296,6 +298,7 @@ struct RawColumn {
     storage: Option<String>,
     deadband: Option<f64>,
     max_interval_s: Option<f64>,
+    interpolation: Option<String>,
 }
 
 impl ImportMap {
@@ -669,7 +672,22 @@ fn column_map(raw: RawColumn, layout: &Layout, bad: &Bad) -> Result<ColumnMap, I
         }
     }
     let storage = storage(&raw.storage, raw.deadband, raw.max_interval_s, &key, bad)?;
-    let mut channel = ChannelSpec::new(&name, &unit).with_storage(storage);
+    let interpolation = match raw.interpolation.as_deref() {
+        None | Some("linear") => Interpolation::Linear,
+        Some("step") => Interpolation::Step,
+        Some(other) => {
+            return Err(bad(
+                &key("interpolation"),
+                format!(
+                    "`{other}` is not \"linear\" or \"step\" (a command or set point, held \
+                     between samples)"
+                ),
+            ))
+        }
+    };
+    let mut channel = ChannelSpec::new(&name, &unit)
+        .with_storage(storage)
+        .with_interpolation(interpolation);
     if let Some(sensor) = &raw.sensor {
         if sensor.is_empty() || sensor.contains('/') {
             return Err(bad(
@@ -889,8 +907,17 @@ mod tests {
             c.quality.as_ref().unwrap().values["SUSP"],
             Quality::Uncertain
         );
+        assert_eq!(c.channel.interpolation, Interpolation::Linear);
+        assert!(!c.channel.metadata().contains_key("interpolation"));
         assert_eq!(m.nameplate["rated_apparent_power_mva"], "100");
         assert_eq!(m.metadata["heatrun.test"]["site"], "lab");
+        let step = parse(
+            "[time]\ncolumn = 1\n[[column]]\ncolumn = 2\nchannel = \"Q1\"\nunit = \"%\"\ninterpolation = \"step\"",
+        )
+        .unwrap();
+        let q1 = &step.columns[0].channel;
+        assert_eq!(q1.interpolation, Interpolation::Step);
+        assert_eq!(q1.metadata()["interpolation"], "step");
         assert_eq!(m.time.start_ns, 0);
     }
 
@@ -906,6 +933,7 @@ mod tests {
             ("[time]\nzone = \"Mars/Olympus\"\ncolumn = 1\n[[column]]\ncolumn = 2\nchannel = \"T\"\nunit = \"1\"", "time.zone"),
             ("[time]\ncolumn = 1\nsample_time_s = 1\n[[column]]\ncolumn = 2\nchannel = \"T\"\nunit = \"1\"", "time:"),
             ("[time]\ncolumn = 1", "column:"),
+            ("[time]\ncolumn = 1\n[[column]]\ncolumn = 2\nchannel = \"Q\"\nunit = \"%\"\ninterpolation = \"held\"", "[[column]] 2.interpolation"),
             ("[time]\ncolumn = 1\n[[column]]\ncolumn = 2\nchannel = \"T\"\nunit = \"1\"\n[[column]]\ncolumn = 3\nchannel = \"T\"\nunit = \"1\"", "sensor"),
         ];
         for (text, expected) in cases {

@@ -12,7 +12,7 @@ mod nameplate;
 mod quantity;
 mod reader;
 
-pub use channel::{ChannelError, Storage};
+pub use channel::{ChannelError, Interpolation, Storage};
 pub use error::RecordingError;
 pub use index::{read_index, IndexedChannel, RecordingIndex};
 pub use nameplate::{Nameplate, NameplateEntries, NAMEPLATE_RECORD};
