@@ -9,9 +9,9 @@
 use std::collections::BTreeMap;
 
 use heatrun::pipeline::ReplayOptions;
-use heatrun::spec::hidden::{HiddenSpec, OutputMatrixSpec};
+use heatrun::spec::hidden::HiddenSpec;
 use heatrun::spec::ModelDescription;
-use heatrun::synth::{self, FieldChannel, Machine, NetworkMachine, SynthOptions};
+use heatrun::synth;
 
 use crate::rrd_testing::replayed_and_drawn;
 
@@ -21,23 +21,12 @@ fn an_rrd_of_a_hidden_replay_draws_the_hidden_models_outputs() {
     let mcap = dir.path().join("field-unmeasured.mcap");
     synth::write(
         &mcap,
-        &SynthOptions {
-            machine: Machine::Network(NetworkMachine::rc_field()),
-            field_channel: FieldChannel::Unmeasured,
-            seed: 7,
-            ..SynthOptions::default()
-        }
-        .with_noise_level(1.0),
+        &synth::example::field_unmeasured(7),
     )
     .unwrap();
     let mut model = ModelDescription::generator();
     // Four states, given (no order search: seconds, not a minute), three measured.
-    model.hidden = Some(HiddenSpec {
-        order: Some(4),
-        largest: 4,
-        output_matrix: OutputMatrixSpec::Measured,
-        feedthrough: false,
-    });
+    model.hidden = Some(HiddenSpec::given(4));
     let options = ReplayOptions {
         ts_s: 10.0,
         model,

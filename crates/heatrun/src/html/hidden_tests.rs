@@ -6,30 +6,19 @@
 
 use crate::pipeline::{replay, ReplayOptions};
 use crate::report::Replayed;
-use crate::spec::hidden::{HiddenSpec, OutputMatrixSpec};
+use crate::spec::hidden::HiddenSpec;
 use crate::spec::ModelDescription;
-use crate::synth::{self, FieldChannel, Machine, NetworkMachine, SynthOptions};
+use crate::synth;
 
 fn hidden_replay(dir: &std::path::Path) -> (Replayed, ReplayOptions) {
     let mcap = dir.join("field-unmeasured.mcap");
     synth::write(
         &mcap,
-        &SynthOptions {
-            machine: Machine::Network(NetworkMachine::rc_field()),
-            field_channel: FieldChannel::Unmeasured,
-            seed: 7,
-            ..SynthOptions::default()
-        }
-        .with_noise_level(1.0),
+        &synth::example::field_unmeasured(7),
     )
     .unwrap();
     let mut model = ModelDescription::generator();
-    model.hidden = Some(HiddenSpec {
-        order: Some(4),
-        largest: 4,
-        output_matrix: OutputMatrixSpec::Measured,
-        feedthrough: false,
-    });
+    model.hidden = Some(HiddenSpec::given(4));
     let options = ReplayOptions {
         ts_s: 10.0,
         model,

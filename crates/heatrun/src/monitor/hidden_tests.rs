@@ -11,51 +11,21 @@
 //! own line from the stator winding (`with_model_field_line`), as in the heat run the
 //! model was identified on.
 
-use crate::model_file::{Report, ThermalModel};
+use crate::model_file::ThermalModel;
 use crate::monitor::{monitor, BandKind, BandRule, MonitorOptions};
-use crate::pipeline::{replay, NetworkChoice, ReplayOptions};
-use crate::spec::hidden::{HiddenSpec, OutputMatrixSpec};
-use crate::spec::ModelDescription;
-use crate::synth::{self, CoolerFault, FieldChannel, Machine, NetworkMachine, SynthOptions};
+use crate::predict::hidden_tests::four_state_model;
+use crate::synth::{self, CoolerFault, SynthOptions};
 
 /// The cooler fouls from here, s.
 const FAULT_AT_S: f64 = 10_000.0;
 
 fn heat_run(seed: u64) -> SynthOptions {
-    SynthOptions {
-        machine: Machine::Network(NetworkMachine::rc_field()),
-        field_channel: FieldChannel::Unmeasured,
-        seed,
-        ..SynthOptions::default()
-    }
-    // σ = 0.05 K on the temperatures at 0.01 K resolution, σ = 0.05 % on the electrical.
-    .with_noise_level(1.0)
+    synth::example::field_unmeasured(seed)
 }
 
 /// The hidden-state model of the seed-7 heat run, through its report.
 fn hidden_model(dir: &std::path::Path) -> ThermalModel {
-    let path = dir.join("model.mcap");
-    synth::write(&path, &heat_run(7)).unwrap();
-    let mut model = ModelDescription::generator();
-    model.hidden = Some(HiddenSpec {
-        order: Some(4),
-        largest: 4,
-        output_matrix: OutputMatrixSpec::Measured,
-        feedthrough: false,
-    });
-    let replayed = replay(
-        &path,
-        &ReplayOptions {
-            ts_s: 10.0,
-            model,
-            network: NetworkChoice::Nearest,
-            ..ReplayOptions::default()
-        },
-    )
-    .unwrap();
-    let written = serde_json::to_string(&Report::new(&replayed)).unwrap();
-    let report = Report::from_json(&written, &path).unwrap();
-    let thermal = ThermalModel::from_report(&report, &path).unwrap();
+    let thermal = four_state_model(dir, "model.mcap", &heat_run(7));
     assert_eq!((thermal.order(), thermal.state_count()), (4, 3));
     assert!(thermal.uncertainty.theta_covariance.is_some());
     thermal

@@ -18,7 +18,7 @@ use crate::predict::{self, InitialState, LoadSchedule};
 use crate::rating::{self, RatingOptions};
 use crate::spec::hidden::{HiddenSpec, OutputMatrixSpec};
 use crate::spec::ModelDescription;
-use crate::synth::{self, FieldChannel, Machine, NetworkMachine, SynthOptions};
+use crate::synth::{self, SynthOptions};
 use crate::thermal::matrix::discretize;
 
 /// Tolerances stated before the first run (not tuned to it): time constants within 5 %;
@@ -37,14 +37,7 @@ const TIME_CONSTANT_TOLERANCE: f64 = 0.05;
 const KELVIN_TOLERANCE: f64 = 1.0;
 
 fn heat_run() -> SynthOptions {
-    SynthOptions {
-        machine: Machine::Network(NetworkMachine::rc_field()),
-        field_channel: FieldChannel::Unmeasured,
-        seed: 7,
-        ..SynthOptions::default()
-    }
-    // σ = 0.05 K on the temperatures at 0.01 K resolution, σ = 0.05 % on the electrical.
-    .with_noise_level(1.0)
+    synth::example::field_unmeasured(7)
 }
 
 /// The heat run's operating points as a load schedule (SI units), the rows the plant
@@ -277,17 +270,17 @@ fn against_the_plant(prediction: &predict::Prediction, o: &SynthOptions) -> Agai
     out
 }
 
-/// The hidden-state model (four states, given) of heat run `o`, through its report.
-fn four_state_model(dir: &std::path::Path, name: &str, o: &SynthOptions) -> ThermalModel {
+/// The hidden-state model (four states, given) of heat run `o`, through its report (also
+/// the monitor's hidden-state tests' model).
+pub(crate) fn four_state_model(
+    dir: &std::path::Path,
+    name: &str,
+    o: &SynthOptions,
+) -> ThermalModel {
     let path = dir.join(name);
     synth::write(&path, o).unwrap();
     let mut model = ModelDescription::generator();
-    model.hidden = Some(HiddenSpec {
-        order: Some(4),
-        largest: 4,
-        output_matrix: OutputMatrixSpec::Measured,
-        feedthrough: false,
-    });
+    model.hidden = Some(HiddenSpec::given(4));
     let replayed = replay(
         &path,
         &ReplayOptions {

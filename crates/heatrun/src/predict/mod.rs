@@ -17,7 +17,7 @@ pub mod phasor;
 pub mod simulate;
 
 #[cfg(test)]
-mod hidden_tests;
+pub(crate) mod hidden_tests;
 
 use std::fmt::Write as _;
 use std::path::Path;

@@ -47,6 +47,17 @@ fn default_largest() -> usize {
 }
 
 impl HiddenSpec {
+    /// `order` states, given (no order search), the measured ones read as they are
+    /// (C = [I 0]) and no feedthrough: `[hidden] order = n, largest = n`.
+    pub fn given(order: usize) -> HiddenSpec {
+        HiddenSpec {
+            order: Some(order),
+            largest: order,
+            output_matrix: OutputMatrixSpec::Measured,
+            feedthrough: false,
+        }
+    }
+
     /// What is wrong with it, if anything: an order of 0, or a largest of 0.
     pub fn problem(&self) -> Option<String> {
         match (self.order, self.largest) {
