@@ -432,7 +432,14 @@ fn a_parquet_table_without_the_parquet_feature_says_how_to_build_it() {
     )
     .unwrap();
     for args in [
-        &["import", "export.parquet", "--map", "map.toml", "--out", "run.mcap"][..],
+        &[
+            "import",
+            "export.parquet",
+            "--map",
+            "map.toml",
+            "--out",
+            "run.mcap",
+        ][..],
         &["import", "--guess", "export.parquet"][..],
     ] {
         let out = heatrun(args, d);
@@ -440,8 +447,9 @@ fn a_parquet_table_without_the_parquet_feature_says_how_to_build_it() {
         assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
         assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
         assert!(
-            stderr.contains("export.parquet: a Parquet table, and this heatrun was built without Parquet")
-                && stderr.contains("--features parquet"),
+            stderr.contains(
+                "export.parquet: a Parquet table, and this heatrun was built without Parquet"
+            ) && stderr.contains("--features parquet"),
             "{stderr}"
         );
         assert!(!d.join("run.mcap").exists());

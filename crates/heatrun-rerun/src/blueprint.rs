@@ -100,8 +100,11 @@ fn overview(replay: &Replay) -> Node {
     let bottom = Node::horizontal(
         "residuals, inputs, model",
         vec![
-            View::time_series(format!("residual y − ŷ{whose}, {residual_unit}"), "residual")
-                .into(),
+            View::time_series(
+                format!("residual y − ŷ{whose}, {residual_unit}"),
+                "residual",
+            )
+            .into(),
             View::time_series(input_title(replay), "loss").into(),
             View::new(ViewKind::TextDocument, "time constants and fit", "model").into(),
         ],

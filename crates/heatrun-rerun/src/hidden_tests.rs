@@ -19,11 +19,7 @@ use crate::rrd_testing::replayed_and_drawn;
 fn an_rrd_of_a_hidden_replay_draws_the_hidden_models_outputs() {
     let dir = tempfile::tempdir().unwrap();
     let mcap = dir.path().join("field-unmeasured.mcap");
-    synth::write(
-        &mcap,
-        &synth::example::field_unmeasured(7),
-    )
-    .unwrap();
+    synth::write(&mcap, &synth::example::field_unmeasured(7)).unwrap();
     let mut model = ModelDescription::generator();
     // Four states, given (no order search: seconds, not a minute), three measured.
     model.hidden = Some(HiddenSpec::given(4));
@@ -78,7 +74,11 @@ fn an_rrd_of_a_hidden_replay_draws_the_hidden_models_outputs() {
             .collect();
         assert!(!residual.is_empty());
         for (t, e) in residual {
-            assert!((e - (measured[t] - want[t])).abs() < 1e-9, "{} at {t}", state.name);
+            assert!(
+                (e - (measured[t] - want[t])).abs() < 1e-9,
+                "{} at {t}",
+                state.name
+            );
         }
     }
     // The sensitivities are the hidden model's: one plot per time constant of its four.

@@ -23,12 +23,12 @@ pub mod blueprint;
 mod hidden_tests;
 #[cfg(test)]
 mod inputs_tests;
-#[cfg(test)]
-mod rrd_testing;
 pub mod layout;
 pub mod monitor;
 pub mod network;
 pub mod prediction;
+#[cfg(test)]
+mod rrd_testing;
 mod style;
 mod text;
 mod traces;

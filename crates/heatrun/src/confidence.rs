@@ -184,11 +184,10 @@ impl OpenLoopVariance {
         let outputs = DMatrix::from_diagonal(&DVector::from_column_slice(start_variance));
         let state = match &model.output {
             Some(o) => {
-                let pinv = o
-                    .c
-                    .clone()
-                    .pseudo_inverse(1e-12)
-                    .unwrap_or_else(|_| DMatrix::zeros(o.c.ncols(), o.c.nrows()));
+                let pinv =
+                    o.c.clone()
+                        .pseudo_inverse(1e-12)
+                        .unwrap_or_else(|_| DMatrix::zeros(o.c.ncols(), o.c.nrows()));
                 &pinv * outputs * pinv.transpose()
             }
             None => outputs,

@@ -874,7 +874,10 @@ mod tests {
                 d.sample(sample(0, 3 * k * S, if k >= 10 { 10.0 } else { 0.0 }));
             }
             let r = d.finish(std::slice::from_ref(&q1)).unwrap();
-            r.get_signal(&Signal::Free("Q1".into())).unwrap().values.clone()
+            r.get_signal(&Signal::Free("Q1".into()))
+                .unwrap()
+                .values
+                .clone()
         };
         let held = of(Interpolation::Step);
         for i in 0..60 {
@@ -882,7 +885,11 @@ mod tests {
             assert_eq!(held.get(i), Some(want), "instant {i}");
         }
         let line = of(Interpolation::Linear);
-        assert!((line.get(28).unwrap() - 5.0).abs() < 1e-9, "{:?}", line.get(28));
+        assert!(
+            (line.get(28).unwrap() - 5.0).abs() < 1e-9,
+            "{:?}",
+            line.get(28)
+        );
         assert_eq!(line.get(30), Some(10.0));
     }
 

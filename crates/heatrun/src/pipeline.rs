@@ -546,7 +546,10 @@ pub fn replay_observed(
     // network stage judged the measured-state model's), for the warning, the report and
     // the page alike.
     let mut network = network;
-    if let Some(slowest) = hidden.as_ref().and_then(HiddenReplay::slowest_time_constant_s) {
+    if let Some(slowest) = hidden
+        .as_ref()
+        .and_then(HiddenReplay::slowest_time_constant_s)
+    {
         let e = &network.equilibrium;
         network.equilibrium = crate::network::equilibrium::Equilibrium::assess(
             &e.states,

@@ -122,7 +122,8 @@ fn hidden_two_state() -> ThermalModel {
         state_names: vec!["hidden_1".into(), "hidden_2".into()],
     });
     let a = DMatrix::from_fn(9, 9, |i, j| ((i * 7 + j * 3) % 11) as f64 / 11.0 - 0.45);
-    model.uncertainty.theta_covariance = Some((&a * a.transpose() + DMatrix::identity(9, 9)) * 1e-6);
+    model.uncertainty.theta_covariance =
+        Some((&a * a.transpose() + DMatrix::identity(9, 9)) * 1e-6);
     model
 }
 

@@ -480,7 +480,11 @@ fn pinned_at_zero(parts: &Parts, pinned: &[usize]) -> Parts {
     let n = parts.capacitance_j_per_k.len();
     let mut parts = parts.clone();
     let g_max = parts.conductance_w_per_k.amax();
-    for i in pinned.iter().filter(|&&q| (n..2 * n).contains(&q)).map(|q| q - n) {
+    for i in pinned
+        .iter()
+        .filter(|&&q| (n..2 * n).contains(&q))
+        .map(|q| q - n)
+    {
         parts.conductance_w_per_k[(i, i)] = PINNED_ZERO * g_max;
     }
     parts

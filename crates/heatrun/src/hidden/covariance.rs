@@ -65,7 +65,10 @@ const RELATIVE_EIGENVALUE_FLOOR: f64 = 1e-14;
 
 /// The covariance of `estimate`'s parameters on the data it was refined on (each
 /// segment from its fitted initial state). `None` where no entry is observed.
-pub fn covariance(data: &IdentificationData, estimate: &HiddenEstimate) -> Option<HiddenCovariance> {
+pub fn covariance(
+    data: &IdentificationData,
+    estimate: &HiddenEstimate,
+) -> Option<HiddenCovariance> {
     let model = &estimate.model;
     let options = &estimate.options;
     let initial_states: Vec<DVector<f64>> = data

@@ -309,8 +309,9 @@ fn chains(
     held_back: Vec<Range<usize>>,
 ) -> (WholeChain, Vec<FoldChain>) {
     use rayon::prelude::*;
-    let jobs: Vec<Option<Range<usize>>> =
-        std::iter::once(None).chain(held_back.into_iter().map(Some)).collect();
+    let jobs: Vec<Option<Range<usize>>> = std::iter::once(None)
+        .chain(held_back.into_iter().map(Some))
+        .collect();
     let mut done: Vec<_> = jobs
         .into_par_iter()
         .map(|job| match job {

@@ -70,8 +70,7 @@ impl<'a> OutputSensitivities<'a> {
         };
         let spectrum = Spectrum::of(&discrete)?;
         let continuous = ContinuousModel::from_discrete(&discrete)?;
-        let recursion =
-            SensitivityModel::new(&continuous, &spectrum.time_constants_s, model.ts_s)?;
+        let recursion = SensitivityModel::new(&continuous, &spectrum.time_constants_s, model.ts_s)?;
         Ok(OutputSensitivities {
             model,
             recursion,
@@ -139,7 +138,10 @@ mod tests {
             });
             for (j, sum) in sum_sq.iter().enumerate() {
                 let rms = (sum / count as f64).sqrt();
-                assert!((rms - a.norms[j][i]).abs() <= 1e-12 * rms.max(1e-300), "{i} {j}");
+                assert!(
+                    (rms - a.norms[j][i]).abs() <= 1e-12 * rms.max(1e-300),
+                    "{i} {j}"
+                );
             }
         }
         // Estimated on the first 200 instants, the rest held out: each part from its
@@ -149,7 +151,11 @@ mod tests {
         let tail = model.simulate_segments(&data.slice(200..300));
         for j in 0..2 {
             for k in 0..300 {
-                let want = if k < 200 { head[(k, j)] } else { tail[(k - 200, j)] };
+                let want = if k < 200 {
+                    head[(k, j)]
+                } else {
+                    tail[(k - 200, j)]
+                };
                 assert_eq!(sim[(k, j)], want);
             }
         }
@@ -171,7 +177,9 @@ mod tests {
         let lambda: Vec<f64> = mu.iter().map(|m| m.ln() / model.ts_s).collect();
         let a_c = &v * diag(&lambda) * &v_inv;
         let b_c = &a_c
-            * (&model.phi - DMatrix::identity(3, 3)).try_inverse().unwrap()
+            * (&model.phi - DMatrix::identity(3, 3))
+                .try_inverse()
+                .unwrap()
             * &model.gamma;
         let data = simulate_known(&model, 300, 0.01, 9);
         let x0 = model.fitted_initial_state(&data, 0..300);
@@ -201,7 +209,11 @@ mod tests {
                     worst = worst.max((y[j] - difference[(k, j)]).abs());
                 }
             });
-            assert!(worst < 1e-6 * scale, "T{}: {worst:e} against {scale:e}", i + 1);
+            assert!(
+                worst < 1e-6 * scale,
+                "T{}: {worst:e} against {scale:e}",
+                i + 1
+            );
         }
     }
 }

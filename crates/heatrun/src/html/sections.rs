@@ -698,9 +698,16 @@ impl TimeConstantsSection<'_> {
         };
         let mut t = Table::new(
             caption,
-            ["", "T, s", "95 % interval, ± s", "T, h", "part", "‖T ∂y/∂T‖"]
-                .map(String::from)
-                .to_vec(),
+            [
+                "",
+                "T, s",
+                "95 % interval, ± s",
+                "T, h",
+                "part",
+                "‖T ∂y/∂T‖",
+            ]
+            .map(String::from)
+            .to_vec(),
         );
         for (i, a) in r.assignment.iter().enumerate() {
             let ci = r

@@ -61,8 +61,14 @@ fn a_hidden_state_model_monitors_a_healthy_unit_quietly_and_flags_a_fouled_coole
         }
         assert!(quiet.healthy(), "{kind:?}: {:?}", quiet.alarms);
         let flagged = monitor(&model, &fouled, &options, None).unwrap();
-        let first = flagged.alarms.first().expect("the fouled cooler raises an alarm");
-        let (start, raised) = (flagged.seconds(first.start_ns), flagged.seconds(first.raised_ns));
+        let first = flagged
+            .alarms
+            .first()
+            .expect("the fouled cooler raises an alarm");
+        let (start, raised) = (
+            flagged.seconds(first.start_ns),
+            flagged.seconds(first.raised_ns),
+        );
         println!(
             "{kind:?} fouled: first alarm on {} raised at {raised:.0} s ({:.0} s after the \
              fault), peak {:+.2} K",
@@ -70,9 +76,15 @@ fn a_hidden_state_model_monitors_a_healthy_unit_quietly_and_flags_a_fouled_coole
             raised - FAULT_AT_S,
             first.peak_deviation_k
         );
-        assert!(start >= FAULT_AT_S, "{kind:?}: an alarm before the fault at {start} s");
+        assert!(
+            start >= FAULT_AT_S,
+            "{kind:?}: an alarm before the fault at {start} s"
+        );
         // A fouled cooler runs hot; within the monitoring guide's documented 1,200 s.
         assert!(first.peak_deviation_k > 0.0);
-        assert!(raised - FAULT_AT_S <= 1_200.0, "{kind:?}: raised at {raised} s");
+        assert!(
+            raised - FAULT_AT_S <= 1_200.0,
+            "{kind:?}: raised at {raised} s"
+        );
     }
 }

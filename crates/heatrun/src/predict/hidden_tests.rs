@@ -366,10 +366,7 @@ fn hidden_bands_and_intervals_against_the_truth_over_many_seeds() {
         .ok()
         .and_then(|v| v.parse().ok());
     for seed in 1..=seeds {
-        let o = SynthOptions {
-            seed,
-            ..heat_run()
-        };
+        let o = SynthOptions { seed, ..heat_run() };
         let o = SynthOptions {
             electrical_noise_pu: electrical.unwrap_or(o.electrical_noise_pu),
             ..o

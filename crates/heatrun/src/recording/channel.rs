@@ -437,7 +437,10 @@ mod tests {
         let none = BTreeSet::new();
         let free: BTreeSet<String> = ["Q1".to_owned()].into();
         let of = |meta: &[(&str, &str)]| classify(&record("/lab/Q1", meta), SCHEMA, 0, &free);
-        assert_eq!(sensor(of(&[]).unwrap()).interpolation, Interpolation::Linear);
+        assert_eq!(
+            sensor(of(&[]).unwrap()).interpolation,
+            Interpolation::Linear
+        );
         let step = of(&[("interpolation", "step")]).unwrap();
         assert_eq!(sensor(step).interpolation, Interpolation::Step);
         let linear = of(&[("interpolation", "linear")]).unwrap();

@@ -409,14 +409,22 @@ fn an_output_without_noise_is_weighted_by_its_own_noise_beyond_the_cap() {
     let at_cap = fit(Some(vec![1.0, 1.0, WEIGHT_OVER_MEDIAN]));
     let (cg_own, k_own) = errors(&own.network.as_ref().unwrap().parts, &truth);
     let (cg_cap, k_cap) = errors(&at_cap.network.as_ref().unwrap().parts, &truth);
-    let sigma = |e: &Estimate| e.noise_variance.iter().map(|v| v.sqrt()).collect::<Vec<_>>();
+    let sigma = |e: &Estimate| {
+        e.noise_variance
+            .iter()
+            .map(|v| v.sqrt())
+            .collect::<Vec<_>>()
+    };
     let (s_own, s_cap) = (sigma(&own), sigma(&at_cap));
     println!("own: C, G {cg_own:.4} K {k_own:.4} σ {s_own:?}; at the cap: C, G {cg_cap:.4} K {k_cap:.4} σ {s_cap:?}");
     assert!(
         s_own[2] < 0.01 * s_cap[2],
         "the exact output's σ̂: {s_own:?} against {s_cap:?} at the cap"
     );
-    assert!(cg_own < 0.10 && k_own < 0.05, "C, G off by {cg_own}, K by {k_own}");
+    assert!(
+        cg_own < 0.10 && k_own < 0.05,
+        "C, G off by {cg_own}, K by {k_own}"
+    );
     assert!(
         cg_own < cg_cap,
         "own weights: C, G off by {cg_own}; at the cap: {cg_cap}"

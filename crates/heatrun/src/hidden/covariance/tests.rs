@@ -37,9 +37,7 @@ fn delta_method_variance(model: &HiddenStateModel, cov: &DMatrix<f64>) -> Vec<f6
         }
     }
     let gc = &grad * cov;
-    (0..g0.len())
-        .map(|r| gc.row(r).dot(&grad.row(r)))
-        .collect()
+    (0..g0.len()).map(|r| gc.row(r).dot(&grad.row(r))).collect()
 }
 
 /// The mean squared standardised error of the gain over `draws` seeded noise draws.
