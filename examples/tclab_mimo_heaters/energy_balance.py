@@ -197,6 +197,8 @@ def fit_percent(data, y):
 
 def main():
     model = sys.argv[1] if len(sys.argv) > 1 else "apm"
+    if model not in MODELS:
+        sys.exit(f"energy_balance.py: unknown model `{model}`; give apm or board (usage: see the file's first lines)")
     delay = float(sys.argv[2]) if len(sys.argv) > 2 else 0.0
     here = os.path.dirname(os.path.abspath(__file__))
     start = int(sys.argv[3]) if len(sys.argv) > 3 else 0
