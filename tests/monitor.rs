@@ -107,6 +107,42 @@ fn assert_fault_flagged(status: Option<i32>, doc: &Value, stdout: &str) {
     );
 }
 
+/// A cooler fouling 30 % at [`FAULT_AT_S`] in a run made with `extra` (`--seed` and the
+/// run's own conditions), monitored with `model`: flagged ([`assert_fault_flagged`]).
+fn assert_fouling_flagged(dir: &Path, model: &str, extra: &[&str]) {
+    let fault = FAULT_AT_S.to_string();
+    let mut args = extra.to_vec();
+    args.extend_from_slice(&["--fault-at", &fault, "--fault-conductance-drop", "0.3"]);
+    synth(dir, "fault.mcap", &args);
+    let (status, doc, stdout) = monitor(dir, model, "fault.mcap");
+    assert_fault_flagged(status, &doc, &stdout);
+}
+
+/// A model identified from a run made with `extra` ([`identify`], `model.json`), whose
+/// report names `input` among its inputs: the condition the run varied is carried.
+fn identify_carrying(dir: &Path, extra: &[&str], input: &str) {
+    identify(dir, "model.mcap", extra, "model.json");
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("model.json")).unwrap()).unwrap();
+    assert!(
+        report["inputs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|i| i == input),
+        "{input} not in {}",
+        report["inputs"]
+    );
+}
+
+/// `recording` monitored with `model`: exit 0 and no alarm. The monitor's document.
+fn assert_quiet(dir: &Path, model: &str, recording: &str) -> Value {
+    let (status, doc, stdout) = monitor(dir, model, recording);
+    assert_eq!(status, Some(0), "{recording}: {stdout}");
+    assert!(alarms(&doc).is_empty(), "{recording}: {stdout}");
+    doc
+}
+
 #[test]
 fn a_fouled_cooler_raises_an_alarm_and_healthy_recordings_none() {
     let dir = common::tempdir();
@@ -131,18 +167,7 @@ fn a_fouled_cooler_raises_an_alarm_and_healthy_recordings_none() {
             assert!(rms < 0.1, "{healthy}: {part}");
         }
     }
-    let fault = FAULT_AT_S.to_string();
-    let faulty = [
-        "--seed",
-        "3",
-        "--fault-at",
-        &fault,
-        "--fault-conductance-drop",
-        "0.3",
-    ];
-    synth(d, "fault.mcap", &faulty);
-    let (status, doc, stdout) = monitor(d, "model.json", "fault.mcap");
-    assert_fault_flagged(status, &doc, &stdout);
+    assert_fouling_flagged(d, "model.json", &["--seed", "3"]);
     // A drifting inlet this model (rises above the initial values) does not carry: the
     // JSON and stderr say so, whatever the alarms.
     synth(d, "drift.mcap", &["--seed", "5", "--inlet-drift", "3"]);
@@ -178,27 +203,14 @@ fn a_coolant_referenced_model_follows_a_drifting_inlet_and_flags_the_fault() {
     let d = dir.path();
     // The inlet drifts 3 K over a day: the replay measures the rises from the inlet's
     // initial level and takes its drift as an input.
-    identify(
+    let drifting = ["--inlet-drift", "3"];
+    identify_carrying(
         d,
-        "model.mcap",
-        &["--seed", "6", "--inlet-drift", "3"],
-        "model.json",
+        &["--seed", "6", drifting[0], drifting[1]],
+        "cooling_water_inlet_rise",
     );
-    let report: Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("model.json")).unwrap()).unwrap();
-    assert!(
-        report["inputs"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|i| i == "cooling_water_inlet_rise"),
-        "{}",
-        report["inputs"]
-    );
-    synth(d, "drift.mcap", &["--seed", "5", "--inlet-drift", "3"]);
-    let (status, doc, stdout) = monitor(d, "model.json", "drift.mcap");
-    assert_eq!(status, Some(0), "{stdout}");
-    assert!(alarms(&doc).is_empty());
+    synth(d, "drift.mcap", &["--seed", "5", drifting[0], drifting[1]]);
+    let doc = assert_quiet(d, "model.json", "drift.mcap");
     // The model carries the drift: nothing to warn about.
     assert_eq!(
         doc["warnings"],
@@ -206,22 +218,18 @@ fn a_coolant_referenced_model_follows_a_drifting_inlet_and_flags_the_fault() {
         "{}",
         doc["warnings"]
     );
-    let fault = FAULT_AT_S.to_string();
-    let faulty = [
-        "--seed",
-        "7",
-        "--inlet-drift",
-        "3",
-        "--profile",
-        "single-step",
-        "--fault-at",
-        &fault,
-        "--fault-conductance-drop",
-        "0.3",
-    ];
-    synth(d, "fault.mcap", &faulty);
-    let (status, doc, stdout) = monitor(d, "model.json", "fault.mcap");
-    assert_fault_flagged(status, &doc, &stdout);
+    assert_fouling_flagged(
+        d,
+        "model.json",
+        &[
+            "--seed",
+            "7",
+            drifting[0],
+            drifting[1],
+            "--profile",
+            "single-step",
+        ],
+    );
 }
 
 /// A model that carries the cooling-water flow (identified on a run whose pump switched to
@@ -232,45 +240,15 @@ fn a_coolant_referenced_model_follows_a_drifting_inlet_and_flags_the_fault() {
 fn a_model_carrying_the_flow_follows_a_pump_switch_and_flags_the_fault() {
     let dir = common::tempdir();
     let d = dir.path();
-    identify(
+    identify_carrying(
         d,
-        "model.mcap",
         &["--seed", "8", "--pump-switch", "10000:0.6"],
-        "model.json",
+        "cooling_water_flow_heat",
     );
-    let report: Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("model.json")).unwrap()).unwrap();
-    assert!(
-        report["inputs"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|i| i == "cooling_water_flow_heat"),
-        "{}",
-        report["inputs"]
-    );
-    synth(
-        d,
-        "pump.mcap",
-        &["--seed", "9", "--pump-switch", "6000:0.75"],
-    );
-    let (status, doc, stdout) = monitor(d, "model.json", "pump.mcap");
-    assert_eq!(status, Some(0), "{stdout}");
-    assert!(alarms(&doc).is_empty());
-    let fault = FAULT_AT_S.to_string();
-    let faulty = [
-        "--seed",
-        "10",
-        "--pump-switch",
-        "6000:0.75",
-        "--fault-at",
-        &fault,
-        "--fault-conductance-drop",
-        "0.3",
-    ];
-    synth(d, "fault.mcap", &faulty);
-    let (status, doc, stdout) = monitor(d, "model.json", "fault.mcap");
-    assert_fault_flagged(status, &doc, &stdout);
+    let later = ["--pump-switch", "6000:0.75"];
+    synth(d, "pump.mcap", &["--seed", "9", later[0], later[1]]);
+    assert_quiet(d, "model.json", "pump.mcap");
+    assert_fouling_flagged(d, "model.json", &["--seed", "10", later[0], later[1]]);
 
     std::fs::write(
         d.join("load.csv"),
