@@ -813,17 +813,22 @@ impl<'a> RcProblem<'a> {
     fn settled_since(&mut self, previous: &DVector<f64>, reported_sqrt_w: &[f64]) -> bool {
         let kept = std::mem::replace(&mut self.inner.sqrt_w, reported_sqrt_w.to_vec());
         *self.cache.borrow_mut() = None;
-        let evaluation = self.evaluate();
+        let (cov, _) = self.covariance(&self.evaluate());
         self.inner.sqrt_w = kept;
         *self.cache.borrow_mut() = None;
-        let entries: usize = self.inner.counts.iter().sum();
-        let dof = entries.saturating_sub(self.params.len()).max(1) as f64;
-        let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
-        let (cov, _) = oe::covariance_from_gram(&evaluation.gram, sigma2);
         (0..self.free.len()).all(|q| {
             let moved = (self.params[q] - previous[q]).abs();
             moved <= SETTLED_STANDARD_ERRORS * cov[(q, q)].max(0.0).sqrt()
         })
+    }
+
+    /// σ²(JᵀWJ)⁻¹ of [free p; x0] at `evaluation` (σ² the weighted residuals' sum of
+    /// squares over the degrees of freedom), and the condition number of the scaled J.
+    fn covariance(&self, evaluation: &Evaluation) -> (DMatrix<f64>, f64) {
+        let entries: usize = self.inner.counts.iter().sum();
+        let dof = entries.saturating_sub(self.params.len()).max(1) as f64;
+        let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
+        oe::covariance_from_gram(&evaluation.gram, sigma2)
     }
 
     /// The estimate at the minimum, with the network and its intervals.
@@ -836,10 +841,7 @@ impl<'a> RcProblem<'a> {
     ) -> Estimate {
         let n = self.inner.n;
         let evaluation = self.evaluate();
-        let entries: usize = self.inner.counts.iter().sum();
-        let dof = entries.saturating_sub(self.params.len()).max(1) as f64;
-        let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
-        let (full, condition_number) = oe::covariance_from_gram(&evaluation.gram, sigma2);
+        let (full, condition_number) = self.covariance(&evaluation);
         let pp = self.free.len();
         let cov_free = full.view((0, 0), (pp, pp)).into_owned();
         let theta_cov = &self.d * &cov_free * self.d.transpose();
