@@ -137,7 +137,7 @@ pub(super) fn log_calorimetry(rec: &RecordingStream, replay: &Replay) -> Result<
     let sum = (0..s.len()).map(|k| {
         s.inputs
             .iter()
-            .filter(|i| i.kind != InputKind::Boundary)
+            .filter(|i| i.kind == InputKind::Heat)
             .map(|i| i.values.get(k))
             .sum::<Option<f64>>()
             .map(|v| v * scale)
