@@ -20,6 +20,25 @@ fn on_circle(i: usize, n: usize, r: f32) -> (f32, f32) {
     (r * a.cos(), r * a.sin())
 }
 
+/// Radius of the circle the parts stand on.
+const RADIUS: f32 = 300.0;
+
+/// Where the node of the conductance between parts `i` and `j` (of `n`) stands: halfway
+/// between them, except on a chord through the centre (opposite parts of four or six),
+/// whose halfway point is the coolant's: there it stands a third of the radius out, in
+/// the sector after part `i`, so that neither hides the coolant or the other chords.
+fn between(i: usize, j: usize, n: usize) -> (f32, f32) {
+    let (a, b) = (on_circle(i, n, RADIUS), on_circle(j, n, RADIUS));
+    let mid = ((a.0 + b.0) / 2.0, (a.1 + b.1) / 2.0);
+    if mid.0.hypot(mid.1) > RADIUS / 4.0 {
+        return mid;
+    }
+    let angle =
+        -std::f32::consts::FRAC_PI_2 + std::f32::consts::TAU * (i as f32 + 0.5) / n.max(1) as f32;
+    let r = RADIUS / 3.0;
+    (r * angle.cos(), r * angle.sin())
+}
+
 /// Measured rises at the end of the run, K (model order).
 fn final_rises(replay: &Replay) -> Option<Vec<f64>> {
     let s = &replay.signals;
@@ -71,7 +90,7 @@ pub fn graph(network: &Network, flows: &[Vec<f64>]) -> (GraphNodes, GraphEdges) 
     let mut edges: Vec<(String, String)> = Vec::new();
     for i in 0..n {
         ids.push(format!("part{i}"));
-        positions.push(on_circle(i, n, 300.0));
+        positions.push(on_circle(i, n, RADIUS));
         labels.push(format!(
             "{}\nC = {}J/K",
             network.states[i],
@@ -85,45 +104,44 @@ pub fn graph(network: &Network, flows: &[Vec<f64>]) -> (GraphNodes, GraphEdges) 
     labels.push("coolant".into());
     colours.push([120, 170, 230]);
     radii.push(30.0);
-    for i in 0..n {
-        for j in i..n {
-            let g = network.conductance_w_per_k[i][j];
-            if g == 0.0 {
-                continue;
-            }
-            let (to, at) = if i == j {
-                (
-                    "coolant".to_owned(),
-                    (positions[i].0 / 2.0, positions[i].1 / 2.0),
-                )
-            } else {
-                let (a, b) = (positions[i], positions[j]);
-                (format!("part{j}"), ((a.0 + b.0) / 2.0, (a.1 + b.1) / 2.0))
-            };
-            let q = flows[i][j];
-            let id = format!("G{i}{j}");
-            let share = if largest > 0.0 {
-                (q.abs() / largest) as f32
-            } else {
-                0.0
-            };
-            ids.push(id.clone());
-            positions.push(at);
-            labels.push(format!("R = {}K/W\nq = {}W", eng(1.0 / g), eng(q.abs())));
-            colours.push(if g < 0.0 {
-                [200, 0, 200] // not passive
-            } else {
-                [255, (200.0 * (1.0 - share)) as u8, 0]
-            });
-            radii.push(6.0 + 20.0 * share);
-            let from = format!("part{i}");
-            if q >= 0.0 {
-                edges.push((from, id.clone()));
-                edges.push((id, to));
-            } else {
-                edges.push((to, id.clone()));
-                edges.push((id, from));
-            }
+    // Each pair once, and each part with the coolant (i = j).
+    let pairs = (0..n).flat_map(|i| (i..n).map(move |j| (i, j)));
+    for (i, j) in pairs {
+        let g = network.conductance_w_per_k[i][j];
+        if g == 0.0 {
+            continue;
+        }
+        let (to, at) = if i == j {
+            (
+                "coolant".to_owned(),
+                (positions[i].0 / 2.0, positions[i].1 / 2.0),
+            )
+        } else {
+            (format!("part{j}"), between(i, j, n))
+        };
+        let q = flows[i][j];
+        let id = format!("G{i}{j}");
+        let share = if largest > 0.0 {
+            (q.abs() / largest) as f32
+        } else {
+            0.0
+        };
+        ids.push(id.clone());
+        positions.push(at);
+        labels.push(format!("R = {}K/W\nq = {}W", eng(1.0 / g), eng(q.abs())));
+        colours.push(if g < 0.0 {
+            [200, 0, 200] // not passive
+        } else {
+            [255, (200.0 * (1.0 - share)) as u8, 0]
+        });
+        radii.push(6.0 + 20.0 * share);
+        let from = format!("part{i}");
+        if q >= 0.0 {
+            edges.push((from, id.clone()));
+            edges.push((id, to));
+        } else {
+            edges.push((to, id.clone()));
+            edges.push((id, from));
         }
     }
     let nodes = GraphNodes::new(ids)
@@ -139,6 +157,30 @@ pub fn graph(network: &Network, flows: &[Vec<f64>]) -> (GraphNodes, GraphEdges) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn no_conductance_of_four_parts_stands_on_the_coolant_or_another() {
+        // Four parts: the chords 0–2 and 1–3 cross at the coolant (the centre).
+        let mut at = vec![(0.0_f32, 0.0_f32)];
+        for i in 0..4 {
+            at.push((
+                on_circle(i, 4, RADIUS).0 / 2.0,
+                on_circle(i, 4, RADIUS).1 / 2.0,
+            ));
+            for j in i + 1..4 {
+                at.push(between(i, j, 4));
+            }
+        }
+        for (k, p) in at.iter().enumerate() {
+            for q in &at[k + 1..] {
+                let d = (p.0 - q.0).hypot(p.1 - q.1);
+                assert!(d > RADIUS / 4.0, "{p:?} and {q:?} are {d} apart");
+            }
+        }
+        // Neighbours keep the halfway point.
+        let (a, b) = (on_circle(0, 4, RADIUS), on_circle(1, 4, RADIUS));
+        assert_eq!(between(0, 1, 4), ((a.0 + b.0) / 2.0, (a.1 + b.1) / 2.0));
+    }
 
     #[test]
     fn engineering_notation_picks_the_prefix() {
