@@ -35,8 +35,18 @@ pids=()
 cleanup() {
     for pid in "${pids[@]}"; do kill "$pid" 2> /dev/null || true; done
     for pid in "${pids[@]}"; do wait "$pid" 2> /dev/null || true; done
-    for f in "$work"/*.pid; do [ -f "$f" ] && kill "$(cat "$f")" 2> /dev/null || true; done
-    rm -rf "$work"
+    # The daemons write their state as they stop (slurmctld saves its queue on SIGTERM), so
+    # the directory is removed only once each has exited, or the removal races their writes.
+    local daemons=()
+    for f in "$work"/*.pid; do [ -s "$f" ] && daemons+=("$(cat "$f")"); done
+    for pid in "${daemons[@]}"; do kill "$pid" 2> /dev/null || true; done
+    for _ in $(seq 100); do
+        local alive=0
+        for pid in "${daemons[@]}"; do kill -0 "$pid" 2> /dev/null && alive=1; done
+        [ "$alive" -eq 0 ] && break
+        sleep 0.1
+    done
+    rm -rf "$work" 2> /dev/null || { sleep 1; rm -rf "$work"; }
 }
 trap cleanup EXIT
 
