@@ -211,6 +211,7 @@ fn hidden_entry(h: &crate::pipeline::HiddenReplay, outputs: &[String]) -> Hidden
             matrix: rows(&c.covariance),
             output_noise_variance: c.noise_variance.clone(),
             basis_directions: c.basis_directions,
+            correlation_window: Some(c.correlation_window),
         }),
     }
 }

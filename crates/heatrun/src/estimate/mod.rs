@@ -11,6 +11,7 @@ mod data;
 mod discrete;
 mod error;
 mod iv;
+pub mod long_run;
 mod method;
 pub(crate) mod normal_equations;
 pub(crate) mod oe;

@@ -268,7 +268,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
 }
 
 /// Per output, 1/var(y_j) over its observed values (1 where it does not vary).
-fn output_weights(data: &IdentificationData) -> Vec<f64> {
+pub(crate) fn output_weights(data: &IdentificationData) -> Vec<f64> {
     (0..data.states())
         .map(|j| {
             let v: Vec<f64> = (0..data.len())
@@ -379,6 +379,9 @@ pub(crate) struct Linearised {
     pub residuals: Vec<f64>,
     /// The output each row compares.
     pub outputs: Vec<usize>,
+    /// The instant of each row: (its segment's place in `data.segments()`, the row index
+    /// k of the data), for the residuals' correlation in time.
+    pub instants: Vec<(usize, usize)>,
 }
 
 /// [`Linearised`] at `model` with each segment's initial state `initial_states` (one per
@@ -430,16 +433,22 @@ pub(crate) fn linearised_at(
         radius_limit: 1.0,
     };
     let at = &problem;
-    let outputs = at
+    let (instants, outputs) = at
         .segments
         .iter()
-        .flat_map(|seg| seg.clone())
-        .flat_map(|k| (0..p).filter(move |&j| at.compared(k, j)))
-        .collect();
+        .enumerate()
+        .flat_map(|(s, seg)| seg.clone().map(move |k| (s, k)))
+        .flat_map(|(s, k)| {
+            (0..p)
+                .filter(move |&j| at.compared(k, j))
+                .map(move |j| ((s, k), j))
+        })
+        .unzip();
     Linearised {
         jacobian: problem.jacobian_of(model),
         residuals: problem.residuals_of(model),
         outputs,
+        instants,
     }
 }
 

@@ -32,13 +32,35 @@ pub(crate) fn simulate_known(
     sigma: f64,
     seed: u64,
 ) -> IdentificationData {
+    simulate_known_coloured(model, len, sigma, 0.0, seed)
+}
+
+/// As [`simulate_known`], the noise on each output AR(1): v(k) = ρ v(k−1) + ε(k), its
+/// stationary σ = `sigma` (ε's σ·√(1 − ρ²)); `rho` = 0 is white noise.
+pub(crate) fn simulate_known_coloured(
+    model: &HiddenStateModel,
+    len: usize,
+    sigma: f64,
+    rho: f64,
+    seed: u64,
+) -> IdentificationData {
     let u = step_inputs(len, model.gamma.ncols(), seed);
     let data = IdentificationData::complete(model.ts_s, DMatrix::zeros(len, model.c.nrows()), u);
     let y = model.simulate(&data, 0..len, &DVector::zeros(model.order()));
-    let y = if sigma > 0.0 {
-        with_noise(&y, sigma, seed + 1000)
-    } else {
-        y
-    };
-    IdentificationData::complete(model.ts_s, y, data.inputs)
+    if sigma == 0.0 {
+        return IdentificationData::complete(model.ts_s, y, data.inputs);
+    }
+    let innovations = with_noise(
+        &DMatrix::zeros(len, y.ncols()),
+        sigma * (1.0 - rho * rho).sqrt(),
+        seed + 1000,
+    );
+    let mut noise = innovations.clone();
+    // Stationary from the first instant: v(0) ~ N(0, σ²).
+    noise.row_mut(0).scale_mut(1.0 / (1.0 - rho * rho).sqrt());
+    for k in 1..len {
+        let carried = noise.row(k - 1) * rho + innovations.row(k);
+        noise.row_mut(k).copy_from(&carried);
+    }
+    IdentificationData::complete(model.ts_s, y + noise, data.inputs)
 }

@@ -129,9 +129,10 @@ pub struct HiddenEntry {
     pub parameter_covariance: Option<HiddenCovarianceEntry>,
 }
 
-/// The covariance of a hidden-state model's parameters at the output-error optimum,
-/// Gauss–Newton: C_θ = (Σ J_kjᵀ J_kj / σ̂_j²)⁺, the changes of basis that leave the outputs
-/// unchanged left out of the pseudo-inverse (`heatrun::hidden::covariance`).
+/// The covariance of a hidden-state model's parameters at the output-error optimum:
+/// Gauss–Newton's C_θ = H⁺, H = Σ J_kjᵀ J_kj / σ̂_j², or where the residuals are correlated
+/// in time the sandwich H⁺ M H⁺ (`correlation_window`); the changes of basis that leave
+/// the outputs unchanged left out of the pseudo-inverse (`heatrun::hidden::covariance`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct HiddenCovarianceEntry {
     /// How the parameters are laid out: "[phi gamma; c d] row by row", entry (i, j) of
@@ -140,10 +141,17 @@ pub struct HiddenCovarianceEntry {
     /// C_θ, (n + p)(n + m) square, rows; model units (per unit where scaled). The rows and
     /// columns of entries held fixed (C = [I 0], D = 0) are zero.
     pub matrix: Vec<Vec<f64>>,
-    /// σ̂_j² per measured output it assumes, model units².
+    /// σ̂_j² per measured output: its mean squared simulation error times N/(N − r),
+    /// model units².
     pub output_noise_variance: Vec<f64>,
     /// Directions of the changes of basis left out (n² with C free, (n − p)·n with C fixed).
     pub basis_directions: usize,
+    /// Where the residuals' correlation in time is taken into the covariance: the width L
+    /// of the Bartlett window, instants, of the sandwich C_θ = H⁺ M H⁺
+    /// (`heatrun::estimate::long_run`). Absent: Gauss–Newton's H⁺, the residuals taken
+    /// as white (every report before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub correlation_window: Option<usize>,
 }
 
 /// The layout of [`HiddenCovarianceEntry::matrix`].
