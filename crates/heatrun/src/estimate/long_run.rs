@@ -59,8 +59,8 @@ impl Scores {
     pub fn bartlett_width(&self, scale: &[f64]) -> usize {
         let longest = self.segments.iter().map(|s| s.nrows()).max().unwrap_or(0);
         let (mut numerator, mut denominator) = (0.0, 0.0);
-        for a in 0..self.parameters() {
-            let Some((rho, innovation_variance)) = self.ar1(a, scale[a]) else {
+        for (a, &scale_a) in scale.iter().enumerate().take(self.parameters()) {
+            let Some((rho, innovation_variance)) = self.ar1(a, scale_a) else {
                 continue;
             };
             let rho = rho.clamp(-LARGEST_RHO, LARGEST_RHO);
