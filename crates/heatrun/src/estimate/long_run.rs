@@ -15,7 +15,7 @@
 //! windows of L + 1 consecutive instants, (L + 1) M = Σ_t B_t B_tᵀ with
 //! B_t = Σ_{i=t}^{t+L} s_i (zero outside the segment): each pair (i, j) lies in exactly
 //! L + 1 − |i − j| windows, so this is the lag sum exactly, in (T + L)·P² operations
-//! whatever L is.
+//! whatever L is, streamed with L + 1 scores kept ([`LongRunSum`]).
 //!
 //! The window's width L is Andrews' (1991) plug-in for Bartlett's window from an AR(1)
 //! fitted to each standardised score component a (ρ_a, innovation variance σ_a²):
@@ -25,7 +25,9 @@
 //!
 //! at most half the longest segment: white scores give L ≈ 0 and M ≈ H.
 
-use nalgebra::DMatrix;
+use std::collections::VecDeque;
+
+use nalgebra::{DMatrix, DVector};
 
 /// Andrews' constant for Bartlett's window, 1.1447 = (2 · 1/ ∫k²)^{1/3} with ∫k² = 2/3.
 const ANDREWS_BARTLETT: f64 = 1.1447;
@@ -34,8 +36,146 @@ const ANDREWS_BARTLETT: f64 = 1.1447;
 /// that wanders like a random walk would otherwise ask for an infinite window.
 const LARGEST_RHO: f64 = 0.99;
 
-/// The scores of a fit, instant by instant, in segments of consecutive instants (a
-/// segment's first row does not follow the last row of the one before it).
+/// Andrews' window width from scores streamed instant by instant: per component the
+/// sums an AR(1) fit needs (Σ s_t s_{t−1}, Σ s_{t−1}², Σ s_t² over the pairs within a
+/// segment), so a fit that never stores its scores can choose the window.
+#[derive(Debug, Clone)]
+pub struct WindowChoice {
+    lagged: DVector<f64>,
+    cross: DVector<f64>,
+    current: DVector<f64>,
+    previous: Option<DVector<f64>>,
+    pairs: usize,
+    instants: usize,
+    segment: usize,
+    longest: usize,
+}
+
+impl WindowChoice {
+    /// No scores yet, over `parameters` components.
+    pub fn new(parameters: usize) -> WindowChoice {
+        WindowChoice {
+            lagged: DVector::zeros(parameters),
+            cross: DVector::zeros(parameters),
+            current: DVector::zeros(parameters),
+            previous: None,
+            pairs: 0,
+            instants: 0,
+            segment: 0,
+            longest: 0,
+        }
+    }
+
+    /// The next instant's score s_t.
+    pub fn push(&mut self, score: &DVector<f64>) {
+        if let Some(before) = &self.previous {
+            self.lagged += before.component_mul(before);
+            self.cross += score.component_mul(before);
+            self.current += score.component_mul(score);
+            self.pairs += 1;
+        }
+        self.previous = Some(score.clone());
+        self.instants += 1;
+        self.segment += 1;
+        self.longest = self.longest.max(self.segment);
+    }
+
+    /// The segment ends: the next score does not follow this one.
+    pub fn end_segment(&mut self) {
+        self.previous = None;
+        self.segment = 0;
+    }
+
+    /// Andrews' Bartlett window width L, each component standardised by `scale` (1/√H_aa:
+    /// components in different units weigh alike); components with no variance are
+    /// left out; at most half the longest segment. About 0 where the scores are white.
+    pub fn width(&self, scale: &[f64]) -> usize {
+        let (mut numerator, mut denominator) = (0.0, 0.0);
+        for (a, &scale_a) in scale.iter().enumerate().take(self.lagged.len()) {
+            let lagged = self.lagged[a] * scale_a * scale_a;
+            if !(lagged > 0.0) {
+                continue;
+            }
+            let rho = (self.cross[a] * scale_a * scale_a / lagged).clamp(-LARGEST_RHO, LARGEST_RHO);
+            // Σ (s_t − ρ s_{t−1})² over the pairs, from the three sums.
+            let innovations = (self.current[a] - 2.0 * rho * self.cross[a]
+                + rho * rho * self.lagged[a])
+                * scale_a
+                * scale_a
+                / self.pairs.max(1) as f64;
+            let s4 = innovations * innovations;
+            numerator += 4.0 * rho * rho * s4 / ((1.0 - rho).powi(6) * (1.0 + rho).powi(2));
+            denominator += s4 / (1.0 - rho).powi(4);
+        }
+        if !(denominator > 0.0) {
+            return 0;
+        }
+        let alpha = numerator / denominator;
+        let width = ANDREWS_BARTLETT * (alpha * self.instants as f64).cbrt();
+        (width.floor() as usize).min(self.longest / 2)
+    }
+}
+
+/// M = Σ_τ (1 − |τ|/(L + 1)) Γ_τ from scores streamed instant by instant, as
+/// (1/(L + 1)) Σ_t B_t B_tᵀ of the window sums B_t = Σ_{i=t}^{t+L} s_i (t = −L..T − 1 in
+/// each segment, zero outside it): L + 1 scores kept, P² operations an instant.
+#[derive(Debug, Clone)]
+pub struct LongRunSum {
+    width: usize,
+    kept: VecDeque<DVector<f64>>,
+    window: DVector<f64>,
+    sum: DMatrix<f64>,
+}
+
+impl LongRunSum {
+    /// No scores yet, over `parameters` components, Bartlett's window of width `width`.
+    pub fn new(parameters: usize, width: usize) -> LongRunSum {
+        LongRunSum {
+            width,
+            kept: VecDeque::with_capacity(width + 1),
+            window: DVector::zeros(parameters),
+            sum: DMatrix::zeros(parameters, parameters),
+        }
+    }
+
+    /// The next instant's score s_t: the window ending at it is complete.
+    pub fn push(&mut self, score: &DVector<f64>) {
+        if self.kept.len() == self.width + 1 {
+            if let Some(oldest) = self.kept.pop_front() {
+                self.window -= oldest;
+            }
+        }
+        self.window += score;
+        self.kept.push_back(score.clone());
+        self.sum.ger(1.0, &self.window, &self.window, 1.0);
+    }
+
+    /// The segment ends: the windows that reach past its last instant, then a fresh
+    /// start.
+    pub fn end_segment(&mut self) {
+        // A segment shorter than the window: the windows that hold all of it.
+        let whole = (self.width + 1).saturating_sub(self.kept.len());
+        if !self.kept.is_empty() && whole > 0 {
+            self.sum.ger(whole as f64, &self.window, &self.window, 1.0);
+        }
+        while let Some(oldest) = self.kept.pop_front() {
+            self.window -= oldest;
+            if !self.kept.is_empty() {
+                self.sum.ger(1.0, &self.window, &self.window, 1.0);
+            }
+        }
+        self.window.fill(0.0);
+    }
+
+    /// M, the segments ended.
+    pub fn finish(mut self) -> DMatrix<f64> {
+        self.end_segment();
+        self.sum / (self.width + 1) as f64
+    }
+}
+
+/// The scores of a fit kept whole, instant by instant, in segments of consecutive
+/// instants (a segment's first row does not follow the last row of the one before it).
 #[derive(Debug, Clone)]
 pub struct Scores {
     /// One T_s × P matrix per segment: row t is s_t.
@@ -48,90 +188,35 @@ impl Scores {
         self.segments.first().map_or(0, |s| s.ncols())
     }
 
-    /// The number of instants, all segments together.
-    pub fn instants(&self) -> usize {
-        self.segments.iter().map(|s| s.nrows()).sum()
-    }
-
-    /// Andrews' Bartlett window width L for these scores, each component standardised by
-    /// `scale` (1/√H_aa: components in different units weigh alike); components with
-    /// no variance are left out. 0 where the scores are white.
+    /// Andrews' Bartlett window width L ([`WindowChoice::width`]).
     pub fn bartlett_width(&self, scale: &[f64]) -> usize {
-        let longest = self.segments.iter().map(|s| s.nrows()).max().unwrap_or(0);
-        let (mut numerator, mut denominator) = (0.0, 0.0);
-        for (a, &scale_a) in scale.iter().enumerate().take(self.parameters()) {
-            let Some((rho, innovation_variance)) = self.ar1(a, scale_a) else {
-                continue;
-            };
-            let rho = rho.clamp(-LARGEST_RHO, LARGEST_RHO);
-            let s4 = innovation_variance * innovation_variance;
-            numerator += 4.0 * rho * rho * s4 / ((1.0 - rho).powi(6) * (1.0 + rho).powi(2));
-            denominator += s4 / (1.0 - rho).powi(4);
-        }
-        if denominator <= 0.0 {
-            return 0;
-        }
-        let alpha = numerator / denominator;
-        let width = ANDREWS_BARTLETT * (alpha * self.instants() as f64).cbrt();
-        (width.floor() as usize).min(longest / 2)
+        let mut choice = WindowChoice::new(self.parameters());
+        self.stream(|score| match score {
+            Some(s) => choice.push(s),
+            None => choice.end_segment(),
+        });
+        choice.width(scale)
     }
 
-    /// The first-order autocorrelation of component `a` (times `scale`) pooled over the
-    /// segments, and the variance of its AR(1) innovations; `None` without variance.
-    fn ar1(&self, a: usize, scale: f64) -> Option<(f64, f64)> {
-        let (mut lagged, mut cross, mut count) = (0.0, 0.0, 0usize);
-        for seg in &self.segments {
-            for t in 1..seg.nrows() {
-                let (now, before) = (seg[(t, a)] * scale, seg[(t - 1, a)] * scale);
-                lagged += before * before;
-                cross += now * before;
-                count += 1;
-            }
-        }
-        if !(lagged > 0.0) || count == 0 {
-            return None;
-        }
-        let rho = cross / lagged;
-        let mut innovations = 0.0;
-        for seg in &self.segments {
-            for t in 1..seg.nrows() {
-                let e = (seg[(t, a)] - rho * seg[(t - 1, a)]) * scale;
-                innovations += e * e;
-            }
-        }
-        Some((rho, innovations / count as f64))
-    }
-
-    /// M = Σ_τ (1 − |τ|/(L + 1)) Γ_τ over every segment, L = `width` (the module's
-    /// equation): (1/(L + 1)) Σ_t B_t B_tᵀ of the window sums B_t.
+    /// M with Bartlett's window of width `width` ([`LongRunSum`]).
     pub fn long_run_covariance(&self, width: usize) -> DMatrix<f64> {
-        let p = self.parameters();
-        let mut m = DMatrix::zeros(p, p);
-        for seg in &self.segments {
-            let windows = window_sums(seg, width);
-            m += windows.tr_mul(&windows);
-        }
-        m / (width + 1) as f64
+        let mut sum = LongRunSum::new(self.parameters(), width);
+        self.stream(|score| match score {
+            Some(s) => sum.push(s),
+            None => sum.end_segment(),
+        });
+        sum.finish()
     }
-}
 
-/// The sums B_t = Σ_{i=t}^{t+L} s_i of `scores`' rows over every window of L + 1
-/// consecutive instants that holds at least one of them (t = −L..T − 1), one per row.
-fn window_sums(scores: &DMatrix<f64>, width: usize) -> DMatrix<f64> {
-    let (t_len, p) = scores.shape();
-    // prefix[i] = Σ_{r<i} s_r.
-    let mut prefix = DMatrix::zeros(t_len + 1, p);
-    for i in 0..t_len {
-        let next = prefix.row(i) + scores.row(i);
-        prefix.row_mut(i + 1).copy_from(&next);
+    /// Each score in turn, `None` at the end of each segment.
+    fn stream(&self, mut each: impl FnMut(Option<&DVector<f64>>)) {
+        for seg in &self.segments {
+            for row in seg.row_iter() {
+                each(Some(&row.transpose()));
+            }
+            each(None);
+        }
     }
-    let windows = t_len + width;
-    DMatrix::from_fn(windows, p, |w, a| {
-        // Window w covers instants w − L ..= w, clipped to the segment.
-        let first = w.saturating_sub(width);
-        let last = (w + 1).min(t_len);
-        prefix[(last, a)] - prefix[(first, a)]
-    })
 }
 
 #[cfg(test)]
