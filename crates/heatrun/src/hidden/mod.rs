@@ -21,7 +21,7 @@
 //!
 //! Where it is the replay's model, [`analysis`] gives its time constants, the measured
 //! outputs' sensitivities to them and its steady state; [`covariance`] the covariance
-//! of its parameters (Gauss–Newton at the optimum, the changes of basis left out), which
+//! of its parameters (the sandwich H⁺ M H⁺ at the optimum, the changes of basis left out), which
 //! the bands and intervals of the uses of the model carry through y = C x + D u; and
 //! [`traces`] what the .rrd and the HTML page draw of it (its simulated outputs, its
 //! output sensitivity responses).

@@ -2,8 +2,8 @@
 //! hidden state (`testing::known_system`) identified on many seeded noise draws; the
 //! standardised errors of its steady-state gain (invariant under a change of basis),
 //! (Ĝ − G)/σ_G with σ_G from the covariance of each draw's own estimate, must have a
-//! mean square near 1 (the Monte-Carlo reference, independent of the Gauss–Newton
-//! algebra).
+//! mean square near 1 (the Monte-Carlo reference, independent of the sandwich's
+//! algebra), with white output noise and with AR(1) noise.
 
 use super::*;
 use crate::hidden::refine::refine;
