@@ -786,6 +786,19 @@ impl Report {
         if h.d.iter().flatten().any(|v| *v != 0.0) {
             matrix(s, "hidden-state D", &h.d, 7);
         }
+        if let Some(c) = &h.parameter_covariance {
+            let how = match c.correlation_window {
+                Some(w) => format!(
+                    "the sandwich H⁺ M H⁺, the residuals' correlation taken over a Bartlett \
+                     window of {w} instants"
+                ),
+                None => "Gauss–Newton's, the residuals taken as white".into(),
+            };
+            let _ = writeln!(
+                s,
+                "  its parameters' covariance (predict's band, rating's intervals): {how}"
+            );
+        }
         if let Some(m) = &self.measured_state {
             let _ = writeln!(
                 s,
