@@ -342,11 +342,7 @@ impl ResistanceCapacitance {
             }
             // The next pass on those weights, capped.
             let next: Vec<f64> = capped_at(own, cap).iter().map(|w| w.sqrt()).collect();
-            let change = next
-                .iter()
-                .zip(&problem.inner.sqrt_w)
-                .map(|(a, b)| (a / b - 1.0).abs())
-                .fold(0.0, f64::max);
+            let change = oe::largest_relative_change(&next, &problem.inner.sqrt_w);
             problem.inner.sqrt_w = next;
             *problem.cache.borrow_mut() = None;
             // Objectives under the old weights are not comparable with the new ones.

@@ -199,11 +199,7 @@ impl OutputError {
                 break;
             }
             let next = problem.residual_weights();
-            let change = next
-                .iter()
-                .zip(&problem.sqrt_w)
-                .map(|(a, b)| (a / b - 1.0).abs())
-                .fold(0.0, f64::max);
+            let change = largest_relative_change(&next, &problem.sqrt_w);
             // The cached evaluation at these parameters keeps the previous weights, so the
             // second pass's first step is taken on them. Clearing it (the cleaner choice)
             // moves noisy estimates by about 1e-3 relative; left as it is so that the
@@ -215,6 +211,15 @@ impl OutputError {
         }
         Ok((problem, evaluations))
     }
+}
+
+/// max_i |next_i / current_i − 1|: how far a reweighting pass moved the √weights (the
+/// fits refit while it is 5 % or more).
+pub(crate) fn largest_relative_change(next: &[f64], current: &[f64]) -> f64 {
+    next.iter()
+        .zip(current)
+        .map(|(a, b)| (a / b - 1.0).abs())
+        .fold(0.0, f64::max)
 }
 
 /// w_i = (1/v_i) / mean_j(1/v_j): inverse variances scaled to mean 1, so that J stays

@@ -115,11 +115,7 @@ fn minimise(mut problem: Problem<'_>, weights_given: bool) -> Result<(Problem<'_
             break;
         }
         let next = problem.innovation_weights();
-        let change = next
-            .iter()
-            .zip(&problem.sqrt_w)
-            .map(|(a, b)| (a / b - 1.0).abs())
-            .fold(0.0, f64::max);
+        let change = crate::estimate::oe::largest_relative_change(&next, &problem.sqrt_w);
         problem.sqrt_w = next;
         *problem.cache.borrow_mut() = None;
         if change < 0.05 {
