@@ -565,8 +565,13 @@ impl Report {
             theta_covariance: a
                 .uncertainty
                 .as_ref()
-                .and(r.estimate.covariance.as_ref())
+                .and(r.estimate.interval_covariance())
                 .map(rows),
+            theta_covariance_window: a
+                .uncertainty
+                .as_ref()
+                .and(r.estimate.robust_covariance.as_ref())
+                .map(|c| c.correlation_window),
             network: Some(match &r.network.network {
                 Ok(n) => NetworkEntry::Defined(Box::new(n.clone())),
                 Err(why) => NetworkEntry::NotDefined {
@@ -835,6 +840,15 @@ impl Report {
                 a.sensitivity_norm,
                 self.state_unit()
             );
+        }
+        if let (Some(_), Some(window)) = (&self.uncertainty, self.theta_covariance_window) {
+            if !self.hidden_is_the_model() {
+                let _ = writeln!(
+                    s,
+                    "  (the intervals take the residuals' correlation in time over a Bartlett \
+                     window of {window} instants: the sandwich covariance)"
+                );
+            }
         }
         let rows = if self.hidden_is_the_model() {
             "rows: the measured outputs, T_i C ∂x/∂T_i"

@@ -213,6 +213,7 @@ impl InstrumentalVariables {
             rows_used: rows.len(),
             condition_number: last.condition_number,
             covariance: Some(block_diagonal_covariance(&[&core], &noise_variance)),
+            robust_covariance: None,
             noise_variance,
             iterations,
             output_offset: None,

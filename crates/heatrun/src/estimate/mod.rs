@@ -51,9 +51,16 @@ pub struct Estimate {
     pub rows_used: usize,
     /// 2-norm condition number of the column-scaled regression (or Jacobian) matrix.
     pub condition_number: f64,
-    /// Covariance of Θ laid out as [`DiscreteModel::theta`], when the method gives one.
+    /// Covariance of Θ laid out as [`DiscreteModel::theta`], when the method gives one:
+    /// the method's own (for the output-error fits Gauss–Newton's σ² (JᵀWJ)⁻¹, which
+    /// takes the residuals as white). The nearest network takes it as its metric.
     #[serde(skip)]
     pub covariance: Option<DMatrix<f64>>,
+    /// The covariance of Θ that holds where the residuals are correlated in time (the
+    /// sandwich H⁻¹ M H⁻¹, [`long_run`]), where the method gives one (`oe`): what the
+    /// intervals of the uses of the model take ([`Estimate::interval_covariance`]).
+    #[serde(skip)]
+    pub robust_covariance: Option<RobustCovariance>,
     /// Estimated noise variance per output (pu²): of the equation error for ls/wls/iv,
     /// of the simulation error for oe.
     pub noise_variance: Vec<f64>,
@@ -72,6 +79,27 @@ pub struct Estimate {
     /// (`pem`); the others' predictor is the simulation.
     #[serde(skip)]
     pub predictor: Option<Box<Predictor>>,
+}
+
+impl Estimate {
+    /// The covariance the intervals take: the robust one where the method gives it, else
+    /// [`Estimate::covariance`].
+    pub fn interval_covariance(&self) -> Option<&DMatrix<f64>> {
+        (self.robust_covariance.as_ref())
+            .map(|r| &r.covariance)
+            .or(self.covariance.as_ref())
+    }
+}
+
+/// A covariance of Θ robust to residuals correlated in time: C = H⁻¹ M H⁻¹ · N/(N − r),
+/// H = JᵀWJ, M the long-run covariance of the weighted residuals' scores with Bartlett's
+/// window of Andrews' width ([`long_run`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobustCovariance {
+    /// C, laid out as [`DiscreteModel::theta`].
+    pub covariance: DMatrix<f64>,
+    /// L, the Bartlett window's width, instants (a few where the residuals are white).
+    pub correlation_window: usize,
 }
 
 /// An identification method.

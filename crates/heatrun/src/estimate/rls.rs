@@ -131,6 +131,7 @@ impl Estimator for RecursiveLeastSquares {
             rows_used: rows.len(),
             condition_number: f64::NAN,
             covariance: Some(block_diagonal_covariance(&[&recursion.p], &noise_variance)),
+            robust_covariance: None,
             noise_variance,
             iterations: rows.len(),
             output_offset: None,

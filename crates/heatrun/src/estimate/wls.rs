@@ -77,6 +77,7 @@ impl Estimator for WeightedLeastSquares {
             rows_used: rows.len(),
             condition_number,
             covariance: Some(block_diagonal_covariance(&cores, &noise_variance)),
+            robust_covariance: None,
             noise_variance,
             iterations: 0,
             output_offset: None,

@@ -22,10 +22,11 @@ pub struct Uncertainty {
     pub theta_standard_error: Vec<f64>,
 }
 
-/// Propagates the estimate's covariance to the time constants and the steady state
-/// for input `u`; `None` when the method gives no covariance.
+/// Propagates the estimate's covariance ([`Estimate::interval_covariance`]: the robust
+/// one where the method gives it) to the time constants and the steady state for input
+/// `u`; `None` when the method gives no covariance.
 pub fn propagate(estimate: &Estimate, u: &[f64]) -> Option<Uncertainty> {
-    let cov = estimate.covariance.as_ref()?;
+    let cov = estimate.interval_covariance()?;
     let theta = estimate.model.theta();
     let derived = |t: &[f64]| -> Option<Vec<f64>> {
         let model = estimate.model.with_theta(t);
@@ -94,6 +95,7 @@ mod tests {
             rows_used: 0,
             condition_number: 1.0,
             covariance: Some(cov),
+            robust_covariance: None,
             noise_variance: vec![0.0],
             iterations: 0,
             output_offset: None,
@@ -132,6 +134,7 @@ mod tests {
             rows_used: 0,
             condition_number: 1.0,
             covariance: None,
+            robust_covariance: None,
             noise_variance: vec![0.0],
             iterations: 0,
             output_offset: None,

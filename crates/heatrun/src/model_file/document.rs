@@ -499,6 +499,11 @@ pub struct Report {
     /// `monitor` propagate into their intervals (var g ≈ ∇gᵀ C_Θ ∇g).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub theta_covariance: Option<Vec<Vec<f64>>>,
+    /// Where `theta_covariance` takes the residuals' correlation in time (`oe`'s sandwich
+    /// H⁻¹ M H⁻¹): the width L of its Bartlett window, instants. Absent: the method's
+    /// own covariance (every report before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta_covariance_window: Option<usize>,
     /// The passive thermal network of the model (Fig. 9), or why it has none: always
     /// written by a replay, `None` in a report read back.
     #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]

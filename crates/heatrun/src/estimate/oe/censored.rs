@@ -95,6 +95,7 @@ pub(crate) fn maximise_likelihood(
     );
     Ok(Estimate {
         covariance: Some(covariance),
+        robust_covariance: None,
         condition_number,
         noise_variance: completion.noise_variance,
         iterations,

@@ -9,11 +9,12 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 use crate::estimate::iv::InstrumentalVariables;
+use crate::estimate::long_run::{LongRunSum, WindowChoice};
 use crate::estimate::normal_equations::RowBlock;
 use crate::estimate::wls::WeightedLeastSquares;
 use crate::estimate::{
     check_enough_rows, DiscreteModel, Estimate, EstimationError, Estimator, IdentificationData,
-    Result,
+    Result, RobustCovariance,
 };
 use crate::progress::Observer;
 
@@ -353,6 +354,12 @@ fn conclude(problem: &Problem, method: Method, rows_used: usize, evaluations: us
     let dof = entries.saturating_sub(problem.params.len()).max(1) as f64;
     let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
     let (covariance, condition_number) = theta_covariance(problem, &evaluation.gram, sigma2);
+    let (sandwich, correlation_window) = problem.sandwich(&evaluation.gram);
+    let p_theta = problem.p_theta();
+    let robust_covariance = RobustCovariance {
+        covariance: sandwich.view((0, 0), (p_theta, p_theta)).into_owned(),
+        correlation_window,
+    };
     let noise_variance: Vec<f64> = (0..n)
         .map(|c| evaluation.sse[c] / problem.counts[c].max(1) as f64 / w[c].max(1e-300))
         .collect();
@@ -362,6 +369,7 @@ fn conclude(problem: &Problem, method: Method, rows_used: usize, evaluations: us
         rows_used,
         condition_number,
         covariance: Some(covariance),
+        robust_covariance: Some(robust_covariance),
         noise_variance,
         iterations: evaluations,
         output_offset: problem.output_offset(),
@@ -596,12 +604,7 @@ impl<'a> Problem<'a> {
                     state.step();
                 }
                 for c in (0..n).filter(|&c| self.data.observed(k, c)) {
-                    let sqrt_w = match &self.entry_weight {
-                        None => self.sqrt_w[c],
-                        Some(e) => self.sqrt_w[c] * e[(k, c)].max(0.0).sqrt(),
-                    };
-                    let offset = self.offset_at.map_or(0.0, |at| self.params[at + c]);
-                    let r = sqrt_w * (self.data.outputs[(k, c)] - state.y[c] - offset);
+                    let (sqrt_w, r) = self.weighted_residual(&state, k, c);
                     sse[c] += r * r;
                     if let Some((gram, grad)) = normal.as_mut() {
                         let row = block.push(r, gram, grad);
@@ -620,6 +623,81 @@ impl<'a> Problem<'a> {
             }
         }
         sse
+    }
+
+    /// √w of entry (k, c) and its weighted residual r = √w (y_c(k) − ŷ_c(k) − d_c) at the
+    /// propagated `state`.
+    fn weighted_residual(&self, state: &Propagation, k: usize, c: usize) -> (f64, f64) {
+        let sqrt_w = match &self.entry_weight {
+            None => self.sqrt_w[c],
+            Some(e) => self.sqrt_w[c] * e[(k, c)].max(0.0).sqrt(),
+        };
+        let offset = self.offset_at.map_or(0.0, |at| self.params[at + c]);
+        (
+            sqrt_w,
+            sqrt_w * (self.data.outputs[(k, c)] - state.y[c] - offset),
+        )
+    }
+
+    /// Each instant's score s_k = Σ_c J_kcᵀ r_kc of the weighted residuals at the current
+    /// parameters, in time order, `None` at the end of each segment (an instant with no
+    /// output compared gives s_k = 0 and keeps its place). One pass with the
+    /// sensitivities, like [`Problem::evaluate_full`]; nothing kept.
+    fn for_each_score(&self, mut each: impl FnMut(Option<&DVector<f64>>)) {
+        let (n, cols) = (self.n, self.params.len());
+        let mut state = Propagation::new(&self.model());
+        let mut row = Vec::new();
+        let mut score = DVector::zeros(cols);
+        for (s, seg) in self.segments.iter().enumerate() {
+            state.reset(self.x0(s));
+            let x0_at = self.x0_at[s];
+            let columns: Vec<usize> = self.segment_columns(x0_at).collect();
+            row.resize(columns.len(), 0.0);
+            for k in seg.clone() {
+                if k > seg.start {
+                    state.load_input(self.data, k - 1);
+                    state.propagate_sensitivities();
+                    state.step();
+                }
+                score.fill(0.0);
+                for c in (0..n).filter(|&c| self.data.observed(k, c)) {
+                    let (sqrt_w, r) = self.weighted_residual(&state, k, c);
+                    state.jacobian_row(c, sqrt_w, x0_at.is_some(), self.offset_at, &mut row);
+                    for (&q, v) in columns.iter().zip(&row) {
+                        score[q] += v * r;
+                    }
+                }
+                each(Some(&score));
+            }
+            each(None);
+        }
+    }
+
+    /// The sandwich covariance of all the parameters at the current ones,
+    /// C = H⁻¹ M H⁻¹ · N/(N − r) with H = JᵀWJ (`gram`) and M the long-run covariance of
+    /// the weighted residuals' scores with Bartlett's window of Andrews' width
+    /// ([`crate::estimate::long_run`]): two passes with the sensitivities, the first to
+    /// choose the window. Returns it with the window's width.
+    pub(crate) fn sandwich(&self, gram: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
+        let cols = self.params.len();
+        let (bread_inverse, _) = covariance_from_gram(gram, 1.0);
+        let scale: Vec<f64> = (0..cols)
+            .map(|a| 1.0 / gram[(a, a)].max(1e-300).sqrt())
+            .collect();
+        let mut choice = WindowChoice::new(cols);
+        self.for_each_score(|score| match score {
+            Some(s) => choice.push(s),
+            None => choice.end_segment(),
+        });
+        let width = choice.width(&scale);
+        let mut sum = LongRunSum::new(cols, width);
+        self.for_each_score(|score| match score {
+            Some(s) => sum.push(s),
+            None => sum.end_segment(),
+        });
+        let entries: usize = self.counts.iter().sum();
+        let dof = entries as f64 / entries.saturating_sub(cols).max(1) as f64;
+        (&bread_inverse * sum.finish() * &bread_inverse * dof, width)
     }
 
     /// The columns of J a segment's rows can touch, increasing: Θ, the segment's x0

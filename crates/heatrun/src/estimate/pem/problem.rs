@@ -148,6 +148,7 @@ fn conclude(problem: &Problem, rows_used: usize, evaluations: usize) -> Estimate
         rows_used,
         condition_number,
         covariance: Some(full.view((0, 0), (p_theta, p_theta)).into_owned()),
+        robust_covariance: None,
         noise_variance: noise_variance.clone(),
         iterations: evaluations,
         output_offset: None,

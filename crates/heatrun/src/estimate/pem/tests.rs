@@ -212,8 +212,17 @@ fn a_random_walk_disturbance_is_taken_up_by_its_state_where_oe_is_biased() {
     }
     .estimate(&data)
     .unwrap();
-    // oe attributes the walk to Θ: entries outside their own 3σ intervals.
+    // oe attributes the walk to Θ: entries outside Gauss–Newton's 3σ intervals, which
+    // take its residuals as white (all eight, 4 to 12 σ off, when written) ...
     assert!(outside(&oe, &truth, 3.0) >= 2, "oe {:?}", oe.model);
+    // ... while its robust covariance, the sandwich over the residuals the walk leaves
+    // correlated, holds every entry within 3σ.
+    let robust = Estimate {
+        covariance: oe.interval_covariance().cloned(),
+        ..oe.clone()
+    };
+    assert!(oe.robust_covariance.is_some());
+    assert_eq!(outside(&robust, &truth, 3.0), 0, "oe {:?}", oe.model);
     // The predictor with the disturbance state finds Θ within 3σ on every entry.
     assert_eq!(outside(&pem, &truth, 3.0), 0, "pem {:?}", pem.model);
     let predictor = pem.predictor.as_ref().unwrap();

@@ -272,6 +272,7 @@ fn as_estimate(model: DiscreteModel) -> Estimate {
         rows_used: 0,
         condition_number: f64::NAN,
         covariance: None,
+        robust_covariance: None,
         noise_variance: Vec::new(),
         iterations: 0,
         output_offset: None,
