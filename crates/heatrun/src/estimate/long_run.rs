@@ -86,10 +86,14 @@ impl WindowChoice {
         self.segment = 0;
     }
 
-    /// Andrews' Bartlett window width L, each component standardised by `scale` (1/√H_aa:
-    /// components in different units weigh alike); components with no variance are
-    /// left out; at most half the longest segment. About 0 where the scores are white.
-    pub fn width(&self, scale: &[f64]) -> usize {
+    /// Andrews' Bartlett window width L, each component standardised by 1/√H_aa of the
+    /// fit's `information` H (components in different units weigh alike); components
+    /// with no variance are left out; at most half the longest segment. About 0 where
+    /// the scores are white.
+    pub fn width(&self, information: &DMatrix<f64>) -> usize {
+        let scale = information
+            .diagonal()
+            .map(|h| if h > 0.0 { 1.0 / h.sqrt() } else { 0.0 });
         let (mut numerator, mut denominator) = (0.0, 0.0);
         for (a, &scale_a) in scale.iter().enumerate().take(self.lagged.len()) {
             let lagged = self.lagged[a] * scale_a * scale_a;
@@ -189,13 +193,13 @@ impl Scores {
     }
 
     /// Andrews' Bartlett window width L ([`WindowChoice::width`]).
-    pub fn bartlett_width(&self, scale: &[f64]) -> usize {
+    pub fn bartlett_width(&self, information: &DMatrix<f64>) -> usize {
         let mut choice = WindowChoice::new(self.parameters());
         self.stream(|score| match score {
             Some(s) => choice.push(s),
             None => choice.end_segment(),
         });
-        choice.width(scale)
+        choice.width(information)
     }
 
     /// M with Bartlett's window of width `width` ([`LongRunSum`]).
@@ -267,7 +271,7 @@ mod tests {
             x
         });
         let scores = Scores { segments: vec![ar] };
-        let width = scores.bartlett_width(&[1.0]);
+        let width = scores.bartlett_width(&DMatrix::identity(1, 1));
         let per_instant = scores.long_run_covariance(width)[(0, 0)] / len as f64;
         let truth = 1.0 / (1.0 - rho) / (1.0 - rho);
         println!(
@@ -282,7 +286,7 @@ mod tests {
         let white = Scores {
             segments: vec![white],
         };
-        let width = white.bartlett_width(&[1.0]);
+        let width = white.bartlett_width(&DMatrix::identity(1, 1));
         println!("white: L = {width}");
         assert!(width <= 3, "{width}");
     }

@@ -66,8 +66,8 @@ pub struct HiddenCovariance {
     pub correlation_window: usize,
 }
 
-/// The smallest σ̂_j² used, model units²: a noise-free output (a simulation) would
-/// otherwise weigh infinitely; its parameters' covariance is then ≈ 0, as it should be.
+/// The smallest σ̂_j² reported, model units² (a noise-free output, a simulation, has a
+/// mean squared error of rounding).
 const NOISE_VARIANCE_FLOOR: f64 = 1e-20;
 
 /// Eigenvalues below this fraction of the largest are not inverted (rounding).
@@ -113,14 +113,8 @@ pub fn covariance(
     let weights = output_weights(data);
     let bread = weighted_gram(&lin.jacobian, &lin.outputs, &weights);
     let (bread_inverse, rank) = pseudo_inverse(&bread, basis_directions);
-    let scores = scores(&lin, data.segments().len(), &weights);
-    let scale: Vec<f64> = (0..bread.nrows())
-        .map(|a| match bread[(a, a)] {
-            h if h > 0.0 => 1.0 / h.sqrt(),
-            _ => 0.0,
-        })
-        .collect();
-    let correlation_window = scores.bartlett_width(&scale);
+    let scores = scores(&lin, initial_states.len(), &weights);
+    let correlation_window = scores.bartlett_width(&bread);
     let meat = scores.long_run_covariance(correlation_window);
     let estimated = &bread_inverse * meat * &bread_inverse;
     // σ̂_j² with the degrees of freedom the fit used: N/(N − r).

@@ -684,14 +684,25 @@ impl TimeConstantsSection<'_> {
             (
                 "Time constants T_i = −1/λ_i (eq. 26) of the hidden-state model, with 95 % intervals \
                  where the report has them, and the part each belongs to: the measured output whose \
-                 response T_i C ∂x/∂T_i it changes most (eqs. 27–29 through C; several may share one).",
+                 response T_i C ∂x/∂T_i it changes most (eqs. 27–29 through C; several may share one)."
+                    .to_string(),
                 "rows the measured outputs",
                 "output",
             )
         } else {
+            // Where Θ's covariance is the sandwich, say over how many instants it takes the
+            // residuals' correlation.
+            let covariance = r.theta_covariance_window.map_or(String::new(), |w| {
+                format!(
+                    " of Θ's sandwich covariance, the residuals' correlation taken over a \
+                     Bartlett window of {w} instants"
+                )
+            });
             (
-                "Time constants T_i = −1/λ_i (eq. 26) with 95 % intervals (delta method), and the part each \
-                 belongs to: the state whose response it changes most (eqs. 27–29).",
+                format!(
+                    "Time constants T_i = −1/λ_i (eq. 26) with 95 % intervals (delta method{covariance}), \
+                     and the part each belongs to: the state whose response it changes most (eqs. 27–29)."
+                ),
                 "rows the states",
                 "state",
             )

@@ -353,11 +353,14 @@ fn conclude(problem: &Problem, method: Method, rows_used: usize, evaluations: us
     let entries: usize = problem.counts.iter().sum();
     let dof = entries.saturating_sub(problem.params.len()).max(1) as f64;
     let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
-    let (covariance, condition_number) = theta_covariance(problem, &evaluation.gram, sigma2);
-    let (sandwich, correlation_window) = problem.sandwich(&evaluation.gram);
+    // H⁻¹ once: Gauss–Newton's covariance is σ² H⁻¹, the sandwich's bread H⁻¹.
+    let (bread_inverse, condition_number) = covariance_from_gram(&evaluation.gram, 1.0);
     let p_theta = problem.p_theta();
+    let theta_block = |m: &DMatrix<f64>| m.view((0, 0), (p_theta, p_theta)).into_owned();
+    let covariance = theta_block(&bread_inverse) * sigma2;
+    let (sandwich, correlation_window) = problem.sandwich(&evaluation.gram, &bread_inverse);
     let robust_covariance = RobustCovariance {
-        covariance: sandwich.view((0, 0), (p_theta, p_theta)).into_owned(),
+        covariance: theta_block(&sandwich),
         correlation_window,
     };
     let noise_variance: Vec<f64> = (0..n)
@@ -677,19 +680,20 @@ impl<'a> Problem<'a> {
     /// C = H⁻¹ M H⁻¹ · N/(N − r) with H = JᵀWJ (`gram`) and M the long-run covariance of
     /// the weighted residuals' scores with Bartlett's window of Andrews' width
     /// ([`crate::estimate::long_run`]): two passes with the sensitivities, the first to
-    /// choose the window. Returns it with the window's width.
-    pub(crate) fn sandwich(&self, gram: &DMatrix<f64>) -> (DMatrix<f64>, usize) {
+    /// choose the window. `bread_inverse` is H⁻¹ ([`covariance_from_gram`] with σ² = 1).
+    /// Returns it with the window's width.
+    pub(crate) fn sandwich(
+        &self,
+        gram: &DMatrix<f64>,
+        bread_inverse: &DMatrix<f64>,
+    ) -> (DMatrix<f64>, usize) {
         let cols = self.params.len();
-        let (bread_inverse, _) = covariance_from_gram(gram, 1.0);
-        let scale: Vec<f64> = (0..cols)
-            .map(|a| 1.0 / gram[(a, a)].max(1e-300).sqrt())
-            .collect();
         let mut choice = WindowChoice::new(cols);
         self.for_each_score(|score| match score {
             Some(s) => choice.push(s),
             None => choice.end_segment(),
         });
-        let width = choice.width(&scale);
+        let width = choice.width(gram);
         let mut sum = LongRunSum::new(cols, width);
         self.for_each_score(|score| match score {
             Some(s) => sum.push(s),
@@ -697,7 +701,7 @@ impl<'a> Problem<'a> {
         });
         let entries: usize = self.counts.iter().sum();
         let dof = entries as f64 / entries.saturating_sub(cols).max(1) as f64;
-        (&bread_inverse * sum.finish() * &bread_inverse * dof, width)
+        (bread_inverse * sum.finish() * bread_inverse * dof, width)
     }
 
     /// The columns of J a segment's rows can touch, increasing: Θ, the segment's x0
