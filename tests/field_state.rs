@@ -140,7 +140,13 @@ fn model_of(mcap: &Path) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         theta_base_k: prepared.signals.temperature_base_k,
         p_base_w: prepared.signals.power_base,
     };
-    let (estimate, _) = pipeline::estimate_chosen(&prepared.data, &options, scaling).unwrap();
+    let noise = heatrun::decide::NoiseFloor::of(
+        &prepared.model,
+        &prepared.signals,
+        &prepared.recording.channels,
+    );
+    let (estimate, _) =
+        pipeline::estimate_chosen(&prepared.data, &options, scaling, &noise).unwrap();
     let continuous = ContinuousModel::from_discrete(&estimate.model).unwrap();
     let steady_input = prepared
         .signals

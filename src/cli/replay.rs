@@ -492,11 +492,14 @@ fn library_options(args: &ReplayArgs) -> anyhow::Result<ReplayOptions> {
     };
     Ok(ReplayOptions {
         ts_s: args.ts.or(model.sample_time_s).unwrap_or(1.0),
+        // Neither the flag nor the spec gives Ts: the grid follows temperatures recorded
+        // slower than 1 s (decide::sample_time), and the summary says so.
+        choose_ts: args.ts.is_none() && model.sample_time_s.is_none(),
         machine: args.machine.clone(),
         method,
         // Neither the flag nor the spec names a method: oe, or pem with the disturbance
         // state where oe's residuals are not white and the likelihood ratio rejects a zero
-        // intensity (pipeline::estimate_chosen; measured in benches/calibration.rs and
+        // intensity (decide::estimator::estimate_chosen; measured in benches/calibration.rs and
         // docs/src/validation/unmeasured-heat.md).
         choose_estimator: args.method.is_none() && model.method.is_none(),
         weights: args.weights.clone(),

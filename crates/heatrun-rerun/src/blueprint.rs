@@ -37,6 +37,9 @@ pub fn blueprint(replay: &Replay, full_rate: bool) -> Layout {
     }
     tabs.push(raw_channels(full_rate));
     tabs.push(View::new(ViewKind::TextDocument, "summary", "summary").into());
+    if !replay.decisions.is_empty() {
+        tabs.push(View::new(ViewKind::TextDocument, "decisions", "decisions").into());
+    }
     let open = std::env::var(OPEN_TAB).ok();
     let mut root = Node::tabs("heatrun", tabs);
     if let Some(i) = open.as_deref().and_then(|want| tab_titled(&root, want)) {

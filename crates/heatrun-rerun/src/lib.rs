@@ -341,5 +341,9 @@ fn log_rest(
     .map_err(publish_err)?;
     rec.log_static("summary", &text::preformatted(summary_text))
         .map_err(publish_err)?;
+    if !report.decisions.is_empty() {
+        rec.log_static("decisions", &text::preformatted(&text::decisions(report)))
+            .map_err(publish_err)?;
+    }
     Ok(())
 }

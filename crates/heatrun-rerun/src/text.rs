@@ -68,6 +68,17 @@ pub fn model_figures(report: &Report) -> String {
     s
 }
 
+/// The default's decisions as text: each verdict with its reason, then each candidate's
+/// figures ([`heatrun::decide::Decision::lines`], as the summary prints them).
+pub fn decisions(report: &Report) -> String {
+    report
+        .decisions
+        .iter()
+        .flat_map(|d| d.lines())
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// A plain-text table (the terminal summary, the monitor's) as a document the viewer shows
 /// in a fixed-width font: Markdown, the text in one fenced block, so its columns line up
 /// as they do on a terminal (rerun draws plain text proportionally).

@@ -850,6 +850,7 @@ mod tests {
             unit_scale: 1.0,
             storage: Storage::Sampled,
             interpolation: Interpolation::Linear,
+            resolution: None,
         }
     }
 

@@ -55,6 +55,7 @@
 
 pub mod atomic;
 pub mod confidence;
+pub mod decide;
 pub mod decimate;
 pub mod error;
 pub mod estimate;
@@ -68,6 +69,7 @@ pub mod model;
 pub mod model_file;
 pub mod monitor;
 pub mod network;
+pub mod options;
 pub mod pipeline;
 pub mod predict;
 pub mod progress;

@@ -541,6 +541,7 @@ impl Report {
                 threshold: c.threshold,
                 likelihood_ratio: c.likelihood_ratio,
             }),
+            decisions: r.decisions.clone(),
             kalman_gain: r.estimate.predictor.as_ref().map(|p| rows(&p.gain)),
             disturbance: r
                 .estimate
@@ -611,6 +612,7 @@ impl Report {
         self.summary_residuals(&mut s);
         self.summary_network(&mut s);
         self.summary_left_out(&mut s);
+        self.summary_decisions(&mut s);
         for w in &self.warnings {
             let _ = writeln!(s, "warning: {w}");
         }
@@ -961,6 +963,24 @@ impl Report {
     }
 
     /// One line counting what the screen left out (the warnings name each stretch).
+    /// The default's decisions: each verdict with its reason, then each candidate's
+    /// figures.
+    fn summary_decisions(&self, s: &mut String) {
+        if self.decisions.is_empty() {
+            return;
+        }
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "the default's decisions (candidates, figures compared, verdict):"
+        );
+        for d in &self.decisions {
+            for line in d.lines() {
+                let _ = writeln!(s, "  {line}");
+            }
+        }
+    }
+
     fn summary_left_out(&self, s: &mut String) {
         if self.left_out.is_empty() {
             return;
@@ -1132,7 +1152,8 @@ impl Report {
                 .collect();
             row(s, "  innovations (one-step predictor)", &outside, 1);
         }
-        if let Some(c) = &self.estimator_choice {
+        // The decisions' block prints the choice with its figures where there is one.
+        if let (Some(c), true) = (&self.estimator_choice, self.decisions.is_empty()) {
             let _ = writeln!(s, "estimator: {} ({})", c.method, c.reason);
         }
         if let Some(d) = &self.disturbance {

@@ -71,6 +71,8 @@ pub struct ChannelSpec {
     pub storage: Storage,
     /// How the value runs between samples (metadata `interpolation`, written where `step`).
     pub interpolation: Interpolation,
+    /// The sensor's resolution in `unit` (metadata `resolution`), where it is known.
+    pub resolution: Option<f64>,
 }
 
 impl ChannelSpec {
@@ -84,6 +86,7 @@ impl ChannelSpec {
             sensor: None,
             storage: Storage::Sampled,
             interpolation: Interpolation::Linear,
+            resolution: None,
         }
     }
 
@@ -103,6 +106,12 @@ impl ChannelSpec {
     /// The same channel with another way between samples.
     pub fn with_interpolation(mut self, interpolation: Interpolation) -> ChannelSpec {
         self.interpolation = interpolation;
+        self
+    }
+
+    /// The same channel with its sensor's resolution, in its unit.
+    pub fn with_resolution(mut self, resolution: f64) -> ChannelSpec {
+        self.resolution = Some(resolution);
         self
     }
 
@@ -127,6 +136,9 @@ impl ChannelSpec {
         }
         if self.interpolation == Interpolation::Step {
             m.insert("interpolation".to_owned(), "step".to_owned());
+        }
+        if let Some(r) = self.resolution {
+            m.insert("resolution".to_owned(), format!("{r}"));
         }
         m
     }

@@ -94,6 +94,17 @@ pub enum EstimationError {
         /// Why.
         reason: String,
     },
+    /// The grey-box network fit ended on no network that simulates the data: the data hold
+    /// no passive network (the identified model is none), or the fit stopped on a model
+    /// that cannot be one.
+    #[error(
+        "rc found no passive network that fits these data ({reason}); the data may hold no \
+         network: replay without --method rc to see the nearest network and its verdict"
+    )]
+    NoNetworkFits {
+        /// What the fit ended on.
+        reason: String,
+    },
     /// The grey-box network fit was asked for a model with an input that is not heat.
     #[error("rc fits a thermal network, whose inputs are heat; the input '{input}' is not (kind = \"exogenous\")")]
     InputNotHeat {

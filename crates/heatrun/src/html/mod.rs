@@ -10,6 +10,7 @@
 //! `heatrun predict`, `heatrun rating`, `heatrun monitor` and `heatrun fleet compare` do
 //! so: [`predict_page`], [`rating_page`], [`monitor_page`], [`fleet_compare_page`].
 
+pub mod decisions;
 pub mod fleet;
 #[cfg(test)]
 mod hidden_tests;
@@ -177,6 +178,9 @@ pub fn replay_page<'a>(replayed: &'a Replayed, options: &'a ReplayOptions) -> Pa
     }
     if report.validation.is_some() {
         page.push(ValidationSection { report });
+    }
+    if !report.decisions.is_empty() {
+        page.push(decisions::DecisionsSection { report });
     }
     page.push(EstimatorSection {
         replay,

@@ -481,6 +481,12 @@ pub struct Report {
     /// Which estimator a replay chose and why, where the method was not given.
     #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
     pub estimator_choice: Option<EstimatorChoiceEntry>,
+    /// The default's decisions ([`crate::decide`]: the sample time, the estimator, the
+    /// screen, the network), each with its candidates, the figures compared and the
+    /// verdict, in the order they were made. Absent where the replay made none (every
+    /// report before them).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub decisions: Vec<crate::decide::Decision>,
     /// The one-step predictor's gain K (n × n: x̂(k+1) = Φ x̂(k) + Γ u(k) + K (y(k) − x̂(k))),
     /// where the method estimated one (`pem`).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -125,7 +125,7 @@ impl Balance {
     }
 }
 
-fn labels(model: &ModelDescription) -> Labels {
+pub(crate) fn labels(model: &ModelDescription) -> Labels {
     Labels {
         states: model.states.iter().map(|s| s.part.clone()).collect(),
         inputs: model

@@ -73,6 +73,10 @@ pub struct SensorChannel {
     pub storage: Storage,
     /// How the value runs between samples.
     pub interpolation: Interpolation,
+    /// The sensor's resolution (the step its stored values are rounded to), in the
+    /// quantity's canonical unit (metadata `resolution`, in `unit`), where the recording
+    /// gives it: the decisions' noise model holds the rounding's variance r²/12.
+    pub resolution: Option<f64>,
 }
 
 impl SensorChannel {
@@ -198,6 +202,7 @@ pub fn classify(
         topic: topic.clone(),
         storage: storage_of(topic, &channel.metadata)?,
         interpolation: interpolation_of(topic, &channel.metadata)?,
+        resolution: resolution_of(topic, &channel.metadata, unit_scale)?,
         signal,
         sensor: channel.metadata.get("sensor").cloned(),
         unit,
@@ -306,6 +311,27 @@ fn storage_of(topic: &str, metadata: &BTreeMap<String, String>) -> Result<Storag
             })
         }
         Some(other) => Err(bad("storage", other, "`sampled` or `exception`")),
+    }
+}
+
+/// The channel's resolution from its `resolution` metadata (a positive number in the
+/// channel's `unit`), in the canonical unit: r · `unit_scale`.
+fn resolution_of(
+    topic: &str,
+    metadata: &BTreeMap<String, String>,
+    unit_scale: f64,
+) -> Result<Option<f64>, ChannelError> {
+    let Some(text) = metadata.get("resolution") else {
+        return Ok(None);
+    };
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(Some(v * unit_scale.abs())),
+        _ => Err(ChannelError::BadMetadata {
+            topic: topic.to_owned(),
+            key: "resolution",
+            value: text.to_owned(),
+            expected: "a positive decimal number in the channel's unit",
+        }),
     }
 }
 

@@ -14,7 +14,7 @@
 
 pub mod frozen;
 pub mod glitch;
-mod robust;
+pub mod robust;
 
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -46,6 +46,9 @@ pub struct Channel<'a> {
     /// Whether the channel was stored by exception: its values then repeat by design
     /// between stored samples, so a run of identical values says nothing.
     pub stored_by_exception: bool,
+    /// The channel's resolution, K, where the recording declares it (metadata
+    /// `resolution`); else the screen takes the one its values show.
+    pub declared_resolution_k: Option<f64>,
 }
 
 /// What the screen reads.
@@ -147,7 +150,9 @@ pub fn screen(input: &ScreenInput<'_>) -> Result<Screening> {
     for j in 0..input.data.states() {
         let residuals = residuals_k(input, j);
         let channel = &input.channels[j];
-        let resolution = robust::resolution(channel.measured);
+        let resolution = channel
+            .declared_resolution_k
+            .unwrap_or_else(|| robust::resolution(channel.measured));
         let noise = glitch::noise_scale_k(&residuals, resolution);
         let readings: Vec<Option<f64>> = (0..input.data.len())
             .map(|k| {

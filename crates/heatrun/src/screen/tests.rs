@@ -57,6 +57,7 @@ fn screen_of(outputs: &DMatrix<f64>, inputs: &DMatrix<f64>) -> Screening {
             name: names[j],
             measured: &series[j],
             stored_by_exception: false,
+            declared_resolution_k: None,
         })
         .collect();
     let time_ns: Vec<i64> = (0..outputs.nrows() as i64)

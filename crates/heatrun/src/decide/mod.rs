@@ -1,0 +1,145 @@
+//! The default's decisions, in one room: what a replay chooses for the user where the
+//! user did not say — the grid's sample time, the estimator, the samples the estimation
+//! leaves out, the network printed beside the model — each made once, against a noise
+//! model that holds the sensors' resolution ([`noise`]), and kept as a [`Decision`]: the
+//! candidates, the figures compared and the verdict. The summary, the report, the HTML
+//! page and the rerun recording print the decisions from these records; none of them
+//! knows how a decision was reached.
+//!
+//! [`crate::pipeline`] orders the stages and calls each decision where its inputs are
+//! ready; nothing here knows the stages after it.
+
+pub mod estimator;
+pub mod network;
+pub mod noise;
+pub mod sample_time;
+pub mod screening;
+
+use serde::{Deserialize, Serialize};
+
+pub use estimator::{estimate, estimate_chosen, estimate_in, EstimatorChoice};
+pub use noise::NoiseFloor;
+
+/// One of the default's choices, as the user reads it back.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Decision {
+    /// What was decided: `sample time`, `estimator`, `screen`, `network`.
+    pub what: String,
+    /// The candidates weighed, each with the figures it was judged by.
+    pub candidates: Vec<Candidate>,
+    /// The candidate taken (one of `candidates`' names).
+    pub chosen: String,
+    /// Why, in a sentence, with the figures that decided it.
+    pub reason: String,
+}
+
+/// A candidate of a [`Decision`] and its figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    /// Its name (`oe`, `pem`, `the nearest passive network`, `10 s`).
+    pub name: String,
+    /// The figures it was judged by.
+    pub figures: Vec<Figure>,
+}
+
+/// A named figure of a candidate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Figure {
+    /// What it is (`likelihood ratio`, `residuals' RMS`).
+    pub name: String,
+    /// Its value.
+    pub value: f64,
+    /// Its unit (`K`, `s`, `` for a pure number).
+    pub unit: String,
+}
+
+impl Figure {
+    /// A figure `name` = `value` `unit`.
+    pub fn new(name: &str, value: f64, unit: &str) -> Figure {
+        Figure {
+            name: name.to_owned(),
+            value,
+            unit: unit.to_owned(),
+        }
+    }
+}
+
+impl Candidate {
+    /// A candidate `name` with its `figures`.
+    pub fn new(name: &str, figures: Vec<Figure>) -> Candidate {
+        Candidate {
+            name: name.to_owned(),
+            figures,
+        }
+    }
+}
+
+impl Decision {
+    /// The decision as lines of text: `what: chosen (reason)` then a line per candidate
+    /// with its figures.
+    pub fn lines(&self) -> Vec<String> {
+        let mut lines = vec![format!("{}: {} ({})", self.what, self.chosen, self.reason)];
+        for c in &self.candidates {
+            if c.figures.is_empty() {
+                continue;
+            }
+            let figures: Vec<String> = c
+                .figures
+                .iter()
+                .map(|f| {
+                    let unit = if f.unit.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" {}", f.unit)
+                    };
+                    format!("{} {}{unit}", f.name, significant(f.value))
+                })
+                .collect();
+            lines.push(format!("  {}: {}", c.name, figures.join(", ")));
+        }
+        lines
+    }
+}
+
+/// `v` with four significant digits, in plain or scientific notation by size.
+fn significant(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() {
+        format!("{v}")
+    } else if (1e-3..1e5).contains(&a) {
+        let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
+        format!("{v:.digits$}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_decision_prints_its_verdict_and_each_candidates_figures() {
+        let d = Decision {
+            what: "estimator".into(),
+            candidates: vec![
+                Candidate::new("oe", vec![Figure::new("residuals' RMS", 0.002887, "K")]),
+                Candidate::new("pem", vec![]),
+            ],
+            chosen: "oe".into(),
+            reason: "rounding explains the residuals".into(),
+        };
+        assert_eq!(
+            d.lines(),
+            vec![
+                "estimator: oe (rounding explains the residuals)".to_owned(),
+                "  oe: residuals' RMS 0.002887 K".to_owned(),
+            ]
+        );
+        assert_eq!(significant(23592.0), "23592");
+        assert_eq!(significant(1.5e-7), "1.500e-7");
+    }
+}
+
+#[cfg(test)]
+mod replays;

@@ -1,0 +1,159 @@
+//! The noise model every decision compares residuals with: per temperature, the white
+//! noise the residuals show and the rounding of its stored values. A sensor stored to a
+//! resolution r adds e uniform on [−r/2, r/2] to each reading, of variance r²/12, and on
+//! a slow signal that error is a staircase, not white: a test that compares residuals with
+//! white noise alone reads it as a disturbance (the whiteness test, `pem`'s likelihood
+//! ratio) or as a frozen sensor. The floor below holds it, so that rounding alone never
+//! moves a decision.
+
+use serde::Serialize;
+
+use crate::recording::SensorChannel;
+use crate::screen;
+use crate::signals::ModelSignals;
+use crate::spec::ModelDescription;
+
+/// Residuals whose variance is at most this multiple of the rounding's r²/12 on every
+/// output are what the resolution makes: whatever they hold beyond the rounding is at
+/// most as large as the rounding itself, which no sensor of that resolution can tell
+/// from it.
+pub const EXPLAINED_BY_ROUNDING: f64 = 2.0;
+
+/// Where a temperature's resolution comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ResolutionSource {
+    /// The recording's channel metadata `resolution`.
+    Declared,
+    /// The smallest common step of its values on the grid ([`screen::robust::resolution`]).
+    Estimated,
+}
+
+/// Each state's resolution and the floor it sets under any noise variance.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NoiseFloor {
+    /// Per state: the resolution r_j, K (0 where the values show none).
+    pub resolution_k: Vec<f64>,
+    /// Per state: where r_j comes from.
+    pub source: Vec<ResolutionSource>,
+    /// θ_base, K: the states' unit in the model (x = θ/θ_base).
+    pub temperature_base_k: f64,
+}
+
+impl NoiseFloor {
+    /// The floor of a replay's states: each state's channel's declared resolution (the
+    /// finest of its sensors), else the one its values on the grid show.
+    pub fn of(
+        model: &ModelDescription,
+        signals: &ModelSignals,
+        channels: &[SensorChannel],
+    ) -> NoiseFloor {
+        let (resolution_k, source) = model
+            .states
+            .iter()
+            .zip(&signals.states)
+            .map(|(state, signal)| {
+                let declared = channels
+                    .iter()
+                    .filter(|c| c.signal == state.channel)
+                    .filter_map(|c| c.resolution)
+                    .reduce(f64::min);
+                match declared {
+                    Some(r) => (r, ResolutionSource::Declared),
+                    None => (
+                        screen::robust::resolution(&signal.measured),
+                        ResolutionSource::Estimated,
+                    ),
+                }
+            })
+            .unzip();
+        NoiseFloor {
+            resolution_k,
+            source,
+            temperature_base_k: signals.temperature_base_k,
+        }
+    }
+
+    /// A floor of known resolutions (K) at base θ_base, for tests and callers with data
+    /// that are not a replay's.
+    pub fn from_resolutions(resolution_k: Vec<f64>, temperature_base_k: f64) -> NoiseFloor {
+        let source = vec![ResolutionSource::Declared; resolution_k.len()];
+        NoiseFloor {
+            resolution_k,
+            source,
+            temperature_base_k,
+        }
+    }
+
+    /// The rounding's variance of state j in the model's units: (r_j/θ_base)²/12.
+    pub fn variance(&self, j: usize) -> f64 {
+        let r = self.resolution_k.get(j).copied().unwrap_or(0.0) / self.temperature_base_k;
+        r * r / 12.0
+    }
+
+    /// Each variance raised to its state's rounding variance at least: no fit can leave
+    /// less unexplained than the rounding, so a likelihood compares nothing below it.
+    pub fn floored(&self, variance: &[f64]) -> Vec<f64> {
+        variance
+            .iter()
+            .enumerate()
+            .map(|(j, v)| v.max(self.variance(j)))
+            .collect()
+    }
+
+    /// The largest rounding variance of the states, in the model's units.
+    pub fn largest_variance(&self) -> f64 {
+        (0..self.resolution_k.len())
+            .map(|j| self.variance(j))
+            .fold(0.0, f64::max)
+    }
+
+    /// Whether residuals of these variances (model units, per state) are the rounding's:
+    /// each at most [`EXPLAINED_BY_ROUNDING`] × r_j²/12, with some rounding to explain.
+    pub fn explains(&self, residual_variance: &[f64]) -> bool {
+        !residual_variance.is_empty()
+            && residual_variance.iter().enumerate().all(|(j, v)| {
+                let q = self.variance(j);
+                q > 0.0 && *v <= EXPLAINED_BY_ROUNDING * q
+            })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rounding_to_r_has_the_variance_of_a_uniform_error_r_squared_over_12() {
+        // Independent reference: the variance of a fine ramp rounded to 0.01 K, counted.
+        let r = 0.01;
+        let n = 100_000;
+        let errors: Vec<f64> = (0..n)
+            .map(|k| {
+                let v = 40.0 + 0.3 * k as f64 / n as f64 + 1e-7 * k as f64;
+                (v / r).round() * r - v
+            })
+            .collect();
+        let counted = errors.iter().map(|e| e * e).sum::<f64>() / n as f64;
+        let floor = NoiseFloor::from_resolutions(vec![r], 1.0);
+        assert!(
+            (floor.variance(0) / counted - 1.0).abs() < 0.02,
+            "{counted}"
+        );
+        // Residuals that are the rounding are explained; twice its σ is not.
+        assert!(floor.explains(&[counted]));
+        assert!(!floor.explains(&[4.0 * counted]));
+        // In per unit (θ_base 100 K) the same.
+        let pu = NoiseFloor::from_resolutions(vec![r], 100.0);
+        assert!(pu.explains(&[counted / 1e4]));
+    }
+
+    #[test]
+    fn no_resolution_explains_nothing_and_floors_nothing() {
+        let floor = NoiseFloor::from_resolutions(vec![0.0, 0.1], 1.0);
+        assert!(!floor.explains(&[0.0, 1e-4]));
+        let floored = floor.floored(&[1e-9, 1e-9]);
+        assert_eq!(floored[0], 1e-9);
+        assert!((floored[1] - 0.01 / 12.0).abs() < 1e-15, "{floored:?}");
+    }
+}
