@@ -380,7 +380,7 @@ fn a_spec_model_of_two_states_gets_its_own_page() {
     run(
         &[
             "import",
-            root.join("tests/datasets/tclab/tclab_mimo_data.csv")
+            root.join("datasets/tclab_mimo_heaters/tclab_mimo_data.csv")
                 .to_str()
                 .unwrap(),
             "--map",
