@@ -611,10 +611,23 @@ fn the_rating_page_shows_limits_continuous_rating_and_overloads() {
         ],
         dir.path(),
     );
+    // The table on stdout, its warnings on stderr (as predict and monitor print theirs).
+    let printed = heatrun(&["rating", "--model", "model.json", "--class", "F"], dir.path());
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&printed.stdout),
+        String::from_utf8_lossy(&printed.stderr),
+    );
+    assert!(stdout.contains("largest continuous") && !stdout.contains("warning"), "{stdout}");
+    assert!(stderr.lines().all(|l| l.starts_with("warning: ")), "{stderr}");
     let page = Page::read(&dir.path().join("rating.html"));
     let rating: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("rating.json")).unwrap())
             .unwrap();
+    assert_eq!(
+        stderr.lines().count(),
+        rating["warnings"].as_array().map_or(0, Vec::len),
+        "{stderr}"
+    );
     assert_eq!(page.section_ids(), ["limits", "continuous", "overloads"]);
     assert_figures_drawn(&page, 1);
     assert_self_contained(&page);
