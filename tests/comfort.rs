@@ -85,7 +85,10 @@ fn man_pages_hold_every_command_and_option() {
         assert!(all.contains(needle), "`heatrun man` lacks {needle}");
     }
     // `heatrun man | grep -- --holdout` finds the option in the page's source too.
-    assert!(all.lines().any(|l| l.contains(" --holdout")), "no plain --holdout");
+    assert!(
+        all.lines().any(|l| l.contains(" --holdout")),
+        "no plain --holdout"
+    );
     let replay = text(common::heatrun(&["man", "replay"], d));
     assert!(replay.contains("\\-\\-holdout") && replay.contains(".TH heatrun\\-replay"));
     assert!(!replay.contains("heatrun\\-synth"), "only replay's page");
@@ -93,13 +96,21 @@ fn man_pages_hold_every_command_and_option() {
     assert!(summary.contains(".TH heatrun\\-fleet\\-summary"));
     let wrote = common::heatrun(&["man", "--out-dir", "man/1"], d);
     assert!(wrote.status.success());
-    for page in ["heatrun.1", "heatrun-replay.1", "heatrun-import.1", "heatrun-fleet-compare.1"] {
+    for page in [
+        "heatrun.1",
+        "heatrun-replay.1",
+        "heatrun-import.1",
+        "heatrun-fleet-compare.1",
+    ] {
         assert!(d.join("man/1").join(page).is_file(), "{page}");
     }
     let bad = common::heatrun(&["man", "replayy"], d);
     assert_eq!(bad.status.code(), Some(2));
     let message = String::from_utf8_lossy(&bad.stderr);
-    assert!(message.contains("replayy") && message.contains("replay,"), "{message}");
+    assert!(
+        message.contains("replayy") && message.contains("replay,"),
+        "{message}"
+    );
 }
 
 /// A short synthetic heat run in `dir`, written once per test.

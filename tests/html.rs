@@ -612,13 +612,22 @@ fn the_rating_page_shows_limits_continuous_rating_and_overloads() {
         dir.path(),
     );
     // The table on stdout, its warnings on stderr (as predict and monitor print theirs).
-    let printed = heatrun(&["rating", "--model", "model.json", "--class", "F"], dir.path());
+    let printed = heatrun(
+        &["rating", "--model", "model.json", "--class", "F"],
+        dir.path(),
+    );
     let (stdout, stderr) = (
         String::from_utf8_lossy(&printed.stdout),
         String::from_utf8_lossy(&printed.stderr),
     );
-    assert!(stdout.contains("largest continuous") && !stdout.contains("warning"), "{stdout}");
-    assert!(stderr.lines().all(|l| l.starts_with("warning: ")), "{stderr}");
+    assert!(
+        stdout.contains("largest continuous") && !stdout.contains("warning"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.lines().all(|l| l.starts_with("warning: ")),
+        "{stderr}"
+    );
     let page = Page::read(&dir.path().join("rating.html"));
     let rating: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("rating.json")).unwrap())

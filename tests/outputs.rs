@@ -450,7 +450,15 @@ fn an_indexed_replay_makes_its_folder_and_a_quiet_fleet_prints_no_table() {
         .unwrap();
     }
     common::heatrun_ok(
-        &["replay", "--index", "1", "archive", "--out-dir", "idx/new", "-q"],
+        &[
+            "replay",
+            "--index",
+            "1",
+            "archive",
+            "--out-dir",
+            "idx/new",
+            "-q",
+        ],
         dir.path(),
     );
     assert!(dir.path().join("idx/new/unit2.rrd").is_file());

@@ -80,7 +80,9 @@ fn export(run: &Path) -> String {
             let row = rows
                 .entry(t)
                 .or_insert_with(|| vec![String::new(); COLUMNS.len() + 1]);
-            row[j] = v.map_or(String::new(), |v| format!("{}", v * factor).replace('.', ","));
+            row[j] = v.map_or(String::new(), |v| {
+                format!("{}", v * factor).replace('.', ",")
+            });
         }
     }
     let mut text = String::from("Datum/Zeit");
@@ -166,7 +168,14 @@ fn a_german_export_imports_and_replays_from_its_guessed_map() {
     // As guessed, the import runs; the replay names every nameplate key it lacks at once.
     std::fs::write(d.join("as-guessed.toml"), &map).unwrap();
     heatrun_ok(
-        &["import", "Export G1.csv", "--map", "as-guessed.toml", "--out", "as-guessed.mcap"],
+        &[
+            "import",
+            "Export G1.csv",
+            "--map",
+            "as-guessed.toml",
+            "--out",
+            "as-guessed.mcap",
+        ],
         d,
     );
     let refused = heatrun(&["replay", "as-guessed.mcap", "-q"], d);
@@ -200,7 +209,14 @@ fn a_german_export_imports_and_replays_from_its_guessed_map() {
     }
     std::fs::write(d.join("map.toml"), &edited).unwrap();
     heatrun_ok(
-        &["import", "Export G1.csv", "--map", "map.toml", "--out", "imported.mcap"],
+        &[
+            "import",
+            "Export G1.csv",
+            "--map",
+            "map.toml",
+            "--out",
+            "imported.mcap",
+        ],
         d,
     );
 

@@ -92,7 +92,12 @@ fn render(command: &clap::Command) -> anyhow::Result<Vec<u8>> {
         .collect();
     if !options.is_empty() {
         use std::io::Write as _;
-        writeln!(page, ".\\\" options of {}: {}", display_name(command), options.join(" "))?;
+        writeln!(
+            page,
+            ".\\\" options of {}: {}",
+            display_name(command),
+            options.join(" ")
+        )?;
     }
     Ok(page)
 }

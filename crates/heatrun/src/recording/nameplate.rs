@@ -646,7 +646,10 @@ mod tests {
         for key in &required {
             assert!(msg.contains(&format!("{key} (")), "{key} not in {msg}");
         }
-        assert!(msg.contains("10 required key(s)") && !msg.contains('\n'), "{msg}");
+        assert!(
+            msg.contains("10 required key(s)") && !msg.contains('\n'),
+            "{msg}"
+        );
         // Every key the resolver reads is in the table, and no other.
         let record = Nameplate {
             rated_field_current_a: Some(1.0),

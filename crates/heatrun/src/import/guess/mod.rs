@@ -194,7 +194,11 @@ fn write_records_help(out: &mut String) {
          # machine's values (or give them at replay with --machine FILE.toml)."
     );
     let _ = writeln!(out, "# [nameplate]");
-    let width = NAMEPLATE_KEYS.iter().map(|k| k.key.len()).max().unwrap_or(0);
+    let width = NAMEPLATE_KEYS
+        .iter()
+        .map(|k| k.key.len())
+        .max()
+        .unwrap_or(0);
     for k in NAMEPLATE_KEYS {
         let _ = writeln!(
             out,
@@ -345,7 +349,13 @@ fn write_tags(out: &mut String, tags: &[String]) {
             guess,
         };
         let mut text = String::new();
-        write_column(&mut text, &column, i, true, sensor_needed(&column, &guessed));
+        write_column(
+            &mut text,
+            &column,
+            i,
+            true,
+            sensor_needed(&column, &guessed),
+        );
         // The same table as a wide column, but picked by tag.
         let _ = write!(out, "{}", text.replacen("\ncolumn = ", "\ntag = ", 1));
     }

@@ -104,7 +104,9 @@ const WATER: [&str; 7] = [
     "water",
     "wasser",
 ];
-const INLET: [&str; 7] = ["inlet", "eintritt", "vorlauf", "zulauf", "in", "ein", "supply"];
+const INLET: [&str; 7] = [
+    "inlet", "eintritt", "vorlauf", "zulauf", "in", "ein", "supply",
+];
 const OUTLET: [&str; 8] = [
     "outlet",
     "austritt",
@@ -217,10 +219,26 @@ mod tests {
             ("Temp Blechpaket", Some("degC"), Some(CoreTemp)),
             ("Core temp", Some("degC"), Some(CoreTemp)),
             ("KW Austritt", None, Some(CoolingWaterOutletTemp)),
-            ("Kühlwasser Austritt", Some("degC"), Some(CoolingWaterOutletTemp)),
-            ("Kühlwassereintritt", Some("degC"), Some(CoolingWaterInletTemp)),
-            ("Cooling water inlet temp", Some("degC"), Some(CoolingWaterInletTemp)),
-            ("Cooling water outlet", Some("degC"), Some(CoolingWaterOutletTemp)),
+            (
+                "Kühlwasser Austritt",
+                Some("degC"),
+                Some(CoolingWaterOutletTemp),
+            ),
+            (
+                "Kühlwassereintritt",
+                Some("degC"),
+                Some(CoolingWaterInletTemp),
+            ),
+            (
+                "Cooling water inlet temp",
+                Some("degC"),
+                Some(CoolingWaterInletTemp),
+            ),
+            (
+                "Cooling water outlet",
+                Some("degC"),
+                Some(CoolingWaterOutletTemp),
+            ),
             ("KW Durchfluss", Some("l/s"), Some(CoolingWaterFlow)),
             ("Cooling water flow", Some("m3/h"), Some(CoolingWaterFlow)),
             ("Temp Erregerwicklung", Some("degC"), Some(FieldWindingTemp)),
@@ -235,7 +253,10 @@ mod tests {
         }
         // The short words stand alone: `in` inside `Wicklung`, `kw` inside a word are no
         // inlet or cooling water.
-        assert_eq!(q("Temp Statorwicklung Nut 3", None), Some(StatorWindingTemp));
+        assert_eq!(
+            q("Temp Statorwicklung Nut 3", None),
+            Some(StatorWindingTemp)
+        );
         assert_eq!(q("Ankerstrom", Some("A")), Some(ArmatureCurrent));
         // The unit says the kind before the words: a phase letter is no voltage.
         assert_eq!(q("Temp Wicklung U", Some("degC")), Some(StatorWindingTemp));

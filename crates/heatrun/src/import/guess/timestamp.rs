@@ -61,17 +61,16 @@ pub fn guess_layout(cells: &[String]) -> Option<TimestampLayout> {
     if cells.is_empty() {
         return None;
     }
-    let reads = |pattern: Option<&str>| {
-        cells
-            .iter()
-            .all(|c| time::parse_stamp(c, pattern).is_ok())
-    };
+    let reads = |pattern: Option<&str>| cells.iter().all(|c| time::parse_stamp(c, pattern).is_ok());
     if reads(None) {
         return Some(TimestampLayout::Iso);
     }
     let mut fits = PATTERNS.iter().copied().filter(|p| reads(Some(p)));
     let pattern = fits.next()?;
-    let swapped = pattern.replace("%d", "\u{0}").replace("%m", "%d").replace('\u{0}', "%m");
+    let swapped = pattern
+        .replace("%d", "\u{0}")
+        .replace("%m", "%d")
+        .replace('\u{0}', "%m");
     let ambiguous = fits.find(|p| *p == swapped);
     Some(TimestampLayout::Pattern { pattern, ambiguous })
 }
