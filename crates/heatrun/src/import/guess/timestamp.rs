@@ -8,10 +8,12 @@ use super::super::time;
 /// month-first where both read (`01/02/2025`): European exports outnumber the others in
 /// the plants this serves, and the map marks the guess for review.
 const PATTERNS: [&str; 15] = [
-    "%d.%m.%Y %H:%M:%S%.f",
-    "%d.%m.%Y %H:%M",
+    // Two-digit years first: `%Y` would read `25` as the year 25, `%y` reads no more than
+    // two digits and so fails on `2025`.
     "%d.%m.%y %H:%M:%S%.f",
     "%d.%m.%y %H:%M",
+    "%d.%m.%Y %H:%M:%S%.f",
+    "%d.%m.%Y %H:%M",
     "%d/%m/%Y %H:%M:%S%.f",
     "%m/%d/%Y %H:%M:%S%.f",
     "%m/%d/%Y %I:%M:%S%.f %p",
