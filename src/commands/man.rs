@@ -52,7 +52,7 @@ fn find<'a>(root: &'a clap::Command, path: &[String]) -> anyhow::Result<&'a clap
     for name in path {
         command = command.find_subcommand(name).ok_or_else(|| {
             Usage(format!(
-                "heatrun man: `{}` is not a command; the commands: {}",
+                "`{}` is not a heatrun command; the commands: {}",
                 path.join(" "),
                 command
                     .get_subcommands()
