@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 
 use heatrun::recording::{Quantity, CHANNEL_METADATA_KEYS, NAMEPLATE_KEYS};
 
-use crate::common::package_root;
+use crate::common::{self, package_root};
 
 fn page() -> String {
     std::fs::read_to_string(package_root().join("docs/src/reference/recording-format.md"))
@@ -135,4 +135,67 @@ fn the_pages_name_nothing_outside_the_repository() {
         }
     }
     assert!(offenders.is_empty(), "{}", offenders.join("\n"));
+}
+
+/// `scripts/fetch-datasets` keeps only a file whose SHA-256 is the pinned one: a copy
+/// that differs is refused and nothing is left behind, a file in place that differs is
+/// refused and kept, an unknown set is a usage error. Where the DaISy files are at hand
+/// (fetched once into `datasets/`), a copy of them is taken and checked.
+#[test]
+fn the_fetch_script_keeps_only_files_of_the_pinned_checksum() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let script = package_root().join("scripts/fetch-datasets");
+    let fetch = |args: &[&str]| {
+        std::process::Command::new("bash")
+            .arg(&script)
+            .args(args)
+            .env("HEATRUN_DATASETS", d.join("out"))
+            .output()
+            .unwrap()
+    };
+    let source = d.join("src/daisy_heating_system");
+    std::fs::create_dir_all(&source).unwrap();
+    std::fs::write(
+        source.join("heating_system.dat"),
+        "   0.00   9.000  129.320\n",
+    )
+    .unwrap();
+    let src = d.join("src");
+    let from = src.to_str().unwrap();
+    let wrong = fetch(&["--from", from, "daisy_heating_system"]);
+    assert_eq!(wrong.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&wrong.stderr).contains("SHA-256"));
+    let out = d.join("out/daisy_heating_system");
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0, "nothing left");
+    std::fs::write(out.join("heating_system.dat"), "edited").unwrap();
+    assert_eq!(
+        fetch(&["--from", from, "daisy_heating_system"])
+            .status
+            .code(),
+        Some(1)
+    );
+    assert_eq!(
+        std::fs::read(out.join("heating_system.dat")).unwrap(),
+        b"edited"
+    );
+    assert_eq!(fetch(&["--from", from, "nope"]).status.code(), Some(2));
+
+    let fetched = package_root().join("datasets");
+    if fetched
+        .join("daisy_heating_system/heating_system.dat")
+        .is_file()
+    {
+        std::fs::remove_file(out.join("heating_system.dat")).unwrap();
+        let ok = fetch(&["--from", fetched.to_str().unwrap(), "daisy_heating_system"]);
+        assert!(
+            ok.status.success(),
+            "{}",
+            String::from_utf8_lossy(&ok.stderr)
+        );
+        assert_eq!(
+            std::fs::read(out.join("heating_system.dat")).unwrap(),
+            std::fs::read(fetched.join("daisy_heating_system/heating_system.dat")).unwrap()
+        );
+    }
 }
