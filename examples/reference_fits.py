@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """An engineer's low-order reference fits of the four measured data sets, independent of heatrun.
 
-    examples/reference_fits.py [DATASETS_DIR]      (default ../shared/datasets; plain Python 3,
+    examples/reference_fits.py [DATASETS_DIR]      (default datasets/ of the repository; plain Python 3,
                                                     no numpy: the least squares are written out)
 
 For every output a least-squares ARX model of its own past, the inputs' past and a constant,
@@ -290,6 +290,9 @@ def hidden_reference(name, outputs, est_y, est_u, val_y, val_u, n, feedthrough=F
 
 
 def read_table(path, delimiter=None, header=False):
+    if not os.path.exists(path):
+        sys.exit(f"reference_fits.py: {path} is missing: the DaISy sets are fetched with "
+                 "scripts/fetch-datasets")
     with open(path, newline="") as f:
         if delimiter is None:
             rows = [[float(v) for v in line.split()] for line in f if line.strip()]
@@ -418,7 +421,7 @@ def tclab(root):
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     root = sys.argv[1] if len(sys.argv) > 1 else os.environ.get(
-        "HEATRUN_DATASETS", os.path.join(here, "..", "..", "shared", "datasets"))
+        "HEATRUN_DATASETS", os.path.join(here, "..", "datasets"))
     heating(root)
     tclab(root)
     pmsm(root)

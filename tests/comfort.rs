@@ -58,6 +58,61 @@ fn completions_and_the_man_page_name_every_command() {
     assert_eq!(bad.status.code(), Some(2));
 }
 
+/// `heatrun man`: one stream holding every command's page with every option; one
+/// command's page; a page per command in a folder it makes; an unknown command refused.
+#[test]
+fn man_pages_hold_every_command_and_option() {
+    let dir = common::tempdir();
+    let d = dir.path();
+    let text = |out: std::process::Output| {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let all = text(common::heatrun(&["man"], d));
+    for needle in [
+        "heatrun\\-replay",
+        "heatrun\\-fleet\\-summary",
+        "\\-\\-holdout",
+        "\\-\\-guess",
+        "\\-\\-machine",
+        "\\-\\-index",
+        "\\-\\-out\\-dir",
+    ] {
+        assert!(all.contains(needle), "`heatrun man` lacks {needle}");
+    }
+    // `heatrun man | grep -- --holdout` finds the option in the page's source too.
+    assert!(
+        all.lines().any(|l| l.contains(" --holdout")),
+        "no plain --holdout"
+    );
+    let replay = text(common::heatrun(&["man", "replay"], d));
+    assert!(replay.contains("\\-\\-holdout") && replay.contains(".TH heatrun-replay"));
+    assert!(!replay.contains("heatrun\\-synth"), "only replay's page");
+    let summary = text(common::heatrun(&["man", "fleet", "summary"], d));
+    assert!(summary.contains(".TH heatrun-fleet-summary"));
+    let wrote = common::heatrun(&["man", "--out-dir", "man/1"], d);
+    assert!(wrote.status.success());
+    for page in [
+        "heatrun.1",
+        "heatrun-replay.1",
+        "heatrun-import.1",
+        "heatrun-fleet-compare.1",
+    ] {
+        assert!(d.join("man/1").join(page).is_file(), "{page}");
+    }
+    let bad = common::heatrun(&["man", "replayy"], d);
+    assert_eq!(bad.status.code(), Some(2));
+    let message = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        message.contains("replayy") && message.contains("replay,"),
+        "{message}"
+    );
+}
+
 /// A short synthetic heat run in `dir`, written once per test.
 fn short_run(dir: &std::path::Path, name: &str) -> std::path::PathBuf {
     let mcap = dir.join(name);

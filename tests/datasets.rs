@@ -1,5 +1,5 @@
 //! Regression checks on measured data: the TCLab MIMO heaters (Apache-2.0, shipped in
-//! `tests/datasets/tclab/` with its notice), imported with the example's map and identified
+//! `datasets/tclab_mimo_heaters/` with its licence and notice), imported with the example's map and identified
 //! with its spec, validated on the other experiment, as `examples/tclab_mimo_heaters/run`
 //! does. The bounds sit just under the figures measured when the example was made (docs/src/validation/datasets.md,
 //! "Measured data sets"): a change that makes heatrun fit real data worse fails here.
@@ -34,7 +34,7 @@ fn import(root: &Path, dir: &Path, file: &str) -> String {
     let result = heatrun(
         &[
             "import",
-            root.join("tests/datasets/tclab")
+            root.join("datasets/tclab_mimo_heaters")
                 .join(file)
                 .to_str()
                 .unwrap(),

@@ -380,7 +380,7 @@ fn a_spec_model_of_two_states_gets_its_own_page() {
     run(
         &[
             "import",
-            root.join("tests/datasets/tclab/tclab_mimo_data.csv")
+            root.join("datasets/tclab_mimo_heaters/tclab_mimo_data.csv")
                 .to_str()
                 .unwrap(),
             "--map",
@@ -611,10 +611,32 @@ fn the_rating_page_shows_limits_continuous_rating_and_overloads() {
         ],
         dir.path(),
     );
+    // The table on stdout, its warnings on stderr (as predict and monitor print theirs).
+    let printed = heatrun(
+        &["rating", "--model", "model.json", "--class", "F"],
+        dir.path(),
+    );
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&printed.stdout),
+        String::from_utf8_lossy(&printed.stderr),
+    );
+    assert!(
+        stdout.contains("largest continuous") && !stdout.contains("warning"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.lines().all(|l| l.starts_with("warning: ")),
+        "{stderr}"
+    );
     let page = Page::read(&dir.path().join("rating.html"));
     let rating: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("rating.json")).unwrap())
             .unwrap();
+    assert_eq!(
+        stderr.lines().count(),
+        rating["warnings"].as_array().map_or(0, Vec::len),
+        "{stderr}"
+    );
     assert_eq!(page.section_ids(), ["limits", "continuous", "overloads"]);
     assert_figures_drawn(&page, 1);
     assert_self_contained(&page);

@@ -342,7 +342,7 @@ fn whitespace_dat_without_header_with_a_sample_time() {
     );
 }
 
-/// The first lines of each data set's file, as they are (`../shared/datasets/`).
+/// The first lines of each data set's file, as they are (`datasets/`; the DaISy files fetched by `scripts/fetch-datasets`).
 const TCLAB_ESTIMATION: &str = "Time (sec), Heater 1 (%), Heater 2 (%), Temperature 1 (degC), Temperature 2 (degC), Set Point 1 (degC), Set Point 2 (degC)\n\
 0.000000000000000000e+00,0.000000000000000000e+00,0.000000000000000000e+00,2.082999999999999829e+01,1.992999999999999972e+01,2.300000000000000000e+01,2.300000000000000000e+01\n\
 1.001284599304199219e+00,0.000000000000000000e+00,0.000000000000000000e+00,2.080000000000000071e+01,1.996000000000000085e+01,2.300000000000000000e+01,2.300000000000000000e+01\n";

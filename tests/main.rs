@@ -21,6 +21,8 @@
 //! | [`monitor`] | `heatrun monitor`: healthy recordings raise nothing, a fouled cooler an alarm in time; bad input |
 //! | [`tables`] | long tables (sorted by time, grouped by tag) imported as the wide text export; a night run in Zurich's wall-clock time through the clock change, against its truth; a skipped hour; a Parquet table refused in one line by a build without Parquet |
 //! | `parquet` | (feature `parquet`) Parquet tables (wide, long) imported as the text export; local timestamps through the clock change |
+//! | [`profile`] | the recording profile's page against the code's lists: quantities and units, nameplate keys, channel metadata keys, the report's keys; no page names a path outside the repository; `scripts/fetch-datasets` keeps only files of the pinned SHA-256 |
+//! | [`plant_export`] | a hand-written German historian export (`;`, decimal comma, day-first local times) through `import --guess`, the import and the replay, with only the nameplate and the zone filled in |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
 //! | `object_store` | (feature `object-store`) `s3://` recordings, prefixes as fleets, `--index`, `fleet summary` and store errors, against moto's S3 server on loopback |
 //!
@@ -52,7 +54,9 @@ mod outputs;
 mod paper;
 #[cfg(feature = "parquet")]
 mod parquet;
+mod plant_export;
 mod predict;
+mod profile;
 mod recovery;
 mod spec;
 mod tables;

@@ -430,3 +430,40 @@ fn a_fleet_gets_one_report_each_and_a_summary() {
         "{stdout}"
     );
 }
+
+/// `replay --index N --out-dir DIR` makes DIR, as a fleet makes its own; `-q` on a fleet
+/// prints nothing (the table is in fleet-summary.csv).
+#[test]
+fn an_indexed_replay_makes_its_folder_and_a_quiet_fleet_prints_no_table() {
+    let dir = common::tempdir();
+    let input = dir.path().join("archive");
+    std::fs::create_dir(&input).unwrap();
+    for seed in 1..=2 {
+        synth::write(
+            &input.join(format!("unit{seed}.mcap")),
+            &SynthOptions {
+                duration_s: 3000.0,
+                seed,
+                ..SynthOptions::default()
+            },
+        )
+        .unwrap();
+    }
+    common::heatrun_ok(
+        &[
+            "replay",
+            "--index",
+            "1",
+            "archive",
+            "--out-dir",
+            "idx/new",
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(dir.path().join("idx/new/unit2.rrd").is_file());
+    assert!(dir.path().join("idx/new/unit2.report.json").is_file());
+    let quiet = common::heatrun_ok(&["replay", "archive", "--out-dir", "out", "-q"], dir.path());
+    assert_eq!(String::from_utf8_lossy(&quiet.stdout), "");
+    assert!(dir.path().join("out/fleet-summary.csv").is_file());
+}

@@ -223,10 +223,10 @@ fn guess_recognises_a_long_table_and_lists_its_tags() {
         "[long]\ntag = \"Tag\"\nvalue = \"Wert\"\nquality = \"Status\"",
         "column = \"Zeitstempel\"",
         "# 4 tags",
-        "tag = \"G1 Temp Statorwicklung [°C]\"\nchannel = \"G1_Temp_Statorwicklung\"\nunit = \"degC\"",
-        "tag = \"G1 Strom [kA]\"\nchannel = \"G1_Strom\"\nunit = \"kA\"",
-        "unit = \"l/s\"",
-        "tag = \"G1 Spannung [kV]\"\nchannel = \"G1_Spannung\"\nunit = \"kV\"",
+        "tag = \"G1 Temp Statorwicklung [°C]\"\nquantity = \"stator_winding_temp\"   # EDIT: guessed from the name \"G1 Temp Statorwicklung [°C]\"; or channel = \"G1_Temp_Statorwicklung\"\nunit = \"degC\"",
+        "tag = \"G1 Strom [kA]\"\nquantity = \"armature_current\"   # EDIT: guessed from the name \"G1 Strom [kA]\"; or channel = \"G1_Strom\"\nunit = \"kA\"",
+        "quantity = \"cooling_water_flow\"   # EDIT: guessed from the name \"G1 Kühlwasser Durchfluss [l/s]\"; or channel = \"G1_Kuehlwasser_Durchfluss\"\nunit = \"l/s\"",
+        "tag = \"G1 Spannung [kV]\"\nquantity = \"line_voltage\"   # EDIT: guessed from the name \"G1 Spannung [kV]\"; or channel = \"G1_Spannung\"\nunit = \"kV\"",
     ] {
         assert!(map.contains(expected), "{expected:?} not in\n{map}");
     }

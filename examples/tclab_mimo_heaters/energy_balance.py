@@ -7,7 +7,7 @@ box issue 23 cites, as a reference independent of heatrun (plain Python 3, no nu
 
 Absolute temperatures T (K); ambient Ta = T1's first reading of each file; heater powers
 α_i·Q_i (Q in %); ε = 0.9, σ = 5.67e-8 W/(m²K⁴), A = 10 cm², As = 2 cm² (the data set's
-nominal values, ../shared/datasets/tclab_mimo_heaters/README.md):
+nominal values, datasets/tclab_mimo_heaters/README.md):
 
   apm   (APMonitor's model, sensor lags added; parameters U, Us, α1, α2, τ1, τ2, c):
         c·m·Cp·dTh1/dt = U·A·(Ta−Th1) + εσA(Ta⁴−Th1⁴) + Us·As·(Th2−Th1) + εσAs(Th2⁴−Th1⁴) + α1·Q1
@@ -202,7 +202,7 @@ def main():
     delay = float(sys.argv[2]) if len(sys.argv) > 2 else 0.0
     here = os.path.dirname(os.path.abspath(__file__))
     start = int(sys.argv[3]) if len(sys.argv) > 3 else 0
-    root = sys.argv[4] if len(sys.argv) > 4 else os.path.join(here, "..", "..", "..", "shared", "datasets")
+    root = sys.argv[4] if len(sys.argv) > 4 else os.path.join(here, "..", "..", "datasets")
     folder = os.path.join(root, "tclab_mimo_heaters")
     est = load(os.path.join(folder, "tclab_mimo_data.csv"))
     val = load(os.path.join(folder, "tclab_mimo_step_data_3s.csv"))

@@ -86,8 +86,10 @@ pub enum Command {
         after_help = "Example:\n  heatrun completions bash > ~/.local/share/bash-completion/completions/heatrun"
     )]
     Completions(CompletionsArgs),
-    /// Print heatrun's man page (roff).
-    #[command(after_help = "Example:\n  heatrun man --out heatrun.1 && man ./heatrun.1")]
+    /// Print heatrun's man pages (roff): every command's, with every option, or one command's.
+    #[command(
+        after_help = "Examples:\n  heatrun man | man -l -\n  heatrun man replay --out heatrun-replay.1 && man ./heatrun-replay.1\n  heatrun man --out-dir man && man -l man/heatrun-fleet-summary.1"
+    )]
     Man(ManArgs),
     /// Predict every part's temperature under a load schedule, from a model report.
     Predict(PredictArgs),
@@ -130,9 +132,17 @@ pub struct CompletionsArgs {
 /// Arguments of `heatrun man`.
 #[derive(Debug, Args)]
 pub struct ManArgs {
+    /// The command whose page to print (`replay`, `fleet summary`); without one, one page
+    /// that holds heatrun's and every command's, with every option.
+    #[arg(value_name = "COMMAND")]
+    pub command: Vec<String>,
     /// Write the page here instead of stdout.
-    #[arg(long, value_name = "PATH")]
+    #[arg(long, value_name = "PATH", conflicts_with = "out_dir")]
     pub out: Option<PathBuf>,
+    /// Write one page per command into this folder (heatrun.1, heatrun-replay.1, …),
+    /// created where it does not exist.
+    #[arg(long, value_name = "DIR")]
+    pub out_dir: Option<PathBuf>,
 }
 
 /// A command as validated: what each handler takes. `info`, `completions` and `man` have

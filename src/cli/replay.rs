@@ -198,6 +198,9 @@ pub struct One {
     pub report: Option<PathBuf>,
     /// The HTML report, if asked for.
     pub html: Option<PathBuf>,
+    /// The folder the outputs are named in (`--index`'s `--out-dir`), created where it
+    /// does not exist, as a fleet's is.
+    pub out_dir: Option<PathBuf>,
 }
 
 /// A fleet: every output in `out_dir`, named after its recording.
@@ -260,6 +263,7 @@ fn indexed_replay(args: ReplayArgs, file: PathBuf) -> anyhow::Result<Replay> {
             }
         }),
         file,
+        out_dir: Some(args.out_dir.clone()),
     };
     Ok(Replay {
         options: library_options(&args)?,
@@ -423,6 +427,7 @@ fn one(args: &ReplayArgs, file: PathBuf) -> anyhow::Result<One> {
         report: args.report.clone(),
         html,
         file,
+        out_dir: None,
     })
 }
 

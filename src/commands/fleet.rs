@@ -34,9 +34,11 @@ pub fn run(replay: &Replay, fleet: &Fleet) -> anyhow::Result<Outcome> {
     let model = &replay.options.model;
     let csv = table::fleet_csv(&rows, &table::csv_header(model))?;
     store::put(&out.join(table::SUMMARY_FILE), &csv)?;
-    print!("{}", table::table_text(&rows, model));
     let tally = FleetTally::of(&rows);
-    println!(
+    // `-q`: the table is in fleet-summary.csv; only what failed is said (on stderr, below).
+    if !replay.quiet {
+        print!("{}", table::table_text(&rows, model));
+        println!(
         "{} recordings in {:.2} s ({} jobs): {} ok, {} with data loss, {} failed; reports and .rrd files in {}",
         rows.len(),
         started.elapsed().as_secs_f64(),
@@ -45,10 +47,16 @@ pub fn run(replay: &Replay, fleet: &Fleet) -> anyhow::Result<Outcome> {
         tally.data_lost,
         tally.failed,
         out
-    );
+        );
+    }
     if tally.failed > 0 {
+        let table = if replay.quiet {
+            format!("{}", out.join(table::SUMMARY_FILE))
+        } else {
+            "the table".to_owned()
+        };
         return Err(Usage(format!(
-            "{} of {} recordings failed (see the table)",
+            "{} of {} recordings failed (see {table})",
             tally.failed,
             rows.len()
         ))

@@ -52,7 +52,7 @@ pub fn for_error(err: &anyhow::Error) -> Option<String> {
 /// Hints for the recording: its channels and nameplate.
 fn for_recording(e: &RecordingError) -> Option<String> {
     Some(match e {
-        RecordingError::MissingNameplateKey { .. } | RecordingError::BadNameplateValue { .. } => {
+        RecordingError::MissingNameplateKeys { .. } | RecordingError::BadNameplateValue { .. } => {
             "give the key in a machine file with --machine FILE.toml".into()
         }
         RecordingError::Channel { .. } => {

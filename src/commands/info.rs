@@ -43,6 +43,7 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<Outcome> {
         let value = serde_json::json!({
             "recording": summary,
             "nameplate": summary.nameplate.iter().collect::<std::collections::BTreeMap<_, _>>(),
+            "nameplate_missing": summary.nameplate.missing_required().iter().map(|k| k.key).collect::<Vec<_>>(),
             "channel_grids": grid.as_ref().map(|g| &g.channels),
         });
         println!("{}", serde_json::to_string_pretty(&value)?);
@@ -121,11 +122,27 @@ fn timing(c: &SensorChannel, g: Option<&ChannelGrid>) -> String {
 /// The nameplate and the other metadata records.
 fn print_records(summary: &RecordingSummary) {
     if summary.nameplate.is_empty() {
-        println!("  nameplate: none (give one with --machine FILE.toml when replaying)");
+        println!("  nameplate: none");
     } else {
         println!("  nameplate:");
         for (k, v) in summary.nameplate.iter() {
             println!("    {k:<32} {v}");
+        }
+    }
+    // A generator's replay needs them all: name every one at once, with what it is for.
+    let missing = summary.nameplate.missing_required();
+    let generator = summary
+        .channels
+        .iter()
+        .any(|c| c.signal.quantity().is_some());
+    if generator && !missing.is_empty() {
+        println!(
+            "  nameplate keys a generator replay needs and the recording lacks ({}; give them \
+             with --machine FILE.toml):",
+            missing.len()
+        );
+        for k in missing {
+            println!("    {:<32} {:<5} {}", k.key, k.unit, k.feeds);
         }
     }
     for (name, m) in &summary.metadata {

@@ -27,5 +27,9 @@ pub fn run(request: &Rating) -> anyhow::Result<Outcome> {
         heatrun::html::rating_page(&rating, &model.name, Some(&curve)).write(path)?;
     }
     print!("{}", rating.table());
+    // Warnings on stderr, as predict and monitor print theirs: stdout holds the table alone.
+    for w in &rating.warnings {
+        eprintln!("warning: {w}");
+    }
     Ok(Outcome::Complete)
 }

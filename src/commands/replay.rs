@@ -5,6 +5,8 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
+use anyhow::Context as _;
+
 use heatrun::atomic::write_atomically;
 use heatrun::pipeline::{self, ReplayOptions};
 use heatrun::progress::Observer;
@@ -35,6 +37,13 @@ pub struct Outputs<'a> {
 /// JSON) and where the outputs went.
 fn single(replay: &Replay, one: &One) -> anyhow::Result<Outcome> {
     let started = Instant::now();
+    // A cluster task's folder, as a fleet's: made here (a remote prefix needs none).
+    if let Some(dir) = &one.out_dir {
+        if !heatrun::store::Location::from_path(dir)?.is_remote() {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+        }
+    }
     // Everything is written before anything is printed: a closed stdout (`| head`)
     // ends the process at the first print and must not cut an output short.
     let outputs = Outputs {

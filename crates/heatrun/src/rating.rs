@@ -628,9 +628,7 @@ impl Rating {
             );
         }
         let _ = writeln!(s, "limits: {}", self.limit_source);
-        for w in &self.warnings {
-            let _ = writeln!(s, "warning: {w}");
-        }
+        // The warnings are the caller's to print (`heatrun rating` writes them on stderr).
         s
     }
 }

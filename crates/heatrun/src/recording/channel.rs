@@ -19,6 +19,20 @@ pub const SAMPLE_SCHEMA_ENCODING: &str = "jsonschema";
 /// Message encoding of a heat-run sample channel.
 pub const SAMPLE_MESSAGE_ENCODING: &str = "json";
 
+/// Every channel metadata key the profile and heatrun read (the reference page lists the
+/// same; a test holds them together). `resolution` is the sensor's quantisation step in the
+/// channel's unit (optional).
+pub const CHANNEL_METADATA_KEYS: [&str; 8] = [
+    "quantity",
+    "unit",
+    "sensor",
+    "storage",
+    "deadband",
+    "max_interval_s",
+    "interpolation",
+    "resolution",
+];
+
 /// How a channel's samples were stored (channel metadata `storage`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]

@@ -30,16 +30,19 @@ pub enum RecordingError {
         /// What is wrong with which channel.
         source: super::ChannelError,
     },
-    /// A nameplate key the loss model needs is in neither the recording nor a machine file.
+    /// Nameplate keys the loss model needs are in neither the recording nor a machine
+    /// file: all of them named at once, each with its unit and what it feeds.
     #[error(
-        "{path}: nameplate key `{key}` is missing: the recording's `heatrun.nameplate` record \
-         does not have it and no machine file gives it"
+        "{path}: the nameplate lacks {count} required key(s), in neither the recording's \
+         `heatrun.nameplate` record nor a machine file: {keys}"
     )]
-    MissingNameplateKey {
+    MissingNameplateKeys {
         /// The recording.
         path: PathBuf,
-        /// The key.
-        key: String,
+        /// The keys, each as `key (unit: what it feeds)`, `; `-separated.
+        keys: String,
+        /// How many.
+        count: usize,
     },
     /// A nameplate value is not what its key needs.
     #[error("{path}: nameplate key `{key}` is `{value}`; it must be {requirement}")]

@@ -12,10 +12,10 @@ mod nameplate;
 mod quantity;
 mod reader;
 
-pub use channel::{ChannelError, Interpolation, Storage};
+pub use channel::{ChannelError, Interpolation, Storage, CHANNEL_METADATA_KEYS};
 pub use error::RecordingError;
 pub use index::{read_index, IndexedChannel, RecordingIndex};
-pub use nameplate::{Nameplate, NameplateEntries, NAMEPLATE_RECORD};
+pub use nameplate::{Nameplate, NameplateEntries, NameplateKey, NAMEPLATE_KEYS, NAMEPLATE_RECORD};
 pub use quantity::{Alignment, Quantity, Signal};
 pub use reader::{
     format_time, read_recording, read_recording_with, read_stream, read_stream_with,

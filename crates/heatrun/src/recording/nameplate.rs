@@ -11,6 +11,136 @@ use super::error::{RecordingError, Result};
 /// Name of the MCAP metadata record that holds the nameplate.
 pub const NAMEPLATE_RECORD: &str = "heatrun.nameplate";
 
+/// One key of the `heatrun.nameplate` record: its unit, whether a generator replay needs
+/// it, and what it feeds. The profile's reference page
+/// (`docs/src/reference/recording-format.md`) lists these same keys; a test holds the two
+/// together.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NameplateKey {
+    /// The key, as the record and a machine file spell it.
+    pub key: &'static str,
+    /// The unit of its decimal value (`1` for a ratio or a per-unit value).
+    pub unit: &'static str,
+    /// Whether the loss model cannot run without it.
+    pub required: bool,
+    /// What the value feeds, in a few words.
+    pub feeds: &'static str,
+}
+
+/// Every nameplate key the profile and heatrun know, required ones first, in the
+/// profile's order.
+pub const NAMEPLATE_KEYS: [NameplateKey; 17] = [
+    NameplateKey {
+        key: "rated_apparent_power_mva",
+        unit: "MVA",
+        required: true,
+        feeds: "S_n, the per-unit power base every loss is divided by",
+    },
+    NameplateKey {
+        key: "rated_voltage_kv",
+        unit: "kV",
+        required: true,
+        feeds: "U_n, the iron loss's (U_g/U_n)^2",
+    },
+    NameplateKey {
+        key: "rated_current_a",
+        unit: "A",
+        required: true,
+        feeds: "I_n, the additional loss's (I_g/I_n)^2 and the rating's rated point",
+    },
+    NameplateKey {
+        key: "armature_resistance_ohm",
+        unit: "ohm",
+        required: true,
+        feeds: "R_a, the armature copper loss 3 I_g^2 R_a(theta)",
+    },
+    NameplateKey {
+        key: "armature_resistance_ref_temp_c",
+        unit: "degC",
+        required: true,
+        feeds: "the temperature R_a was measured at",
+    },
+    NameplateKey {
+        key: "field_resistance_ohm",
+        unit: "ohm",
+        required: true,
+        feeds: "R_f, the field copper loss I_f^2 R_f(theta_f)",
+    },
+    NameplateKey {
+        key: "field_resistance_ref_temp_c",
+        unit: "degC",
+        required: true,
+        feeds: "the temperature R_f was measured at",
+    },
+    NameplateKey {
+        key: "iron_losses_kw",
+        unit: "kW",
+        required: true,
+        feeds: "P_Fe, the iron loss at rated voltage",
+    },
+    NameplateKey {
+        key: "additional_losses_kw",
+        unit: "kW",
+        required: true,
+        feeds: "P_add, half to the armature loss, half to the iron loss",
+    },
+    NameplateKey {
+        key: "temperature_base_k",
+        unit: "K",
+        required: true,
+        feeds: "the per-unit temperature base (80 K in the paper)",
+    },
+    NameplateKey {
+        key: "rated_field_current_a",
+        unit: "A",
+        required: false,
+        feeds: "I_fn, the phasor diagram's rated field current (predict, rating)",
+    },
+    NameplateKey {
+        key: "armature_copper_losses_kw",
+        unit: "kW",
+        required: false,
+        feeds: "informative: the rated armature copper loss",
+    },
+    NameplateKey {
+        key: "field_copper_losses_kw",
+        unit: "kW",
+        required: false,
+        feeds: "informative: the rated field copper loss",
+    },
+    NameplateKey {
+        key: "field_winding_final_temp_c",
+        unit: "degC",
+        required: false,
+        feeds: "the paper's field-temperature method, where no field temperature or voltage is recorded",
+    },
+    NameplateKey {
+        key: "direct_axis_reactance_pu",
+        unit: "1",
+        required: false,
+        feeds: "x_d, the field current of a load point from its phasor diagram (predict, rating)",
+    },
+    NameplateKey {
+        key: "quadrature_axis_reactance_pu",
+        unit: "1",
+        required: false,
+        feeds: "x_q, the phasor diagram of a salient-pole machine (predict, rating)",
+    },
+    NameplateKey {
+        key: "rated_power_factor",
+        unit: "1",
+        required: false,
+        feeds: "cos phi_n, the rated point of the phasor diagram (predict, rating)",
+    },
+];
+
+impl NameplateKey {
+    /// The key's entry in [`NAMEPLATE_KEYS`], if it is one.
+    pub fn of(key: &str) -> Option<&'static NameplateKey> {
+        NAMEPLATE_KEYS.iter().find(|k| k.key == key)
+    }
+}
+
 /// Machine data used by the loss model and the per-unit system (profile, table
 /// "Metadata record"). Powers are in W, resistances in Ω, temperatures in °C.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -219,9 +349,10 @@ impl NameplateEntries {
 
     fn required(&self, key: &str, recording: &str) -> Result<f64> {
         self.number(key)?
-            .ok_or_else(|| RecordingError::MissingNameplateKey {
+            .ok_or_else(|| RecordingError::MissingNameplateKeys {
                 path: recording.into(),
-                key: key.to_owned(),
+                keys: key.to_owned(),
+                count: 1,
             })
     }
 
@@ -240,9 +371,29 @@ impl NameplateEntries {
         }
     }
 
+    /// The required keys ([`NAMEPLATE_KEYS`]) these entries lack, in the profile's order.
+    pub fn missing_required(&self) -> Vec<&'static NameplateKey> {
+        NAMEPLATE_KEYS
+            .iter()
+            .filter(|k| k.required && !self.entries.contains_key(k.key))
+            .collect()
+    }
+
     /// Checks the entries and converts them to a [`Nameplate`]; `recording` names
-    /// the recording in the message for a missing key.
+    /// the recording in the message for missing keys, which are named all at once.
     pub fn resolve(&self, recording: &str) -> Result<Nameplate> {
+        let missing = self.missing_required();
+        if !missing.is_empty() {
+            return Err(RecordingError::MissingNameplateKeys {
+                path: recording.into(),
+                keys: missing
+                    .iter()
+                    .map(|k| format!("{} ({}: {})", k.key, k.unit, k.feeds))
+                    .collect::<Vec<_>>()
+                    .join("; "),
+                count: missing.len(),
+            });
+        }
         let r = recording;
         let nonneg = |key: &str| -> Result<f64> {
             let v = self.required(key, r)?;
@@ -477,8 +628,41 @@ mod tests {
             .resolve("y.mcap")
             .unwrap_err();
         assert!(
-            matches!(&err, RecordingError::MissingNameplateKey { path, key } if path.to_str() == Some("y.mcap") && key == "rated_voltage_kv"),
+            matches!(&err, RecordingError::MissingNameplateKeys { path, keys, count: 1 } if path.to_str() == Some("y.mcap") && keys.starts_with("rated_voltage_kv (kV")),
             "{err}"
         );
+    }
+
+    #[test]
+    fn every_missing_key_is_named_at_once() {
+        let err = NameplateEntries::default().resolve("x.mcap").unwrap_err();
+        let msg = err.to_string();
+        let required: Vec<&str> = NAMEPLATE_KEYS
+            .iter()
+            .filter(|k| k.required)
+            .map(|k| k.key)
+            .collect();
+        assert_eq!(required.len(), 10);
+        for key in &required {
+            assert!(msg.contains(&format!("{key} (")), "{key} not in {msg}");
+        }
+        assert!(
+            msg.contains("10 required key(s)") && !msg.contains('\n'),
+            "{msg}"
+        );
+        // Every key the resolver reads is in the table, and no other.
+        let record = Nameplate {
+            rated_field_current_a: Some(1.0),
+            direct_axis_reactance_pu: Some(1.0),
+            quadrature_axis_reactance_pu: Some(0.6),
+            rated_power_factor: Some(0.9),
+            ..Nameplate::paper_table1()
+        }
+        .to_record();
+        let mut keys: Vec<&str> = record.keys().map(String::as_str).collect();
+        let mut table: Vec<&str> = NAMEPLATE_KEYS.iter().map(|k| k.key).collect();
+        keys.sort_unstable();
+        table.sort_unstable();
+        assert_eq!(keys, table);
     }
 }

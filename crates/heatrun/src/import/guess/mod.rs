@@ -1,4 +1,13 @@
-//! A starting map guessed from a table's first lines, to be checked and edited.
+//! A starting map guessed from a table's first lines, to be checked and edited: the
+//! layout and dialect, the time column and its timestamps' layout ([`timestamp`]), each
+//! column's quantity from its name and unit in English or German ([`quantity`]), each
+//! guess marked `EDIT` for review, and the nameplate's keys with their units.
+
+mod quantity;
+mod timestamp;
+
+use quantity::{guess_quantity, transliterate, QuantityGuess};
+use timestamp::{guess_layout, TimestampLayout};
 
 use std::fmt::Write;
 use std::path::Path;
@@ -11,7 +20,7 @@ use super::parquet::ParquetTable;
 use super::source::RowSource;
 use super::table::{self, Table};
 use super::time;
-use crate::recording::Quantity;
+use crate::recording::{Quantity, NAMEPLATE_KEYS};
 
 /// Rows read to guess from.
 const SAMPLE_ROWS: usize = 20;
@@ -26,6 +35,8 @@ struct Column {
     unit: Option<String>,
     /// The first data rows' cells.
     cells: Vec<String>,
+    /// The profile quantity its name and unit say, if they say one.
+    guess: Option<QuantityGuess>,
 }
 
 /// The map text for the table at `input`: its layout, a time column (or a sample
@@ -74,9 +85,10 @@ pub fn guess_map(input: &Path) -> Result<String, ImportError> {
         }
         None => {
             write_time(&mut out, &columns, time);
+            let guessed = guessed(&columns, time);
             for (i, c) in columns.iter().enumerate() {
                 if Some(i) != time {
-                    write_column(&mut out, c, i, header.is_some());
+                    write_column(&mut out, c, i, header.is_some(), sensor_needed(c, &guessed));
                 }
             }
         }
@@ -128,9 +140,10 @@ fn guess_parquet(input: &Path) -> Result<String, ImportError> {
         write_tags(&mut out, &tags);
     } else {
         write_time(&mut out, &columns, time);
+        let guessed = guessed(&columns, time);
         for (i, c) in columns.iter().enumerate() {
             if Some(i) != time {
-                write_column(&mut out, c, i, true);
+                write_column(&mut out, c, i, true, sensor_needed(c, &guessed));
             }
         }
     }
@@ -161,13 +174,41 @@ fn preamble(input: &Path) -> String {
     out
 }
 
-/// The commented nameplate and metadata records at the map's end.
+/// The quantities guessed for the columns other than the time.
+fn guessed(columns: &[Column], time: Option<usize>) -> Vec<Quantity> {
+    columns
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| Some(*i) != time)
+        .filter_map(|(_, c)| Some(c.guess.as_ref()?.quantity))
+        .collect()
+}
+
+/// The commented nameplate (every key with its unit, required ones first) and metadata
+/// records at the map's end.
 fn write_records_help(out: &mut String) {
     let _ = writeln!(
         out,
-        "\n# For a generator heat run: the heatrun.nameplate record (see the profile)"
+        "\n# For a generator heat run: the heatrun.nameplate record (docs/src/reference/\n\
+         # recording-format.md). EDIT: uncomment [nameplate] and the keys, and give the\n\
+         # machine's values (or give them at replay with --machine FILE.toml)."
     );
-    let _ = writeln!(out, "# [nameplate]\n# rated_apparent_power_mva = 100");
+    let _ = writeln!(out, "# [nameplate]");
+    let width = NAMEPLATE_KEYS
+        .iter()
+        .map(|k| k.key.len())
+        .max()
+        .unwrap_or(0);
+    for k in NAMEPLATE_KEYS {
+        let _ = writeln!(
+            out,
+            "# {:<width$} =    # {}, {}: {}",
+            k.key,
+            k.unit,
+            if k.required { "required" } else { "optional" },
+            k.feeds
+        );
+    }
     let _ = writeln!(out, "\n# Other metadata records, carried into the report");
     let _ = writeln!(out, "# [metadata.\"heatrun.test\"]\n# site = \"\"");
 }
@@ -284,6 +325,13 @@ fn write_long(out: &mut String, columns: &[Column], long: &LongGuess) {
 /// A `[[column]]` per tag, with the unit its name gives (`G1 Strom [kA]`, `T1.degC`).
 fn write_tags(out: &mut String, tags: &[String]) {
     let _ = writeln!(out, "\n# {} tags in the table", tags.len());
+    let guessed: Vec<Quantity> = tags
+        .iter()
+        .filter_map(|t| {
+            let (base, unit) = tag_unit(t);
+            Some(guess_quantity(&base, unit.as_deref())?.quantity)
+        })
+        .collect();
     let mut used = std::collections::BTreeSet::new();
     for (i, tag) in tags.iter().enumerate() {
         let (base, unit) = tag_unit(tag);
@@ -292,14 +340,22 @@ fn write_tags(out: &mut String, tags: &[String]) {
             name = format!("{name}_{}", i + 1);
             used.insert(name.clone());
         }
+        let guess = guess_quantity(&base, unit.as_deref());
         let column = Column {
             header: Some(tag.clone()),
             name,
             unit,
             cells: Vec::new(),
+            guess,
         };
         let mut text = String::new();
-        write_column(&mut text, &column, i, true);
+        write_column(
+            &mut text,
+            &column,
+            i,
+            true,
+            sensor_needed(&column, &guessed),
+        );
         // The same table as a wide column, but picked by tag.
         let _ = write!(out, "{}", text.replacen("\ncolumn = ", "\ntag = ", 1));
     }
@@ -337,11 +393,15 @@ fn columns(header: Option<&[String]>, rows: &[Vec<String>], width: usize) -> Vec
                 name = format!("{name}_{}", i + 1);
                 used.insert(name.clone());
             }
+            let guess = text
+                .as_ref()
+                .and_then(|_| guess_quantity(&base, unit.as_deref()));
             Column {
                 header: text,
                 name,
                 unit,
                 cells: rows.iter().filter_map(|r| r.get(i).cloned()).collect(),
+                guess,
             }
         })
         .collect()
@@ -366,19 +426,26 @@ fn split_unit(header: &str) -> (String, Option<String>) {
 
 fn normalise_unit(unit: &str) -> String {
     match unit {
-        "°C" | "ºC" | "deg C" | "degC" | "C" | "celsius" | "Celsius" => "degC".into(),
+        "°C" | "ºC" | "deg C" | "degC" | "C" | "celsius" | "Celsius" | "grd C" | "Grad C" => {
+            "degC".into()
+        }
+        "m³/h" | "m^3/h" => "m3/h".into(),
+        "l/sec" => "l/s".into(),
         "sec" | "secs" | "seconds" | "s" => "s".into(),
         other => other.to_owned(),
     }
 }
 
-/// A channel name from a header: runs of other characters become `_`; a name that
-/// would start with a digit gets `c_` in front; no header gives `column_<n>`.
+/// A channel name from a header: letters outside ASCII written out (`ü` → `ue`, `é` →
+/// `e`), runs of other characters become `_`; a name that would start with a digit gets
+/// `c_` in front; no header gives `column_<n>`.
 fn channel_name(base: &str, index: usize) -> String {
     let mut name = String::new();
     for c in base.chars() {
         if c.is_ascii_alphanumeric() {
             name.push(c);
+        } else if let Some(t) = transliterate(c) {
+            name.push_str(t);
         } else if !name.ends_with('_') && !name.is_empty() {
             name.push('_');
         }
@@ -399,15 +466,20 @@ fn time_column(columns: &[Column]) -> Option<usize> {
     let named = columns.iter().position(|c| {
         c.header.as_ref().is_some_and(|h| {
             let h = h.to_ascii_lowercase();
-            h.contains("time") || h.contains("date") || h.contains("zeit") || h.trim() == "t"
+            h.contains("time")
+                || h.contains("date")
+                || h.contains("zeit")
+                || h.contains("datum")
+                || h.trim() == "t"
         })
     });
     named
         .or_else(|| {
             columns.iter().position(|c| {
-                c.cells.first().is_some_and(|v| {
-                    !time::looks_like_seconds(v) && v.contains(':') && v.contains('-')
-                })
+                c.cells
+                    .first()
+                    .is_some_and(|v| !time::looks_like_seconds(v) && v.contains(':'))
+                    && guess_layout(&c.cells).is_some()
             })
         })
         .or_else(|| {
@@ -487,22 +559,81 @@ fn write_time(out: &mut String, columns: &[Column], time: Option<usize>) {
         );
     } else {
         let _ = writeln!(out, "format = \"timestamp\"");
-        if time::parse_timestamp(first, None, None).is_err() {
+        let layout = guess_layout(&c.cells);
+        let pattern = layout.as_ref().and_then(TimestampLayout::pattern);
+        match &layout {
+            Some(TimestampLayout::Pattern { pattern, ambiguous }) => {
+                let _ = writeln!(
+                    out,
+                    "pattern = {}   # EDIT: guessed from {}{}",
+                    quoted(pattern),
+                    quoted(first),
+                    ambiguous.map_or(String::new(), |a| format!(
+                        "; the cells read as {} too (day and month swapped)",
+                        quoted(a)
+                    ))
+                );
+            }
+            Some(TimestampLayout::Iso) => {}
+            None => {
+                let _ = writeln!(
+                    out,
+                    "# EDIT: {} reads in no layout known here: give its strftime `pattern`",
+                    quoted(first)
+                );
+            }
+        }
+        if matches!(time::parse_stamp(first, pattern), Ok(time::Stamp::Civil(_)))
+            || layout.is_none()
+        {
             let _ = writeln!(
                 out,
-                "zone = \"UTC\"   # EDIT: the times carry no offset; the zone they were written in"
+                "zone = \"UTC\"   # EDIT: the times carry no offset; the zone they were written in (\"Europe/Berlin\")"
             );
         }
     }
 }
 
-fn write_column(out: &mut String, c: &Column, index: usize, has_header: bool) {
+/// Whether a column guessed as a quantity shares it with another column (six stator
+/// RTDs): each then needs its `sensor`.
+fn sensor_needed(c: &Column, guessed: &[Quantity]) -> bool {
+    c.guess
+        .as_ref()
+        .is_some_and(|g| guessed.iter().filter(|q| **q == g.quantity).count() > 1)
+}
+
+fn write_column(out: &mut String, c: &Column, index: usize, has_header: bool, sensor: bool) {
     let _ = writeln!(out, "\n[[column]]");
     let _ = writeln!(out, "column = {}", reference(c, index));
-    let unit = c.unit.clone();
-    match Quantity::from_name(&c.name) {
-        Some(q) if unit.as_deref().is_some_and(|u| q.unit_scale(u).is_some()) => {
+    let mut unit = c.unit.clone();
+    match (Quantity::from_name(&c.name), &c.guess) {
+        (Some(q), _) if unit.as_deref().is_some_and(|u| q.unit_scale(u).is_some()) => {
             let _ = writeln!(out, "quantity = \"{}\"", c.name);
+        }
+        (_, Some(g)) => {
+            let _ = writeln!(
+                out,
+                "quantity = \"{}\"   # EDIT: guessed from the name {}; or channel = \"{}\"",
+                g.quantity.name(),
+                quoted(c.header.as_deref().unwrap_or_default()),
+                c.name
+            );
+            if sensor {
+                let _ = writeln!(
+                    out,
+                    "sensor = \"{}\"   # several columns carry this quantity: they are averaged",
+                    c.name
+                );
+            }
+            if g.unit_assumed {
+                let _ = writeln!(
+                    out,
+                    "unit = {}   # EDIT: the header gives no unit; the quantity's is assumed",
+                    quoted(&g.unit)
+                );
+                return;
+            }
+            unit = Some(g.unit.clone());
         }
         _ => {
             let _ = writeln!(out, "channel = \"{}\"", c.name);
