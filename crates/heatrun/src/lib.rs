@@ -69,6 +69,7 @@ pub mod model_file;
 pub mod monitor;
 pub mod network;
 pub mod pipeline;
+pub mod plausibility;
 pub mod predict;
 pub mod progress;
 pub mod rating;

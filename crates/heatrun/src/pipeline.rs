@@ -228,6 +228,9 @@ pub struct Replay {
     pub warnings: Vec<String>,
     /// Which estimator the replay chose and why, where the method was not given.
     pub estimator_choice: Option<EstimatorChoice>,
+    // plausibility (issue 34)
+    /// Where the data contradicted physics, and what was done (issue 34).
+    pub plausibility: crate::plausibility::Plausibility,
 }
 
 impl Replay {
@@ -253,6 +256,9 @@ pub struct Prepared {
     pub signals: ModelSignals,
     /// The estimator's input.
     pub data: IdentificationData,
+    // plausibility (issue 34)
+    /// Where the data contradicted physics, and what was done (issue 34).
+    pub plausibility: crate::plausibility::Plausibility,
 }
 
 impl Prepared {
@@ -303,9 +309,13 @@ pub fn prepare_with(
     } else {
         None
     };
-    let decimated = grid
+    let mut decimated = grid
         .finish(&summary.channels)
         .map_err(|e| Error::from(e).in_recording(path))?;
+    // plausibility (issue 34): channels exchanged mid-run swapped back, wrong units refused.
+    let mut plausibility =
+        crate::plausibility::before_signals(&summary, &mut decimated, nameplate.as_ref())
+            .map_err(|e| Error::from(e).in_recording(path))?;
     let model = coolant::resolve(
         model,
         options.reference,
@@ -317,6 +327,11 @@ pub fn prepare_with(
     .map_err(|e| Error::from(e).in_recording(path))?;
     let signals = signals::compute(&model, &decimated, nameplate.as_ref())
         .map_err(|e| Error::from(e).in_recording(path))?;
+    // plausibility (issue 34): the calorimetric balance over the run.
+    plausibility.findings.extend(
+        crate::plausibility::of_signals(&model, &decimated, &signals)
+            .map_err(|e| Error::from(e).in_recording(path))?,
+    );
     let data = signals.identification_data();
     Ok(Prepared {
         model,
@@ -325,6 +340,7 @@ pub fn prepare_with(
         decimated,
         signals,
         data,
+        plausibility, // plausibility (issue 34)
     })
 }
 
@@ -559,6 +575,12 @@ pub fn replay_observed(
         );
     }
     let mut warnings = warnings::collect(&prepared.for_warnings(), &analysis, &network);
+    // plausibility (issue 34): the parts' labels against the losses that heat them.
+    if let Ok(n) = &network.network {
+        let labels = crate::plausibility::labels::check(&prepared.model, n);
+        prepared.plausibility.findings.extend(labels);
+    }
+    warnings.extend(prepared.plausibility.warnings()); // plausibility (issue 34)
     warnings.extend(warnings::left_out(&left_out));
     Ok(Replay {
         path: path.to_owned(),
@@ -578,6 +600,7 @@ pub fn replay_observed(
         hidden,
         warnings,
         estimator_choice,
+        plausibility: prepared.plausibility, // plausibility (issue 34)
     })
 }
 
