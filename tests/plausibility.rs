@@ -255,3 +255,105 @@ fn a_final_load_wandering_two_percent_is_held_from_its_last_real_step() {
         assert!(!w.contains("held 0.0 times"), "{w}");
     }
 }
+
+/// The calorimetric balance over the run (`plausibility::balance`) of `path` as a
+/// replay prepares it.
+fn share(path: &Path) -> f64 {
+    let p = heatrun::pipeline::prepare(path, &ReplayOptions::default()).unwrap();
+    heatrun::plausibility::balance::of_run(&p.model, &p.decimated, &p.signals)
+        .unwrap()
+        .share
+}
+
+#[test]
+fn clean_runs_find_nothing_and_their_water_carries_a_plausible_share_of_the_losses() {
+    use heatrun::plausibility::balance::SHARE_RANGE;
+    use heatrun::synth::{Disturbances, PumpSwitch};
+    let dir = common::tempdir();
+    let rc = |duration_s, disturbances| SynthOptions {
+        machine: Machine::Network(NetworkMachine::rc_unit()),
+        duration_s,
+        disturbances,
+        ..SynthOptions::default().with_noise_level(1.0)
+    };
+    let runs: Vec<(&str, SynthOptions)> = vec![
+        ("paper model, 5.8 h, noise ×2", SynthOptions::default().with_noise_level(2.0)),
+        (
+            "paper model, 2 h",
+            SynthOptions {
+                duration_s: 7200.0,
+                ..SynthOptions::default().with_noise_level(1.0)
+            },
+        ),
+        ("rc unit, 5.8 h", rc(20_868.0, Disturbances::default())),
+        ("rc unit, 2 h", rc(7200.0, Disturbances::default())),
+        (
+            "rc unit, warm start 20 K, inlet drift 3 K, pump switch ×0.7",
+            rc(
+                20_868.0,
+                Disturbances {
+                    inlet_drift_k: 3.0,
+                    start_above_k: 20.0,
+                    pump_switch: Some(PumpSwitch {
+                        time_s: 12_000.0,
+                        factor: 0.7,
+                    }),
+                    ..Disturbances::default()
+                },
+            ),
+        ),
+        (
+            "rc unit, unmeasured heat walk 30 kW/√h",
+            synth::example::unmeasured_heat(30.0, 1),
+        ),
+    ];
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let s = share(&fixture);
+    println!("fixture: the water carries {:.1} % of the losses", 100.0 * s);
+    assert!((SHARE_RANGE.0..=SHARE_RANGE.1).contains(&s));
+    assert!(replayed(&fixture).plausibility.is_empty());
+    for (i, (name, options)) in runs.iter().enumerate() {
+        let path = dir.path().join(format!("clean-{i}.mcap"));
+        synth::write(&path, options).unwrap();
+        let s = share(&path);
+        println!("{name}: the water carries {:.1} % of the losses", 100.0 * s);
+        assert!((SHARE_RANGE.0..=SHARE_RANGE.1).contains(&s), "{name}: {s}");
+        let r = replayed(&path);
+        assert!(r.plausibility.is_empty(), "{name}: {:?}", r.plausibility);
+    }
+}
+
+#[test]
+fn a_water_outlet_in_fahrenheit_without_a_cold_start_is_refused_by_the_balance() {
+    // The paper's machine starts with its winding and core at 36.7 °C and its water at
+    // 10.5 °C: no cold start to compare with; the water then carries several times the
+    // losses, which °F read as °C explains.
+    let dir = common::tempdir();
+    let clean = dir.path().join("clean.mcap");
+    synth::write(&clean, &SynthOptions::default().with_noise_level(1.0)).unwrap();
+    rewrite(
+        &clean,
+        &dir.path().join("f.mcap"),
+        "cooling_water_outlet_temp",
+        |_, c| 1.8 * c + 32.0,
+    );
+    let line = refused(dir.path(), "f.mcap");
+    println!("°F outlet, paper model: {line}");
+    assert!(
+        line.contains("cooling_water_outlet_temp") && line.contains("°F"),
+        "{line}"
+    );
+    // The flow in l/min declared l/s: 60 × the heat.
+    rewrite(
+        &clean,
+        &dir.path().join("q.mcap"),
+        "cooling_water_flow",
+        |_, q| 60.0 * q,
+    );
+    let line = refused(dir.path(), "q.mcap");
+    println!("flow in l/min as l/s: {line}");
+    assert!(
+        line.contains("cooling_water_flow") && line.contains("l/min"),
+        "{line}"
+    );
+}
