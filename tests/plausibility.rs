@@ -114,14 +114,14 @@ fn a_water_outlet_in_fahrenheit_or_kelvin_is_refused_naming_the_channel_and_unit
     assert!(line.contains("cooling_water_outlet_temp"), "{line}");
     assert!(line.contains("°F"), "{line}");
     println!("°F outlet: {line}");
-    rewrite(
-        &clean,
-        &dir.path().join("k.mcap"),
-        "core_temp",
-        |_, c| c + 273.15,
-    );
+    rewrite(&clean, &dir.path().join("k.mcap"), "core_temp", |_, c| {
+        c + 273.15
+    });
     let line = refused(dir.path(), "k.mcap");
-    assert!(line.contains("core_temp") && line.contains("in K"), "{line}");
+    assert!(
+        line.contains("core_temp") && line.contains("in K"),
+        "{line}"
+    );
     println!("K core: {line}");
     // The run without the flaw: nothing found.
     assert!(replayed(&clean).plausibility.is_empty());
@@ -133,14 +133,24 @@ fn a_current_in_a_declared_ka_and_a_voltage_in_v_declared_kv_are_refused() {
     let clean = dir.path().join("clean.mcap");
     rc_run(&clean, None);
     // The synthesiser writes kA and kV: values 1000 × larger are A and V.
-    rewrite(&clean, &dir.path().join("a.mcap"), "armature_current", |_, x| 1e3 * x);
+    rewrite(
+        &clean,
+        &dir.path().join("a.mcap"),
+        "armature_current",
+        |_, x| 1e3 * x,
+    );
     let line = refused(dir.path(), "a.mcap");
     assert!(
         line.contains("armature_current") && line.contains("recorded in A while its unit says kA"),
         "{line}"
     );
     println!("A as kA: {line}");
-    rewrite(&clean, &dir.path().join("v.mcap"), "line_voltage", |_, x| 1e3 * x);
+    rewrite(
+        &clean,
+        &dir.path().join("v.mcap"),
+        "line_voltage",
+        |_, x| 1e3 * x,
+    );
     let line = refused(dir.path(), "v.mcap");
     assert!(
         line.contains("line_voltage") && line.contains("recorded in V while its unit says kV"),
@@ -155,7 +165,13 @@ fn two_sensors_exchanged_mid_run_are_named_and_swapped_back() {
     let clean = dir.path().join("clean.mcap");
     let truth = rc_run(&clean, None);
     let flawed = dir.path().join("x.mcap");
-    exchange(&clean, &flawed, "stator_winding_temp", "core_temp", 3.0 * 3600.0);
+    exchange(
+        &clean,
+        &flawed,
+        "stator_winding_temp",
+        "core_temp",
+        3.0 * 3600.0,
+    );
     let (clean, flawed) = (replayed(&clean), replayed(&flawed));
     assert!(clean.plausibility.is_empty(), "{:?}", clean.plausibility);
     let found = &flawed.plausibility.findings;
@@ -251,7 +267,11 @@ fn a_final_load_wandering_two_percent_is_held_from_its_last_real_step() {
         e.held_over_slowest
     );
     // The steady state's warning, where there is one, reads the hold as it was.
-    for w in r.warnings.iter().filter(|w| w.contains("final load was held")) {
+    for w in r
+        .warnings
+        .iter()
+        .filter(|w| w.contains("final load was held"))
+    {
         assert!(!w.contains("held 0.0 times"), "{w}");
     }
 }
@@ -277,7 +297,10 @@ fn clean_runs_find_nothing_and_their_water_carries_a_plausible_share_of_the_loss
         ..SynthOptions::default().with_noise_level(1.0)
     };
     let runs: Vec<(&str, SynthOptions)> = vec![
-        ("paper model, 5.8 h, noise ×2", SynthOptions::default().with_noise_level(2.0)),
+        (
+            "paper model, 5.8 h, noise ×2",
+            SynthOptions::default().with_noise_level(2.0),
+        ),
         (
             "paper model, 2 h",
             SynthOptions {
@@ -309,7 +332,10 @@ fn clean_runs_find_nothing_and_their_water_carries_a_plausible_share_of_the_loss
     ];
     let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
     let s = share(&fixture);
-    println!("fixture: the water carries {:.1} % of the losses", 100.0 * s);
+    println!(
+        "fixture: the water carries {:.1} % of the losses",
+        100.0 * s
+    );
     assert!((SHARE_RANGE.0..=SHARE_RANGE.1).contains(&s));
     assert!(replayed(&fixture).plausibility.is_empty());
     for (i, (name, options)) in runs.iter().enumerate() {

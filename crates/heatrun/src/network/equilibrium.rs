@@ -119,9 +119,9 @@ where
     };
     let band = (HELD_TOLERANCE * (hi - lo)).max(WANDER_SIGMAS * wander);
     // Sought from the end: only the held stretch's medians are made.
-    let last_step = (0..len).rev().find(|&k| {
-        running_median(&values, k, half).is_some_and(|f| (f - level).abs() > band)
-    });
+    let last_step = (0..len)
+        .rev()
+        .find(|&k| running_median(&values, k, half).is_some_and(|f| (f - level).abs() > band));
     Some(LoadSettling {
         level,
         wander,
@@ -299,9 +299,8 @@ impl Equilibrium {
 
     /// One plain sentence where the steady state is an extrapolation, naming why.
     pub fn warning(&self) -> Option<String> {
-        self.why_extrapolation().map(|why| {
-            format!("The predicted steady state is an extrapolation: {why}.")
-        })
+        self.why_extrapolation()
+            .map(|why| format!("The predicted steady state is an extrapolation: {why}."))
     }
 
     /// Why the steady state is an extrapolation (each failed check, `; ` between them),

@@ -60,10 +60,7 @@ fn noise(x: &[Option<f64>]) -> f64 {
 /// The median of up to [`LEVEL_SAMPLES`] known values taken from `indices` in order,
 /// `None` with fewer than three.
 fn level(x: &[Option<f64>], indices: impl Iterator<Item = usize>) -> Option<f64> {
-    let mut v: Vec<f64> = indices
-        .filter_map(|k| x[k])
-        .take(LEVEL_SAMPLES)
-        .collect();
+    let mut v: Vec<f64> = indices.filter_map(|k| x[k]).take(LEVEL_SAMPLES).collect();
     if v.len() < 3 {
         return None;
     }
@@ -149,8 +146,14 @@ pub fn undo(decimated: &mut DecimatedRecording) -> Vec<Finding> {
 
 /// Exchanges the two series' values (and stored-sample marks) from instant `at` on.
 fn swap_from(decimated: &mut DecimatedRecording, a: &Signal, b: &Signal, at: usize) {
-    let mut sb = decimated.series.remove(b).expect("a series of the recording");
-    let sa = decimated.series.get_mut(a).expect("a series of the recording");
+    let mut sb = decimated
+        .series
+        .remove(b)
+        .expect("a series of the recording");
+    let sa = decimated
+        .series
+        .get_mut(a)
+        .expect("a series of the recording");
     for k in at..decimated.len {
         let (va, vb) = (sa.values.get(k), sb.values.get(k));
         sa.values.set(k, vb);
@@ -239,8 +242,12 @@ mod tests {
             .collect();
         assert!(find(&a, &b, 1.0, 0).is_none());
         // Two channels a kelvin apart swapping are within noise of each other: no finding.
-        let c: Vec<Option<f64>> = (0..3000).map(|k| Some(20.0 + if k < 1500 { 0.0 } else { 1.0 })).collect();
-        let d: Vec<Option<f64>> = (0..3000).map(|k| Some(21.0 - if k < 1500 { 0.0 } else { 1.0 })).collect();
+        let c: Vec<Option<f64>> = (0..3000)
+            .map(|k| Some(20.0 + if k < 1500 { 0.0 } else { 1.0 }))
+            .collect();
+        let d: Vec<Option<f64>> = (0..3000)
+            .map(|k| Some(21.0 - if k < 1500 { 0.0 } else { 1.0 }))
+            .collect();
         assert!(find(&c, &d, 1.0, 0).is_none());
     }
 }

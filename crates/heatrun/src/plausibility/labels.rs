@@ -41,7 +41,10 @@ pub fn shares(model: &ModelDescription, network: &Network) -> Option<LossShares>
             .iter()
             .position(|i| matches!(i.source, InputSource::Loss(s) if s == h))
     };
-    let (w, c) = (state(Quantity::StatorWindingTemp)?, state(Quantity::CoreTemp)?);
+    let (w, c) = (
+        state(Quantity::StatorWindingTemp)?,
+        state(Quantity::CoreTemp)?,
+    );
     let (cu, fe) = (
         input(HeatSource::ArmatureCopperLoss)?,
         input(HeatSource::IronLoss)?,

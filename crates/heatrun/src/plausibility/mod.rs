@@ -130,7 +130,9 @@ pub fn of_signals(
     decimated: &DecimatedRecording,
     signals: &ModelSignals,
 ) -> Result<Vec<Finding>, PlausibilityError> {
-    Ok(balance::check(model, decimated, signals)?.into_iter().collect())
+    Ok(balance::check(model, decimated, signals)?
+        .into_iter()
+        .collect())
 }
 
 /// The time of grid instant `k` of `decimated`, RFC 3339.

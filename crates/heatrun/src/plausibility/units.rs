@@ -171,8 +171,18 @@ pub fn electrical(
     nameplate: &Nameplate,
 ) -> Result<Vec<Finding>, PlausibilityError> {
     let rated = [
-        (Quantity::ArmatureCurrent, Some(nameplate.rated_current_a), "rated_current_a", false),
-        (Quantity::LineVoltage, Some(nameplate.rated_voltage_v), "rated_voltage_kv", true),
+        (
+            Quantity::ArmatureCurrent,
+            Some(nameplate.rated_current_a),
+            "rated_current_a",
+            false,
+        ),
+        (
+            Quantity::LineVoltage,
+            Some(nameplate.rated_voltage_v),
+            "rated_voltage_kv",
+            true,
+        ),
         (
             Quantity::FieldCurrent,
             nameplate.rated_field_current_a,
@@ -184,7 +194,11 @@ pub fn electrical(
         let Some(rated) = rated.filter(|r| *r > 0.0) else {
             continue;
         };
-        for channel in summary.channels.iter().filter(|c| c.quantity() == Some(quantity)) {
+        for channel in summary
+            .channels
+            .iter()
+            .filter(|c| c.quantity() == Some(quantity))
+        {
             // A sample dropped as outside the physical range speaks first: a current of
             // 10⁶ A is a unit's factor, not a fault, when the rest is 1000 × the rating.
             let dropped = summary
@@ -205,19 +219,29 @@ pub fn electrical(
             });
             let Some((time, level)) = level else { continue };
             let ratio = level / rated;
-            let (off, likely) = if ratio > ORDERS_APART && (ratio / 1e3) < 3.0 && ratio / 1e3 > 1.0 / 3.0 {
-                (true, smaller_unit(&channel.unit))
-            } else if low_is_wrong && ratio < 1.0 / ORDERS_APART && ratio * 1e3 < 3.0 && ratio * 1e3 > 1.0 / 3.0 {
-                (true, larger_unit(&channel.unit))
-            } else {
-                (false, None)
-            };
+            let (off, likely) =
+                if ratio > ORDERS_APART && (ratio / 1e3) < 3.0 && ratio / 1e3 > 1.0 / 3.0 {
+                    (true, smaller_unit(&channel.unit))
+                } else if low_is_wrong
+                    && ratio < 1.0 / ORDERS_APART
+                    && ratio * 1e3 < 3.0
+                    && ratio * 1e3 > 1.0 / 3.0
+                {
+                    (true, larger_unit(&channel.unit))
+                } else {
+                    (false, None)
+                };
             if !off {
                 continue;
             }
             let canonical = quantity.canonical_unit();
             let when = time
-                .map(|t| format!(" (a sample at {} dropped as outside the physical range)", format_time(t)))
+                .map(|t| {
+                    format!(
+                        " (a sample at {} dropped as outside the physical range)",
+                        format_time(t)
+                    )
+                })
                 .unwrap_or_default();
             let likely = likely.unwrap_or("another unit");
             let name = format!("{} ({quantity})", channel.topic);
