@@ -157,6 +157,29 @@ fn a_current_in_a_declared_ka_and_a_voltage_in_v_declared_kv_are_refused() {
         "{line}"
     );
     println!("V as kV: {line}");
+    // One fault code of 10⁴ kA among good samples is a fault the reader drops, no unit.
+    rewrite(
+        &clean,
+        &dir.path().join("fault.mcap"),
+        "armature_current",
+        |t, x| {
+            if (t - 5000.0).abs() < 0.6 {
+                1e4
+            } else {
+                x
+            }
+        },
+    );
+    let out = heatrun(
+        &["replay", "fault.mcap", "-q", "--network", "nearest"],
+        dir.path(),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]

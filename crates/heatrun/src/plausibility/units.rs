@@ -9,7 +9,8 @@
 //!   of the others), a channel that starts more than [`FAR_K`] from them while its value
 //!   read as °F, (x − 32)/1.8, lies among them.
 //! - **A for kA, V for kV** (and the reverse): the channel's level (the 95th percentile of
-//!   its magnitude, or a sample dropped as outside the physical range) is more than
+//!   its magnitude, or, where it lost at least as many samples as it kept as outside the
+//!   physical range, the first of those; a lone fault code is no unit) is more than
 //!   [`ORDERS_APART`] times, or for a voltage or field current less than 1/[`ORDERS_APART`]
 //!   of, the nameplate's rated value, and a factor of 1000 brings it within 3 × of it.
 //!
@@ -199,16 +200,12 @@ pub fn electrical(
             .iter()
             .filter(|c| c.quantity() == Some(quantity))
         {
-            // A sample dropped as outside the physical range speaks first: a current of
-            // 10⁶ A is a unit's factor, not a fault, when the rest is 1000 × the rating.
-            let dropped = summary
-                .first_implausible
-                .get(channel.index)
-                .copied()
-                .flatten()
-                .filter(|(_, v)| v.abs() > ORDERS_APART * rated);
-            let level = dropped.map(|(t, v)| (Some(t), v.abs())).or_else(|| {
-                let s = decimated.get(quantity)?;
+            // The level of the samples kept (the 95th percentile of their magnitude); and
+            // where the channel lost at least as many samples as it kept to the physical
+            // range, the first of those: a current of 10⁶ A is a unit's factor, not a
+            // fault, when most samples are. A single fault code among good samples is
+            // neither.
+            let kept = decimated.get(quantity).and_then(|s| {
                 let mut v: Vec<f64> = s.values.iter().flatten().map(f64::abs).collect();
                 if v.is_empty() {
                     return None;
@@ -217,23 +214,32 @@ pub fn electrical(
                 let (_, p95, _) = v.select_nth_unstable_by(i, f64::total_cmp);
                 Some((None, *p95))
             });
-            let Some((time, level)) = level else { continue };
-            let ratio = level / rated;
-            let (off, likely) =
-                if ratio > ORDERS_APART && (ratio / 1e3) < 3.0 && ratio / 1e3 > 1.0 / 3.0 {
-                    (true, smaller_unit(&channel.unit))
-                } else if low_is_wrong
-                    && ratio < 1.0 / ORDERS_APART
-                    && ratio * 1e3 < 3.0
-                    && ratio * 1e3 > 1.0 / 3.0
-                {
-                    (true, larger_unit(&channel.unit))
-                } else {
-                    (false, None)
-                };
-            if !off {
+            let lost = summary.implausible_per_channel.get(channel.index).copied();
+            let kept_samples = summary.samples_per_channel.get(channel.index).copied();
+            let dropped = summary
+                .first_implausible
+                .get(channel.index)
+                .copied()
+                .flatten()
+                .filter(|_| lost.unwrap_or(0) >= kept_samples.unwrap_or(0).max(1))
+                .map(|(t, v)| (Some(t), v.abs()));
+            let judged = [kept, dropped]
+                .into_iter()
+                .flatten()
+                .find_map(|(time, level)| {
+                    let ratio = level / rated;
+                    let within = |r: f64| r > 1.0 / 3.0 && r < 3.0;
+                    if ratio > ORDERS_APART && within(ratio / 1e3) {
+                        Some((time, level, ratio, smaller_unit(&channel.unit)))
+                    } else if low_is_wrong && ratio < 1.0 / ORDERS_APART && within(ratio * 1e3) {
+                        Some((time, level, ratio, larger_unit(&channel.unit)))
+                    } else {
+                        None
+                    }
+                });
+            let Some((time, level, ratio, likely)) = judged else {
                 continue;
-            }
+            };
             let canonical = quantity.canonical_unit();
             let when = time
                 .map(|t| {
