@@ -12,6 +12,7 @@
 //! | [`import`] | `heatrun import`: every table format, bad cells and rows, the fixture round trip |
 //! | [`historian`] | a historian's `;`/decimal-comma export (storage by exception, timeouts, Bad flags, a drifting inlet) and an on-change export imported as sampled, beside the run they came from |
 //! | [`datasets`] | measured data: the TCLab validation fit, as its example runs it |
+//! | [`plausibility`] | data that contradict physics (a unit off, sensors exchanged mid-run, labels exchanged, a wandering final load): refused or named, corrected where said, beside the same run without the flaw |
 //! | [`flaws`] | unflagged glitches and a frozen sensor left out, named, the time constants unmoved; nothing left out of clean runs |
 //! | [`fleet_compare`] | `heatrun fleet compare`: nine units of one design, the fouled cooler named and no healthy unit; bad input |
 //! | [`field_state`] | `replay --field-state`: a four-node machine whose field winding is seen through U_f/I_f |
@@ -52,6 +53,7 @@ mod network_rc;
 mod object_store;
 mod outputs;
 mod paper;
+mod plausibility;
 #[cfg(feature = "parquet")]
 mod parquet;
 mod plant_export;

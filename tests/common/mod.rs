@@ -192,6 +192,36 @@ impl RecordingBuilder {
         r
     }
 
+    /// The channels, samples and nameplate record of a recording as they are in the file
+    /// (times unchanged), for a test to edit and write again.
+    pub fn from_file(path: &Path) -> Self {
+        let bytes = std::fs::read(path).unwrap();
+        let mut r = RecordingBuilder::new();
+        let summary = mcap::Summary::read(&bytes).unwrap();
+        if let Some(summary) = summary {
+            for index in &summary.metadata_indexes {
+                let m = mcap::read::metadata(&bytes, index).unwrap();
+                if m.name == "heatrun.nameplate" {
+                    r.nameplate = Some(m.metadata);
+                }
+            }
+        }
+        let mut index: BTreeMap<String, usize> = BTreeMap::new();
+        for msg in mcap::MessageStream::new(&bytes).unwrap() {
+            let msg = msg.unwrap();
+            let topic = msg.channel.topic.clone();
+            let i = *index.entry(topic.clone()).or_insert_with(|| {
+                r.channels
+                    .push((topic.clone(), msg.channel.metadata.clone(), Vec::new()));
+                r.channels.len() - 1
+            });
+            r.channels[i]
+                .2
+                .push((msg.log_time, String::from_utf8(msg.data.to_vec()).unwrap()));
+        }
+        r
+    }
+
     /// Index of the channel of a quantity.
     pub fn channel_of(&self, quantity: &str) -> usize {
         self.channels

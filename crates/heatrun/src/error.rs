@@ -20,6 +20,7 @@ use crate::import::ImportError;
 use crate::model::ModelError;
 use crate::model_file::UseError;
 use crate::network::NetworkError;
+use crate::plausibility::PlausibilityError;
 use crate::recording::RecordingError;
 use crate::screen::ScreenError;
 use crate::signals::SignalError;
@@ -50,6 +51,10 @@ pub enum Error {
     /// The hidden-state model the spec declares could not be identified.
     #[error("hidden states: {0}")]
     Hidden(#[from] HiddenError),
+    /// The data contradict physics in a way the replay refuses (a channel in another
+    /// unit than declared): the message names the channel and what to fix.
+    #[error(transparent)]
+    Plausibility(#[from] PlausibilityError),
     /// The model has no thermal network, or a network figure cannot be computed.
     #[error(transparent)]
     Network(#[from] NetworkError),
@@ -138,6 +143,7 @@ impl Error {
             Error::Recording(_)
             | Error::Spec(_)
             | Error::Decimate(_)
+            | Error::Plausibility(_)
             | Error::Estimation(_)
             | Error::Hidden(_)
             | Error::Model(_)

@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | recording | [`recording`] | MCAP file → [`Sample`]s to a [`recording::SampleSink`], [`RecordingSummary`], nameplate |
 //! | decimation | [`decimate`] | samples → [`DecimatedRecording`] on a grid of Ts |
+//! | plausibility | [`plausibility`] | the grid (channels exchanged mid-run swapped back; a wrong unit refused), the signals (the calorimetric balance), the network (exchanged labels) → findings |
 //! | signals | [`signals`] | decimated channels + [`ModelDescription`] (+ the generator's [`losses`]) → [`ModelSignals`] |
 //! | estimation | [`estimate`] | [`IdentificationData`] → [`Estimate`] (Φ, Γ) by a [`Method`] |
 //! | screen | [`screen`] | data + a model's simulation → the glitches and frozen runs left out ([`screen::Screening`]); the pipeline estimates again without them |
@@ -71,6 +72,7 @@ pub mod monitor;
 pub mod network;
 pub mod options;
 pub mod pipeline;
+pub mod plausibility;
 pub mod predict;
 pub mod progress;
 pub mod rating;

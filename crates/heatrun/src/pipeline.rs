@@ -155,6 +155,8 @@ pub struct Replay {
     /// The default's decisions ([`crate::decide`]), in the order they were made: each
     /// with its candidates, the figures compared and the verdict.
     pub decisions: Vec<Decision>,
+    /// Where the data contradicted physics, and what was done 
+    pub plausibility: crate::plausibility::Plausibility,
 }
 
 impl Replay {
@@ -180,6 +182,8 @@ pub struct Prepared {
     pub signals: ModelSignals,
     /// The estimator's input.
     pub data: IdentificationData,
+    /// Where the data contradicted physics, and what was done 
+    pub plausibility: crate::plausibility::Plausibility,
 }
 
 impl Prepared {
@@ -230,9 +234,13 @@ pub fn prepare_with(
     } else {
         None
     };
-    let decimated = grid
+    let mut decimated = grid
         .finish(&summary.channels)
         .map_err(|e| Error::from(e).in_recording(path))?;
+   : channels exchanged mid-run swapped back, wrong units refused.
+    let mut plausibility =
+        crate::plausibility::before_signals(&summary, &mut decimated, nameplate.as_ref())
+            .map_err(|e| Error::from(e).in_recording(path))?;
     let model = coolant::resolve(
         model,
         options.reference,
@@ -244,6 +252,11 @@ pub fn prepare_with(
     .map_err(|e| Error::from(e).in_recording(path))?;
     let signals = signals::compute(&model, &decimated, nameplate.as_ref())
         .map_err(|e| Error::from(e).in_recording(path))?;
+   : the calorimetric balance over the run.
+    plausibility.findings.extend(
+        crate::plausibility::of_signals(&model, &decimated, &signals)
+            .map_err(|e| Error::from(e).in_recording(path))?,
+    );
     let data = signals.identification_data();
     Ok(Prepared {
         model,
@@ -252,6 +265,7 @@ pub fn prepare_with(
         decimated,
         signals,
         data,
+        plausibility,
     })
 }
 
@@ -511,6 +525,12 @@ pub fn replay_observed(
         );
     }
     let mut warnings = warnings::collect(&prepared.for_warnings(), &analysis, &network);
+   : the parts' labels against the losses that heat them.
+    if let Ok(n) = &network.network {
+        let labels = crate::plausibility::labels::check(&prepared.model, n);
+        prepared.plausibility.findings.extend(labels);
+    }
+    warnings.extend(prepared.plausibility.warnings());
     warnings.extend(warnings::left_out(&left_out));
     Ok(Replay {
         path: path.to_owned(),
@@ -532,6 +552,7 @@ pub fn replay_observed(
         estimator_choice,
         noise_floor,
         decisions,
+        plausibility: prepared.plausibility,
     })
 }
 

@@ -287,6 +287,11 @@ pub fn overload_curve(model: &ThermalModel, o: &RatingOptions) -> Result<Vec<Ove
 fn rate_nominal(model: &ThermalModel, o: &RatingOptions) -> Result<Rating, UseError> {
     let loading = loading(model, o)?;
     let mut warnings = loading_warnings(model, o)?;
+    // A continuous rating is a steady state: say where the model's recording never reached
+    // the one it rests on.
+    warnings.extend(model.steady_state_extrapolation.as_ref().map(|why| {
+        format!("the continuous rating rests on a steady state that is an extrapolation beyond the model's recording: {why}")
+    }));
     if o.coolant_c.is_some() && !loading.sim.coolant_applies() {
         warnings.push(
             "the model's recording has no coolant inlet temperature: the coolant temperature \

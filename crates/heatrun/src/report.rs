@@ -592,6 +592,7 @@ impl Report {
                 .as_ref()
                 .map(|h| hidden_entry(h, &report_states(r))),
             measured_state: None,
+            plausibility: r.plausibility.findings.clone(),
             warnings: r.warnings.clone(),
         };
         if let Some(h) = &r.hidden {

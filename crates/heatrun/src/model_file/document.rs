@@ -519,8 +519,14 @@ pub struct Report {
     #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
     pub calorimetry: Option<crate::network::Calorimetry>,
     /// Whether the recording reached thermal equilibrium (IEC 60034-1; five time
-    /// constants): always written by a replay, `None` in a report read back.
-    #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
+    /// constants): always written by a replay; read back where it is whole (`predict` and
+    /// `rating` say when the steady state is an extrapolation), `None` where a report
+    /// lacks it or holds it in another form.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "read_equilibrium"
+    )]
     pub equilibrium: Option<crate::network::equilibrium::Equilibrium>,
     /// For `rc`: the black-box output-error model it started from, on the same instants.
     #[serde(skip_serializing_if = "Option::is_none", skip_deserializing)]
@@ -536,6 +542,11 @@ pub struct Report {
     /// (`hidden.replay_model`): what the top-level keys held before.
     #[serde(default, skip_serializing_if = "Option::is_none", skip_deserializing)]
     pub measured_state: Option<MeasuredStateEntry>,
+    /// Where the data contradicted physics and what was done (channels exchanged mid-run
+    /// swapped back, a calorimetric balance or parts' labels said): absent when nothing
+    /// was found, and in a report read back.
+    #[serde(default, skip_serializing_if = "Vec::is_empty", skip_deserializing)]
+    pub plausibility: Vec<crate::plausibility::Finding>,
     /// Warnings.
     #[serde(skip_deserializing)]
     pub warnings: Vec<String>,
@@ -697,4 +708,16 @@ impl Report {
         // Serialising plain numbers, strings and maps cannot fail.
         serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
     }
+}
+
+/// A report's `equilibrium` block where it reads as one, else `None`: a report written
+/// before the block was read back (or edited by hand) is still a model.
+fn read_equilibrium<'de, D>(
+    deserializer: D,
+) -> Result<Option<crate::network::equilibrium::Equilibrium>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    let value = <serde_json::Value as serde::Deserialize>::deserialize(deserializer)?;
+    Ok(serde_json::from_value(value).ok())
 }

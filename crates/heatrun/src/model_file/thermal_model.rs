@@ -91,6 +91,10 @@ pub struct ThermalModel {
     /// model): y = C x + D u, Φ and Γ then of its n states and `states` its p measured
     /// outputs. `None`: the measured-state model, y = x.
     pub output: Option<OutputMap>,
+    /// Why the steady state the model was identified towards lies beyond its recording
+    /// (the report's equilibrium warning: the final load held too short, a part still
+    /// rising), where it does; `predict` and `rating` repeat it beside their results.
+    pub steady_state_extrapolation: Option<String>,
 }
 
 /// The uncertainty a report carries beside its Φ and Γ: what `rating`, `predict` and
@@ -283,6 +287,7 @@ impl ThermalModel {
             field_temperature: FieldTemperatureUse::NotNeeded,
             error: error.clone(),
             uncertainty,
+            steady_state_extrapolation: report.equilibrium.as_ref().and_then(|e| e.why_extrapolation()),
         };
         model.field_temperature = field_temperature_use(&model, estimation)?;
         if !(model.ts_s > 0.0) {

@@ -9,7 +9,7 @@
 //! first-order rise then reaches 1 − e^(−held/T_max) = 99.3 % of its final value. Where
 //! either check fails, the predicted steady state (eq. 31) is an extrapolation.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::signals::ModelSignals;
 use crate::spec::{InputSource, ModelDescription, Reference};
@@ -21,8 +21,132 @@ pub const WINDOW_S: f64 = 3600.0;
 /// Time constants the final load must be held (the paper's criterion).
 pub const HELD_TIME_CONSTANTS: f64 = 5.0;
 
+/// An input within this share of its range of its final level counts as held, however
+/// still the load (the floor of the band a load step must leave).
+pub const HELD_TOLERANCE: f64 = 0.05;
+/// Half the width of the running median a load input is read through before its steps
+/// are sought, s: a departure shorter than a minute (a governor's swing, a spike) is no
+/// step, while the shortest load stage of a heat run (a load rejection of a few minutes)
+/// keeps its edges, which a running median preserves.
+pub const STEP_MEDIAN_HALF_WIDTH_S: f64 = 60.0;
+/// The end of the run over which a load input's final level and its wander are read, s.
+pub const FINAL_LEVEL_S: f64 = 1800.0;
+/// A load step leaves the final level by more than this many of the load's own wander's
+/// robust σ (what a governor and a voltage regulator make of a held set point).
+pub const WANDER_SIGMAS: f64 = 4.0;
+
+/// How a load input settled at its final level, as a heat-run engineer reads its trace.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoadSettling {
+    /// The final level: the last value of a load whose wander is within the tolerance,
+    /// the median over the last [`FINAL_LEVEL_S`] of one whose wander sets the band.
+    pub level: f64,
+    /// The load's own wander: the robust σ = 1.4826·median |u − ū| of its departures from
+    /// its median ū over the last [`FINAL_LEVEL_S`] (0 for a load held still).
+    pub wander: f64,
+    /// The half-width of the band a step must leave: max([`HELD_TOLERANCE`]·range,
+    /// [`WANDER_SIGMAS`]·wander).
+    pub band: f64,
+    /// The last instant whose running median lies outside the band (the last step), if
+    /// the input ever left it.
+    pub last_step: Option<usize>,
+}
+
+/// The median of `values` (NaN-free), `None` where empty.
+fn median(mut values: Vec<f64>) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    let n = values.len();
+    let (_, &mut upper, _) = values.select_nth_unstable_by(n / 2, f64::total_cmp);
+    if n % 2 == 1 {
+        return Some(upper);
+    }
+    let lower = values[..n / 2]
+        .iter()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    Some(0.5 * (lower + upper))
+}
+
+/// The running median ũ(k) of the known values within `half` instants either side of k,
+/// the window narrowed symmetrically at the ends (so ũ = u at the first and last
+/// instant); `None` where u(k) is unknown. A load held still between steps is its own
+/// running median where its stages outlast the window: a median keeps a step's edge.
+fn running_median(values: &[Option<f64>], k: usize, half: usize) -> Option<f64> {
+    values[k]?;
+    let h = half.min(k).min(values.len() - 1 - k);
+    median(values[k - h..=k + h].iter().flatten().copied().collect())
+}
+
+/// When a load input (known values on a grid of `ts_s`) last stepped. Its wander σ_w is
+/// read over the last [`FINAL_LEVEL_S`] from its departures from its median there; its
+/// final level m is its last value where [`WANDER_SIGMAS`]·σ_w is within
+/// [`HELD_TOLERANCE`] of its range, else that median; the last step is the last instant k
+/// at which its running median ũ(k) (half-width [`STEP_MEDIAN_HALF_WIDTH_S`]) lies
+/// further from m than max([`HELD_TOLERANCE`]·(max − min), [`WANDER_SIGMAS`]·σ_w).
+/// A load that wanders ±2 % with its governor and voltage regulator holds; a change of
+/// load stage does not. On a load held still between clean steps this is exactly the
+/// instant the old level ended (ũ = u, σ_w = 0). `None` where fewer than two values are
+/// known.
+pub fn load_settling<S>(values: S, ts_s: f64) -> Option<LoadSettling>
+where
+    S: IntoIterator<Item = Option<f64>>,
+{
+    let values: Vec<Option<f64>> = values.into_iter().collect();
+    let known: Vec<f64> = values.iter().flatten().copied().collect();
+    if known.len() < 2 || !(ts_s.is_finite() && ts_s > 0.0) {
+        return None;
+    }
+    let (lo, hi) = known
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+            (l.min(*v), h.max(*v))
+        });
+    let len = values.len();
+    let half = (STEP_MEDIAN_HALF_WIDTH_S / ts_s).round() as usize;
+    let tail = len.saturating_sub((FINAL_LEVEL_S / ts_s).ceil() as usize + 1)..len;
+    let tail: Vec<f64> = values[tail].iter().flatten().copied().collect();
+    let median_level = median(tail.clone())?;
+    let wander = 1.4826 * median(tail.iter().map(|v| (v - median_level).abs()).collect())?;
+    // Where the wander is within the tolerance (a load held still, or drifting slowly as
+    // the copper loss does with the winding's resistance) the final value is the level;
+    // where it sets the band, its last value is one swing of it: the median is.
+    let level = if WANDER_SIGMAS * wander > HELD_TOLERANCE * (hi - lo) {
+        median_level
+    } else {
+        *known.last()?
+    };
+    let band = (HELD_TOLERANCE * (hi - lo)).max(WANDER_SIGMAS * wander);
+    // Sought from the end: only the held stretch's medians are made.
+    let last_step = (0..len)
+        .rev()
+        .find(|&k| running_median(&values, k, half).is_some_and(|f| (f - level).abs() > band));
+    Some(LoadSettling {
+        level,
+        wander,
+        band,
+        last_step,
+    })
+}
+
+/// How long the final load was held on a grid of `len` instants of `ts_s`: the time since
+/// the last step ([`load_settling`]) of any of the load inputs.
+pub fn held_s<'a, I>(load_inputs: I, len: usize, ts_s: f64) -> f64
+where
+    I: IntoIterator<Item = &'a crate::series::Series>,
+{
+    let since = load_inputs
+        .into_iter()
+        .filter_map(|values| load_settling(values.iter(), ts_s)?.last_step)
+        .map(|k| k + 1)
+        .max()
+        .unwrap_or(0);
+    (len.saturating_sub(1 + since)) as f64 * ts_s
+}
+
 /// The least-squares slope of one series over the last hour.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RateOfRise {
     /// The slope in K/h.
     pub k_per_h: f64,
@@ -116,8 +240,9 @@ pub fn rates_of_rise(model: &ModelDescription, signals: &ModelSignals) -> Vec<Op
         .collect()
 }
 
-/// Both equilibrium checks for a recording.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// Both equilibrium checks for a recording (read back from a report by `predict` and
+/// `rating`, which say when the steady state they rest on is an extrapolation).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Equilibrium {
     /// The states' names.
     pub states: Vec<String>,
@@ -174,6 +299,13 @@ impl Equilibrium {
 
     /// One plain sentence where the steady state is an extrapolation, naming why.
     pub fn warning(&self) -> Option<String> {
+        self.why_extrapolation()
+            .map(|why| format!("The predicted steady state is an extrapolation: {why}."))
+    }
+
+    /// Why the steady state is an extrapolation (each failed check, `; ` between them),
+    /// where it is one.
+    pub fn why_extrapolation(&self) -> Option<String> {
         if !self.steady_state_is_extrapolation {
             return None;
         }
@@ -196,10 +328,7 @@ impl Equilibrium {
                 100.0 * self.fraction_of_final_rise_reached
             ));
         }
-        Some(format!(
-            "The predicted steady state is an extrapolation: {}.",
-            why.join("; ")
-        ))
+        Some(why.join("; "))
     }
 }
 
@@ -393,6 +522,62 @@ mod tests {
         model.inputs.truncate(3);
         let r = rates_of_rise(&model, &signals)[0].unwrap();
         assert!((r.k_per_h - 3.0).abs() < 1e-9, "{}", r.k_per_h);
+    }
+
+    /// A load of stages: (start instant, level), on `len` instants of 1 s.
+    fn stages(len: usize, stages: &[(usize, f64)]) -> Vec<Option<f64>> {
+        (0..len)
+            .map(|k| {
+                stages
+                    .iter()
+                    .rev()
+                    .find(|(start, _)| k >= *start)
+                    .map(|s| s.1)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_still_load_is_held_from_its_last_stage_however_short_the_stage_before() {
+        // Load-up, a load rejection of 209 s (the synthesiser's), the final load from 8139 s.
+        let len = 20_868;
+        let u = stages(len, &[(0, 0.06), (800, 0.5), (7930, 0.06), (8139, 0.86)]);
+        let s = load_settling(u.iter().copied(), 1.0).unwrap();
+        assert_eq!(s.last_step, Some(8138));
+        assert_eq!((s.level, s.wander), (0.86, 0.0));
+        assert!((s.band - 0.05 * 0.8).abs() < 1e-12);
+        let series: crate::series::Series = u.into_iter().collect();
+        assert_eq!(held_s([&series], len, 1.0), (len - 1 - 8139) as f64);
+    }
+
+    #[test]
+    fn a_load_wandering_two_percent_is_held_from_its_last_real_step() {
+        // ±2 % of the set point, a new value every 30 to 90 s, as a governor keeps it; the
+        // last real step (0.75 → 1) at 11 484 s.
+        use rand::Rng;
+        let mut rng = StdRng::seed_from_u64(34);
+        let len = 20_868;
+        let mut u = Vec::with_capacity(len);
+        let mut hold = 0;
+        let mut v = 0.0;
+        for k in 0..len {
+            let set = if k < 11_484 { 0.75 } else { 1.0 };
+            if hold == 0 || k == 11_484 {
+                v = set * (1.0 + rng.random_range(-0.02..0.02));
+                hold = rng.random_range(30..90);
+            }
+            hold -= 1;
+            u.push(Some(v));
+        }
+        let s = load_settling(u.iter().copied(), 1.0).unwrap();
+        let step = s.last_step.unwrap();
+        assert!((11_440..11_484).contains(&step), "{step}");
+        assert!(s.wander > 0.005 && s.wander < 0.02, "{}", s.wander);
+        // The last value alone as the final level, and any change a step, would find the
+        // load never held: the wander's own last change.
+        let series: crate::series::Series = u.into_iter().collect();
+        let held = held_s([&series], len, 1.0);
+        assert!((held - (len - 11_484) as f64).abs() < 60.0, "{held}");
     }
 
     #[test]

@@ -18,8 +18,6 @@ use crate::recording::{Quantity, Signal};
 use crate::signals::ModelSignals;
 use crate::spec::{ModelDescription, Scaling as ModelScaling};
 
-/// An input within this share of its range of its final value counts as held.
-const HELD_TOLERANCE: f64 = 0.05;
 /// The end of the run the calorimetric balance is averaged over, s.
 const END_OF_RUN_S: f64 = 600.0;
 
@@ -460,31 +458,13 @@ fn equilibrium_checks(
     Equilibrium::assess(&names, rates, held_s(signals), slowest)
 }
 
-/// How long the final load was held: the time since any input last left a band of
-/// [`HELD_TOLERANCE`] of its range around its final value. The coolant inlet's drift
-/// is not load: it is left out.
+/// How long the final load was held ([`equilibrium::held_s`]): the coolant inlet's drift
+/// is not load, it is left out.
 fn held_s(signals: &ModelSignals) -> f64 {
-    let len = signals.len();
-    let mut since = 0;
     let load = signals
         .inputs
         .iter()
-        .filter(|i| i.kind != crate::spec::InputKind::Boundary);
-    for input in load {
-        let known: Vec<f64> = input.values.iter().flatten().collect();
-        let (Some(&last), true) = (known.last(), known.len() > 1) else {
-            continue;
-        };
-        let (lo, hi) = known
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-                (l.min(*v), h.max(*v))
-            });
-        let band = HELD_TOLERANCE * (hi - lo);
-        let left = (0..len)
-            .rev()
-            .find(|&k| input.values.get(k).is_some_and(|v| (v - last).abs() > band));
-        since = since.max(left.map_or(0, |k| k + 1));
-    }
-    (len.saturating_sub(1 + since)) as f64 * signals.ts_s
+        .filter(|i| i.kind != crate::spec::InputKind::Boundary)
+        .map(|i| &i.values);
+    equilibrium::held_s(load, signals.len(), signals.ts_s)
 }

@@ -88,6 +88,14 @@ fn predict_from(
 ) -> Result<Prediction, UseError> {
     let sim = Simulator::new(model)?;
     let mut warnings = schedule.warnings.clone();
+    // What the prediction tends to at a held load is the model's steady state: say where
+    // the model's own recording never reached it.
+    warnings.extend(
+        model
+            .steady_state_extrapolation
+            .as_ref()
+            .map(|why| format!("the steady state the model tends to at a held load is an extrapolation beyond its recording: {why}")),
+    );
     if schedule.points.iter().any(|p| p.coolant_inlet_c.is_some()) && !sim.coolant_applies() {
         warnings.push(format!(
             "{}: the model's recording has no coolant inlet temperature, so `{}` is ignored: \
