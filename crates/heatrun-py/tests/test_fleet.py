@@ -1,0 +1,92 @@
+"""Fleets from Python: reports gathered (from threads, or a local Dask cluster's worker
+processes) reduced into `heatrun fleet summary`'s table and compared."""
+
+import importlib.util
+import io
+import json
+import os
+import shutil
+from concurrent.futures import ThreadPoolExecutor
+
+import pandas as pd
+import pytest
+
+import heatrun
+from conftest import FIXTURE, ROOT
+
+UNITS = 3
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory):
+    """A folder of three recordings (copies of the fixture, as three units' files) and
+    their reports, replayed on three threads at once."""
+    folder = tmp_path_factory.mktemp("fleet") / "runs"
+    folder.mkdir()
+    for u in range(1, UNITS + 1):
+        shutil.copy(FIXTURE, folder / f"u{u}.mcap")
+    paths = heatrun.list_recordings(str(folder))
+    with ThreadPoolExecutor(UNITS) as pool:
+        reports = list(pool.map(lambda p: heatrun.replay(p, traces=False), paths))
+    return folder, paths, reports
+
+
+def test_the_folder_is_listed_in_order(fleet):
+    folder, paths, _ = fleet
+    assert paths == [os.path.join(str(folder), f"u{u}.mcap") for u in range(1, UNITS + 1)]
+
+
+def test_the_table_holds_each_reports_figures(fleet):
+    _, paths, reports = fleet
+    table = heatrun.fleet_summary(reports)
+    assert list(table["recording"]) == paths
+    assert list(table["status"]) == ["ok"] * UNITS
+    assert list(table.columns[:5]) == ["recording", "status", "t1_s", "t2_s", "t3_s"]
+    for row, report in zip(table.itertuples(index=False), reports):
+        d = report.data
+        assert [row.t1_s, row.t2_s, row.t3_s] == d["time_constants_s"]
+        assert [row.fit_stator_pct, row.fit_core_pct, row.fit_water_pct] == d["fit"]["nrmse_fit_percent"]
+        assert [row.steady_stator_c, row.steady_core_c, row.steady_water_c] == d["steady_state"]["temperature_c"]
+    # Reports as JSON texts or files reduce alike.
+    assert heatrun.fleet_summary([r.to_json() for r in reports]).attrs["csv"] == table.attrs["csv"]
+
+
+def test_an_unreadable_report_is_a_failed_row(fleet, tmp_path):
+    _, _, reports = fleet
+    bad = tmp_path / "bad.report.json"
+    bad.write_text("{}")
+    table = heatrun.fleet_summary([reports[0], bad])
+    assert table["status"].iloc[1].startswith("failed: ")
+    with pytest.raises(heatrun.BadInputError):
+        heatrun.fleet_summary([bad])
+
+
+def test_the_table_equals_the_command_lines(fleet, cli, tmp_path):
+    folder, _, reports = fleet
+    cli("replay", folder, "--out-dir", tmp_path / "res", "--jobs", "2", "-q")
+    cli("fleet", "summary", tmp_path / "res", "--csv", tmp_path / "fleet.csv")
+    assert heatrun.fleet_summary(reports).attrs["csv"] == (tmp_path / "fleet.csv").read_text()
+
+
+def test_identical_units_are_no_outliers(fleet):
+    _, paths, reports = fleet
+    comparison = heatrun.fleet_compare(reports, labels=[f"u{u}" for u in range(1, UNITS + 1)])
+    assert comparison["reports"] == ["u1", "u2", "u3"]
+    assert comparison["outliers"] == []
+    scores = comparison["scores"]
+    assert set(scores["report"]) == {"u1", "u2", "u3"}
+    assert (scores["outlier"] == False).all()  # noqa: E712
+    assert "u1" in comparison["summary"]
+
+
+def test_a_dask_cluster_gives_the_same_table(fleet):
+    pytest.importorskip("dask")
+    pytest.importorskip("distributed")
+    spec = importlib.util.spec_from_file_location("fleet_dask", ROOT / "crates" / "heatrun-py" / "examples" / "fleet_dask.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    _, paths, reports = fleet
+    results, _ = example.replay_fleet(paths, 2)
+    assert [s for s, _ in results] == ["ok"] * UNITS
+    gathered = heatrun.fleet_summary([text for _, text in results])
+    assert gathered.attrs["csv"] == heatrun.fleet_summary(reports).attrs["csv"]
