@@ -35,13 +35,13 @@ pip=("$work/test/bin/pip" install --quiet --disable-pip-version-check)
 "${pip[@]}" "$work"/wheels/heatrun-*.whl pytest numpy pandas
 "${pip[@]}" dask distributed || echo "ci.sh: dask/distributed not installed: the fleet test skips"
 
-# From the repository's root, so `fixtures/…` paths read as in the README; pytest's
-# `--import-mode=importlib` keeps the source tree's python/ off sys.path (the installed
-# wheel is what is tested).
+# From the repository's root, so `fixtures/…` paths read as in the README. Only the
+# tests' own folder joins sys.path (the source tree's python/ does not): the installed
+# wheel is what is tested.
 cd "$root"
 status=0
 HEATRUN_ROOT="$root" "$work/test/bin/python" -m pytest -q -p no:cacheprovider \
-    --import-mode=importlib "$here/tests" || status=$?
+    "$here/tests" || status=$?
 if [ "$status" -eq 5 ]; then
     echo "ci.sh: pytest collected no tests in $here/tests" >&2
     exit 1

@@ -134,14 +134,6 @@ fn check_report(text: &str, name: PathBuf) -> PyResult<()> {
         .map_err(|e| to_py(e.into()))
 }
 
-/// The paper-style summary of a report's JSON text, as `heatrun replay` prints it.
-#[pyfunction]
-fn report_summary(text: &str, name: PathBuf) -> PyResult<String> {
-    Report::from_json(text, &name)
-        .map(|r| r.summary())
-        .map_err(|e| to_py(e.into()))
-}
-
 /// The channels a model spec reads (its states', its inputs' and their references'), each
 /// with the unit a table's column of it is taken in where the caller names none: a
 /// profile quantity's canonical unit, a state's unit as the spec gives it (°C by
@@ -205,7 +197,6 @@ fn _heatrun(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(import_table, m)?)?;
     m.add_function(wrap_pyfunction!(read_report, m)?)?;
     m.add_function(wrap_pyfunction!(check_report, m)?)?;
-    m.add_function(wrap_pyfunction!(report_summary, m)?)?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
     m.add_function(wrap_pyfunction!(spec_channels, m)?)?;
     m.add_function(wrap_pyfunction!(list_recordings, m)?)?;

@@ -8,8 +8,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use heatrun::model_file::{Report, ThermalModel, UseError};
-use heatrun::predict::{self, InitialState};
-use heatrun::rating::{self, InsulationClass, RatingOptions};
+use heatrun::predict::InitialState;
+use heatrun::rating::{InsulationClass, RatingOptions};
 
 use crate::errors::{bad_input, to_py};
 
@@ -44,8 +44,8 @@ pub fn predict<'py>(
     let prediction = py
         .detach(|| -> Result<_, UseError> {
             let model = model_of(report_json, &name)?;
-            let schedule = predict::load::read(&load_csv, &model)?;
-            predict::predict(&model, &schedule, &initial)
+            let schedule = heatrun::predict::load::read(&load_csv, &model)?;
+            heatrun::predict::predict(&model, &schedule, &initial)
         })
         .map_err(|e| to_py(e.into()))?;
     let out = PyDict::new(py);
@@ -95,7 +95,7 @@ pub fn rating(
     let rated = py
         .detach(|| -> Result<_, UseError> {
             let model = model_of(report_json, &name)?;
-            rating::rate(&model, &options)
+            heatrun::rating::rate(&model, &options)
         })
         .map_err(|e| to_py(e.into()))?;
     let json = serde_json::to_string_pretty(&rated)

@@ -121,7 +121,9 @@ def test_a_report_round_trips_through_a_file(fixture_report, tmp_path):
     assert back.to_json() == fixture_report.to_json()
     assert back.time_constants_s == fixture_report.time_constants_s
     np.testing.assert_array_equal(back.phi, fixture_report.phi)
-    assert back.summary() == fixture_report.summary()
+    assert "heat run" in fixture_report.summary()
+    with pytest.raises(heatrun.HeatrunError, match="no summary"):
+        back.summary()
     with pytest.raises(heatrun.HeatrunError, match="no traces"):
         back.traces()
 

@@ -65,7 +65,7 @@ def test_the_rating_holds_the_parts_to_iec_limits(fixture_report):
     b = fixture_report.rating("B")["max_continuous_apparent_power_mva"]
     h = fixture_report.rating("H")["max_continuous_apparent_power_mva"]
     assert b < rated["max_continuous_apparent_power_mva"] < h
-    assert [o["current_percent"] for o in rated["overloads"]] == [110, 120, 130, 140, 150]
+    np.testing.assert_allclose([o["current_percent"] for o in rated["overloads"]], [110, 120, 130, 140, 150])
 
 
 def test_a_limit_overrides_the_class(fixture_report):

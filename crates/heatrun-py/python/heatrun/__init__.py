@@ -135,10 +135,22 @@ def fleet_summary(reports: Iterable[Union[Report, str, "os.PathLike[str]"]]) -> 
     ``fleet-summary.csv`` for the same reports (one row per recording: its status, time
     constants, fit and steady state per state), as a DataFrame. The CSV text itself is in
     ``frame.attrs["csv"]`` and the table as printed in ``frame.attrs["text"]``."""
+    import csv as csv_module
+
     import pandas as pd
 
     csv, text = _heatrun.fleet_summary_csv(_report_texts(reports))
-    frame = pd.read_csv(io.StringIO(csv), float_precision="round_trip")
+    # Each figure read by Python's float, which reads the shortest digits the library
+    # writes back to the same double (pandas' own parser may not, before pandas 3).
+    header, *rows = list(csv_module.reader(io.StringIO(csv)))
+    columns: Dict[str, List[Any]] = {name: [] for name in header}
+    for row in rows:
+        for name, cell in zip(header, row):
+            if name in ("recording", "status"):
+                columns[name].append(cell)
+            else:
+                columns[name].append(float(cell) if cell else float("nan"))
+    frame = pd.DataFrame(columns, columns=header)
     frame.attrs["csv"] = csv
     frame.attrs["text"] = text
     return frame

@@ -345,9 +345,12 @@ class Report:
             raise
 
     def summary(self) -> str:
-        """The paper-style summary, as ``heatrun replay`` prints it."""
+        """The paper-style summary, as ``heatrun replay`` prints it (a report made here:
+        one read from a file keeps the model, not all the figures the summary prints)."""
         if self._summary is None:
-            self._summary = _heatrun.report_summary(self._text, self._name)
+            raise _heatrun.HeatrunError(
+                f"{self._name}: a report read from a file has no summary; replay the recording"
+            )
         return self._summary
 
     def __repr__(self) -> str:
