@@ -51,7 +51,8 @@ pub fn fleet_summary_csv(py: Python<'_>, reports: Vec<(String, String)>) -> PyRe
 }
 
 /// The fleet comparison of units given as `(label, report JSON text)`, as `heatrun fleet
-/// compare` makes it: its JSON (`--json`) and its summary as printed.
+/// compare` makes it: its JSON (`--json`) and its summary as printed. A report that is
+/// none is named by its label.
 #[pyfunction]
 #[pyo3(signature = (units, *, threshold=None, floor=None))]
 pub fn fleet_compare(
@@ -67,28 +68,10 @@ pub fn fleet_compare(
     };
     let comparison = py
         .detach(|| -> Result<_, heatrun::Error> {
-            // The library reads each unit from a file (its report as written); the texts
-            // go to a folder of their own, each named after its label's last part.
-            let folder = tempfile::tempdir().map_err(|source| {
-                heatrun::model_file::UseError::Read {
-                    path: std::env::temp_dir(),
-                    source,
-                }
-            })?;
-            let mut read = Vec::with_capacity(units.len());
-            for (i, (label, text)) in units.iter().enumerate() {
-                let stem = Path::new(label)
-                    .file_name()
-                    .map_or_else(|| format!("unit{i}"), |n| n.to_string_lossy().into_owned());
-                let path = folder.path().join(format!("{i:04}-{stem}.report.json"));
-                std::fs::write(&path, text).map_err(|source| {
-                    heatrun::model_file::UseError::Read {
-                        path: path.clone(),
-                        source,
-                    }
-                })?;
-                read.push(compare::read_unit(&path, label)?);
-            }
+            let read = units
+                .iter()
+                .map(|(label, text)| compare::unit_from_json(text, Path::new(label), label))
+                .collect::<Result<Vec<_>, _>>()?;
             Ok(compare::compare(&read, &options)?)
         })
         .map_err(to_py)?;

@@ -99,3 +99,25 @@ def test_a_dask_cluster_gives_the_same_table(fleet):
     assert [s for s, _ in results] == ["ok"] * UNITS
     gathered = heatrun.fleet_summary([text for _, text in results])
     assert gathered.attrs["csv"] == heatrun.fleet_summary(reports).attrs["csv"]
+
+
+def test_a_unit_whose_slowest_time_constant_differs_is_named(fleet):
+    # One unit's report doctored: its slowest time constant half as long again, which
+    # no spread of four identical units and no interval of its own covers.
+    _, _, reports = fleet
+    texts = [r.to_json() for r in reports]
+    odd = json.loads(texts[2])
+    odd["time_constants_s"][2] *= 1.5
+    texts[2] = json.dumps(odd)
+    labels = [f"u{u}" for u in range(1, UNITS + 1)]
+    comparison = heatrun.fleet_compare(texts, labels=labels)
+    named = {o["report"] for o in comparison["outliers"]}
+    assert named == {"u3"}
+    assert any(o["quantity"].startswith("time_constant") for o in comparison["outliers"])
+
+
+def test_a_report_that_is_none_is_named_by_its_label(fleet):
+    _, _, reports = fleet
+    texts = [r.to_json() for r in reports] + ['{"profile": "other"}']
+    with pytest.raises(heatrun.BadInputError, match="unit-x"):
+        heatrun.fleet_compare(texts, labels=["a", "b", "c", "d", "unit-x"])

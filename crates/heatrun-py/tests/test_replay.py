@@ -193,3 +193,13 @@ def test_threads_replay_alike():
     for t in threads:
         t.join()
     assert results[0] == results[1] == heatrun.replay(str(FIXTURE), traces=False).to_json()
+
+
+def test_a_report_pickles_whole(fixture_report):
+    # What a Dask or Ray task returns travels pickled: the report, its summary and traces.
+    import pickle
+
+    back = pickle.loads(pickle.dumps(fixture_report))
+    assert back.to_json() == fixture_report.to_json()
+    assert back.summary() == fixture_report.summary()
+    assert back.traces().equals(fixture_report.traces())

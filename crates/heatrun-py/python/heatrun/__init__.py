@@ -103,7 +103,11 @@ def replay(
         validate=None if validate is None else os.fspath(validate),
         traces=traces,
     )
-    return Report(out["report_json"], summary=out["summary"], traces=out.get("traces"), name=path)
+    # Messages about the report (a use of the model that cannot be made) name it by its
+    # recording.
+    return Report(
+        out["report_json"], summary=out["summary"], traces=out.get("traces"), name=f"the report of {path}"
+    )
 
 
 def list_recordings(folder_or_prefix: PathLike) -> List[str]:

@@ -165,7 +165,7 @@ def identify(
 
     with tempfile.TemporaryDirectory(prefix="heatrun-") as folder:
         out = os.fspath(recording) if recording is not None else os.path.join(folder, "frame.mcap")
-        options = dict(spec=spec, field_state=field_state, units=units, interpolation=interpolation)
+        options: Dict[str, Any] = dict(spec=spec, field_state=field_state, units=units, interpolation=interpolation)
         write_recording(frame, out, **options)
         if validate is not None and not isinstance(validate, (str, os.PathLike)):
             validation = os.path.join(folder, "validation.mcap")

@@ -376,13 +376,14 @@ class Report:
             )
         t = np.frombuffer(self._traces["time_ns"], dtype="<i8")
         index = pd.DatetimeIndex(pd.to_datetime(t, unit="ns", utc=True), name="time")
-        columns = {}
+        keys = []
+        series = []
         for st in self._traces["states"]:
             for kind in ("measured", "model", "residual"):
-                columns[(st["name"], kind)] = np.frombuffer(st[kind], dtype="<f8")
-        frame = pd.DataFrame(columns, index=index)
-        frame.columns = pd.MultiIndex.from_tuples(frame.columns, names=["state", "trace"])
-        return frame
+                keys.append((st["name"], kind))
+                series.append(np.frombuffer(st[kind], dtype="<f8"))
+        columns = pd.MultiIndex.from_tuples(keys, names=["state", "trace"])
+        return pd.DataFrame(np.column_stack(series) if series else None, index=index, columns=columns)
 
     def predict(
         self,
