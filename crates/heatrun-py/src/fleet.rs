@@ -15,7 +15,10 @@ use crate::errors::{bad_input, to_py, HeatrunError};
 /// in the fleet's order: what `heatrun fleet summary` writes and prints for the same
 /// reports. A report that does not read is a row with its one-line reason.
 #[pyfunction]
-pub fn fleet_summary_csv(py: Python<'_>, reports: Vec<(String, String)>) -> PyResult<(String, String)> {
+pub fn fleet_summary_csv(
+    py: Python<'_>,
+    reports: Vec<(String, String)>,
+) -> PyResult<(String, String)> {
     let read: Vec<(String, Result<ReportRow, String>)> = py.detach(|| {
         reports
             .iter()
@@ -27,7 +30,10 @@ pub fn fleet_summary_csv(py: Python<'_>, reports: Vec<(String, String)>) -> PyRe
             .collect()
     });
     // The columns follow the model of the first report that reads.
-    let Some(model) = read.iter().find_map(|(_, r)| r.as_ref().ok().map(|r| &r.model)) else {
+    let Some(model) = read
+        .iter()
+        .find_map(|(_, r)| r.as_ref().ok().map(|r| &r.model))
+    else {
         return Err(bad_input(match read.first() {
             None => "no reports given".to_owned(),
             Some((_, Err(e))) => format!("no report could be read: {e}"),
@@ -41,7 +47,10 @@ pub fn fleet_summary_csv(py: Python<'_>, reports: Vec<(String, String)>) -> PyRe
                 Ok(r) => r.recording.clone(),
                 Err(_) => name.clone(),
             },
-            outcome: row.as_ref().map(|r| r.figures.clone()).map_err(Clone::clone),
+            outcome: row
+                .as_ref()
+                .map(|r| r.figures.clone())
+                .map_err(Clone::clone),
         })
         .collect();
     let csv = table::fleet_csv(&rows, &table::csv_header(model))

@@ -145,8 +145,9 @@ fn spec_channels(spec: Option<PathBuf>, field_state: bool) -> PyResult<Vec<(Stri
     use heatrun::recording::Signal;
     use heatrun::spec::ModelDescription;
     let model = match &spec {
-        Some(path) => ModelDescription::from_toml_file(path)
-            .map_err(|e| to_py(heatrun::Error::from(e)))?,
+        Some(path) => {
+            ModelDescription::from_toml_file(path).map_err(|e| to_py(heatrun::Error::from(e)))?
+        }
         None if field_state => ModelDescription::generator_with_field_state(),
         None => ModelDescription::generator(),
     };
