@@ -12,7 +12,7 @@
 #   HEATRUN           the `heatrun` binary, for the tests that compare with the command
 #                     line (report JSON, identify's model); they skip without it;
 #   PYTHON            the interpreter the environments are made from [default: python3].
-# Needs PyPI (maturin, pytest, numpy, pandas; dask and distributed for the fleet test,
+# Needs PyPI (maturin, pytest, numpy, pandas, mypy for the stubs' check; dask and distributed for the fleet test,
 # which skips where they cannot be installed).
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -32,8 +32,12 @@ trap 'rm -rf "$work"' EXIT
 # A fresh environment with nothing of the source tree: the wheel and the test tools.
 "$python" -m venv "$work/test"
 pip=("$work/test/bin/pip" install --quiet --disable-pip-version-check)
-"${pip[@]}" "$work"/wheels/heatrun-*.whl pytest numpy pandas
+"${pip[@]}" "$work"/wheels/heatrun-*.whl pytest numpy pandas mypy
 "${pip[@]}" dask distributed || echo "ci.sh: dask/distributed not installed: the fleet test skips"
+
+# The type stubs against the extension module as built: every function, its parameters
+# and their defaults.
+"$work/test/bin/python" -m mypy.stubtest heatrun._heatrun
 
 # From the repository's root, so `fixtures/…` paths read as in the README. Only the
 # tests' own folder joins sys.path (the source tree's python/ does not): the installed

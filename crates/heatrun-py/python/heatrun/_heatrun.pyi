@@ -6,6 +6,22 @@ The public API is the package's (`heatrun.replay`, `heatrun.identify`, `heatrun.
 
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
+__all__ = [
+    "HeatrunError",
+    "BadInputError",
+    "replay",
+    "import_table",
+    "read_report",
+    "check_report",
+    "version",
+    "spec_channels",
+    "list_recordings",
+    "predict",
+    "rating",
+    "fleet_summary_csv",
+    "fleet_compare",
+]
+
 class HeatrunError(Exception):
     """An error of heatrun's library, with the command line's one-line message."""
 
