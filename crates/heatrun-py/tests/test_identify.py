@@ -99,8 +99,10 @@ def test_an_index_that_is_no_time_is_bad_input():
         heatrun.identify(frame, spec=SPEC)
 
 
-def test_a_backward_time_is_the_imports_error():
+def test_a_backward_time_is_the_imports_error_naming_the_row():
     frame = tclab_frame()
-    frame.index = frame.index[::-1]
-    with pytest.raises(heatrun.BadInputError):
+    index = frame.index.to_numpy().copy()
+    index[5] = index[2]
+    frame.index = index
+    with pytest.raises(heatrun.BadInputError, match=r"the frame's row 5 \(from 0\).*time goes backwards"):
         heatrun.identify(frame, spec=SPEC)

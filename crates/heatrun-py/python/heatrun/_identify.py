@@ -11,6 +11,7 @@ and given here.
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
@@ -130,7 +131,14 @@ def write_recording(
         table = os.path.join(folder, "frame.csv")
         with open(table, "w", encoding="utf-8") as f:
             f.write("\n".join(lines) + "\n")
-        return _heatrun.import_table(table, "\n".join(map_lines) + "\n", "frame.map.toml", os.fspath(out))
+        try:
+            return _heatrun.import_table(table, "\n".join(map_lines) + "\n", "frame.map.toml", os.fspath(out))
+        except _heatrun.HeatrunError as e:
+            # The import names the temporary table's line: say the frame's row instead
+            # (the header is line 1, row 0 is line 2).
+            where = re.compile(re.escape(table) + r": line (\d+)")
+            message = where.sub(lambda m: f"the frame's row {int(m.group(1)) - 2} (from 0)", str(e))
+            raise type(e)(message) from None
 
 
 def identify(
