@@ -243,8 +243,15 @@ pub fn read_unit(path: &Path, label: &str) -> Result<Unit, CompareError> {
         path: path.to_owned(),
         source,
     })?;
-    let report = Report::from_json(&text, path)?;
-    let extended: Extended = serde_json::from_str(&text).map_err(|e| CompareError::Block {
+    unit_from_json(&text, path, label)
+}
+
+/// One unit from its report's text (a report gathered from a cluster's worker rather
+/// than read from a file); `path` names the report in messages, `label` is what the
+/// outputs name the unit by.
+pub fn unit_from_json(text: &str, path: &Path, label: &str) -> Result<Unit, CompareError> {
+    let report = Report::from_json(text, path)?;
+    let extended: Extended = serde_json::from_str(text).map_err(|e| CompareError::Block {
         path: path.to_owned(),
         message: e.to_string(),
     })?;
