@@ -155,7 +155,7 @@ pub struct Replay {
     /// The default's decisions ([`crate::decide`]), in the order they were made: each
     /// with its candidates, the figures compared and the verdict.
     pub decisions: Vec<Decision>,
-    /// Where the data contradicted physics, and what was done 
+    /// Where the data contradicted physics, and what was done.
     pub plausibility: crate::plausibility::Plausibility,
 }
 
@@ -182,7 +182,7 @@ pub struct Prepared {
     pub signals: ModelSignals,
     /// The estimator's input.
     pub data: IdentificationData,
-    /// Where the data contradicted physics, and what was done 
+    /// Where the data contradicted physics, and what was done.
     pub plausibility: crate::plausibility::Plausibility,
 }
 
@@ -237,7 +237,7 @@ pub fn prepare_with(
     let mut decimated = grid
         .finish(&summary.channels)
         .map_err(|e| Error::from(e).in_recording(path))?;
-   : channels exchanged mid-run swapped back, wrong units refused.
+    // Plausibility: channels exchanged mid-run swapped back, wrong units refused.
     let mut plausibility =
         crate::plausibility::before_signals(&summary, &mut decimated, nameplate.as_ref())
             .map_err(|e| Error::from(e).in_recording(path))?;
@@ -252,7 +252,7 @@ pub fn prepare_with(
     .map_err(|e| Error::from(e).in_recording(path))?;
     let signals = signals::compute(&model, &decimated, nameplate.as_ref())
         .map_err(|e| Error::from(e).in_recording(path))?;
-   : the calorimetric balance over the run.
+    // Plausibility: the calorimetric balance over the run.
     plausibility.findings.extend(
         crate::plausibility::of_signals(&model, &decimated, &signals)
             .map_err(|e| Error::from(e).in_recording(path))?,
@@ -525,7 +525,7 @@ pub fn replay_observed(
         );
     }
     let mut warnings = warnings::collect(&prepared.for_warnings(), &analysis, &network);
-   : the parts' labels against the losses that heat them.
+    // Plausibility: the parts' labels against the losses that heat them.
     if let Ok(n) = &network.network {
         let labels = crate::plausibility::labels::check(&prepared.model, n);
         prepared.plausibility.findings.extend(labels);
