@@ -266,9 +266,26 @@ fn the_fixtures_page_has_every_section_figure_and_table() {
             "residuals",
             "network",
             "calorimetry",
+            "decisions",
             "estimator",
         ]
     );
+    // The default's decisions: a table per decision of the report, its verdict in the
+    // caption and a row per candidate.
+    let decisions = report["decisions"].as_array().expect("the default decided");
+    assert!(decisions.len() >= 3, "{decisions:?}");
+    for d in decisions {
+        let caption = format!(
+            "{}: {}",
+            d["what"].as_str().unwrap(),
+            d["chosen"].as_str().unwrap()
+        );
+        let table = page.table(&caption);
+        assert_eq!(
+            table.rows.len(),
+            1 + d["candidates"].as_array().unwrap().len()
+        );
+    }
     // Inputs, three temperatures, three sensitivity responses, the autocorrelation, the
     // network and the calorimetric balance.
     assert_figures_drawn(&page, 10);

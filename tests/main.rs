@@ -53,10 +53,10 @@ mod network_rc;
 mod object_store;
 mod outputs;
 mod paper;
-mod plausibility;
 #[cfg(feature = "parquet")]
 mod parquet;
 mod plant_export;
+mod plausibility;
 mod predict;
 mod profile;
 mod recovery;

@@ -17,11 +17,13 @@ use crate::historian::samples;
 const S: u64 = 1_000_000_000;
 
 /// The export's columns: the profile quantity, the header, and the factor from the
-/// recording's canonical unit to the header's.
+/// synthetic recording's unit (kA, A, kV, V, °C, l/s as `heatrun synth` writes them) to the
+/// header's. (A factor of 10⁻³ on kA and kV once passed here unseen, since time constants
+/// do not move with the inputs' scale: the plausibility check now refuses such a current.)
 const COLUMNS: [(&str, &str, f64); 9] = [
-    ("armature_current", "Statorstrom [kA]", 1e-3),
+    ("armature_current", "Statorstrom [kA]", 1.0),
     ("field_current", "Erregerstrom [A]", 1.0),
-    ("line_voltage", "Generatorspannung [kV]", 1e-3),
+    ("line_voltage", "Generatorspannung [kV]", 1.0),
     ("field_voltage", "Erregerspannung [V]", 1.0),
     ("stator_winding_temp", "Temp Statorwicklung [°C]", 1.0),
     ("core_temp", "Temp Blechpaket [°C]", 1.0),

@@ -287,7 +287,10 @@ impl ThermalModel {
             field_temperature: FieldTemperatureUse::NotNeeded,
             error: error.clone(),
             uncertainty,
-            steady_state_extrapolation: report.equilibrium.as_ref().and_then(|e| e.why_extrapolation()),
+            steady_state_extrapolation: report
+                .equilibrium
+                .as_ref()
+                .and_then(|e| e.why_extrapolation()),
         };
         model.field_temperature = field_temperature_use(&model, estimation)?;
         if !(model.ts_s > 0.0) {
