@@ -30,6 +30,7 @@
 //! max_interval_s = 600         # with exception: the heartbeat
 //! interpolation = "step"       # optional: "linear" (default) or "step" (a command, held
 //!                              # from one sample to the next)
+//! resolution = 0.1             # optional: the sensor's step, in the channel's unit
 //!
 //! # A long table (layout = "long") names the columns of its rows, and picks its
 //! # signals by tag instead of by column:
@@ -299,6 +300,7 @@ struct RawColumn {
     deadband: Option<f64>,
     max_interval_s: Option<f64>,
     interpolation: Option<String>,
+    resolution: Option<f64>,
 }
 
 impl ImportMap {
@@ -688,6 +690,15 @@ fn column_map(raw: RawColumn, layout: &Layout, bad: &Bad) -> Result<ColumnMap, I
     let mut channel = ChannelSpec::new(&name, &unit)
         .with_storage(storage)
         .with_interpolation(interpolation);
+    if let Some(r) = raw.resolution {
+        if !(r.is_finite() && r > 0.0) {
+            return Err(bad(
+                &key("resolution"),
+                format!("{r} is not a positive step in the channel's unit (e.g. 0.01)"),
+            ));
+        }
+        channel = channel.with_resolution(r);
+    }
     if let Some(sensor) = &raw.sensor {
         if sensor.is_empty() || sensor.contains('/') {
             return Err(bad(
@@ -918,7 +929,20 @@ mod tests {
         let q1 = &step.columns[0].channel;
         assert_eq!(q1.interpolation, Interpolation::Step);
         assert_eq!(q1.metadata()["interpolation"], "step");
+        assert!(!q1.metadata().contains_key("resolution"));
         assert_eq!(m.time.start_ns, 0);
+        // A sensor's resolution goes to the channel's metadata, in its unit; a step that is
+        // not positive is refused, naming the key.
+        let rounded = parse(
+            "[time]\ncolumn = 1\n[[column]]\ncolumn = 2\nquantity = \"core_temp\"\nunit = \"degC\"\nresolution = 0.1",
+        )
+        .unwrap();
+        assert_eq!(rounded.columns[0].channel.metadata()["resolution"], "0.1");
+        let zero = parse(
+            "[time]\ncolumn = 1\n[[column]]\ncolumn = 2\nquantity = \"core_temp\"\nunit = \"degC\"\nresolution = 0",
+        );
+        let message = zero.err().expect("refused").to_string();
+        assert!(message.contains("resolution"), "{message}");
     }
 
     #[test]
