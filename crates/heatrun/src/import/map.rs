@@ -941,7 +941,7 @@ mod tests {
         let zero = parse(
             "[time]\ncolumn = 1\n[[column]]\ncolumn = 2\nquantity = \"core_temp\"\nunit = \"degC\"\nresolution = 0",
         );
-        let message = zero.err().expect("refused").to_string();
+        let message = zero.expect_err("refused").to_string();
         assert!(message.contains("resolution"), "{message}");
     }
 
