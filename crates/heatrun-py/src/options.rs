@@ -86,6 +86,9 @@ impl ReplayRequest {
         };
         Ok(ReplayOptions {
             ts_s: self.ts.or(model.sample_time_s).unwrap_or(1.0),
+            // Neither the argument nor the spec gives Ts: the grid follows temperatures
+            // recorded slower than 1 s (the command line's default).
+            choose_ts: self.ts.is_none() && model.sample_time_s.is_none(),
             machine: self.machine.clone(),
             method,
             // Neither the argument nor the spec names a method: oe, or pem where oe's
