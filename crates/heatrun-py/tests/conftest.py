@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-#: The repository's root (fixtures/, examples/, tests/datasets/).
+#: The repository's root (fixtures/, examples/, datasets/).
 ROOT = Path(os.environ.get("HEATRUN_ROOT", Path(__file__).resolve().parents[3]))
 FIXTURE = ROOT / "fixtures" / "paper_heat_run.mcap"
 TRUTH = ROOT / "fixtures" / "paper_heat_run.mcap.truth.json"
-TCLAB = ROOT / "tests" / "datasets" / "tclab"
+TCLAB = ROOT / "datasets" / "tclab_mimo_heaters"
 TCLAB_EXAMPLE = ROOT / "examples" / "tclab_mimo_heaters"
 
 
