@@ -54,14 +54,26 @@ pub fn network_source(
                 "fitted to the data by rc (--method rc), started from oe's network".into(),
             )
         },
-        Method::Oe if reproduced_exactly(estimate, scaling) => plain(
-            with_output_offset(data, options, estimate),
-            format!(
+        Method::Oe if reproduced_exactly(estimate, scaling) => {
+            let said = format!(
                 "not rc's fit to the data: the identified model reproduces them within \
                  {NOISE_FREE_K:e} K (they carry no noise), so its own nearest passive network is \
                  the network"
-            ),
-        ),
+            );
+            let nearest = "the passive network nearest the identified model";
+            NetworkSource {
+                decision: Some(Decision {
+                    what: "network".into(),
+                    candidates: vec![
+                        Candidate::new(nearest, vec![]),
+                        Candidate::new("rc's fit of C, G, K to the data", vec![]),
+                    ],
+                    chosen: nearest.into(),
+                    reason: said.clone(),
+                }),
+                ..plain(with_output_offset(data, options, estimate), said)
+            }
+        }
         Method::Oe if options.network == NetworkChoice::Nearest => plain(
             with_output_offset(data, options, estimate),
             "the passive network nearest the identified model, as asked (--network \
