@@ -54,6 +54,17 @@ pub struct Figure {
 }
 
 impl Figure {
+    /// The figure as text: `name value unit`, the value whole where it is a count and
+    /// with four significant digits otherwise.
+    pub fn text(&self) -> String {
+        let unit = if self.unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {}", self.unit)
+        };
+        format!("{} {}{unit}", self.name, significant(self.value))
+    }
+
     /// A figure `name` = `value` `unit`.
     pub fn new(name: &str, value: f64, unit: &str) -> Figure {
         Figure {
@@ -83,18 +94,7 @@ impl Decision {
             if c.figures.is_empty() {
                 continue;
             }
-            let figures: Vec<String> = c
-                .figures
-                .iter()
-                .map(|f| {
-                    let unit = if f.unit.is_empty() {
-                        String::new()
-                    } else {
-                        format!(" {}", f.unit)
-                    };
-                    format!("{} {}{unit}", f.name, significant(f.value))
-                })
-                .collect();
+            let figures: Vec<String> = c.figures.iter().map(Figure::text).collect();
             lines.push(format!("  {}: {}", c.name, figures.join(", ")));
         }
         lines
@@ -104,7 +104,7 @@ impl Decision {
 /// `v` with four significant digits, in plain or scientific notation by size.
 fn significant(v: f64) -> String {
     let a = v.abs();
-    if v == 0.0 || !v.is_finite() {
+    if v == 0.0 || !v.is_finite() || (v.fract() == 0.0 && a < 1e9) {
         format!("{v}")
     } else if (1e-3..1e5).contains(&a) {
         let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
@@ -137,6 +137,8 @@ mod tests {
             ]
         );
         assert_eq!(significant(23592.0), "23592");
+        assert_eq!(significant(3.0), "3");
+        assert_eq!(significant(0.1), "0.1000");
         assert_eq!(significant(1.5e-7), "1.500e-7");
     }
 }

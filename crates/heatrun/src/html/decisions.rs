@@ -2,8 +2,9 @@
 //! each candidate was judged by, and the verdict with its reason
 //! ([`crate::decide::Decision`], read from the report as every output reads it).
 
-use super::markup::{sig, Markup, Table};
+use super::markup::{Markup, Table};
 use super::{HtmlError, Section};
+use crate::decide::Figure;
 use crate::model_file::Report;
 
 /// The decisions the replay made for the user; the page has the section only where it
@@ -35,15 +36,7 @@ impl Section for DecisionsSection<'_> {
                 vec!["candidate".into(), "figures".into()],
             );
             for c in &d.candidates {
-                let figures: Vec<String> = c
-                    .figures
-                    .iter()
-                    .map(|f| {
-                        format!("{} {} {}", f.name, sig(f.value, 4), f.unit)
-                            .trim()
-                            .to_owned()
-                    })
-                    .collect();
+                let figures: Vec<String> = c.figures.iter().map(Figure::text).collect();
                 let marked = if c.name == d.chosen {
                     format!("{} (chosen)", c.name)
                 } else {
