@@ -7,6 +7,7 @@
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+pub(crate) mod compressed;
 mod data;
 mod discrete;
 mod error;

@@ -15,6 +15,8 @@
 use std::ops::Range;
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+
+use crate::estimate::compressed::{noise_tied_ftol, Compressed};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 use super::subspace::{radius_limit, stabilised};
@@ -340,12 +342,14 @@ pub fn refine(
         params,
         radius_limit: radius_limit(longest),
     };
+    // Through p + 1 rows: the same steps at the cost of the parameters, not the rows.
     let (solved, report) = LevenbergMarquardt::new()
         .with_patience(30)
-        .with_ftol(1e-10)
+        .with_ftol(noise_tied_ftol(problem.rows()))
         .with_xtol(1e-10)
         .with_gtol(1e-10)
-        .minimize(problem);
+        .minimize(Compressed::new(problem));
+    let solved = solved.into_inner();
     if !report.objective_function.is_finite() {
         return Err(HiddenError::Diverged);
     }
