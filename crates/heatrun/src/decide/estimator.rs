@@ -37,9 +37,21 @@ pub struct EstimatorChoice {
     pub oe_rms_k: Vec<f64>,
     /// Per output: the resolution the residuals were compared with, K.
     pub resolution_k: Vec<f64>,
+    /// Per output: the state's name, for the decision's figures (the report keeps its
+    /// outputs in the states' order and does not repeat them).
+    #[serde(skip)]
+    pub outputs: Vec<String>,
 }
 
 impl EstimatorChoice {
+    /// Output `j`'s state name, or "output j+1" where the choice was made without them.
+    fn output_name(&self, j: usize) -> String {
+        self.outputs
+            .get(j)
+            .cloned()
+            .unwrap_or_else(|| format!("output {}", j + 1))
+    }
+
     /// The choice as a [`Decision`]: `oe` with its residuals' RMS, whiteness and the
     /// resolution beside them; `pem` with the likelihood ratio where it was fitted.
     pub fn decision(&self) -> Decision {
@@ -52,17 +64,17 @@ impl EstimatorChoice {
             .enumerate()
         {
             oe.push(Figure::new(
-                &format!("output {} residuals' RMS", j + 1),
+                &format!("{} residuals' RMS", self.output_name(j)),
                 *rms,
                 "K",
             ));
             oe.push(Figure::new(
-                &format!("output {} lags outside the 99 % band", j + 1),
+                &format!("{} lags outside the 99 % band", self.output_name(j)),
                 100.0 * outside,
                 "%",
             ));
             oe.push(Figure::new(
-                &format!("output {} resolution", j + 1),
+                &format!("{} resolution", self.output_name(j)),
                 *r,
                 "K",
             ));
@@ -160,6 +172,7 @@ pub fn estimate_chosen(
         likelihood_ratio,
         oe_rms_k: rms_per_output_k.clone(),
         resolution_k: noise.resolution_k.clone(),
+        outputs: options.model.states.iter().map(|s| s.name.clone()).collect(),
     };
     let rms_k = rms_per_output_k.iter().copied().fold(0.0_f64, f64::max);
     if rms_k < EXACT_FIT_RMS_K {

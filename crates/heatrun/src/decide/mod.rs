@@ -107,7 +107,13 @@ fn significant(v: f64) -> String {
     if v == 0.0 || !v.is_finite() || (v.fract() == 0.0 && a < 1e9) {
         format!("{v}")
     } else if (1e-3..1e5).contains(&a) {
-        let digits = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
+        // The exponent of v rounded to four digits (0.00999999 is 1.000e-2, not 9.99…e-3).
+        let exponent: i32 = format!("{a:.3e}")
+            .split('e')
+            .nth(1)
+            .and_then(|e| e.parse().ok())
+            .unwrap_or(0);
+        let digits = (3 - exponent).clamp(0, 6) as usize;
         format!("{v:.digits$}")
     } else {
         format!("{v:.3e}")
@@ -140,6 +146,8 @@ mod tests {
         assert_eq!(significant(3.0), "3");
         assert_eq!(significant(0.1), "0.1000");
         assert_eq!(significant(1.5e-7), "1.500e-7");
+        assert_eq!(significant(0.01 - 1e-12), "0.01000");
+        assert_eq!(significant(99.996), "100.0");
     }
 }
 
