@@ -6,6 +6,7 @@
 
 mod channel;
 mod chunk;
+mod compact;
 mod error;
 mod index;
 mod nameplate;
