@@ -689,9 +689,9 @@ impl Placement {
             .collect()
     }
 
-    /// A channel with a sample in (nearly) every window: each window's mean taken to its
-    /// reference time ([`at_reference`]) is the value; an empty window inside the span is a
-    /// gap.
+    /// A channel with a sample in (nearly) every window: each window's mean is the value,
+    /// on a grid moved by a phase φ ≠ 0 taken to its reference time moved by φ
+    /// ([`at_reference`]); an empty window inside the span is a gap.
     fn block_averaged(&self, points: &[Point], window_alignment: Alignment, laid: &mut Laid) {
         let reference_s = |k: i64| {
             (reference_ns(self.ts_ns, window_alignment, k) - self.lo * self.ts_ns) as f64 * 1e-9
@@ -699,7 +699,14 @@ impl Placement {
         };
         let tolerance_s = OFF_REFERENCE * self.ts_s();
         for (j, p) in points.iter().enumerate() {
-            let value = at_reference(points, j, reference_s(p.k), tolerance_s);
+            // Unmoved, the window's mean is its value whatever its samples' phase inside
+            // it (a 10 Hz channel read at the start of each tenth: its mean is the
+            // interval's, though its mean time is 0.05 s early).
+            let value = if self.phase_s == 0.0 {
+                p.value
+            } else {
+                at_reference(points, j, reference_s(p.k), tolerance_s)
+            };
             laid.values.set((p.k - self.lo) as usize, Some(value));
         }
         for pair in points.windows(2) {
