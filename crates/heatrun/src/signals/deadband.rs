@@ -30,6 +30,7 @@
 //! course would leave it inwards is released), at most [`MAX_ACTIVE_SET_ROUNDS`] rounds,
 //! the result clipped into the bounds.
 
+use crate::estimate::oe::censored::truncated_normal;
 use crate::series::Series;
 
 /// The half-power period of the reconstruction's smoothing, s: as the local quadratic
@@ -42,6 +43,18 @@ pub const CUTOFF_PERIOD_S: f64 = 128.0;
 /// The most rounds of the active set: each is one banded solve; a course that has not
 /// settled by then is clipped into its bounds.
 pub const MAX_ACTIVE_SET_ROUNDS: usize = 200;
+
+/// A record whose stored values scatter about the smooth course through them by at most
+/// this share of the deadband is taken as noise-free: the course is the smoothest within
+/// the bands (active set); a noisier one's is its likelihood's ([`Stretch::censored`]).
+pub const NOISE_FREE: f64 = 0.05;
+
+/// The most rounds of the censored record's scoring.
+pub const MAX_SCORING_ROUNDS: usize = 50;
+
+/// A censored instant whose information share is below this is left out (its band says
+/// next to nothing about the course there).
+const MIN_INFORMATION: f64 = 1e-6;
 
 /// A channel on the grid stored by exception: its values (unknown where there is no
 /// record), the instants holding a stored value, and the deadband.
@@ -196,7 +209,84 @@ impl Stretch {
         let free = Smoother::new(&self.stored, lambda).solve(&[]);
         let sigma = noise_of(&self.stored, &free);
         let bounds = self.bounds(sigma);
-        active_set(&self.stored, lambda, &bounds)
+        let course = active_set(&self.stored, lambda, &bounds);
+        if sigma <= NOISE_FREE * self.deadband {
+            return course;
+        }
+        self.censored(course, sigma, lambda)
+    }
+
+    /// The band of the last stored value at each unstored instant, where there is one.
+    fn bands(&self) -> Vec<Option<(f64, f64)>> {
+        let d = self.deadband;
+        let mut last: Option<f64> = None;
+        self.stored
+            .iter()
+            .map(|v| {
+                let band = match (last, v) {
+                    (Some(a), None) => Some((a - d, a + d)),
+                    _ => None,
+                };
+                if v.is_some() {
+                    last = *v;
+                }
+                band
+            })
+            .collect()
+    }
+
+    /// The course maximising the record's likelihood under the smoothness penalty, for a
+    /// noisy reading m = x + e, e ~ N(0, σ²) (as `estimate::oe::censored` does for an
+    /// output): each stored value is an exact reading, each instant between two a reading
+    /// within the band [v − d, v + d] (censored), so that
+    ///
+    ///   maximise  Σ_stored ln φ((m_k − x_k)/σ) + Σ_between ln[Φ(β_k) − Φ(α_k)] − λ/(2σ²)·‖D₂x‖²,
+    ///   α_k, β_k = (v ∓ d − x_k)/σ.
+    ///
+    /// The stored values alone are a biased sample (a reading is stored because its noise
+    /// carried it out of the band, which on a rising inlet favours readings above the
+    /// course); the instants between carry the correction. Fisher scoring: each round
+    /// smooths the stored values (weight 1) and each censored instant's working value
+    /// x + (E[m | band] − x)/e (weight e = 1 − Var[m | band]/σ²) at the current course,
+    /// and σ² is the mean of (m − x)² over stored values and E[(m − x)² | band] over
+    /// censored ones (the EM update), until the course moves less than 10⁻⁴·d.
+    fn censored(&self, start: Vec<f64>, sigma: f64, lambda: f64) -> Vec<f64> {
+        let bands = self.bands();
+        let mut x = start;
+        let mut sigma = sigma;
+        for _ in 0..MAX_SCORING_ROUNDS {
+            let mut smoother = Smoother::new(&self.stored, lambda);
+            let (mut squares, mut count) = (0.0, 0usize);
+            for (k, band) in bands.iter().enumerate() {
+                if let Some(m) = self.stored[k] {
+                    squares += (m - x[k]).powi(2);
+                    count += 1;
+                    continue;
+                }
+                let Some((lo, hi)) = band else { continue };
+                let (mean, variance) = truncated_normal(x[k], sigma, *lo, *hi);
+                squares += variance + (mean - x[k]).powi(2);
+                count += 1;
+                let e = 1.0 - variance / (sigma * sigma);
+                if e > MIN_INFORMATION {
+                    smoother.weights[k] = e;
+                    smoother.targets[k] = x[k] + (mean - x[k]) / e;
+                }
+            }
+            let next = smoother.solve(&[]);
+            let moved = next
+                .iter()
+                .zip(&x)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            x = next;
+            if count > 0 {
+                sigma = (squares / count as f64).sqrt().max(NOISE_FREE * self.deadband);
+            }
+            if moved < 1e-4 * self.deadband {
+                break;
+            }
+        }
+        x
     }
 }
 
@@ -260,21 +350,28 @@ fn active_set(stored: &[Option<f64>], lambda: f64, bounds: &[(f64, f64)]) -> Vec
         .collect()
 }
 
-/// The pentadiagonal normal equations (λ·D₂ᵀD₂ + W + S)·x = W·v + S·b, W the stored
-/// instants' unit weights, S a stiff weight at each held bound b.
-struct Smoother<'a> {
-    stored: &'a [Option<f64>],
+/// The pentadiagonal normal equations (λ·D₂ᵀD₂ + W + S)·x = W·v + S·b, W each instant's
+/// weight w_k on its target v_k (1 on a stored value, 0 where none, a censored instant's
+/// information share), S a stiff weight at each held bound b.
+struct Smoother {
+    weights: Vec<f64>,
+    targets: Vec<f64>,
     lambda: f64,
 }
 
-impl<'a> Smoother<'a> {
-    fn new(stored: &'a [Option<f64>], lambda: f64) -> Smoother<'a> {
-        Smoother { stored, lambda }
+impl Smoother {
+    /// Unit weights on the stored values.
+    fn new(stored: &[Option<f64>], lambda: f64) -> Smoother {
+        Smoother {
+            weights: stored.iter().map(|v| if v.is_some() { 1.0 } else { 0.0 }).collect(),
+            targets: stored.iter().map(|v| v.unwrap_or(0.0)).collect(),
+            lambda,
+        }
     }
 
     /// The solution with the instants `held` pinned at their values.
     fn solve(&self, held: &[(usize, f64)]) -> Vec<f64> {
-        let n = self.stored.len();
+        let n = self.weights.len();
         let l = self.lambda;
         // D₂ᵀD₂'s bands: each second difference (k−1, k, k+1) adds [1 −2 1]ᵀ[1 −2 1].
         let mut a0 = vec![0.0; n];
@@ -289,11 +386,9 @@ impl<'a> Smoother<'a> {
             a2[c - 1] += l;
         }
         let mut b = vec![0.0; n];
-        for (k, v) in self.stored.iter().enumerate() {
-            if let Some(v) = v {
-                a0[k] += 1.0;
-                b[k] += v;
-            }
+        for k in 0..n {
+            a0[k] += self.weights[k];
+            b[k] += self.weights[k] * self.targets[k];
         }
         // Stiff, but within what f64 solves: 10⁶ times the largest curvature weight.
         let stiff = 1e6 * (16.0 * l + 1.0);
