@@ -1,5 +1,8 @@
 //! A slow channel stored by exception (a historian's deadband), reconstructed along its
-//! course: the coolant inlet as the model's input or reference.
+//! course: the coolant inlet as the model's input or reference. A noise-free record gets
+//! the smoothest course within its bands (below); a noisy one (its stored values scatter
+//! about a smooth course by more than [`NOISE_FREE`]·d) the course of the record's
+//! censored likelihood under the same smoothness penalty (`Stretch::censored`).
 //!
 //! A historian keeps a value only when it left the deadband ±d of the last kept value
 //! (or a heartbeat passed). The kept points are therefore not a sample of the course:
@@ -386,9 +389,10 @@ impl Smoother {
             a2[c - 1] += l;
         }
         let mut b = vec![0.0; n];
-        for k in 0..n {
-            a0[k] += self.weights[k];
-            b[k] += self.weights[k] * self.targets[k];
+        let weighted = self.weights.iter().zip(&self.targets);
+        for ((a, b), (w, t)) in a0.iter_mut().zip(b.iter_mut()).zip(weighted) {
+            *a += w;
+            *b += w * t;
         }
         // Stiff, but within what f64 solves: 10⁶ times the largest curvature weight.
         let stiff = 1e6 * (16.0 * l + 1.0);
@@ -437,8 +441,8 @@ fn banded_solve(a0: &[f64], a1: &[f64], a2: &[f64], b: &[f64]) -> Vec<f64> {
             y[k] -= l2[k] * y[k - 2];
         }
     }
-    for k in 0..n {
-        y[k] /= d[k];
+    for (y, d) in y.iter_mut().zip(&d) {
+        *y /= d;
     }
     for k in (0..n).rev() {
         if k + 1 < n {

@@ -89,7 +89,8 @@ fn a_course_stored_by_exception_comes_back_within_its_band() {
 }
 
 /// With a PT100's noise the stored points are where noise carried the reading past the
-/// band: the reconstruction takes the course to within a fraction of the noise.
+/// band: the record's censored likelihood takes the course to within a quarter of the
+/// noise (measured 0.12–0.19 σ; the hard band alone left 0.13–0.37 σ).
 #[test]
 fn a_noisy_course_stored_by_exception_is_smoothed_to_its_course() {
     let tau = 2.0 * std::f64::consts::PI;
@@ -104,7 +105,9 @@ fn a_noisy_course_stored_by_exception_is_smoothed_to_its_course() {
         let got = super::course(record, 1.0).unwrap();
         let (worst, rms) = errors(&got, &wave);
         eprintln!("d {d} σ {sigma}: worst {worst:.4} K, RMS {rms:.5} K");
-        assert!(rms < 0.5 * sigma.max(d) && worst < d + 3.0 * sigma, "{rms} {worst}");
+        // The sampled inlet's quadratic leaves 0.14 σ of white noise when every reading
+        // is kept; here most are not.
+        assert!(rms < 0.25 * sigma && worst < d + 3.0 * sigma, "{rms} {worst}");
     }
 }
 
@@ -151,8 +154,8 @@ fn the_banded_solve_is_the_dense_solve() {
         b[k] += stiff * t;
     }
     let want = m.lu().solve(&b).unwrap();
-    for k in 0..n {
-        assert!((got[k] - want[k]).abs() < 1e-8, "{k}: {} {}", got[k], want[k]);
+    for (k, (got, want)) in got.iter().zip(want.iter()).enumerate() {
+        assert!((got - want).abs() < 1e-8, "{k}: {got} {want}");
     }
 }
 
