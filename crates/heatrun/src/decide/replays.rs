@@ -131,14 +131,22 @@ fn temperatures_every_ten_seconds_move_the_grid_and_nothing_is_left_out() {
             "10 s (the temperatures' own interval)"
         );
         assert!(r.left_out.is_empty(), "{:?}", r.left_out);
-        assert_eq!(r.estimate.method, crate::estimate::Method::Oe, "seed {seed}");
+        assert_eq!(
+            r.estimate.method,
+            crate::estimate::Method::Oe,
+            "seed {seed}"
+        );
         let (_, ss) = errors(&r, &truth);
         assert!(ss < 0.3, "seed {seed}: steady state {ss:.3} K off");
         let fastest = r.analysis.spectrum.time_constants_s[0];
         t1.push(fastest / truth.time_constants_s[0] - 1.0);
     }
     let mean = t1.iter().sum::<f64>() / t1.len() as f64;
-    assert!(mean.abs() < 0.03, "T1 {:.2} % off on average: {t1:?}", 100.0 * mean);
+    assert!(
+        mean.abs() < 0.03,
+        "T1 {:.2} % off on average: {t1:?}",
+        100.0 * mean
+    );
 }
 
 /// A noise-free 10 s export of the RC unit, read 5 s off the grid's instants: the time

@@ -283,7 +283,9 @@ impl Stretch {
                 .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
             x = next;
             if count > 0 {
-                sigma = (squares / count as f64).sqrt().max(NOISE_FREE * self.deadband);
+                sigma = (squares / count as f64)
+                    .sqrt()
+                    .max(NOISE_FREE * self.deadband);
             }
             if moved < 1e-4 * self.deadband {
                 break;
@@ -366,7 +368,10 @@ impl Smoother {
     /// Unit weights on the stored values.
     fn new(stored: &[Option<f64>], lambda: f64) -> Smoother {
         Smoother {
-            weights: stored.iter().map(|v| if v.is_some() { 1.0 } else { 0.0 }).collect(),
+            weights: stored
+                .iter()
+                .map(|v| if v.is_some() { 1.0 } else { 0.0 })
+                .collect(),
             targets: stored.iter().map(|v| v.unwrap_or(0.0)).collect(),
             lambda,
         }

@@ -778,10 +778,14 @@ fn input_signal<'a>(
         // θ_in(k) − θ_in,0 in the states' scaling: the reference node's drift.
         InputSource::BoundaryRise(c) => {
             let at = level(c)?;
-            reconstructed(series(c)?, declared_deadband(decimated, c), decimated.ts_s())
-                .iter()
-                .map(|v| v.map(|v| (v - at) / scale.temperature_base_k))
-                .collect()
+            reconstructed(
+                series(c)?,
+                declared_deadband(decimated, c),
+                decimated.ts_s(),
+            )
+            .iter()
+            .map(|v| v.map(|v| (v - at) / scale.temperature_base_k))
+            .collect()
         }
         InputSource::CoolantFlow {
             flow,
@@ -849,7 +853,6 @@ const MIN_CHANGES: usize = 4;
 /// A channel as the model takes it: the coolant inlet's temperature reconstructed along
 /// its course ([`inlet_course`]), the flow through its changes, every other channel as
 /// decimated. `declared_deadband`: the channel's, where it declares storage by exception.
-
 fn reconstructed(series: &DecimatedSeries, declared_deadband: Option<f64>, ts_s: f64) -> Series {
     match series.signal {
         Signal::Profile(Quantity::CoolingWaterInletTemp) => {

@@ -1,5 +1,6 @@
 use super::*;
 use crate::writer::ExceptionFilter;
+use std::f64::consts::TAU;
 
 /// A seeded Gaussian stream (Box–Muller on a small LCG), the same everywhere.
 fn gaussian(seed: u64) -> impl FnMut() -> f64 {
@@ -56,16 +57,18 @@ fn errors(got: &Series, course: &dyn Fn(f64) -> f64) -> (f64, f64) {
 
 const RUN: usize = 20_880; // 5.8 h at 1 s
 
+/// An inlet's course in time, °C at t s.
+type Course = dyn Fn(f64) -> f64;
+
 /// Three courses an inlet takes (a slow wave, a ramp, the synthetic runs' ramp and daily
 /// swing), stored without noise: the course is reconstructed within the band everywhere
 /// and, being smooth, well inside it; the staircase of held values is not.
 #[test]
 fn a_course_stored_by_exception_comes_back_within_its_band() {
-    let tau = 2.0 * std::f64::consts::PI;
-    let wave = |t: f64| 12.0 + 0.5 * (1.0 - (tau * t / 7200.0).cos());
+    let wave = |t: f64| 12.0 + 0.5 * (1.0 - (TAU * t / 7200.0).cos());
     let ramp = |t: f64| 12.0 + t / RUN as f64;
-    let river = |t: f64| 12.0 + 0.6 * 3.0 * t / RUN as f64 + 0.4 * 3.0 * (tau * t / 86_400.0).sin();
-    let courses: [(&str, &dyn Fn(f64) -> f64, (f64, f64)); 4] = [
+    let river = |t: f64| 12.0 + 0.6 * 3.0 * t / RUN as f64 + 0.4 * 3.0 * (TAU * t / 86_400.0).sin();
+    let courses: [(&str, &Course, (f64, f64)); 4] = [
         ("slow wave, 0.05 K, 600 s", &wave, (0.05, 600.0)),
         ("slow wave, 0.1 K, 300 s", &wave, (0.1, 300.0)),
         ("ramp, 0.05 K, 600 s", &ramp, (0.05, 600.0)),
@@ -84,7 +87,10 @@ fn a_course_stored_by_exception_comes_back_within_its_band() {
         eprintln!("{name}: worst {worst:.4} K, RMS {rms:.5} K (held values {staircase:.4} K)");
         assert!(worst <= d + 1e-9, "{name}: {worst} beyond the band {d}");
         assert!(rms < 0.1 * d, "{name}: RMS {rms}");
-        assert!(staircase > 0.2 * d, "{name}: the held values are no test ({staircase})");
+        assert!(
+            staircase > 0.2 * d,
+            "{name}: the held values are no test ({staircase})"
+        );
     }
 }
 
@@ -93,8 +99,7 @@ fn a_course_stored_by_exception_comes_back_within_its_band() {
 /// noise (measured 0.12–0.19 σ; the hard band alone left 0.13–0.37 σ).
 #[test]
 fn a_noisy_course_stored_by_exception_is_smoothed_to_its_course() {
-    let tau = 2.0 * std::f64::consts::PI;
-    let wave = |t: f64| 12.0 + 0.5 * (1.0 - (tau * t / 7200.0).cos());
+    let wave = |t: f64| 12.0 + 0.5 * (1.0 - (TAU * t / 7200.0).cos());
     for (d, sigma) in [(0.05, 0.02), (0.1, 0.05), (0.05, 0.05)] {
         let (values, stored) = stored_by_exception(&wave, RUN, (d, 600.0), sigma);
         let record = ExceptionRecord {
@@ -107,7 +112,10 @@ fn a_noisy_course_stored_by_exception_is_smoothed_to_its_course() {
         eprintln!("d {d} σ {sigma}: worst {worst:.4} K, RMS {rms:.5} K");
         // The sampled inlet's quadratic leaves 0.14 σ of white noise when every reading
         // is kept; here most are not.
-        assert!(rms < 0.25 * sigma && worst < d + 3.0 * sigma, "{rms} {worst}");
+        assert!(
+            rms < 0.25 * sigma && worst < d + 3.0 * sigma,
+            "{rms} {worst}"
+        );
     }
 }
 
