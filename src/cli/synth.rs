@@ -89,6 +89,10 @@ pub struct SynthArgs {
     /// ramp of 0.6·K over the run and a daily swing of 0.4·K).
     #[arg(long, value_name = "K")]
     pub inlet_drift: Option<f64>,
+    /// With --inlet-drift: the inlet drifts along a slow wave of this period instead, up
+    /// by K over half a period and back (K/2·(1 − cos(2π·t/S))).
+    #[arg(long, value_name = "S", requires = "inlet_drift")]
+    pub inlet_wave: Option<f64>,
     /// Network machines: every part starts K kelvin above the coolant (a warm start).
     #[arg(long, value_name = "K")]
     pub start_above: Option<f64>,
@@ -306,5 +310,6 @@ fn disturbances(args: &SynthArgs) -> anyhow::Result<Disturbances> {
                 conductance_drop,
             }),
         coolant_heat_walk_kw_per_sqrt_h: args.coolant_heat_walk.unwrap_or(0.0),
+        inlet_wave_period_s: args.inlet_wave.unwrap_or(0.0),
     })
 }

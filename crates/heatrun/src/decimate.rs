@@ -424,6 +424,56 @@ impl Decimator {
         self.lay_out(channels, false)
     }
 
+    /// The grid's phase φ, s: the median offset from their instants of the samples of
+    /// the channels read about once per window at an instant (a temperature recorded
+    /// every Ts, as a historian's 10 s export, whose readings need not fall on t_k = k·Ts),
+    /// where it exceeds [`OFF_REFERENCE`] of Ts; else 0.
+    ///
+    /// A reading is the state at its own time: laid on the instant up to Ts/2 away, it
+    /// lags or leads the inputs' intervals by that much, which biases the fastest time
+    /// constant (9 % on a noise-free 10 s export of an RC unit read 5 s off its
+    /// instants). Interpolated to the instant instead, each value is the mean of two
+    /// readings and its noise is no longer white (the estimator's choice reads that as a
+    /// disturbance). So the grid moves to the readings: every channel is taken at
+    /// t_k + φ (`at_reference`, the interpolated channels' reference times), the
+    /// readings stay as they were read, and an input's interval mean is the line between
+    /// neighbouring windows' means at the shifted interval's middle. The instants keep
+    /// their times t_k (off by |φ| ≤ Ts/2).
+    fn grid_phase(&self) -> f64 {
+        let ts_s = self.ts_ns as f64 * 1e-9;
+        let mut offsets: Vec<f32> = Vec::new();
+        for (ch, _, storage) in self.channels.iter().flatten() {
+            if *storage != Storage::Sampled || ch.alignment != Alignment::Instant {
+                continue;
+            }
+            let Some((first, last, count)) = ch.extent() else {
+                continue;
+            };
+            // About one reading per window: a faster channel's mean sits at the instant.
+            let span = last - first + 1;
+            if count < 16 || count > span + span / 10 || 2 * count < span {
+                continue;
+            }
+            offsets.extend(
+                ch.blocks
+                    .iter()
+                    .flat_map(|b| b.iter())
+                    .filter(|w| w.count == 1)
+                    .map(|w| w.offset_sum),
+            );
+        }
+        if offsets.is_empty() {
+            return 0.0;
+        }
+        offsets.sort_by(f32::total_cmp);
+        let phase = offsets[offsets.len() / 2] as f64;
+        if phase.abs() > OFF_REFERENCE * ts_s {
+            phase
+        } else {
+            0.0
+        }
+    }
+
     /// The first and last occupied window over all channels, checked against the data.
     fn bounds(&self) -> Result<(i64, i64)> {
         let (mut lo, mut hi, mut densest) = (i64::MAX, i64::MIN, 0i64);
@@ -457,6 +507,7 @@ impl Decimator {
         let (lo, hi) = self.bounds()?;
         let len = (hi - lo + 1) as usize;
         let ts_ns = self.ts_ns;
+        let phase_s = self.grid_phase();
         let mut grids = Vec::new();
         let mut per_signal: BTreeMap<Signal, Vec<Laid>> = BTreeMap::new();
         // One channel at a time: its windows are freed before the next is laid out.
@@ -491,6 +542,7 @@ impl Decimator {
                 interpolation,
                 lo,
                 len,
+                phase_s,
             };
             let mut laid = place.channel(&windows);
             laid.grid.topic = topic;
@@ -562,6 +614,9 @@ struct Placement {
     /// First grid index and number of instants.
     lo: i64,
     len: usize,
+    /// The grid's phase φ ([`Decimator::grid_phase`]), s: every channel's value at
+    /// instant k is its value at t_k + φ (its interval's mean from t_k + φ).
+    phase_s: f64,
 }
 
 impl Placement {
@@ -599,7 +654,7 @@ impl Placement {
                 let span = (points[points.len() - 1].k - points[0].k + 1) as f64;
                 laid.grid.nominal_period_s = self.ts_s() * span / total as f64;
                 laid.grid.block_averaged = true;
-                self.block_averaged(&points, &mut laid);
+                self.block_averaged(&points, window_alignment, &mut laid);
             }
             Storage::Sampled => {
                 let period = median_spacing(&points);
@@ -634,11 +689,25 @@ impl Placement {
             .collect()
     }
 
-    /// A channel with a sample in (nearly) every window: each window's mean is the value;
-    /// an empty window inside the span is a gap.
-    fn block_averaged(&self, points: &[Point], laid: &mut Laid) {
-        for p in points {
-            laid.values.set((p.k - self.lo) as usize, Some(p.value));
+    /// A channel with a sample in (nearly) every window: each window's mean is the value,
+    /// on a grid moved by a phase φ ≠ 0 taken to its reference time moved by φ
+    /// ([`at_reference`]); an empty window inside the span is a gap.
+    fn block_averaged(&self, points: &[Point], window_alignment: Alignment, laid: &mut Laid) {
+        let reference_s = |k: i64| {
+            (reference_ns(self.ts_ns, window_alignment, k) - self.lo * self.ts_ns) as f64 * 1e-9
+                + self.phase_s
+        };
+        let tolerance_s = OFF_REFERENCE * self.ts_s();
+        for (j, p) in points.iter().enumerate() {
+            // Unmoved, the window's mean is its value whatever its samples' phase inside
+            // it (a 10 Hz channel read at the start of each tenth: its mean is the
+            // interval's, though its mean time is 0.05 s early).
+            let value = if self.phase_s == 0.0 {
+                p.value
+            } else {
+                at_reference(points, j, reference_s(p.k), tolerance_s)
+            };
+            laid.values.set((p.k - self.lo) as usize, Some(value));
         }
         for pair in points.windows(2) {
             let missing = pair[1].k - pair[0].k - 1;
@@ -656,10 +725,11 @@ impl Placement {
     /// exception: no new sample means no change).
     fn interpolated(&self, points: &[Point], limit: f64, hold: bool, laid: &mut Laid) {
         let ts = self.ts_s();
-        let offset = match self.alignment {
-            Alignment::Instant => 0.0,
-            Alignment::Interval => ts / 2.0,
-        };
+        let offset = self.phase_s
+            + match self.alignment {
+                Alignment::Instant => 0.0,
+                Alignment::Interval => ts / 2.0,
+            };
         let last = points[points.len() - 1];
         let mut j = 0;
         for i in 0..self.len {
@@ -701,6 +771,49 @@ impl Placement {
             .windows(2)
             .filter(|p| p[1].t_s - p[0].t_s > limit)
             .count();
+    }
+}
+
+/// A window's samples whose mean time is further than this share of Ts from the
+/// window's reference time are taken to it along the line to a neighbouring window
+/// ([`at_reference`]); nearer, the mean is the value (a fast channel's samples spread
+/// evenly over the window: its mean time is the reference up to a sample's jitter, and
+/// the mean is its anti-alias filter).
+const OFF_REFERENCE: f64 = 0.01;
+
+/// Window `j`'s value at its reference time `reference_s` (s after the grid's start).
+///
+/// A window's mean v̄_j is the value at its samples' mean time t̄_j, not at the reference
+/// time t_ref (its instant or its interval's middle, moved by the grid's phase,
+/// [`Decimator::grid_phase`]): a channel read at the grid's own rate but at another
+/// phase has one sample per window, up to Ts/2 from where it is laid, and an input's
+/// interval mean is to be taken from the instant the readings sit at. Where
+/// |t̄_j − t_ref| exceeds `tolerance_s`, the value is
+/// the line through (t̄_j, v̄_j) and the adjacent window's (t̄_i, v̄_i), i = j ± 1, on the
+/// reference's side where there is one (interpolation), else on the other (half a window
+/// of extrapolation at an end or a gap's edge):
+///
+///   v(t_ref) = v̄_j + (v̄_i − v̄_j)·(t_ref − t̄_j)/(t̄_i − t̄_j).
+///
+/// A window with no adjacent neighbour keeps its mean.
+fn at_reference(points: &[Point], j: usize, reference_s: f64, tolerance_s: f64) -> f64 {
+    let p = points[j];
+    let off = reference_s - p.t_s;
+    if off.abs() <= tolerance_s {
+        return p.value;
+    }
+    let adjacent = |i: Option<usize>| {
+        let q = points.get(i?)?;
+        ((q.k - p.k).abs() == 1 && q.t_s != p.t_s).then_some(*q)
+    };
+    let (toward, away) = if off > 0.0 {
+        (adjacent(j.checked_add(1)), adjacent(j.checked_sub(1)))
+    } else {
+        (adjacent(j.checked_sub(1)), adjacent(j.checked_add(1)))
+    };
+    match toward.or(away) {
+        Some(q) => p.value + (q.value - p.value) * off / (q.t_s - p.t_s),
+        None => p.value,
     }
 }
 
@@ -952,6 +1065,62 @@ mod tests {
         let r = d.finish(&chans).unwrap();
         assert_eq!(r.first_index, 100);
         assert_eq!(r.get(Quantity::CoreTemp).unwrap().values, vec![Some(9.0)]);
+    }
+
+    #[test]
+    fn a_grid_moves_to_temperatures_read_off_its_instants() {
+        // A temperature every 10 s read 5 s before each instant of a 10 s grid (a
+        // historian's export out of phase with the grid), along θ(t) = 0.01·t², and a
+        // current read every second along I(t) = t. The grid moves to the readings
+        // (φ = −5 s): each temperature is laid as read (its noise untouched), and the
+        // current's value at instant k is its mean over [t_k + φ, t_k + φ + Ts), the line
+        // between the neighbouring windows' means: t_k exactly for a ramp (its mean over
+        // the unmoved interval would be t_k + 5).
+        let chans = [
+            channel(0, Quantity::CoreTemp),
+            channel(1, Quantity::ArmatureCurrent),
+        ];
+        let mut d = decimator_of(10.0, &chans);
+        let course = |t: f64| 0.01 * t * t;
+        for i in 0..30u64 {
+            let t = 1005.0 + 10.0 * i as f64;
+            d.sample(sample(0, (t * 1e9) as u64, course(t)));
+        }
+        for i in 0..300u64 {
+            let t = 1010.0 + i as f64 + 0.5;
+            d.sample(sample(1, (t * 1e9) as u64, t));
+        }
+        let r = d.finish(&chans).unwrap();
+        assert_eq!(r.first_index, 101);
+        let theta = &r.get(Quantity::CoreTemp).unwrap().values;
+        for i in 0..30 {
+            assert_eq!(theta.get(i), Some(course(1005.0 + 10.0 * i as f64)), "{i}");
+        }
+        let current = &r.get(Quantity::ArmatureCurrent).unwrap().values;
+        // From the second window of the current (the first has none before it: its
+        // line runs to the next one, which is the same line).
+        for i in 1..30 {
+            let t_k = 1010.0 + 10.0 * i as f64;
+            let got = current.get(i).unwrap();
+            assert!((got - t_k).abs() < 1e-4, "{t_k} s: {got}");
+        }
+        // Read on the instants, nothing moves.
+        let mut d = decimator_of(10.0, &chans[..1]);
+        for i in 0..30u64 {
+            d.sample(sample(0, (100 + 10 * i) * S, course(10.0 * i as f64)));
+        }
+        let r = d.finish(&chans[..1]).unwrap();
+        let theta = &r.get(Quantity::CoreTemp).unwrap().values;
+        assert!((0..30).all(|i| theta.get(i) == Some(course(10.0 * i as f64))));
+    }
+
+    fn decimator_of(ts_s: f64, chans: &[SensorChannel]) -> Decimator {
+        let alignments = crate::spec::ModelDescription::generator().alignments();
+        let mut d = Decimator::new(ts_s, alignments).unwrap();
+        for c in chans {
+            d.channel(c);
+        }
+        d
     }
 
     #[test]

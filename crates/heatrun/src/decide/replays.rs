@@ -102,34 +102,74 @@ fn rounding_to_a_hundredth_keeps_oe_and_the_paper_model_gets_no_network_fit() {
 /// The RC unit's temperatures every 10 s at 0.1 K with light noise (a historian export):
 /// the grid follows them to 10 s, no sample is left out as frozen or as a glitch, and
 /// the estimate stays oe (issue 33: on the 1 s grid 151 frozen stretches were left out,
-/// pem was chosen, 88.9 % off).
+/// pem was chosen, 88.9 % off). The readings fall 5 s before the 10 s instants: taken
+/// where they were read (the grid moved to them), T1 is unbiased (issue 33: laid 5 s
+/// late, it came out 3.8 % long on seed 1 and 7.7-13.8 % on seeds 2-3). With this noise
+/// one run's T1 scatters by about ±5 % (its 95 % interval; seed 1 lands −5.9 %), so the
+/// issue's 3 % bar is held to the mean over five seeds, the steady state to 0.3 K each.
 #[test]
 fn temperatures_every_ten_seconds_move_the_grid_and_nothing_is_left_out() {
+    let mut t1 = Vec::new();
+    for seed in 1..=5 {
+        let (r, truth) = run(
+            SynthOptions {
+                machine: Machine::Network(NetworkMachine::rc_unit()),
+                temperature_rate_hz: 0.1,
+                temperature_resolution_k: 0.1,
+                temperature_noise_k: 0.02,
+                seed,
+                ..SynthOptions::default()
+            },
+            &ReplayOptions {
+                network: NetworkChoice::Nearest,
+                ..by_default()
+            },
+        );
+        assert_eq!(r.signals.ts_s, 10.0);
+        assert_eq!(
+            decision(&r, "sample time").chosen,
+            "10 s (the temperatures' own interval)"
+        );
+        assert!(r.left_out.is_empty(), "{:?}", r.left_out);
+        assert_eq!(
+            r.estimate.method,
+            crate::estimate::Method::Oe,
+            "seed {seed}"
+        );
+        let (_, ss) = errors(&r, &truth);
+        assert!(ss < 0.3, "seed {seed}: steady state {ss:.3} K off");
+        let fastest = r.analysis.spectrum.time_constants_s[0];
+        t1.push(fastest / truth.time_constants_s[0] - 1.0);
+    }
+    let mean = t1.iter().sum::<f64>() / t1.len() as f64;
+    assert!(
+        mean.abs() < 0.03,
+        "T1 {:.2} % off on average: {t1:?}",
+        100.0 * mean
+    );
+}
+
+/// A noise-free 10 s export of the RC unit, read 5 s off the grid's instants: the time
+/// constants within 1 % and the steady state within 0.05 K by oe (laid 5 s late, T1 was
+/// 9.0 % long; what remains is the zero-order hold of 10 s interval means).
+#[test]
+fn a_noise_free_ten_second_export_gives_its_time_constants() {
     let (r, truth) = run(
         SynthOptions {
             machine: Machine::Network(NetworkMachine::rc_unit()),
             temperature_rate_hz: 0.1,
-            temperature_resolution_k: 0.1,
-            temperature_noise_k: 0.02,
             ..SynthOptions::default()
         },
         &ReplayOptions {
             network: NetworkChoice::Nearest,
-            ..by_default()
+            choose_ts: true,
+            ..ReplayOptions::default()
         },
     );
     assert_eq!(r.signals.ts_s, 10.0);
-    assert_eq!(
-        decision(&r, "sample time").chosen,
-        "10 s (the temperatures' own interval)"
-    );
-    assert!(r.left_out.is_empty(), "{:?}", r.left_out);
-    assert_eq!(r.estimate.method, crate::estimate::Method::Oe);
     let (tc, ss) = errors(&r, &truth);
-    // Measured 3.8 % (T1, 70.8 s on a 10 s grid) and 0.10 K; the issue's bar is 3 % and
-    // 0.3 K (docs/src/methods/decisions.md says where this is worse).
-    assert!(tc < 0.05, "time constants {:.2} % off", 100.0 * tc);
-    assert!(ss < 0.3, "steady state {ss:.3} K off");
+    assert!(tc < 0.01, "time constants {:.2} % off", 100.0 * tc);
+    assert!(ss < 0.05, "steady state {ss:.3} K off");
 }
 
 /// A grid asked for keeps its Ts, and the replay says nothing of a choice it did not make.

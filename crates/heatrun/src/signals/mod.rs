@@ -9,6 +9,7 @@
 //! reference; an input is u_i(k) = P_i(k) / P_base, P_i a channel, an expression of
 //! channels, or a heat source of the profile's loss model.
 
+pub mod deadband;
 mod gaps;
 
 use std::collections::BTreeMap;
@@ -463,19 +464,20 @@ fn states_of(
                 channel: s.name().to_owned(),
             })
     };
+    let deadband_of = |s: &Signal| declared_deadband(decimated, s);
     let mut states = Vec::with_capacity(description.states.len());
     for s in &description.states {
         let mut state = match decimated.get_signal(&s.channel) {
             Some(measured) => state_signal(
                 s,
                 (measured.values.clone(), measured.observed.clone()),
-                &series,
+                (&series, &deadband_of),
                 decimated.ts_s(),
             )?,
             None => state_signal(
                 s,
                 (derived_state(s, decimated, nameplate)?, None),
-                &series,
+                (&series, &deadband_of),
                 decimated.ts_s(),
             )?,
         };
@@ -673,6 +675,11 @@ fn exception_storage(
         })
 }
 
+/// The deadband a signal's channel declares, where it is stored by exception.
+fn declared_deadband(decimated: &DecimatedRecording, signal: &Signal) -> Option<f64> {
+    exception_storage(decimated, signal).map(|(deadband, _)| deadband)
+}
+
 /// A state whose channel the recording lacks. The field winding's temperature is also
 /// measured by its resistance, R_f(θ_f) = U_f / I_f (the loss model's second source of
 /// θ_f), so a field-winding state is read either way; any other state's channel is
@@ -697,14 +704,19 @@ fn derived_state(
 fn state_signal<'a>(
     s: &StateDescription,
     (measured, observed): (Series, Option<Vec<bool>>),
-    series: &impl Fn(&Signal) -> Result<&'a DecimatedSeries>,
+    (series, deadband_of): (
+        &impl Fn(&Signal) -> Result<&'a DecimatedSeries>,
+        &impl Fn(&Signal) -> Option<f64>,
+    ),
     ts_s: f64,
 ) -> Result<StateSignal> {
     let reference = match &s.reference {
         // NaN until the initial instant is known.
         Reference::Initial | Reference::InitialOf(_) => ReferenceValues::Constant(f64::NAN),
         Reference::Absolute => ReferenceValues::Constant(0.0),
-        Reference::Channel(c) => ReferenceValues::Channel(reconstructed(series(c)?, ts_s)),
+        Reference::Channel(c) => {
+            ReferenceValues::Channel(reconstructed(series(c)?, deadband_of(c), ts_s))
+        }
     };
     Ok(StateSignal {
         name: s.name.clone(),
@@ -766,10 +778,14 @@ fn input_signal<'a>(
         // θ_in(k) − θ_in,0 in the states' scaling: the reference node's drift.
         InputSource::BoundaryRise(c) => {
             let at = level(c)?;
-            reconstructed(series(c)?, decimated.ts_s())
-                .iter()
-                .map(|v| v.map(|v| (v - at) / scale.temperature_base_k))
-                .collect()
+            reconstructed(
+                series(c)?,
+                declared_deadband(decimated, c),
+                decimated.ts_s(),
+            )
+            .iter()
+            .map(|v| v.map(|v| (v - at) / scale.temperature_base_k))
+            .collect()
         }
         InputSource::CoolantFlow {
             flow,
@@ -825,9 +841,6 @@ fn bridge_of(input: &InputDescription) -> Bridge {
 /// slower than a few minutes.
 pub const INLET_SMOOTHING_S: f64 = 60.0;
 
-/// A channel as the model takes it: the coolant inlet's temperature reconstructed along
-/// its course by a local quadratic over ±[`INLET_SMOOTHING_S`] (see there why), every
-/// other channel as decimated.
 /// A channel whose runs of identical values are this long on average (in instants) is
 /// taken for a value held between stored ones (a historian's export of a value stored by
 /// exception, each row repeating the last kept value). A sampled PT100 at 0.01 K
@@ -837,22 +850,68 @@ const HELD_RUN_INSTANTS: f64 = 5.0;
 /// The fewest changes of a held channel from which its usual change is judged.
 const MIN_CHANGES: usize = 4;
 
-fn reconstructed(series: &DecimatedSeries, ts_s: f64) -> Series {
-    let smoothed = match series.signal {
-        Signal::Profile(Quantity::CoolingWaterInletTemp) => true,
+/// A channel as the model takes it: the coolant inlet's temperature reconstructed along
+/// its course ([`inlet_course`]), the flow through its changes, every other channel as
+/// decimated. `declared_deadband`: the channel's, where it declares storage by exception.
+fn reconstructed(series: &DecimatedSeries, declared_deadband: Option<f64>, ts_s: f64) -> Series {
+    match series.signal {
+        Signal::Profile(Quantity::CoolingWaterInletTemp) => {
+            inlet_course(series, declared_deadband, ts_s)
+        }
         // The flow steps where a pump switches: taken through its changes, not smoothed.
-        Signal::Profile(Quantity::CoolingWaterFlow) => false,
-        _ => return series.values.clone(),
+        Signal::Profile(Quantity::CoolingWaterFlow) => {
+            let mut values: Vec<Option<f64>> = series.values.iter().collect();
+            if series.observed.is_none() {
+                through_changes(&mut values);
+            }
+            values.into_iter().collect()
+        }
+        _ => series.values.clone(),
+    }
+}
+
+/// The coolant inlet's course on the grid. Stored by exception — declared (the
+/// channel's deadband; its stored instants from the grid), or a value held between
+/// changes on every row ([`HELD_RUN_INSTANTS`]; its changes are the stored values, the
+/// band their usual size) — the smoothest course within the band of each stored value
+/// until the next ([`deadband::course`]): the stored points are where the value crossed
+/// the band, not a sample of it. Sampled: a local quadratic over ±[`INLET_SMOOTHING_S`].
+fn inlet_course(series: &DecimatedSeries, declared_deadband: Option<f64>, ts_s: f64) -> Series {
+    let record = match (&series.observed, declared_deadband) {
+        (Some(stored), Some(deadband)) => Some((stored.clone(), deadband)),
+        (None, _) => held_between_changes(&series.values),
+        (Some(_), None) => None,
     };
-    let mut values: Vec<Option<f64>> = series.values.iter().collect();
-    if series.observed.is_none() {
-        through_changes(&mut values);
+    if let Some((stored, deadband)) = record {
+        let record = deadband::ExceptionRecord {
+            values: &series.values,
+            stored: &stored,
+            deadband,
+        };
+        // Lengths agree and a declared deadband is checked by the reader: no error here.
+        if let Ok(course) = deadband::course(record, ts_s) {
+            return course;
+        }
     }
-    if !smoothed {
-        return values.into_iter().collect();
-    }
+    let values: Vec<Option<f64>> = series.values.iter().collect();
     let half = (INLET_SMOOTHING_S / ts_s).round() as usize;
     local_quadratic(&values, half).into_iter().collect()
+}
+
+/// Where `values` hold each value for [`HELD_RUN_INSTANTS`] or more on average with at
+/// least [`MIN_CHANGES`] changes (a value stored by exception, exported on every row):
+/// the instants it changed at (each the first of its run, a stored value) and the
+/// deadband its changes show ([`deadband::estimated_deadband`]).
+fn held_between_changes(values: &Series) -> Option<(Vec<bool>, f64)> {
+    let changed: Vec<bool> = (0..values.len())
+        .map(|k| values.get(k).is_some() && (k == 0 || values.get(k - 1) != values.get(k)))
+        .collect();
+    let changes = changed.iter().filter(|c| **c).count();
+    let known = values.iter().flatten().count();
+    if changes == 0 || (known as f64) < HELD_RUN_INSTANTS * changes as f64 {
+        return None;
+    }
+    Some((changed, deadband::estimated_deadband(values, MIN_CHANGES)?))
 }
 
 /// Where `values` hold each value for [`HELD_RUN_INSTANTS`] or more on average, the value
@@ -917,7 +976,7 @@ fn coolant_flow_heat(
     ts_s: f64,
 ) -> Result<Series> {
     let c_rho = Water::at(inlet_c)?.heat_per_litre_j_per_k();
-    let flow = &reconstructed(flow, ts_s);
+    let flow = &reconstructed(flow, None, ts_s);
     let rise: Vec<Option<f64>> = (0..flow.len())
         .map(|k| Some(outlet.values.get(k)? - inlet.values.get(k)?))
         .collect();
@@ -1017,7 +1076,7 @@ mod tests {
             .collect();
         let noisy = |k: usize| course(k) + noise[k];
         let inlet = Signal::Profile(Quantity::CoolingWaterInletTemp);
-        let taken = reconstructed(&decimated(inlet.clone(), (0..n).map(noisy)), 1.0);
+        let taken = reconstructed(&decimated(inlet.clone(), (0..n).map(noisy)), None, 1.0);
         let rms = |f: &dyn Fn(usize) -> f64| {
             ((0..n).map(|k| f(k).powi(2)).sum::<f64>() / n as f64).sqrt()
         };
@@ -1037,7 +1096,7 @@ mod tests {
             })
             .collect();
         let staircase = rms(&|k| held[k] - course(k));
-        let taken = reconstructed(&decimated(inlet, held.iter().copied()), 1.0);
+        let taken = reconstructed(&decimated(inlet, held.iter().copied()), None, 1.0);
         // Up to the last change (after it, the last kept value is all there is: held).
         let last_change = (1..n).rev().find(|&k| held[k] != held[k - 1]).unwrap();
         let before = (0..last_change)
@@ -1064,7 +1123,7 @@ mod tests {
             })
             .collect();
         let flow = Signal::Profile(Quantity::CoolingWaterFlow);
-        let taken = reconstructed(&decimated(flow, held.iter().copied()), 1.0);
+        let taken = reconstructed(&decimated(flow, held.iter().copied()), None, 1.0);
         assert!((taken.get(8999).unwrap() - flow_course(8999)).abs() <= 0.05 + 1e-9);
         assert_eq!(taken.get(9000), Some(held[9000]));
         // Between the drift's changes (every 1,800 s) up to the last one before the step;
@@ -1075,7 +1134,7 @@ mod tests {
         assert!(worst < 0.002, "{worst}");
         // Any other channel is the model's as recorded.
         let stator = Signal::Profile(Quantity::StatorWindingTemp);
-        let as_recorded = reconstructed(&decimated(stator, (0..n).map(noisy)), 1.0);
+        let as_recorded = reconstructed(&decimated(stator, (0..n).map(noisy)), None, 1.0);
         assert!((0..n).all(|k| as_recorded.get(k) == Some(noisy(k))));
     }
 

@@ -131,6 +131,11 @@ pub struct Disturbances {
     /// ε ~ N(0, 1) from its own seeded stream (see [`plant::coolant_heat_walk_w`]).
     #[serde(skip_serializing_if = "is_zero")]
     pub coolant_heat_walk_kw_per_sqrt_h: f64,
+    /// P, s: where > 0, the inlet drifts along a slow wave instead,
+    /// D/2·(1 − cos(2π·t/P)) (up by D over half a period and back; see
+    /// [`plant::inlet_temperature_c`]).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub inlet_wave_period_s: f64,
 }
 
 /// Whether a disturbance is off (left out of the truth file, which stays as it was).
@@ -466,6 +471,11 @@ fn check_machine(o: &SynthOptions) -> Result<()> {
         }
     };
     finite("the inlet drift", d.inlet_drift_k, true)?;
+    finite(
+        "the inlet wave's period",
+        d.inlet_wave_period_s,
+        d.inlet_wave_period_s >= 0.0,
+    )?;
     finite("the start above the coolant", d.start_above_k, true)?;
     finite(
         "the coolant heat walk",

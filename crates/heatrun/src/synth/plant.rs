@@ -133,9 +133,15 @@ impl Trajectory {
 
 /// The coolant inlet's temperature at `t_s`, °C: the initial value plus a ramp of 0.6·D
 /// over the run and a daily swing of 0.4·D·sin(2π·t/1 day), as river water warming
-/// through the morning (D = 3 K: 1.8 K ramp and 1.2 K swing over the paper's 5.8 h).
+/// through the morning (D = 3 K: 1.8 K ramp and 1.2 K swing over the paper's 5.8 h); or,
+/// with a wave's period P > 0, the slow wave D/2·(1 − cos(2π·t/P)).
 pub fn inlet_temperature_c(o: &SynthOptions, t_s: f64) -> f64 {
     let d = o.disturbances.inlet_drift_k;
+    let p = o.disturbances.inlet_wave_period_s;
+    if p > 0.0 {
+        return o.coolant.inlet_temp_c
+            + 0.5 * d * (1.0 - (2.0 * std::f64::consts::PI * t_s / p).cos());
+    }
     o.coolant.inlet_temp_c
         + 0.6 * d * t_s / o.duration_s
         + 0.4 * d * (2.0 * std::f64::consts::PI * t_s / DAY_S).sin()

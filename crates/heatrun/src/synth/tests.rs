@@ -113,6 +113,7 @@ fn all_disturbances() -> Disturbances {
         }),
         // Large, so that a wrong column of the heat would show.
         coolant_heat_walk_kw_per_sqrt_h: 30.0,
+        inlet_wave_period_s: 0.0,
     }
 }
 
