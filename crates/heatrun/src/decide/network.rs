@@ -1,7 +1,9 @@
 //! Which thermal network a replay prints beside its model: the passive network nearest
 //! the identified model, or `rc`'s fit of C, G, K to the data, and why.
 
-use crate::estimate::{Estimate, IdentificationData, Method, OutputError, ResistanceCapacitance};
+use crate::estimate::{
+    Estimate, IdentificationData, Method, OutputError, ResistanceCapacitance, StartRace,
+};
 use crate::network;
 use crate::options::{NetworkChoice, ReplayOptions};
 use crate::spec::ModelDescription;
@@ -391,16 +393,21 @@ fn grey_box_from_nearest(
     // start avoids; the fit with the lower deviance is kept. Each core then fits the
     // network held to heat through the cooling water from its own start as well
     // ([`through_coolant`]).
+    // The two starts race ([`StartRace`]): a fit whose deviance falls further behind the
+    // other's than it can still gain is given up (the free fits in one race, the held
+    // ones in another).
     let water = crate::spec::coolant::outlet_state(model);
+    let (free_race, held_race) = (StartRace::new(floor), StartRace::new(floor));
     let fits: Vec<_> = std::thread::scope(|scope| {
         let handles: Vec<_> = [&nearest, &projected]
             .map(|start| {
-                let rc = &rc;
+                let (rc, free_race, held_race) = (&rc, &free_race, &held_race);
                 scope.spawn(move || {
-                    let free = rc.estimate_from(data, start, estimate.clone());
+                    let free = rc.estimate_from_in_race(data, start, estimate.clone(), free_race);
                     let held = water.and_then(|w| {
                         let start = crate::thermal::rc::projected(start.clone());
-                        rc.fit_through_coolant(data, &start, w).ok()
+                        rc.fit_through_coolant_in(data, &start, w, Some(held_race))
+                            .ok()
                     });
                     (free, held)
                 })
@@ -416,6 +423,7 @@ fn grey_box_from_nearest(
             .collect()
     });
     let (fits, held): (Vec<_>, Vec<_>) = fits.into_iter().unzip();
+    let dropped = dropped_start(&fits);
     let mut failure = None;
     let (start, full) = [
         "the passive network nearest the identified model",
@@ -434,7 +442,8 @@ fn grey_box_from_nearest(
         None => "rc's fit failed".into(),
     })?;
     let held: Vec<Estimate> = held.into_iter().flatten().collect();
-    let (chosen, coolant, held_at) = through_coolant(&rc, data, model, full, held, floor);
+    let (chosen, coolant, held_at) =
+        through_coolant(&rc, data, model, (full, held), (floor, &held_race));
     // The network chosen at the capped weights, refitted at each output's own weight where
     // one is above the cap (an output read without noise); itself otherwise.
     // A failed refit keeps the capped network, and the text says so.
@@ -457,10 +466,23 @@ fn grey_box_from_nearest(
     Ok((
         chosen,
         format!(
-            "fitted to the data by rc, started from {start}{coolant}; it leaves at most {beyond_k:.3} K RMS unexplained \
-             beyond the identified model's residuals{refit}"
+            "fitted to the data by rc, started from {start}{dropped}{coolant}; it leaves at most \
+             {beyond_k:.3} K RMS unexplained beyond the identified model's residuals{refit}"
         ),
     ))
+}
+
+/// What the text says of a start whose fit was given up in the race, where one was.
+fn dropped_start(fits: &[crate::estimate::Result<Estimate>]) -> String {
+    fits.iter()
+        .find_map(|fit| match fit {
+            Err(crate::estimate::EstimationError::StartDropped { gap }) => Some(format!(
+                " (the other start's fit was given up, its deviance {gap:.1} above this one's \
+                 and not to be caught up)"
+            )),
+            _ => None,
+        })
+        .unwrap_or_default()
 }
 
 /// `full` (rc's network) or the same network refitted with every part's conductance to
@@ -474,9 +496,8 @@ fn through_coolant(
     rc: &ResistanceCapacitance,
     data: &IdentificationData,
     model: &ModelDescription,
-    full: Estimate,
-    held_from_starts: Vec<Estimate>,
-    floor: f64,
+    (full, held_from_starts): (Estimate, Vec<Estimate>),
+    (floor, race): (f64, &StartRace),
 ) -> (Estimate, String, Option<usize>) {
     let (Some(water), Some(parts)) = (
         crate::spec::coolant::outlet_state(model),
@@ -491,7 +512,7 @@ fn through_coolant(
     // likelihood ratio of 43.8 against 2.1 from the truth) and the test rejected a
     // network that is the truth's. The lowest deviance is the held fit.
     let Some(mut held) = rc
-        .fit_through_coolant(data, &parts, water)
+        .fit_through_coolant_in(data, &parts, water, Some(race))
         .into_iter()
         .chain(held_from_starts)
         .min_by(|a, b| {

@@ -105,6 +105,14 @@ pub enum EstimationError {
         /// What the fit ended on.
         reason: String,
     },
+    /// The grey-box network fit from one of several starts was given up: its deviance
+    /// stood further above another start's than it could still gain
+    /// ([`crate::estimate::StartRace`]).
+    #[error("rc: the fit from this start was dropped, its deviance {gap:.1} above another start's")]
+    StartDropped {
+        /// How far its deviance stood above the lowest.
+        gap: f64,
+    },
     /// The grey-box network fit was asked for a model with an input that is not heat.
     #[error("rc fits a thermal network, whose inputs are heat; the input '{input}' is not (kind = \"exogenous\")")]
     InputNotHeat {

@@ -34,7 +34,11 @@
 //! A record stored by exception is fitted as its kept values (without OE's censoring).
 
 use crate::estimate::Method;
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
+
+mod race;
+use race::Standing;
+pub use race::StartRace;
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
@@ -88,7 +92,7 @@ impl Estimator for ResistanceCapacitance {
         }
         .estimate(data)?;
         let start = start_parts(&oe.model, self.scaling);
-        self.estimate_from_passive(data, start, oe)
+        self.estimate_from_passive(data, start, oe, None)
     }
 }
 
@@ -107,7 +111,21 @@ impl ResistanceCapacitance {
         start: &Parts,
         output_error: Estimate,
     ) -> Result<Estimate> {
-        self.estimate_from_passive(data, projected(start.clone()), output_error)
+        self.estimate_from_passive(data, projected(start.clone()), output_error, None)
+    }
+
+    /// [`ResistanceCapacitance::estimate_from`] as one of several starts fitted beside
+    /// each other: the full-rate fit is given up
+    /// ([`EstimationError::StartDropped`]) where its deviance falls further behind
+    /// another's in `race` than it can still gain ([`StartRace`]).
+    pub fn estimate_from_in_race(
+        &self,
+        data: &IdentificationData,
+        start: &Parts,
+        output_error: Estimate,
+        race: &StartRace,
+    ) -> Result<Estimate> {
+        self.estimate_from_passive(data, projected(start.clone()), output_error, Some(race))
     }
 
     /// [`ResistanceCapacitance::estimate_from`] from a `start` already projected.
@@ -116,6 +134,7 @@ impl ResistanceCapacitance {
         data: &IdentificationData,
         start: Parts,
         output_error: Estimate,
+        race: Option<&StartRace>,
     ) -> Result<Estimate> {
         self.scaling_is_valid()?;
         // The coarse fit is a start. (Weighting the full-rate
@@ -124,7 +143,14 @@ impl ResistanceCapacitance {
         let coarse_fit = coarse(data, &output_error.model).and_then(|coarse| {
             let map = Parametrisation::of_shape(coarse.ts_s, self.scaling, &start);
             let at = map.start.clone();
-            let fit = self.fit_from(&coarse, map, &at, &[], (COARSE_NEGLIGIBLE_CHI2, false));
+            let fit = self.fit_from(
+                &coarse,
+                map,
+                &at,
+                &[],
+                (COARSE_NEGLIGIBLE_CHI2, false),
+                None,
+            );
             // A failed coarse fit only loses its head start.
             fit.ok()?.network.map(|n| projected(n.parts))
         });
@@ -142,7 +168,8 @@ impl ResistanceCapacitance {
         let start = coarse_fit.unwrap_or(start);
         let map = Parametrisation::of_shape(data.ts_s, self.scaling, &start);
         let start = map.start.clone();
-        let mut estimate = self.fit_from(data, map, &start, &[], (NEGLIGIBLE_CHI2, false))?;
+        let mut estimate =
+            self.fit_from(data, map, &start, &[], (NEGLIGIBLE_CHI2, false), race)?;
         if let Some(network) = estimate.network.as_mut() {
             *network.output_error = output_error;
         }
@@ -159,12 +186,24 @@ impl ResistanceCapacitance {
         parts: &Parts,
         coolant_state: usize,
     ) -> Result<Estimate> {
+        self.fit_through_coolant_in(data, parts, coolant_state, None)
+    }
+
+    /// [`ResistanceCapacitance::fit_through_coolant`], given up where `race` has another
+    /// held fit far ahead ([`StartRace`]).
+    pub fn fit_through_coolant_in(
+        &self,
+        data: &IdentificationData,
+        parts: &Parts,
+        coolant_state: usize,
+        race: Option<&StartRace>,
+    ) -> Result<Estimate> {
         let n = parts.capacitance_j_per_k.len();
         let pinned = held_to_coolant(n, coolant_state);
         let parts = pinned_at_zero(parts, &pinned);
         let map = Parametrisation::of_shape(data.ts_s, self.scaling, &parts);
         let start = map.start.clone();
-        self.fit_from(data, map, &start, &pinned, (NEGLIGIBLE_CHI2, false))
+        self.fit_from(data, map, &start, &pinned, (NEGLIGIBLE_CHI2, false), race)
     }
 
     /// `estimate`'s network refitted from itself with the weights' cap raised pass by
@@ -207,7 +246,8 @@ impl ResistanceCapacitance {
         let parts = pinned_at_zero(&network.parts, &pinned);
         let map = Parametrisation::of_shape(data.ts_s, self.scaling, &parts);
         let start = map.start.clone();
-        let mut heavier = self.fit_from(data, map, &start, &pinned, (NEGLIGIBLE_CHI2, true))?;
+        let mut heavier =
+            self.fit_from(data, map, &start, &pinned, (NEGLIGIBLE_CHI2, true), None)?;
         if let Some(h) = heavier.network.as_mut() {
             h.output_error = network.output_error.clone();
         }
@@ -239,6 +279,7 @@ impl ResistanceCapacitance {
         start: &[f64],
         pinned: &[usize],
         (negligible_chi2, raise_cap): (f64, bool),
+        race: Option<&StartRace>,
     ) -> Result<Estimate> {
         let segments = data.segments();
         let rows_used = oe::compared_instants(data, &segments);
@@ -259,6 +300,7 @@ impl ResistanceCapacitance {
         let mut inner = Problem::new(data, segments, &start_model, &weights).with_output_offset();
         inner.progress = Some(oe::Reporting::new(&self.progress, self.method().name()));
         let mut problem = RcProblem::new(inner, map, start, pinned);
+        problem.race = race;
         let mut evaluations = 0;
         // Fewer evaluations than OE's 200·(p+1): a conductance or share that is zero in
         // truth walks its logarithm towards −∞ with ever smaller gains, and the fit stops
@@ -276,6 +318,7 @@ impl ResistanceCapacitance {
         // covariance is taken at them ([`RcProblem::settled_since`]).
         let mut reported: Option<Vec<f64>> = None;
         for pass in 0..MOST_PASSES {
+            problem.pass = pass;
             let before = problem.params.clone();
             problem.stall = Stall {
                 negligible_chi2,
@@ -284,6 +327,9 @@ impl ResistanceCapacitance {
             let (solved, report) = lm.minimize(problem);
             problem = solved;
             evaluations += report.number_of_evaluations;
+            if let Some(gap) = problem.dropped.get() {
+                return Err(EstimationError::StartDropped { gap });
+            }
             let stalled = problem.stall.stalled.get();
             if stalled {
                 // Stopped by [`Stall`]: the best point is the fit of this pass.
@@ -344,7 +390,7 @@ impl ResistanceCapacitance {
             let next: Vec<f64> = capped_at(own, cap).iter().map(|w| w.sqrt()).collect();
             let change = oe::largest_relative_change(&next, &problem.inner.sqrt_w);
             problem.inner.sqrt_w = next;
-            *problem.cache.borrow_mut() = None;
+            problem.forget_evaluations();
             // Objectives under the old weights are not comparable with the new ones.
             *problem.best.borrow_mut() = None;
             if change < 0.05 && !binds {
@@ -353,7 +399,7 @@ impl ResistanceCapacitance {
         }
         if let Some(sqrt_w) = reported.filter(|w| *w != problem.inner.sqrt_w) {
             problem.inner.sqrt_w = sqrt_w;
-            *problem.cache.borrow_mut() = None;
+            problem.forget_evaluations();
         }
         if !problem.inner.params.iter().all(|v| v.is_finite()) {
             return Err(EstimationError::MinimisationFailed {
@@ -620,16 +666,28 @@ struct RcProblem<'a> {
     /// D = ∂Θ/∂p at `params`, the free entries' columns.
     d: DMatrix<f64>,
     cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
+    /// J at the parameters it was simulated at, without the normal equations.
+    objective: RefCell<Option<(DVector<f64>, f64)>>,
     /// The lowest objective evaluated so far and its parameters: where the minimiser
     /// stops on a point the model cannot be evaluated at, the fit returns here.
     best: RefCell<Option<(f64, DVector<f64>)>>,
     /// Whether the fit still gains: it ends where it no longer does.
     stall: Stall,
+    /// The other starts' fits this one runs beside, if any.
+    race: Option<&'a StartRace>,
+    /// How far behind the race's lowest deviance the fit was dropped, where it was.
+    dropped: Cell<Option<f64>>,
+    /// The pass of the fit ([`MOST_PASSES`]), from 0.
+    pass: usize,
 }
 
 /// Evaluations in a window over which the fit must lower J by more than
-/// [`NEGLIGIBLE_CHI2`] noise variances to go on.
-const STALL_WINDOW: usize = 50;
+/// [`NEGLIGIBLE_CHI2`] noise variances to go on: a gain under 0.05 noise variances an
+/// evaluation is a walk along a direction the data hardly see (a conductance or share
+/// towards zero), not a descent. (Fifty before issue 33: a pass ran on for fifty
+/// evaluations past its minimum, and the four-node machine's fits spent most of their
+/// time there.)
+const STALL_WINDOW: usize = 20;
 
 /// A change of the weighted squared error J smaller than this many noise variances σ²
 /// (χ² units, σ² ≈ J/N at the minimum) over [`STALL_WINDOW`] evaluations is no progress
@@ -637,9 +695,10 @@ const STALL_WINDOW: usize = 50;
 const NEGLIGIBLE_CHI2: f64 = 1.0;
 
 /// [`NEGLIGIBLE_CHI2`] of the coarse fit that starts the full-rate one ([`coarse`]): none,
-/// it runs to LM's own end. Stopped at 10 noise variances, the paper's model (noise-free,
-/// 6,000 s; tests/comfort.rs) gave a start from which the full-rate fit ended on a Φ with
-/// an eigenvalue at 0.
+/// it runs to its minimum ([`RcProblem::within_noise_of_minimum`]) or LM's own end.
+/// Stopped at 10 noise variances, the paper's model (noise-free, 6,000 s;
+/// tests/comfort.rs) gave a start from which the full-rate fit ended on a Φ with an
+/// eigenvalue at 0.
 const COARSE_NEGLIGIBLE_CHI2: f64 = 0.0;
 
 /// The end of a walk towards a zero conductance or share: its logarithm goes towards −∞
@@ -679,8 +738,12 @@ impl<'a> RcProblem<'a> {
             p_full: start.to_vec(),
             params: DVector::from_vec(params),
             cache: RefCell::new(None),
+            objective: RefCell::new(None),
             best: RefCell::new(None),
             stall: Stall::default(),
+            race: None,
+            dropped: Cell::new(None),
+            pass: 0,
         };
         let params = problem.params.clone();
         problem.set_params(&params);
@@ -719,7 +782,7 @@ impl<'a> RcProblem<'a> {
 
     /// OE's evaluation in [Θ; x0] carried to [p; x0] by T = diag(D, I).
     fn evaluate(&self) -> Evaluation {
-        let e = self.inner.evaluate_full();
+        let e = self.inner.normal_equations();
         let (pt, pp) = (self.inner.p_theta(), self.free.len());
         let rest = e.gram.nrows() - pt;
         let d = &self.d;
@@ -751,14 +814,29 @@ impl<'a> RcProblem<'a> {
         oe::cached(&self.cache, &self.params, || self.evaluate())
     }
 
-    /// The residuals in square-root form at the current parameters, `None` where the
-    /// model cannot be evaluated there (an exponential out of range, JᵀJ not definite).
+    /// Drops the evaluations kept: the weights they were made at have changed.
+    fn forget_evaluations(&self) {
+        *self.cache.borrow_mut() = None;
+        *self.objective.borrow_mut() = None;
+    }
+
+    /// The residuals at the current parameters in the form [0; …; 0; √J]
+    /// ([`Evaluation::residual_last_form`]), from a simulation without sensitivities;
+    /// `None` where the model cannot be evaluated there (an exponential out of range).
     fn residuals_here(&self) -> Option<DVector<f64>> {
         if !self.params.iter().all(|v| v.is_finite()) {
             return None;
         }
-        let (r, _) = self.evaluated().square_root_form()?;
-        r.iter().all(|v| v.is_finite()).then_some(r)
+        let objective = oe::cached(&self.objective, &self.params, || {
+            self.inner.evaluate_objective().iter().sum::<f64>()
+        });
+        let objective = *objective;
+        if !(objective.is_finite() && objective >= 0.0) {
+            return None;
+        }
+        let mut r = DVector::zeros(self.params.len() + 1);
+        r[self.params.len()] = objective.sqrt();
+        Some(r)
     }
 
     /// Residuals far above the best so far, for a trial point the model cannot be
@@ -795,6 +873,50 @@ impl<'a> RcProblem<'a> {
         stalled
     }
 
+    /// Whether the Gauss–Newton step from here would lower J by less than
+    /// [`SETTLED_STANDARD_ERRORS`]² noise variances: with `reduced` = [z; ρ] the residuals
+    /// in square-root form ([`Evaluation::square_root_form`]), that decrease is
+    /// ‖z‖² = rᵀJ(JᵀJ)⁻¹Jᵀr = δᵀ(JᵀJ)δ for the step δ to the local minimum, and
+    /// ‖z‖²/σ² (σ² = J/N, the weighted noise variance) is δ's squared length in the
+    /// parameters' standard errors. Below 0.1², the minimum is nearer than a tenth of a
+    /// standard error in every direction: a step the data cannot tell from none. This
+    /// rule, not LM's relative tolerances (10⁻¹⁰ of J, a 10⁻⁵th of one noise variance on
+    /// a 6 h run), ends a pass at its minimum: a pass ran on for [`STALL_WINDOW`]
+    /// evaluations there before.
+    fn within_noise_of_minimum(&self, reduced: &DVector<f64>) -> bool {
+        let p = reduced.len().saturating_sub(1);
+        let decrease = reduced.rows(0, p).norm_squared();
+        let entries: usize = self.inner.counts.iter().sum();
+        let sigma2 = reduced.norm_squared() / entries.max(1) as f64;
+        decrease < SETTLED_STANDARD_ERRORS.powi(2) * sigma2
+    }
+
+    /// Tells the race, if any, this accepted point's deviance and what its Gauss–Newton
+    /// step predicts it can still gain (‖z‖²/σ², `reduced` = [z; ρ]); the gap to the
+    /// lowest deviance where the fit is too far behind to go on ([`StartRace`]).
+    fn behind_in_race(&self, evaluation: &Evaluation, reduced: &DVector<f64>) -> Option<f64> {
+        let race = self.race?;
+        let p = reduced.len().saturating_sub(1);
+        let entries: usize = self.inner.counts.iter().sum();
+        let sigma2 = reduced.norm_squared() / entries.max(1) as f64;
+        let standing = Standing {
+            deviance: race::deviance(
+                &evaluation.sse,
+                &self.inner.counts,
+                &self.inner.sqrt_w,
+                race.floor(),
+            ),
+            predicted_gain: reduced.rows(0, p).norm_squared() / sigma2.max(f64::MIN_POSITIVE),
+            parameters: self.free.len(),
+        };
+        // Published from the first point on, but a fit is dropped only from its second
+        // pass, at the minimum of its first: far from a minimum the Gauss–Newton step
+        // predicts less than the fit goes on to gain (dropped in its first pass, the
+        // start that ends lowest was given up on the four-node machine, seed 3).
+        let gap = race.behind(&standing)?;
+        (self.pass >= 1).then_some(gap)
+    }
+
     /// Whether every network parameter moved less than [`SETTLED_STANDARD_ERRORS`] of its
     /// standard error from `previous`, the standard error the fit reports: σ²(JᵀWJ)⁻¹ at
     /// the current parameters with the second pass's capped weights `reported_sqrt_w`.
@@ -808,10 +930,10 @@ impl<'a> RcProblem<'a> {
     /// noise, as the fit's intervals always have.
     fn settled_since(&mut self, previous: &DVector<f64>, reported_sqrt_w: &[f64]) -> bool {
         let kept = std::mem::replace(&mut self.inner.sqrt_w, reported_sqrt_w.to_vec());
-        *self.cache.borrow_mut() = None;
+        self.forget_evaluations();
         let (cov, _) = self.covariance(&self.evaluate());
         self.inner.sqrt_w = kept;
-        *self.cache.borrow_mut() = None;
+        self.forget_evaluations();
         (0..self.free.len()).all(|q| {
             let moved = (self.params[q] - previous[q]).abs();
             moved <= SETTLED_STANDARD_ERRORS * cov[(q, q)].max(0.0).sqrt()
@@ -945,8 +1067,25 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let (_, j) = self.evaluated().square_root_form()?;
-        j.iter().all(|v| v.is_finite()).then_some(j)
+        let evaluation = self.evaluated();
+        let j = evaluation.residual_last_form()?;
+        if !j.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        // The Gauss–Newton step's predicted decrease, where JᵀJ is definite.
+        if let Some((r, _)) = evaluation.square_root_form() {
+            if self.within_noise_of_minimum(&r) {
+                // No Jacobian: LM stops here, at the point it just accepted ([`Stall`]).
+                self.stall.stalled.set(true);
+                return None;
+            }
+            if let Some(gap) = self.behind_in_race(&evaluation, &r) {
+                // No Jacobian: LM stops, and the fit reports the start dropped.
+                self.dropped.set(Some(gap));
+                return None;
+            }
+        }
+        Some(j)
     }
 }
 

@@ -571,15 +571,33 @@ impl<'a> Problem<'a> {
         self.pass(None)
     }
 
+    /// The weighted squared error per output, reported as one evaluation: a simulation
+    /// without the sensitivities (n² + n·m products an instant against the normal
+    /// equations' thousands), for a trial point that may be rejected.
+    pub(crate) fn evaluate_objective(&self) -> Vec<f64> {
+        let sse = self.pass(None);
+        if let Some(reporting) = &self.progress {
+            reporting.evaluated(&sse);
+        }
+        sse
+    }
+
     /// The weighted squared error per output and the normal equations JᵀJ, Jᵀr.
     pub(crate) fn evaluate_full(&self) -> Evaluation {
+        let evaluation = self.normal_equations();
+        if let Some(reporting) = &self.progress {
+            reporting.evaluated(&evaluation.sse);
+        }
+        evaluation
+    }
+
+    /// [`Problem::evaluate_full`] without reporting it (a point already reported by
+    /// [`Problem::evaluate_objective`]).
+    pub(crate) fn normal_equations(&self) -> Evaluation {
         let cols = self.params.len();
         let mut gram = DMatrix::<f64>::zeros(cols, cols);
         let mut grad = DVector::<f64>::zeros(cols);
         let sse = self.pass(Some((&mut gram, &mut grad)));
-        if let Some(reporting) = &self.progress {
-            reporting.evaluated(&sse);
-        }
         Evaluation { sse, gram, grad }
     }
 
@@ -903,6 +921,52 @@ impl Evaluation {
         let mut jacobian = DMatrix::zeros(p + 1, p);
         jacobian.view_mut((0, 0), (p, p)).copy_from(&r_mat);
         Some((residual, jacobian))
+    }
+}
+
+impl Evaluation {
+    /// The square-root form whose residual is [0; …; 0; ρ], ρ = √J, whatever the
+    /// Jacobian: Ĵ = [R'; gᵀ/ρ] with R'ᵀR' = JᵀJ − g gᵀ/ρ² (g = Jᵀr), which is
+    /// Jᵀ(I − r rᵀ/‖r‖²)J, positive semi-definite. Then ĴᵀĴ = JᵀJ, Ĵᵀ[0; ρ] = g and
+    /// the norm is ‖r‖: Levenberg–Marquardt's subproblem and objective are those of the
+    /// full Jacobian. Why: a trial point's residuals then need J alone (a simulation
+    /// without sensitivities, [`Problem::evaluate_objective`]), and the normal equations
+    /// are made only at the points LM accepts. `None` where R' cannot be factored.
+    pub(crate) fn residual_last_form(&self) -> Option<DMatrix<f64>> {
+        let (gram, grad) = (&self.gram, &self.grad);
+        let p = gram.nrows();
+        let rho2: f64 = self.sse.iter().sum();
+        if !(rho2 > 0.0 && rho2.is_finite()) {
+            return None;
+        }
+        let rho = rho2.sqrt();
+        let d: Vec<f64> = (0..p)
+            .map(|i| 1.0 / gram[(i, i)].max(1e-300).sqrt())
+            .collect();
+        let projected = DMatrix::from_fn(p, p, |i, j| {
+            (gram[(i, j)] - grad[i] * grad[j] / rho2) * d[i] * d[j]
+        });
+        // A whisper of ridge, raised where rounding leaves the projection a hair below
+        // semi-definite (the residual almost within J's span) or a parameter is not seen:
+        // the point was accepted already, and a Jacobian refused here would end the fit.
+        let l = [1e-13, 1e-10, 1e-7, 1e-4].into_iter().find_map(|ridge| {
+            let mut m = projected.clone();
+            for i in 0..p {
+                m[(i, i)] += ridge;
+            }
+            m.cholesky().map(|c| c.l())
+        })?;
+        let mut jacobian = DMatrix::zeros(p + 1, p);
+        for i in 0..p {
+            for j in 0..p {
+                // R' = L_sᵀ D⁻¹.
+                jacobian[(i, j)] = l[(j, i)] / d[j];
+            }
+        }
+        for j in 0..p {
+            jacobian[(p, j)] = grad[j] / rho;
+        }
+        Some(jacobian)
     }
 }
 

@@ -152,7 +152,7 @@ fn from_a_distant_start_noise_free_data_give_the_true_network() {
         progress: Default::default(),
     };
     let e = estimator
-        .fit_from(&data, map, &p0, &[], (NEGLIGIBLE_CHI2, true))
+        .fit_from(&data, map, &p0, &[], (NEGLIGIBLE_CHI2, true), None)
         .unwrap();
     let network = e.network.as_ref().unwrap();
     let (cg, k) = errors(&network.parts, &truth);
