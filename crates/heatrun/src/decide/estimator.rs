@@ -172,7 +172,12 @@ pub fn estimate_chosen(
         likelihood_ratio,
         oe_rms_k: rms_per_output_k.clone(),
         resolution_k: noise.resolution_k.clone(),
-        outputs: options.model.states.iter().map(|s| s.name.clone()).collect(),
+        outputs: options
+            .model
+            .states
+            .iter()
+            .map(|s| s.name.clone())
+            .collect(),
     };
     let rms_k = rms_per_output_k.iter().copied().fold(0.0_f64, f64::max);
     if rms_k < EXACT_FIT_RMS_K {

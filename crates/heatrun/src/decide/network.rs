@@ -93,7 +93,8 @@ pub fn network_source(
 }
 
 /// Simulating the nearest passive network leaves at most this many times the identified
-/// model's residual RMS unexplained beyond those residuals: it is as near the data as the
+/// model's residual RMS unexplained beyond those residuals, on every output against that
+/// output's own residuals: it is as near the data as the
 /// noise lets any network be, and rc's fit (seconds to minutes) would buy nothing the data
 /// can tell, whatever the χ² test of the distance in Θ says on a long run.
 pub const NEAR_WITHIN_NOISE: f64 = 1.0;
@@ -117,9 +118,10 @@ pub const FAR_BEYOND_NOISE: f64 = 10.0;
 struct Nearness {
     /// χ² of the minimum distance, its degrees of freedom and p-value.
     distance: network::MinimumDistance,
-    /// max_j √(max(0, MSE_network,j − MSE_model,j)), K.
+    /// √(max(0, MSE_network,j − MSE_model,j)) of the output j whose ratio to its own
+    /// noise is largest, K.
     beyond_k: f64,
-    /// max_j of the model's residual RMS (at least the rounding's r_j/√12), K.
+    /// That output's residual RMS under the model (at least the rounding's r_j/√12), K.
     noise_k: f64,
     /// The largest factor between a cycle's forward and backward coupling products in
     /// the model's own network (1 for a passive network).
@@ -203,8 +205,8 @@ fn chosen(
     };
     let why = match &nearness {
         Some(n) => format!(
-            "the nearest passive network is rejected (χ² {:.1} on {} degrees of freedom) but \
-             near the data ({:.3} K RMS beyond the model's {:.3} K): ",
+            "the nearest passive network is rejected (χ² {:.1} on {} degrees of freedom) and \
+             leaves {:.3} K RMS unexplained beyond the model's {:.3} K on its worst output: ",
             n.distance.distance, n.distance.degrees_of_freedom, n.beyond_k, n.noise_k
         ),
         None => String::new(),
@@ -269,18 +271,24 @@ fn nearness(
         crate::model::fit::fit(data, &m.simulate_segments(data, &segments), base)
     };
     let (of_network, of_model) = (fit_of(&nearest), fit_of(&estimate.model));
-    let beyond_k = of_network
+    // Each output against its own noise: a field winding read through U_f/I_f is ten
+    // times noisier than the water's sensor, and pooled it would hide a network that
+    // misses the water by several of the water's σ (issue 33's four-node seeds 4 and 5).
+    let beyond: Vec<f64> = of_network
         .mse_k2
         .iter()
         .zip(&of_model.mse_k2)
         .map(|(n, m)| (n - m).max(0.0).sqrt())
-        .fold(0.0, f64::max);
-    let noise_k = of_model
+        .collect();
+    let own_noise: Vec<f64> = of_model
         .mse_k2
         .iter()
         .enumerate()
         .map(|(j, m)| m.max(noise.variance(j) * base * base).sqrt())
-        .fold(0.0, f64::max);
+        .collect();
+    let worst = (0..beyond.len())
+        .max_by(|&a, &b| (beyond[a] / own_noise[a]).total_cmp(&(beyond[b] / own_noise[b])))?;
+    let (beyond_k, noise_k) = (beyond[worst], own_noise[worst]);
     let cycle_ratio = network::Network::from_continuous(
         &continuous.a_c,
         &continuous.b_c,

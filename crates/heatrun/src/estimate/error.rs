@@ -108,7 +108,9 @@ pub enum EstimationError {
     /// The grey-box network fit from one of several starts was given up: its deviance
     /// stood further above another start's than it could still gain
     /// ([`crate::estimate::StartRace`]).
-    #[error("rc: the fit from this start was dropped, its deviance {gap:.1} above another start's")]
+    #[error(
+        "rc: the fit from this start was dropped, its deviance {gap:.1} above another start's"
+    )]
     StartDropped {
         /// How far its deviance stood above the lowest.
         gap: f64,

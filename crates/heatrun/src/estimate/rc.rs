@@ -168,8 +168,7 @@ impl ResistanceCapacitance {
         let start = coarse_fit.unwrap_or(start);
         let map = Parametrisation::of_shape(data.ts_s, self.scaling, &start);
         let start = map.start.clone();
-        let mut estimate =
-            self.fit_from(data, map, &start, &[], (NEGLIGIBLE_CHI2, false), race)?;
+        let mut estimate = self.fit_from(data, map, &start, &[], (NEGLIGIBLE_CHI2, false), race)?;
         if let Some(network) = estimate.network.as_mut() {
             *network.output_error = output_error;
         }

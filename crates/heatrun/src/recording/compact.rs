@@ -48,7 +48,12 @@ pub(super) fn parse(data: &[u8]) -> Option<(f64, CompactQuality)> {
 /// The length of the JSON number at the start of `text` (`None`: it is not one).
 fn number_end(text: &[u8]) -> Option<usize> {
     let mut at = usize::from(text.first() == Some(&b'-'));
-    let digits = |from: usize| text[from..].iter().take_while(|b| b.is_ascii_digit()).count();
+    let digits = |from: usize| {
+        text[from..]
+            .iter()
+            .take_while(|b| b.is_ascii_digit())
+            .count()
+    };
     let whole = digits(at);
     // No leading zeros: "0" alone, or a digit 1-9 first.
     if whole == 0 || (whole > 1 && text[at] == b'0') {
@@ -90,9 +95,15 @@ mod tests {
 
     #[test]
     fn the_writers_forms_are_read_and_others_are_left_to_the_json_parser() {
-        assert_eq!(parse(b"{\"value\":25.13}"), Some((25.13, CompactQuality::Good)));
+        assert_eq!(
+            parse(b"{\"value\":25.13}"),
+            Some((25.13, CompactQuality::Good))
+        );
         assert_eq!(parse(b"{\"value\":-3}"), Some((-3.0, CompactQuality::Good)));
-        assert_eq!(parse(b"{\"value\":1.5e-3}"), Some((1.5e-3, CompactQuality::Good)));
+        assert_eq!(
+            parse(b"{\"value\":1.5e-3}"),
+            Some((1.5e-3, CompactQuality::Good))
+        );
         assert_eq!(
             parse(b"{\"value\":7,\"quality\":\"uncertain\"}"),
             Some((7.0, CompactQuality::Uncertain))
@@ -103,7 +114,10 @@ mod tests {
         );
         let (v, q) = parse(b"{\"value\":null}").unwrap();
         assert!(v.is_nan() && q == CompactQuality::Good);
-        assert_eq!(parse(b"{\"value\":-0}").unwrap().0.to_bits(), 0f64.to_bits());
+        assert_eq!(
+            parse(b"{\"value\":-0}").unwrap().0.to_bits(),
+            0f64.to_bits()
+        );
         // Not the compact form, or not JSON: for the parser to read or refuse.
         for other in [
             &b"{\"value\": 25.13}"[..],
