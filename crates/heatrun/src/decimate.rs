@@ -466,6 +466,13 @@ impl Decimator {
             return 0.0;
         }
         offsets.sort_by(f32::total_cmp);
+        // A phase is a constant offset. Readings whose offsets spread over the window (a
+        // drifting clock: TCLab's rows every 1.0013 s) have none, and a moved grid would
+        // interpolate every one of them.
+        let quartile = |q: usize| offsets[(offsets.len() - 1) * q / 4] as f64;
+        if quartile(3) - quartile(1) > PHASE_SPREAD * ts_s {
+            return 0.0;
+        }
         let phase = offsets[offsets.len() / 2] as f64;
         if phase.abs() > OFF_REFERENCE * ts_s {
             phase
@@ -773,6 +780,10 @@ impl Placement {
             .count();
     }
 }
+
+/// The largest interquartile range of the readings' offsets from their instants, as a
+/// fraction of Ts, for which they have a phase ([`Decimator::grid_phase`]).
+const PHASE_SPREAD: f64 = 0.1;
 
 /// A window's samples whose mean time is further than this share of Ts from the
 /// window's reference time are taken to it along the line to a neighbouring window
