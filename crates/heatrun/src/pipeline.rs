@@ -245,6 +245,9 @@ pub fn replay_observed(
     )
     .map_err(in_file)?;
     decisions.push(screened.decision());
+    // The decisions after the screen compare residuals with the sensors' white noise it
+    // measured as well.
+    let noise_floor = noise_floor.with_white_noise(screened.noise_k.clone());
     let left_out = screened.left_out;
     // Where the estimator found the rises offset by the error of the first sample they are
     // measured from, the references become the initial temperatures it estimated: from

@@ -19,6 +19,13 @@ use crate::spec::ModelDescription;
 /// from it.
 pub const EXPLAINED_BY_ROUNDING: f64 = 2.0;
 
+/// A model whose residual RMS on some state is more than this multiple of that
+/// sensor's white noise misses the data by a course of its own, not by noise: refinements
+/// sized to the noise (the first sample's offset) buy nothing there. The models that fit
+/// leave 1.0 to 1.3 times the noise (the RC unit's and the paper's noisy runs); the
+/// paper's formulation on a run whose flow is cut leaves 9 times (its outlet).
+pub const MISFIT_BEYOND_NOISE: f64 = 3.0;
+
 /// Where a temperature's resolution comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -38,6 +45,11 @@ pub struct NoiseFloor {
     pub source: Vec<ResolutionSource>,
     /// θ_base, K: the states' unit in the model (x = θ/θ_base).
     pub temperature_base_k: f64,
+    /// Per state: the sensor's white noise σ_j, K, as the screen measured it
+    /// (1.4826·MAD of the residuals' first differences / √2, which a slow misfit does not
+    /// reach: [`crate::screen::glitch::noise_scale_k`]); empty before the screen.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub white_noise_k: Vec<f64>,
 }
 
 impl NoiseFloor {
@@ -71,6 +83,7 @@ impl NoiseFloor {
             resolution_k,
             source,
             temperature_base_k: signals.temperature_base_k,
+            white_noise_k: Vec::new(),
         }
     }
 
@@ -82,7 +95,31 @@ impl NoiseFloor {
             resolution_k,
             source,
             temperature_base_k,
+            white_noise_k: Vec::new(),
         }
+    }
+
+    /// The floor with the sensors' white noise σ_j (K) the screen measured.
+    pub fn with_white_noise(self, white_noise_k: Vec<f64>) -> NoiseFloor {
+        NoiseFloor {
+            white_noise_k,
+            ..self
+        }
+    }
+
+    /// Whether a model whose residuals have these variances (model units, per state)
+    /// misses the data by far more than the sensors' noise on some state: its residual
+    /// RMS above [`MISFIT_BEYOND_NOISE`] × max(σ_j, r_j/√12). False where the screen
+    /// measured no noise.
+    pub fn misfit_beyond_noise(&self, residual_variance: &[f64]) -> bool {
+        residual_variance
+            .iter()
+            .zip(&self.white_noise_k)
+            .enumerate()
+            .any(|(j, (v, sigma_k))| {
+                let noise = (sigma_k / self.temperature_base_k).powi(2).max(self.variance(j));
+                noise > 0.0 && *v > MISFIT_BEYOND_NOISE.powi(2) * noise
+            })
     }
 
     /// The rounding's variance of state j in the model's units: (r_j/θ_base)²/12.

@@ -136,23 +136,48 @@ impl ResistanceCapacitance {
         output_error: Estimate,
         race: Option<&StartRace>,
     ) -> Result<Estimate> {
+        let mut estimate = self.coarse_first(data, start, &[], &output_error.model, race)?;
+        if let Some(network) = estimate.network.as_mut() {
+            *network.output_error = output_error;
+        }
+        Ok(estimate)
+    }
+
+    /// The fit to `data` from `start` (projected, the parameters `pinned` held), run
+    /// first on a coarser grid where the fastest time constant of `fastest_from` spans
+    /// ten samples of it ([`coarse`]): the full-rate fit then starts from the coarse
+    /// network, near its own minimum. The coarse fit's evaluations cost a k-th of the
+    /// full rate's, and a start far from the minimum takes hundreds of them (the
+    /// four-node machine's held fit from the nearest network: 1,206 full-rate
+    /// evaluations, 50 s, before it went coarse first).
+    fn coarse_first(
+        &self,
+        data: &IdentificationData,
+        start: Parts,
+        pinned: &[usize],
+        fastest_from: &DiscreteModel,
+        race: Option<&StartRace>,
+    ) -> Result<Estimate> {
         self.scaling_is_valid()?;
         // The coarse fit is a start. (Weighting the full-rate
         // fit by `output_error`'s simulation error rather than its start's, tried, made it
         // stiff: 2,800 evaluations on the four-node machine against 335.)
-        let coarse_fit = coarse(data, &output_error.model).and_then(|coarse| {
+        let coarse_fit = coarse(data, fastest_from).and_then(|coarse| {
             let map = Parametrisation::of_shape(coarse.ts_s, self.scaling, &start);
             let at = map.start.clone();
             let fit = self.fit_from(
                 &coarse,
                 map,
                 &at,
-                &[],
+                pinned,
                 (COARSE_NEGLIGIBLE_CHI2, false),
                 None,
             );
-            // A failed coarse fit only loses its head start.
-            fit.ok()?.network.map(|n| projected(n.parts))
+            // A failed coarse fit only loses its head start. A held conductance comes
+            // back as 0: its logarithm starts finite again.
+            fit.ok()?
+                .network
+                .map(|n| pinned_at_zero(&projected(n.parts), pinned))
         });
         // The coarse network starts the fit only where it simulates the full-rate data
         // better than the start it came from: on a grid twice as coarse as the paper's
@@ -168,11 +193,7 @@ impl ResistanceCapacitance {
         let start = coarse_fit.unwrap_or(start);
         let map = Parametrisation::of_shape(data.ts_s, self.scaling, &start);
         let start = map.start.clone();
-        let mut estimate = self.fit_from(data, map, &start, &[], (NEGLIGIBLE_CHI2, false), race)?;
-        if let Some(network) = estimate.network.as_mut() {
-            *network.output_error = output_error;
-        }
-        Ok(estimate)
+        self.fit_from(data, map, &start, pinned, (NEGLIGIBLE_CHI2, false), race)
     }
 
     /// The fit to `data` from `parts` with every part's conductance to the coolant but
@@ -186,6 +207,24 @@ impl ResistanceCapacitance {
         coolant_state: usize,
     ) -> Result<Estimate> {
         self.fit_through_coolant_in(data, parts, coolant_state, None)
+    }
+
+    /// [`ResistanceCapacitance::fit_through_coolant_in`] from a start that may be far
+    /// from the held network's minimum (a replay's starts, with their conductances to
+    /// the coolant cut): run first on a coarser grid ([`Self::coarse_first`], the grid
+    /// set by the fastest time constant of `fastest_from`, `oe`'s model).
+    pub fn fit_through_coolant_from_start(
+        &self,
+        data: &IdentificationData,
+        start: &Parts,
+        coolant_state: usize,
+        fastest_from: &DiscreteModel,
+        race: Option<&StartRace>,
+    ) -> Result<Estimate> {
+        let n = start.capacitance_j_per_k.len();
+        let pinned = held_to_coolant(n, coolant_state);
+        let parts = pinned_at_zero(start, &pinned);
+        self.coarse_first(data, parts, &pinned, fastest_from, race)
     }
 
     /// [`ResistanceCapacitance::fit_through_coolant`], given up where `race` has another
