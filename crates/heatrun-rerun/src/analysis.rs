@@ -9,22 +9,21 @@ use heatrun::hidden::traces::OutputSensitivities;
 use heatrun::model::ModelAnalysis;
 use heatrun::pipeline::Replay;
 use heatrun::signals::ModelSignals;
-use heatrun::spec::ModelDescription;
 
 use super::style;
 use super::traces::{
-    on_grid, send_by_lag, send_series, sensitivity_unit, short_part, SERIES_SLICE,
+    on_grid, send_by_lag, send_series, sensitivity_unit, short_part, Stages, SERIES_SLICE,
 };
 
-/// The sensitivity responses T_i ∂ŷ/∂T_i behind the assignment, as the analysis kept
-/// them (over the instants the model was estimated on), one state at a time, each in its
+/// The sensitivity responses T_i ∂ŷ/∂T_i behind the assignment, from the analysis's
+/// recursion over the instants the model was estimated on, one state at a time, each in its
 /// part's colour.
 pub(super) fn log_sensitivities(
     rec: &RecordingStream,
-    model: &ModelDescription,
-    signals: &ModelSignals,
+    stages: Stages<'_>,
     analysis: &ModelAnalysis,
 ) -> Result<()> {
+    let (model, signals) = (stages.model, stages.signals);
     let responses = &analysis.sensitivities.responses;
     let t = &signals.time_ns;
     let unit = sensitivity_unit(model);
@@ -35,7 +34,7 @@ pub(super) fn log_sensitivities(
             style::series(rec, &entity, &name, style::part(k), style::LINE_WIDTH)?;
             let mut points = Vec::with_capacity(SERIES_SLICE);
             let mut failed = None;
-            responses.for_each(i, |instant, rel| {
+            responses.for_each(i, stages.data, |instant, rel| {
                 points.push((t[instant], rel[k]));
                 if points.len() == SERIES_SLICE && failed.is_none() {
                     failed = send_series(rec, &entity, points.drain(..)).err();

@@ -314,7 +314,7 @@ fn log_model(
 ) -> Result<()> {
     traces::log_model_temperatures(rec, stages, analysis)?;
     if stages.model.hidden.is_none() {
-        analysis::log_sensitivities(rec, stages.model, stages.signals, analysis)?;
+        analysis::log_sensitivities(rec, stages, analysis)?;
     }
     analysis::log_residual_correlation(rec, stages.signals, analysis)
 }

@@ -768,7 +768,9 @@ impl TimeConstantsSection<'_> {
         let Some(h) = &r.hidden else {
             let a = &r.analysis;
             let tcs = &a.spectrum.time_constants_s;
-            return self.charts_of(tcs, |i, visit| a.sensitivities.responses.for_each(i, visit));
+            return self.charts_of(tcs, |i, visit| {
+                a.sensitivities.responses.for_each(i, &r.data, visit)
+            });
         };
         let Ok(responses) = crate::hidden::traces::OutputSensitivities::new(&h.estimate.model)
         else {

@@ -38,27 +38,26 @@ pub struct Sensitivities {
     /// For each entry of a complex pair, the index of its conjugate partner.
     #[serde(skip)]
     pub partners: Vec<Option<usize>>,
-    /// The responses the norms are taken of, kept for the plots (rerun's and the HTML
-    /// report's), which would otherwise run the recursion again each.
+    /// The responses the norms are taken of, for the plots (rerun's and the HTML
+    /// report's): their recursion, run again on the data for each.
     #[serde(skip)]
     pub responses: SensitivityResponses,
 }
 
-/// The relative sensitivity responses T_i ∂ŷ(k)/∂T_i over the simulated instants,
-/// computed once ([`sensitivities`]) for the norms and every plot of them.
+/// The relative sensitivity responses T_i ∂ŷ(k)/∂T_i over the simulated instants, for
+/// the plots (rerun's and the HTML report's): the recursion the norms were taken with
+/// ([`sensitivities`]), run again on the replay's data for each plot.
 ///
-/// n² series of the analysed length, 8 bytes a value: 72 bytes an instant for three
-/// states (a complex pair's two entries share one response, stored once).
+/// Kept as values they were n² series of the analysed length, 8 bytes a value: 43.5 MB
+/// of a week at 1 s, the largest part of that replay's peak (211 MB of heap, over the
+/// 200 MB of issue 33's bar). Running the recursion again costs n² + n·m products an
+/// instant, about 30 ms a response for that week.
 #[derive(Debug, Clone, Default)]
 pub struct SensitivityResponses {
-    /// The instants, in order: the simulation segments.
+    /// The instants, in order: the simulation segments, as instants of the replay's data.
     segments: Vec<Range<usize>>,
-    /// n, the values per instant.
-    states: usize,
-    /// Per time constant, its response in `values` (a complex pair's entries share one).
-    response_of: Vec<usize>,
-    /// Per response, its n values at each instant of `segments`, instant after instant.
-    values: Vec<Vec<f64>>,
+    /// The recursion (`None` before [`sensitivities`] made one).
+    recursion: Option<SensitivityModel>,
 }
 
 impl SensitivityResponses {
@@ -68,18 +67,21 @@ impl SensitivityResponses {
     }
 
     /// Calls `visit(k, T_i ∂ŷ(k)/∂T_i)` (n values, one per state) for every instant k
-    /// of [`Self::segments`], in order; nothing for a time constant out of range.
-    pub fn for_each(&self, i: usize, mut visit: impl FnMut(usize, &[f64])) {
-        let Some(values) = self.response_of.get(i).map(|&r| &self.values[r]) else {
+    /// of [`Self::segments`], in order, with ŷ and the inputs read from `data` (the data
+    /// the analysis was made on, whose instants the segments name); nothing for a time
+    /// constant out of range. A complex pair's second entry gives its first's response
+    /// (one decay parameter).
+    pub fn for_each(&self, i: usize, data: &IdentificationData, mut visit: impl FnMut(usize, &[f64])) {
+        let Some(recursion) = &self.recursion else {
             return;
         };
-        let mut rows = values.chunks_exact(self.states.max(1));
-        for k in self.segments.iter().flat_map(|s| s.clone()) {
-            match rows.next() {
-                Some(rel) => visit(k, rel),
-                None => return,
-            }
+        if i >= recursion.time_constants_s.len() {
+            return;
         }
+        let i = recursion.earlier_partner(i).unwrap_or(i);
+        recursion.for_each_response(i, data, &self.segments, |k, rel| {
+            visit(k, rel.as_slice())
+        });
     }
 
     /// Moves the instants `by` later: the data they were computed on start at instant
@@ -295,41 +297,32 @@ pub fn sensitivities(
     let recursion = SensitivityModel::new(model, time_constants_s, ts_s)?;
     let simulated: usize = segments.iter().map(|s| s.len()).sum();
     let mut norms = vec![vec![0.0; n]; n];
-    let mut response_of: Vec<usize> = Vec::with_capacity(n);
-    let mut values: Vec<Vec<f64>> = Vec::new();
     for i in 0..n {
         // A pair's second entry has its first's response (one decay parameter).
-        if let Some(p) = recursion.partners[i].filter(|&p| p < i) {
+        if let Some(p) = recursion.earlier_partner(i) {
             for row in norms.iter_mut() {
                 row[i] = row[p];
             }
-            response_of.push(response_of[p]);
             continue;
         }
         let mut sum_sq = vec![0.0; n];
-        let mut response = Vec::with_capacity(simulated * n);
         recursion.for_each_response(i, data, segments, |_, rel| {
             for (kk, acc) in sum_sq.iter_mut().enumerate() {
                 *acc += rel[kk] * rel[kk];
             }
-            response.extend(rel.iter());
         });
         for (row, sum) in norms.iter_mut().zip(&sum_sq) {
             row[i] = (sum / simulated.max(1) as f64).sqrt();
         }
-        response_of.push(values.len());
-        values.push(response);
     }
     Ok(Sensitivities {
         time_constants_s: time_constants_s.to_vec(),
         norms,
-        oscillation_periods_s: recursion.periods_s,
-        partners: recursion.partners,
+        oscillation_periods_s: recursion.periods_s.clone(),
+        partners: recursion.partners.clone(),
         responses: SensitivityResponses {
             segments: segments.to_vec(),
-            states: n,
-            response_of,
-            values,
+            recursion: Some(recursion),
         },
     })
 }
@@ -527,16 +520,25 @@ mod tests {
             });
         }
         assert!(largest > 1e-2, "the pair moves the outputs: {largest}");
-        // The kept responses are the recursion's, bit for bit, the pair's entries one.
+        // The responses the plots get are the recursion's, bit for bit, the pair's
+        // entries one.
         let kept = sensitivities(&model, &spectrum_t, ts, &data, &whole).unwrap();
-        assert_eq!(kept.responses.values.len(), 2);
+        let response = |i: usize| {
+            let mut values = Vec::new();
+            kept.responses.for_each(i, &data, |k, rel| {
+                values.push((k, rel.iter().map(|v| v.to_bits()).collect::<Vec<_>>()));
+            });
+            values
+        };
+        assert_eq!(response(1), response(2));
+        assert!(response(3).is_empty());
         for i in 0..3 {
             let mut fresh = Vec::new();
             recursion.for_each_response(i, &data, &whole, |k, rel| {
                 fresh.push((k, rel.iter().map(|v| v.to_bits()).collect::<Vec<_>>()));
             });
             let mut stored = Vec::new();
-            kept.responses.for_each(i, |k, rel| {
+            kept.responses.for_each(i, &data, |k, rel| {
                 stored.push((k, rel.iter().map(|v| v.to_bits()).collect::<Vec<_>>()));
             });
             assert_eq!(fresh, stored, "T{}", i + 1);
