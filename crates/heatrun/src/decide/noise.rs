@@ -186,6 +186,27 @@ mod tests {
     }
 
     #[test]
+    fn a_misfit_is_told_from_the_noise_against_each_sensors_white_noise() {
+        // θ_base 80 K; white noise 0.05 K on both outputs, the second rounded to 0.01 K.
+        let floor = NoiseFloor::from_resolutions(vec![0.0, 0.01], 80.0)
+            .with_white_noise(vec![0.05, 0.05]);
+        let variance = |rms_k: f64| (rms_k / 80.0f64).powi(2);
+        // Residuals at the noise (a model that fits), and up to three times it: no misfit.
+        assert!(!floor.misfit_beyond_noise(&[variance(0.05), variance(0.06)]));
+        assert!(!floor.misfit_beyond_noise(&[variance(0.149), variance(0.149)]));
+        // One output nine times its noise (the paper's formulation on a flow cut: the
+        // outlet's 0.47 K against 0.052 K) is a misfit.
+        assert!(floor.misfit_beyond_noise(&[variance(0.05), variance(0.47)]));
+        // Before the screen measured any noise nothing is told.
+        let unscreened = NoiseFloor::from_resolutions(vec![0.0, 0.01], 80.0);
+        assert!(!unscreened.misfit_beyond_noise(&[variance(0.05), variance(0.47)]));
+        // A noise below the rounding's r/√12 is taken at the rounding's.
+        let rounded = NoiseFloor::from_resolutions(vec![0.1], 1.0).with_white_noise(vec![1e-6]);
+        assert!(!rounded.misfit_beyond_noise(&[(0.08f64).powi(2)]));
+        assert!(rounded.misfit_beyond_noise(&[(0.1f64).powi(2)]));
+    }
+
+    #[test]
     fn no_resolution_explains_nothing_and_floors_nothing() {
         let floor = NoiseFloor::from_resolutions(vec![0.0, 0.1], 1.0);
         assert!(!floor.explains(&[0.0, 1e-4]));
