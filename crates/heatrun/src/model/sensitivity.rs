@@ -51,7 +51,7 @@ pub struct Sensitivities {
 /// Kept as values they were n² series of the analysed length, 8 bytes a value: 43.5 MB
 /// of a week at 1 s, the largest part of that replay's peak (211 MB of heap, over the
 /// 200 MB of issue 33's bar). Running the recursion again costs n² + n·m products an
-/// instant, about 30 ms a response for that week.
+/// instant for each response drawn.
 #[derive(Debug, Clone, Default)]
 pub struct SensitivityResponses {
     /// The instants, in order: the simulation segments, as instants of the replay's data.
