@@ -368,7 +368,7 @@ impl ResistanceCapacitance {
             if let Some(gap) = problem.dropped.get() {
                 return Err(EstimationError::StartDropped { gap });
             }
-            let stalled = problem.stall.stalled.get();
+            let stalled = problem.stall.window.stalled.get();
             if stalled {
                 // Stopped by [`Stall`]: the best point is the fit of this pass.
                 let best = problem.best.borrow().clone().map(|(_, p)| p);
@@ -719,21 +719,16 @@ struct RcProblem<'a> {
     pass: usize,
 }
 
-/// Evaluations in a window over which the fit must lower J by more than
-/// [`NEGLIGIBLE_CHI2`] noise variances to go on: a gain under 0.05 noise variances an
-/// evaluation is a walk along a direction the data hardly see (a conductance or share
-/// towards zero), not a descent. (Fifty before issue 33: a pass ran on for fifty
-/// evaluations past its minimum, and the four-node machine's fits spent most of their
-/// time there.)
-const STALL_WINDOW: usize = 20;
-
 /// A change of the weighted squared error J smaller than this many noise variances σ²
-/// (χ² units, σ² ≈ J/N at the minimum) over [`STALL_WINDOW`] evaluations is no progress
-/// the data can tell apart.
+/// (χ² units, σ² ≈ J/N at the minimum) over [`oe::STALL_WINDOW`] evaluations is no progress
+/// the data can tell apart: a gain under 0.05 noise variances an evaluation is a walk along
+/// a direction the data hardly see (a conductance or share towards zero), not a descent.
+/// (The window was fifty before issue 33: a pass ran on for fifty evaluations past its
+/// minimum, and the four-node machine's fits spent most of their time there.)
 const NEGLIGIBLE_CHI2: f64 = 1.0;
 
 /// [`NEGLIGIBLE_CHI2`] of the coarse fit that starts the full-rate one ([`coarse`]): the
-/// same one noise variance of the coarse grid per [`STALL_WINDOW`] evaluations. The coarse
+/// same one noise variance of the coarse grid per [`oe::STALL_WINDOW`] evaluations. The coarse
 /// fit is a start, kept only where it simulates the full-rate data better than its own
 /// start, and the full-rate fit goes on from it; run to its minimum instead, the
 /// four-node machine's coarse fits spent 1,100 of their 1,643 evaluations gaining a
@@ -746,16 +741,12 @@ const COARSE_NEGLIGIBLE_CHI2: f64 = NEGLIGIBLE_CHI2;
 /// with ever smaller gains, each step within LM's tolerances (which must stay tight: a
 /// shrunk trust region's step would meet a looser one at a bad start). On the four-node
 /// machine that walk took 1,300 of 1,900 evaluations for 7 χ² units in all; the fit
-/// stops where a window of [`STALL_WINDOW`] evaluations lowers the best J by less than
+/// stops where a window of [`oe::STALL_WINDOW`] evaluations lowers the best J by less than
 /// [`NEGLIGIBLE_CHI2`]·J/N.
 #[derive(Debug, Clone, Default)]
 struct Stall {
-    /// Evaluations so far in this pass.
-    evaluations: std::cell::Cell<usize>,
-    /// The best J at the start of the current window.
-    window_start: std::cell::Cell<f64>,
-    /// Whether the pass was ended for want of progress.
-    stalled: std::cell::Cell<bool>,
+    /// The pass's evaluations, counted in windows.
+    window: oe::StallWindow,
     /// The gain over a window, in noise variances, below which the pass ends.
     negligible_chi2: f64,
 }
@@ -896,22 +887,10 @@ impl<'a> RcProblem<'a> {
     /// Counts one evaluation with the best J so far, `lowest`; true where the window
     /// that ends here lowered it by less than [`NEGLIGIBLE_CHI2`]·J/N ([`Stall`]).
     fn stalled_at(&self, lowest: f64) -> bool {
-        let stall = &self.stall;
-        let k = stall.evaluations.get() + 1;
-        stall.evaluations.set(k);
-        if k == 1 {
-            stall.window_start.set(lowest);
-        }
-        if !k.is_multiple_of(STALL_WINDOW) {
-            return false;
-        }
         let entries: usize = self.inner.counts.iter().sum();
-        let sigma2 = lowest / entries.max(1) as f64;
-        let gained = stall.window_start.get() - lowest;
-        stall.window_start.set(lowest);
-        let stalled = gained < stall.negligible_chi2 * sigma2;
-        stall.stalled.set(stalled);
-        stalled
+        self.stall
+            .window
+            .counted(lowest, entries, self.stall.negligible_chi2)
     }
 
     /// Whether the Gauss–Newton step from here would lower J by less than
@@ -922,7 +901,7 @@ impl<'a> RcProblem<'a> {
     /// parameters' standard errors. Below 0.1², the minimum is nearer than a tenth of a
     /// standard error in every direction: a step the data cannot tell from none. This
     /// rule, not LM's relative tolerances (10⁻¹⁰ of J, a 10⁻⁵th of one noise variance on
-    /// a 6 h run), ends a pass at its minimum: a pass ran on for [`STALL_WINDOW`]
+    /// a 6 h run), ends a pass at its minimum: a pass ran on for [`oe::STALL_WINDOW`]
     /// evaluations there before.
     fn within_noise_of_minimum(&self, reduced: &DVector<f64>) -> bool {
         let p = reduced.len().saturating_sub(1);
@@ -1117,7 +1096,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
         if let Some((r, _)) = evaluation.square_root_form() {
             if self.within_noise_of_minimum(&r) {
                 // No Jacobian: LM stops here, at the point it just accepted ([`Stall`]).
-                self.stall.stalled.set(true);
+                self.stall.window.stalled.set(true);
                 return None;
             }
             if let Some(gap) = self.behind_in_race(&evaluation, &r) {

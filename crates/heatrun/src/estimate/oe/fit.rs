@@ -428,16 +428,47 @@ pub(crate) struct Problem<'a> {
 /// converge take fewer evaluations than one window and never meet it; a fit of data that
 /// still hold a frozen hour (before the screen leaves it out) spent 138 of its 338
 /// evaluations gaining less than that.
-const STALL_WINDOW: usize = 20;
+pub(crate) const STALL_WINDOW: usize = 20;
 
-/// The best J of the pass so far and where it was, and whether the pass was ended for
-/// want of progress ([`STALL_WINDOW`]).
+/// The best J of the pass so far and where it was, and its window ([`StallWindow`]).
 #[derive(Debug, Default)]
 struct Stall {
-    evaluations: std::cell::Cell<usize>,
-    window_start: std::cell::Cell<f64>,
+    window: StallWindow,
     best: RefCell<Option<(f64, DVector<f64>)>>,
-    stalled: std::cell::Cell<bool>,
+}
+
+/// A pass's evaluations counted in windows of [`STALL_WINDOW`], for its noise-tied end
+/// (`oe`'s passes and rc's).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct StallWindow {
+    /// Evaluations so far in this pass.
+    evaluations: std::cell::Cell<usize>,
+    /// The best J at the start of the current window.
+    window_start: std::cell::Cell<f64>,
+    /// Whether the pass was ended for want of progress.
+    pub(crate) stalled: std::cell::Cell<bool>,
+}
+
+impl StallWindow {
+    /// Counts one evaluation with the best J so far, `lowest`, of a fit over `entries`
+    /// entries; true where the window that ends here lowered it by less than
+    /// `negligible_chi2` noise variances σ² = J/N.
+    pub(crate) fn counted(&self, lowest: f64, entries: usize, negligible_chi2: f64) -> bool {
+        let k = self.evaluations.get() + 1;
+        self.evaluations.set(k);
+        if k == 1 {
+            self.window_start.set(lowest);
+        }
+        if !k.is_multiple_of(STALL_WINDOW) {
+            return false;
+        }
+        let sigma2 = lowest / entries.max(1) as f64;
+        let gained = self.window_start.get() - lowest;
+        self.window_start.set(lowest);
+        let stalled = gained < negligible_chi2 * sigma2;
+        self.stalled.set(stalled);
+        stalled
+    }
 }
 
 /// A fit's progress observer, the fit's name and its evaluations so far.
@@ -765,27 +796,15 @@ impl<'a> Problem<'a> {
             }
             best.as_ref().map_or(objective, |(b, _)| *b)
         };
-        let k = stall.evaluations.get() + 1;
-        stall.evaluations.set(k);
-        if k == 1 {
-            stall.window_start.set(lowest);
-        }
-        if !k.is_multiple_of(STALL_WINDOW) {
-            return false;
-        }
         let entries: usize = self.counts.iter().sum();
-        let gained = stall.window_start.get() - lowest;
-        stall.window_start.set(lowest);
-        let stalled = gained < lowest / entries.max(1) as f64;
-        stall.stalled.set(stalled);
-        stalled
+        stall.window.counted(lowest, entries, 1.0)
     }
 
     /// Ends a pass: where [`Stall`] stopped it, the parameters go back to its best point
     /// (LM stops at the trial point it was evaluating). The next pass counts afresh.
     fn end_pass(&mut self) {
         let stall = std::mem::take(&mut self.stall);
-        if stall.stalled.get() {
+        if stall.window.stalled.get() {
             if let Some((_, best)) = stall.best.into_inner() {
                 self.params = best;
             }
