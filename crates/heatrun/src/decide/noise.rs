@@ -117,7 +117,9 @@ impl NoiseFloor {
             .zip(&self.white_noise_k)
             .enumerate()
             .any(|(j, (v, sigma_k))| {
-                let noise = (sigma_k / self.temperature_base_k).powi(2).max(self.variance(j));
+                let noise = (sigma_k / self.temperature_base_k)
+                    .powi(2)
+                    .max(self.variance(j));
                 noise > 0.0 && *v > MISFIT_BEYOND_NOISE.powi(2) * noise
             })
     }
@@ -188,8 +190,8 @@ mod tests {
     #[test]
     fn a_misfit_is_told_from_the_noise_against_each_sensors_white_noise() {
         // θ_base 80 K; white noise 0.05 K on both outputs, the second rounded to 0.01 K.
-        let floor = NoiseFloor::from_resolutions(vec![0.0, 0.01], 80.0)
-            .with_white_noise(vec![0.05, 0.05]);
+        let floor =
+            NoiseFloor::from_resolutions(vec![0.0, 0.01], 80.0).with_white_noise(vec![0.05, 0.05]);
         let variance = |rms_k: f64| (rms_k / 80.0f64).powi(2);
         // Residuals at the noise (a model that fits), and up to three times it: no misfit.
         assert!(!floor.misfit_beyond_noise(&[variance(0.05), variance(0.06)]));

@@ -71,7 +71,12 @@ impl SensitivityResponses {
     /// the analysis was made on, whose instants the segments name); nothing for a time
     /// constant out of range. A complex pair's second entry gives its first's response
     /// (one decay parameter).
-    pub fn for_each(&self, i: usize, data: &IdentificationData, mut visit: impl FnMut(usize, &[f64])) {
+    pub fn for_each(
+        &self,
+        i: usize,
+        data: &IdentificationData,
+        mut visit: impl FnMut(usize, &[f64]),
+    ) {
         let Some(recursion) = &self.recursion else {
             return;
         };
@@ -79,9 +84,7 @@ impl SensitivityResponses {
             return;
         }
         let i = recursion.earlier_partner(i).unwrap_or(i);
-        recursion.for_each_response(i, data, &self.segments, |k, rel| {
-            visit(k, rel.as_slice())
-        });
+        recursion.for_each_response(i, data, &self.segments, |k, rel| visit(k, rel.as_slice()));
     }
 
     /// Moves the instants `by` later: the data they were computed on start at instant

@@ -55,7 +55,8 @@ pub fn shortest_implausible_run(count: usize, p: f64) -> usize {
 /// were 9.7 MB an output, at the replay's peak.
 pub fn find(input: &ScreenInput<'_>, j: usize, noise_k: f64, resolution_k: f64) -> Vec<LeftOut> {
     let seen = || readings(input, j);
-    let shortest = shortest_implausible_run(seen().count(), probability_equal(noise_k, resolution_k));
+    let shortest =
+        shortest_implausible_run(seen().count(), probability_equal(noise_k, resolution_k));
     let mut out = Vec::new();
     let mut run: Option<Run> = None;
     for (k, value) in seen() {
@@ -65,7 +66,10 @@ pub fn find(input: &ScreenInput<'_>, j: usize, noise_k: f64, resolution_k: f64) 
                 r.readings += 1;
             }
             _ => {
-                out.extend(run.take().and_then(|r| judged(input, j, r, shortest, (noise_k, resolution_k))));
+                out.extend(
+                    run.take()
+                        .and_then(|r| judged(input, j, r, shortest, (noise_k, resolution_k))),
+                );
                 run = Some(Run {
                     first: k,
                     last: k,
@@ -109,8 +113,8 @@ fn judged(
         return None;
     }
     let measured = input.channels[j].measured;
-    let instants = (run.first..=run.last)
-        .filter(|&k| input.data.observed(k, j) && measured.get(k).is_some());
+    let instants =
+        (run.first..=run.last).filter(|&k| input.data.observed(k, j) && measured.get(k).is_some());
     let change = predicted_change_k(input, j, instants);
     (change > resolution_k + 3.0 * noise_k + CHANGE_FLOOR_K).then(|| LeftOut {
         state: j,
