@@ -1243,14 +1243,29 @@ fn minimum_distance_line(from: &str, d: &crate::network::MinimumDistance) -> Str
                 format!("{:.2e}", d.distance)
             };
             format!(
-                "the passive network nearest the identified model: {from}, χ² = {chi2} on {} degrees of freedom, p = {p:.2e}: {meaning}",
-                d.degrees_of_freedom
+                "the passive network nearest the identified model: {from}, χ² = {chi2} on {} degrees of freedom, p = {p:.2e}: {meaning}{}",
+                d.degrees_of_freedom,
+                unconverged_note(d)
             )
         }
         None => format!(
-            "the passive network nearest the identified model: {from}, distance {:.3e} ({})",
-            d.distance, d.weighting
+            "the passive network nearest the identified model: {from}, distance {:.3e} ({}){}",
+            d.distance,
+            d.weighting,
+            unconverged_note(d)
         ),
+    }
+}
+
+/// What a minimum distance stopped at its cap of steps is: an upper bound.
+fn unconverged_note(d: &crate::network::MinimumDistance) -> String {
+    if d.converged {
+        String::new()
+    } else {
+        format!(
+            " (its fit stopped at its cap of {} steps short of the minimum: χ² is an upper bound)",
+            d.iterations
+        )
     }
 }
 

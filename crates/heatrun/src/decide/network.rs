@@ -209,9 +209,17 @@ fn chosen(
     };
     let why = match &nearness {
         Some(n) => format!(
-            "the nearest passive network is rejected (χ² {:.1} on {} degrees of freedom) and \
+            "the nearest passive network is rejected (χ² {:.1} on {} degrees of freedom{}) and \
              leaves {:.3} K RMS unexplained beyond the model's {:.3} K on its worst output: ",
-            n.distance.distance, n.distance.degrees_of_freedom, n.beyond_k, n.noise_k
+            n.distance.distance,
+            n.distance.degrees_of_freedom,
+            if n.distance.converged {
+                ""
+            } else {
+                ", an upper bound: the fit stopped at its cap of steps"
+            },
+            n.beyond_k,
+            n.noise_k
         ),
         None => String::new(),
     };
@@ -617,6 +625,7 @@ mod tests {
                 p_value: Some(p_value),
                 weighting: String::new(),
                 iterations: 10,
+                converged: true,
             },
             beyond_k,
             noise_k,

@@ -128,7 +128,7 @@ pub(crate) fn minimum_distance(
         let r = &white.matrix * (&target - theta);
         r.iter().all(|v| v.is_finite()).then_some(r)
     };
-    let (p, iterations) = levenberg_marquardt(&map, &white.matrix, &residual)?;
+    let (p, iterations, converged) = levenberg_marquardt(&map, &white.matrix, &residual)?;
     let distance = residual(&p)?.norm_squared();
     let degrees_of_freedom = kept.len().saturating_sub(map.len());
     let p_value = (white.weighted && degrees_of_freedom > 0)
@@ -141,17 +141,18 @@ pub(crate) fn minimum_distance(
             p_value,
             weighting: white.note,
             iterations,
+            converged,
         },
     })
 }
 
-/// Minimises ‖r(p)‖² from the map's start with the Jacobian −M·∂Θ/∂p; returns p and the
-/// steps taken.
+/// Minimises ‖r(p)‖² from the map's start with the Jacobian −M·∂Θ/∂p; returns p, the
+/// steps taken and whether it ended at a minimum rather than at [`MAX_ITERATIONS`].
 fn levenberg_marquardt(
     map: &Parametrisation,
     whitening: &DMatrix<f64>,
     residual: &dyn Fn(&[f64]) -> Option<DVector<f64>>,
-) -> Option<(Vec<f64>, usize)> {
+) -> Option<(Vec<f64>, usize, bool)> {
     let mut p = map.start.clone();
     let mut r = residual(&p)?;
     let mut cost = r.norm_squared();
@@ -188,7 +189,7 @@ fn levenberg_marquardt(
                     lambda = (lambda / 3.0).max(1e-12);
                     accepted = true;
                     if converged {
-                        return Some((p, iteration + 1));
+                        return Some((p, iteration + 1, true));
                     }
                     break;
                 }
@@ -196,10 +197,10 @@ fn levenberg_marquardt(
             lambda *= 4.0;
         }
         if !accepted {
-            return Some((p, iteration));
+            return Some((p, iteration, true));
         }
     }
-    Some((p, MAX_ITERATIONS))
+    Some((p, MAX_ITERATIONS, false))
 }
 
 /// P(χ²_k ≥ x) = Q(k/2, x/2), the regularised upper incomplete gamma function (series
