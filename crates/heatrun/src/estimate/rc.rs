@@ -22,14 +22,6 @@
 //! one pass over the data per evaluation, as for OE. The start is the OE estimate's own
 //! network, projected onto the passive set; that OE estimate is kept for comparison.
 //!
-//! Levenberg–Marquardt steps a capacitance in its logarithm but a conductance or share ratio
-//! as itself relative to its start, y = e^{p − s}, and holds one at zero (the floor
-//! e^−LOG_RANGE) while its gradient points down (`thermal::rc::Parametrisation::step_coordinate`). In
-//! the logarithms an entry that is zero in truth was thrown e^20 below its start, where its
-//! Jacobian column ∝ e^p vanishes, and the fit walked back or on a hair per step: on the
-//! four-node machine, seed 3, the free fit from the projected start took 320 full-rate
-//! evaluations and the held one 1,041 coarse; stepped as themselves, 69 and 133.
-//!
 //! Beside p, the fit estimates a constant offset d per output, ŷ = x + d
 //! ([`Estimate::output_offset`]): each rise is measured from one noisy first sample, whose
 //! error stays in every later value; left out, the slowly moving losses' columns of K and
@@ -348,8 +340,9 @@ impl ResistanceCapacitance {
         let mut problem = RcProblem::new(inner, map, start, pinned);
         problem.race = race;
         let mut evaluations = 0;
-        // Fewer evaluations than OE's 200·(p+1): a fit that no longer gains what the data
-        // can tell ends there ([`Stall`]).
+        // Fewer evaluations than OE's 200·(p+1): a conductance or share that is zero in
+        // truth walks its logarithm towards −∞ with ever smaller gains, and the fit stops
+        // there rather than following it ([`Stall`] ends that walk sooner).
         let lm = LevenbergMarquardt::new()
             .with_patience(50)
             .with_ftol(1e-10)
@@ -380,7 +373,7 @@ impl ResistanceCapacitance {
                 // Stopped by [`Stall`]: the best point is the fit of this pass.
                 let best = problem.best.borrow().clone().map(|(_, p)| p);
                 if let Some(p) = best {
-                    problem.set_p(&p);
+                    problem.set_params(&p);
                 }
             }
             // A step into parameters where the model cannot be evaluated (an exponential
@@ -391,8 +384,8 @@ impl ResistanceCapacitance {
             if stopped_on_bad_point {
                 let best = problem.best.borrow().clone().map(|(_, p)| p);
                 match best {
-                    Some(p) => problem.set_p(&p),
-                    None if pass >= 1 => problem.set_p(&before),
+                    Some(p) => problem.set_params(&p),
+                    None if pass >= 1 => problem.set_params(&before),
                     None => {
                         return Err(EstimationError::MinimisationFailed {
                             termination: report.termination,
@@ -785,7 +778,7 @@ impl<'a> RcProblem<'a> {
             pass: 0,
         };
         let params = problem.params.clone();
-        problem.set_p(&params);
+        problem.set_params(&params);
         problem
     }
 
@@ -847,32 +840,6 @@ impl<'a> RcProblem<'a> {
             gram,
             grad,
         }
-    }
-
-    /// Sets [p's free entries; x0] from `x` (p as laid out, logarithms), within
-    /// e^±LOG_RANGE of the start, and D = ∂Θ/∂p there.
-    fn set_p(&mut self, x: &DVector<f64>) {
-        self.params.copy_from(x);
-        let pp = self.free.len();
-        // Logarithms within e^±LOG_RANGE of the start: the exponentials stay finite.
-        for (k, &q) in self.free.iter().enumerate() {
-            let s = self.map.start[q];
-            self.params[k] = self.params[k].clamp(s - LOG_RANGE, s + LOG_RANGE);
-            self.p_full[q] = self.params[k];
-        }
-        let x = &self.params.clone();
-        let theta = self.map.model(&self.p_full).theta();
-        let pt = self.inner.p_theta();
-        for (q, t) in theta.iter().enumerate() {
-            self.inner.params[q] = *t;
-        }
-        for q in pp..x.len() {
-            self.inner.params[pt + q - pp] = x[q];
-        }
-        self.d = self
-            .map
-            .theta_jacobian(&self.p_full)
-            .select_columns(&self.free);
     }
 
     fn evaluated(&self) -> std::cell::Ref<'_, Evaluation> {
@@ -1073,23 +1040,32 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
     type JacobianStorage = Owned<f64, Dyn, Dyn>;
     type ParameterStorage = Owned<f64, Dyn>;
 
-    /// Sets [p's free entries; x0] from `x` in the fit's step coordinates
-    /// ([`Parametrisation::step_coordinate`]).
     fn set_params(&mut self, x: &DVector<f64>) {
-        let mut p = x.clone();
+        self.params.copy_from(x);
+        let pp = self.free.len();
+        // Logarithms within e^±LOG_RANGE of the start: the exponentials stay finite.
         for (k, &q) in self.free.iter().enumerate() {
-            p[k] = self.map.param_of_step_coordinate(q, x[k]);
+            let s = self.map.start[q];
+            self.params[k] = self.params[k].clamp(s - LOG_RANGE, s + LOG_RANGE);
+            self.p_full[q] = self.params[k];
         }
-        self.set_p(&p);
+        let x = &self.params.clone();
+        let theta = self.map.model(&self.p_full).theta();
+        let pt = self.inner.p_theta();
+        for (q, t) in theta.iter().enumerate() {
+            self.inner.params[q] = *t;
+        }
+        for q in pp..x.len() {
+            self.inner.params[pt + q - pp] = x[q];
+        }
+        self.d = self
+            .map
+            .theta_jacobian(&self.p_full)
+            .select_columns(&self.free);
     }
 
-    /// [p's free entries; x0] in the fit's step coordinates.
     fn params(&self) -> DVector<f64> {
-        let mut y = self.params.clone();
-        for (k, &q) in self.free.iter().enumerate() {
-            y[k] = self.map.step_coordinate(q, self.params[k]);
-        }
-        y
+        self.params.clone()
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
@@ -1112,22 +1088,9 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         let evaluation = self.evaluated();
-        let mut j = evaluation.residual_last_form()?;
+        let j = evaluation.residual_last_form()?;
         if !j.iter().all(|v| v.is_finite()) {
             return None;
-        }
-        // In the step coordinates ([`Parametrisation::step_coordinate`]); an entry at zero
-        // whose gradient still points down is held there (its column zero): the step
-        // does not spend its length on a move the floor undoes.
-        for (k, &q) in self.free.iter().enumerate() {
-            let p_q = self.params[k];
-            let held = self.map.at_floor(q, p_q) && evaluation.grad[k] > 0.0;
-            let scale = if held {
-                0.0
-            } else {
-                self.map.step_coordinate_scale(q, p_q)
-            };
-            j.column_mut(k).scale_mut(scale);
         }
         // The Gauss–Newton step's predicted decrease, where JᵀJ is definite.
         if let Some((r, _)) = evaluation.square_root_form() {

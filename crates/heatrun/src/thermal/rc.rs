@@ -200,49 +200,6 @@ impl Parametrisation {
         out
     }
 
-    /// y_q, the coordinate a fit steps p_q in: a capacitance's logarithm as it is, a
-    /// conductance or share ratio as itself relative to its start s, y_q = e^{p_q − s_q}.
-    ///
-    /// Why: in its logarithm, a Gauss–Newton step throws an entry the data drive to zero
-    /// e^20 below its start, where its Jacobian column ∝ e^p vanishes and it climbs back a
-    /// hair per step; as itself the entry meets zero (the floor e^−LOG_RANGE, where the
-    /// fit holds it while its gradient points down) and leaves it by a step of the size
-    /// its gradient asks for (the nearest network of the four-node machine: 20,000 steps
-    /// in the logarithms, unconverged; 50–111 in these coordinates).
-    pub(crate) fn step_coordinate(&self, q: usize, p_q: f64) -> f64 {
-        if q < self.n {
-            p_q
-        } else {
-            (p_q - self.start[q]).exp()
-        }
-    }
-
-    /// p_q of a step coordinate y_q ([`Parametrisation::step_coordinate`]), within
-    /// e^±[`LOG_RANGE`] of the start.
-    pub(crate) fn param_of_step_coordinate(&self, q: usize, y_q: f64) -> f64 {
-        let s = self.start[q];
-        let p_q = if q < self.n {
-            y_q
-        } else {
-            s + y_q.max((-LOG_RANGE).exp()).ln()
-        };
-        p_q.clamp(s - LOG_RANGE, s + LOG_RANGE)
-    }
-
-    /// ∂p_q/∂y_q at p_q: 1 for a capacitance's logarithm, e^{s_q − p_q} otherwise.
-    pub(crate) fn step_coordinate_scale(&self, q: usize, p_q: f64) -> f64 {
-        if q < self.n {
-            1.0
-        } else {
-            (self.start[q] - p_q).exp()
-        }
-    }
-
-    /// Whether p_q sits at its floor start − [`LOG_RANGE`] (its entry zero for any purpose).
-    pub(crate) fn at_floor(&self, q: usize, p_q: f64) -> bool {
-        q >= self.n && p_q <= self.start[q] - LOG_RANGE + 1e-9
-    }
-
     /// The discrete model (zero-order hold) of p.
     pub(crate) fn model(&self, p: &[f64]) -> DiscreteModel {
         let (a, b) = self.continuous(p);
