@@ -1257,16 +1257,11 @@ fn minimum_distance_line(from: &str, d: &crate::network::MinimumDistance) -> Str
     }
 }
 
-/// What a minimum distance stopped at its cap of steps is: an upper bound.
+/// [`crate::network::MinimumDistance::unconverged`] in parentheses, or nothing.
 fn unconverged_note(d: &crate::network::MinimumDistance) -> String {
-    if d.converged {
-        String::new()
-    } else {
-        format!(
-            " (its fit stopped at its cap of {} steps short of the minimum: χ² is an upper bound)",
-            d.iterations
-        )
-    }
+    d.unconverged()
+        .map(|c| format!(" ({c})"))
+        .unwrap_or_default()
 }
 
 /// The screen's stretches, their times as the recording's (RFC 3339).

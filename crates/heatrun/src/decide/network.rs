@@ -213,11 +213,10 @@ fn chosen(
              leaves {:.3} K RMS unexplained beyond the model's {:.3} K on its worst output: ",
             n.distance.distance,
             n.distance.degrees_of_freedom,
-            if n.distance.converged {
-                ""
-            } else {
-                ", an upper bound: the fit stopped at its cap of steps"
-            },
+            n.distance
+                .unconverged()
+                .map(|c| format!("; {c}"))
+                .unwrap_or_default(),
             n.beyond_k,
             n.noise_k
         ),

@@ -1257,21 +1257,23 @@ impl Section for NetworkSection<'_> {
         };
         // A network fitted to the identified model (rather than its exact algebra) says so,
         // with how far it had to move: the passivity figures below describe the free model.
-        let fitted = match (&n.fitted_from, &n.minimum_distance) {
-            (Some(from), Some(d)) => format!(
+        let fitted =
+            match (&n.fitted_from, &n.minimum_distance) {
+                (Some(from), Some(d)) => format!(
                 " It was fitted by {from}: it is the passive network whose discretisation lies \
                  nearest the identified Φ and Γ in their covariance-weighted distance (d = {}, {} \
-                 degrees of freedom{}; weighted by {}).",
+                 degrees of freedom{}; weighted by {}{}).",
                 sig(d.distance, 3),
                 d.degrees_of_freedom,
                 d.p_value
                     .map(|p| format!(", p = {}", sig(p, 2)))
                     .unwrap_or_default(),
-                d.weighting
+                d.weighting,
+                d.unconverged().map(|c| format!("; {c}")).unwrap_or_default()
             ),
-            (Some(from), None) => format!(" Which network this is: {from}."),
-            _ => String::new(),
-        };
+                (Some(from), None) => format!(" Which network this is: {from}."),
+                _ => String::new(),
+            };
         out.paragraph(&format!(
             "The identified A_c and B_c{} as a lumped network of thermal capacitances and resistances \
              (the paper's Fig. 9): C·dθ/dt = −L·θ + K·P, with the scale of C from {scale}.{fitted} \

@@ -273,6 +273,19 @@ pub struct MinimumDistance {
     pub converged: bool,
 }
 
+impl MinimumDistance {
+    /// What a distance from a fit stopped at its cap is, in words, for the summary, the
+    /// decision and the HTML report alike; `None` where the fit reached its minimum.
+    pub fn unconverged(&self) -> Option<String> {
+        (!self.converged).then(|| {
+            format!(
+                "its fit stopped at its cap of {} steps short of the minimum: χ² is an upper bound",
+                self.iterations
+            )
+        })
+    }
+}
+
 /// A 95 % interval of one network parameter, with its standard error (delta method).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Interval {

@@ -362,3 +362,24 @@ fn paper_model_is_not_a_passive_network() {
     // The couplings: each pair off by 17.98^(1/3) = 2.62 in the log fit.
     assert!((p.coupling_asymmetry - 0.45).abs() < 0.01);
 }
+
+/// A distance from a fit stopped at its cap is called an upper bound, naming the cap; one
+/// from a fit that reached its minimum is called nothing.
+#[test]
+fn a_distance_stopped_at_the_cap_is_said_to_be_an_upper_bound() {
+    let mut d = MinimumDistance {
+        distance: 1036.0,
+        degrees_of_freedom: 5,
+        p_value: Some(1e-200),
+        weighting: String::new(),
+        iterations: 200,
+        converged: false,
+    };
+    let said = d.unconverged().expect("stopped at the cap");
+    assert!(
+        said.contains("cap of 200 steps") && said.contains("upper bound"),
+        "{said}"
+    );
+    d.converged = true;
+    assert_eq!(d.unconverged(), None);
+}
