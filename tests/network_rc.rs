@@ -338,22 +338,19 @@ fn the_paper_fixtures_network_is_the_nearest_and_said_to_be_no_network() {
                 .all(|k| *k >= 0.0),
         "{network:?}"
     );
-    // The fixture's printed network before issue 22 (calorimetric scale, MJ/K).
+    // The nearest passive network of the paper's model, which is none: the stator winding
+    // and the iron core collapse into the cooling water (calorimetric scale, MJ/K). The
+    // levenberg_marquardt crate's minimiser, tried in the fit's place on 2026-11-25, stopped
+    // at the same point (C = 0.000 / 0.000 / 143.7 MJ/K, ARCHITECTURE.md); the fit stopped at
+    // its old cap of 200 steps printed 0.582 / 3.095 / 13.466 MJ/K at χ² = 2.79·10²⁶.
     assert_eq!(network.scale_from, ScaleSource::Calorimetric);
-    for (c, printed) in network
-        .capacitance_j_per_k
-        .iter()
-        .zip([0.582, 3.095, 13.466])
-    {
-        assert!(
-            (c / 1e6 - printed).abs() < 5e-4,
-            "{:?}",
-            network.capacitance_j_per_k
-        );
-    }
+    let c = &network.capacitance_j_per_k;
+    assert!(c[0] < 1e3 && c[1] < 1e3, "{c:?}");
+    assert!((c[2] / 1e6 - 143.7).abs() < 0.05, "{c:?}");
     // Noise-free, the paper's Φ, Γ are known to their last digits: the distance to the
-    // nearest passive, energy-conserving network rejects it outright.
+    // nearest passive, energy-conserving network rejects it outright, at its minimum.
     let d = network.minimum_distance.as_ref().unwrap();
+    assert!(d.converged && d.distance < 2.79e26, "{d:?}");
     assert_eq!(d.degrees_of_freedom, 3);
     assert!(d.p_value.is_some_and(|p| p < 1e-6), "{d:?}");
     let from = network.fitted_from.as_deref().unwrap_or_default();
@@ -371,6 +368,10 @@ fn the_paper_fixtures_network_is_the_nearest_and_said_to_be_no_network() {
         "{summary}"
     );
     assert!(summary.contains("they carry no noise"), "{summary}");
+    assert!(
+        summary.contains("stator winding (copper) and iron core collapse into the other parts"),
+        "{summary}"
+    );
 }
 
 /// Issue 22's four-node machine (the field winding seen only through U_f/I_f), replayed

@@ -1028,7 +1028,11 @@ impl Report {
                 }
                 match (&n.fitted_from, &n.minimum_distance) {
                     (Some(from), Some(d)) => {
-                        let _ = writeln!(s, "  ({})", minimum_distance_line(from, d));
+                        let collapsed = n
+                            .collapsed_parts()
+                            .map(|c| format!("; {c}"))
+                            .unwrap_or_default();
+                        let _ = writeln!(s, "  ({}{collapsed})", minimum_distance_line(from, d));
                     }
                     // Which network this is (rc's fit to the data): the reader must know.
                     (Some(from), None) => {

@@ -331,6 +331,7 @@ pub fn estimate_in(
                 weights: options.weights.clone(),
                 scaling,
                 progress: options.progress.clone(),
+                coordinates: crate::estimate::StepCoordinates::Logarithms,
             })
         }
     };
@@ -603,6 +604,7 @@ mod tests {
             weights: None,
             scaling,
             progress: Default::default(),
+            coordinates: crate::estimate::StepCoordinates::Logarithms,
         }
         .estimate(&data)
         .unwrap();

@@ -1257,9 +1257,8 @@ impl Section for NetworkSection<'_> {
         };
         // A network fitted to the identified model (rather than its exact algebra) says so,
         // with how far it had to move: the passivity figures below describe the free model.
-        let fitted =
-            match (&n.fitted_from, &n.minimum_distance) {
-                (Some(from), Some(d)) => format!(
+        let fitted = match (&n.fitted_from, &n.minimum_distance) {
+            (Some(from), Some(d)) => format!(
                 " It was fitted by {from}: it is the passive network whose discretisation lies \
                  nearest the identified Φ and Γ in their covariance-weighted distance (d = {}, {} \
                  degrees of freedom{}; weighted by {}{}).",
@@ -1269,11 +1268,15 @@ impl Section for NetworkSection<'_> {
                     .map(|p| format!(", p = {}", sig(p, 2)))
                     .unwrap_or_default(),
                 d.weighting,
-                d.unconverged().map(|c| format!("; {c}")).unwrap_or_default()
+                d.unconverged()
+                    .into_iter()
+                    .chain(n.collapsed_parts())
+                    .map(|c| format!("; {c}"))
+                    .collect::<String>()
             ),
-                (Some(from), None) => format!(" Which network this is: {from}."),
-                _ => String::new(),
-            };
+            (Some(from), None) => format!(" Which network this is: {from}."),
+            _ => String::new(),
+        };
         out.paragraph(&format!(
             "The identified A_c and B_c{} as a lumped network of thermal capacitances and resistances \
              (the paper's Fig. 9): C·dθ/dt = −L·θ + K·P, with the scale of C from {scale}.{fitted} \

@@ -204,13 +204,14 @@ fn algebraic_passivity(
 /// (every column of K summing to 1), the start of `rc`'s fit to the data in a replay:
 /// [`fit::minimum_distance`] from the algebraic network of `continuous` (the identified
 /// model's A_c, B_c). Errs (saying why) where the model has no network: an input that is
-/// not heat, or an algebraic network that cannot be formed.
+/// not heat, or an algebraic network that cannot be formed. With the distance and the
+/// capacitances' standard error ([`fit::Fitted`]).
 pub(crate) fn nearest_parts(
     model: &ModelDescription,
     identified: &Estimate,
     continuous: &ContinuousModel,
     scaling: Scaling,
-) -> Result<(Parts, crate::network::MinimumDistance), String> {
+) -> Result<fit::Fitted, String> {
     use crate::spec::InputKind;
     if let Some(i) = model.inputs.iter().find(|i| i.kind != InputKind::Heat) {
         return Err(format!("the input `{}` is not heat", i.name));
@@ -234,15 +235,14 @@ pub(crate) fn nearest_parts(
             algebraic.loss_distribution[i][j]
         }),
     };
-    let fitted = fit::minimum_distance(
+    fit::minimum_distance(
         &identified.model,
         identified.covariance.as_ref(),
         &heat,
         scaling,
         start,
     )
-    .ok_or("no passive network near the identified model was found")?;
-    Ok((fitted.parts, fitted.distance))
+    .ok_or_else(|| "no passive network near the identified model was found".into())
 }
 
 /// The passive network nearest the identified model ([`fit::minimum_distance`], from the

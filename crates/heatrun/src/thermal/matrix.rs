@@ -138,6 +138,38 @@ fn sqrtm_denman_beavers(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     Ok(y)
 }
 
+/// e^M, or a matrix of NaN where M has an entry that is not finite.
+///
+/// Where ‖M‖₁ > [`LARGE_NORM`], e^M = (e^{M/2^k})^{2^k} with 2^k ≥ ‖M‖₁ (scaling and
+/// squaring done here): nalgebra's own choice of squarings takes the 1-norm of |M|²⁷,
+/// which overflows for ‖M‖₁ beyond about 10¹¹, and then asks for u64::MAX squarings, a
+/// loop that never ends. A fit that probes a network with a capacitance e^−20 below its
+/// start gives such an M: a replay of the paper's model hung in the nearest network's fit
+/// (issue 33). NaN entries make the caller's residuals not finite, which every fit treats
+/// as a point it cannot evaluate.
+pub fn exponential(m: DMatrix<f64>) -> DMatrix<f64> {
+    if !m.iter().all(|v| v.is_finite()) {
+        return DMatrix::from_element(m.nrows(), m.ncols(), f64::NAN);
+    }
+    let norm = m
+        .column_iter()
+        .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    if norm <= LARGE_NORM {
+        return m.exp();
+    }
+    let squarings = norm.log2().ceil() as i32;
+    let mut x = (m * 2f64.powi(-squarings)).exp();
+    for _ in 0..squarings {
+        x = &x * &x;
+    }
+    x
+}
+
+/// The 1-norm above which [`exponential`] scales M itself before nalgebra's exponential
+/// (far above any physical A·Ts: the paper's fastest mode at Ts = 1 s has ‖A·Ts‖ ≈ 0.1).
+const LARGE_NORM: f64 = 1e6;
+
 /// Zero-order-hold discretisation of dx/dt = A x + B u over Ts:
 /// Φ = e^{A·Ts}, Γ = ∫₀^Ts e^{A s} ds · B, from one exponential of the block
 /// matrix [[A, B], [0, 0]]·Ts (nalgebra's Padé scaling and squaring).
@@ -146,7 +178,7 @@ pub fn discretize(a: &DMatrix<f64>, b: &DMatrix<f64>, ts: f64) -> (DMatrix<f64>,
     let mut block = DMatrix::zeros(n + m, n + m);
     block.view_mut((0, 0), (n, n)).copy_from(&(a * ts));
     block.view_mut((0, n), (n, m)).copy_from(&(b * ts));
-    let e = block.exp();
+    let e = exponential(block);
     (
         e.view((0, 0), (n, n)).into_owned(),
         e.view((0, n), (n, m)).into_owned(),
@@ -180,6 +212,27 @@ pub fn complex_eigenvector(a: &DMatrix<f64>, lambda: Complex<f64>) -> DVector<Co
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Beyond nalgebra's reach (‖M‖₁ ≈ 10¹², where its own exponential never returns):
+    /// a rotation generator by θ against cos θ and sin θ worked by hand, a stiff decay to
+    /// zero, and a non-finite M to NaN.
+    #[test]
+    fn the_exponential_of_a_matrix_of_huge_norm_returns_and_is_right() {
+        let theta = 1e12_f64;
+        let rotation = DMatrix::from_row_slice(2, 2, &[0.0, theta, -theta, 0.0]);
+        let e = exponential(rotation);
+        // 2^40 squarings of the scaled rotation: each step's rounding (≈10⁻¹⁶) grows
+        // with their number, so ≈10⁻⁴ is what double precision can give here.
+        let (c, s) = (theta.cos(), theta.sin());
+        assert!((e[(0, 0)] - c).abs() < 1e-3, "{} vs {c}", e[(0, 0)]);
+        assert!((e[(0, 1)] - s).abs() < 1e-3, "{} vs {s}", e[(0, 1)]);
+        let decay = DMatrix::from_row_slice(2, 2, &[-1e12, 1e12, 0.0, -2e12]);
+        assert!(exponential(decay).iter().all(|v| v.abs() < 1e-300));
+        let small = DMatrix::from_row_slice(2, 2, &[-0.1, 0.05, 0.0, -0.2]);
+        assert_eq!(exponential(small.clone()), small.exp());
+        let broken = DMatrix::from_row_slice(2, 2, &[f64::INFINITY, 0.0, 0.0, 1.0]);
+        assert!(exponential(broken).iter().all(|v| v.is_nan()));
+    }
 
     #[test]
     fn logm_of_upper_triangular_matches_closed_form() {

@@ -22,6 +22,10 @@ const START_FLOOR: f64 = 1e-2;
 /// e^25 ≈ 7·10¹⁰, far beyond any physical correction, short of overflowing the model.
 pub(crate) const LOG_RANGE: f64 = 25.0;
 
+/// The most a capacitance's logarithm moves in one step ([`Parametrisation::stepped`]): a
+/// factor e^1.5 ≈ 4.5.
+pub(crate) const MOST_LOG_STEP: f64 = 1.5;
+
 /// Floors non-positive conductances and shares and renormalises K's columns.
 pub(crate) fn projected(mut parts: Parts) -> Parts {
     let g_max = parts.conductance_w_per_k.amax().max(1e-300);
@@ -81,6 +85,11 @@ impl Parametrisation {
         };
         map.start = map.params_of(start);
         map
+    }
+
+    /// Number of capacitances, n: p's first n entries are their logarithms.
+    pub(crate) fn capacitances(&self) -> usize {
+        self.n
     }
 
     /// Number of parameters: n + n + n(n−1)/2 + m(n−1).
@@ -200,6 +209,70 @@ impl Parametrisation {
         out
     }
 
+    /// y_q, the coordinate a fit steps p_q in: a capacitance's logarithm as it is, a
+    /// conductance or share ratio as itself relative to its start s, y_q = e^{p_q − s_q}.
+    ///
+    /// Why: in its logarithm, a Gauss–Newton step throws an entry the data drive to zero
+    /// e^20 below its start, where its Jacobian column ∝ e^p vanishes and it climbs back a
+    /// hair per step; as itself the entry meets zero (the floor e^−LOG_RANGE, where the
+    /// fit holds it while its gradient points down) and leaves it by a step of the size
+    /// its gradient asks for (the nearest network of the four-node machine: 20,000 steps
+    /// in the logarithms, unconverged; 50–111 in these coordinates).
+    pub(crate) fn step_coordinate(&self, q: usize, p_q: f64) -> f64 {
+        if q < self.n {
+            p_q
+        } else {
+            (p_q - self.start[q]).exp()
+        }
+    }
+
+    /// p_q of a step coordinate y_q ([`Parametrisation::step_coordinate`]), within
+    /// e^±[`LOG_RANGE`] of the start.
+    pub(crate) fn param_of_step_coordinate(&self, q: usize, y_q: f64) -> f64 {
+        let s = self.start[q];
+        let p_q = if q < self.n {
+            y_q
+        } else {
+            s + y_q.max((-LOG_RANGE).exp()).ln()
+        };
+        p_q.clamp(s - LOG_RANGE, s + LOG_RANGE)
+    }
+
+    /// ∂p_q/∂y_q at p_q, y the coordinates a fit steps in ([`Parametrisation::step_coordinate`]):
+    /// 1 for a capacitance's logarithm, e^{s_q − p_q} for a conductance or share ratio.
+    pub(crate) fn step_coordinate_scale(&self, q: usize, p_q: f64) -> f64 {
+        if q < self.n {
+            1.0
+        } else {
+            (self.start[q] - p_q).exp()
+        }
+    }
+
+    /// p_q moved by a step δ in the fit's coordinates y, within e^±[`LOG_RANGE`] of the start.
+    /// A capacitance moves as its logarithm, at most [`MOST_LOG_STEP`]. A conductance or
+    /// share ratio moves as itself relative to its start, y_q = e^{p_q − s_q} → y_q + δ,
+    /// floored at e^−LOG_RANGE (zero for any purpose): in its logarithm, a Gauss–Newton
+    /// step throws an entry the data drive to zero e^20 below its start, where its
+    /// Jacobian column ∝ e^p vanishes and it climbs back a hair per step (the four-node
+    /// machine's nearest network: 20,000 steps, unconverged); as itself the entry meets
+    /// zero and leaves it with a step of the size its own gradient asks for, and the
+    /// model, linear in G and K for a given C, has no curve in it for the step to miss.
+    pub(crate) fn stepped(&self, q: usize, p_q: f64, step: f64) -> f64 {
+        let s = self.start[q];
+        let moved = if q < self.n {
+            p_q + step.clamp(-MOST_LOG_STEP, MOST_LOG_STEP)
+        } else {
+            let y = (p_q - s).exp() + step;
+            s + y.max((-LOG_RANGE).exp()).ln()
+        };
+        moved.clamp(s - LOG_RANGE, s + LOG_RANGE)
+    }
+
+    /// Whether p_q sits at its floor start − [`LOG_RANGE`] (its entry zero for any purpose).
+    pub(crate) fn at_floor(&self, q: usize, p_q: f64) -> bool {
+        q >= self.n && p_q <= self.start[q] - LOG_RANGE + 1e-9
+    }
+
     /// The discrete model (zero-order hold) of p.
     pub(crate) fn model(&self, p: &[f64]) -> DiscreteModel {
         let (a, b) = self.continuous(p);
@@ -231,7 +304,7 @@ impl Parametrisation {
             let mut e = big.clone();
             e.view_mut((0, s), (n, n)).copy_from(&(da * self.ts_s));
             e.view_mut((0, s + n), (n, m)).copy_from(&(db * self.ts_s));
-            let x = e.exp();
+            let x = crate::thermal::matrix::exponential(e);
             for i in 0..n {
                 for j in 0..s {
                     d[(i * s + j, q)] = x[(i, s + j)];

@@ -454,12 +454,22 @@ impl StallWindow {
     /// entries; true where the window that ends here lowered it by less than
     /// `negligible_chi2` noise variances σ² = J/N.
     pub(crate) fn counted(&self, lowest: f64, entries: usize, negligible_chi2: f64) -> bool {
+        self.counted_in(lowest, entries, (negligible_chi2, STALL_WINDOW))
+    }
+
+    /// [`StallWindow::counted`] in windows of `window` evaluations.
+    pub(crate) fn counted_in(
+        &self,
+        lowest: f64,
+        entries: usize,
+        (negligible_chi2, window): (f64, usize),
+    ) -> bool {
         let k = self.evaluations.get() + 1;
         self.evaluations.set(k);
         if k == 1 {
             self.window_start.set(lowest);
         }
-        if !k.is_multiple_of(STALL_WINDOW) {
+        if !k.is_multiple_of(window) {
             return false;
         }
         let sigma2 = lowest / entries.max(1) as f64;

@@ -150,6 +150,7 @@ fn from_a_distant_start_noise_free_data_give_the_true_network() {
         weights: None,
         scaling,
         progress: Default::default(),
+        coordinates: crate::estimate::StepCoordinates::Logarithms,
     };
     let e = estimator
         .fit_from(&data, map, &p0, &[], (NEGLIGIBLE_CHI2, true), None)
@@ -169,6 +170,7 @@ fn pt100_noise_gives_c_and_g_within_ten_percent_and_intervals_that_hold_them() {
         weights: None,
         scaling,
         progress: Default::default(),
+        coordinates: crate::estimate::StepCoordinates::Logarithms,
     }
     .estimate(&data)
     .unwrap();
@@ -253,6 +255,7 @@ fn a_constant_offset_on_every_output_is_estimated_beside_the_network() {
         weights: None,
         scaling,
         progress: Default::default(),
+        coordinates: crate::estimate::StepCoordinates::Logarithms,
     }
     .estimate(&data)
     .unwrap();
@@ -306,6 +309,7 @@ fn a_slow_network_is_recovered_from_a_distant_start_through_the_coarse_grid() {
         weights: None,
         scaling,
         progress: crate::progress::Observer::silent(),
+        coordinates: crate::estimate::StepCoordinates::Logarithms,
     };
     let e = estimator
         .estimate_from(&data, &start, as_estimate(model))
@@ -325,6 +329,7 @@ fn held_against_full(data: &IdentificationData, scaling: Scaling) -> (Estimate, 
         weights: None,
         scaling,
         progress: crate::progress::Observer::silent(),
+        coordinates: crate::estimate::StepCoordinates::Logarithms,
     };
     let full = estimator.estimate(data).unwrap();
     let parts = full.network.as_ref().unwrap().parts.clone();
@@ -398,6 +403,7 @@ fn an_output_without_noise_is_weighted_by_its_own_noise_beyond_the_cap() {
         weights,
         scaling,
         progress: Default::default(),
+        coordinates: crate::estimate::StepCoordinates::Logarithms,
     };
     let fit = |weights: Option<Vec<f64>>| {
         rc(weights)
