@@ -523,11 +523,23 @@ fn grey_box_from_nearest(
     let nearest = &distance.parts;
     let water = crate::spec::coolant::outlet_state(model);
     let held_race = StartRace::new(floor);
-    let (fits, held) = if distance.distance.converged {
-        fits_from_nearest(data, options, estimate, (scaling, water), nearest)
+    // From the converged nearest network alone, stepping as themselves; from two starts in
+    // the logarithms where the distance stopped at its cap, refitting the held network
+    // from the free one's parts as well ([`through_coolant`]).
+    let converged = distance.distance.converged;
+    let rc = rc_stepping(
+        options,
+        scaling,
+        if converged {
+            StepCoordinates::Themselves
+        } else {
+            StepCoordinates::Logarithms
+        },
+    );
+    let (fits, held) = if converged {
+        fits_from_nearest(data, &rc, estimate, water, nearest)
     } else {
         let projected = crate::estimate::start_parts(&estimate.model, scaling);
-        let rc = rc_stepping(options, scaling, StepCoordinates::Logarithms);
         fits_from_two_starts(
             data,
             &rc,
@@ -537,7 +549,6 @@ fn grey_box_from_nearest(
             &held_race,
         )
     };
-    let rc = rc_stepping(options, scaling, StepCoordinates::Themselves);
     let dropped = dropped_start(&fits);
     let mut failure = None;
     let (start, full) = [
@@ -557,12 +568,11 @@ fn grey_box_from_nearest(
         None => "rc's fit failed".into(),
     })?;
     let held: Vec<Estimate> = held.into_iter().flatten().collect();
-    let refit_from_free = !distance.distance.converged;
     let (chosen, coolant, held_at) = through_coolant(
         &rc,
         data,
         model,
-        (full, held, refit_from_free),
+        (full, held, !converged),
         (floor, &held_race),
     );
     // The network chosen at the capped weights, refitted at each output's own weight where
@@ -608,23 +618,22 @@ fn rc_stepping(
 }
 
 /// rc's free fit and its fit held to heat through the cooling water, both from the
-/// converged nearest passive network, each on a core of its own, stepping the conductances
-/// as themselves ([`StepCoordinates::Themselves`]).
+/// converged nearest passive network, each on a core of its own (`rc` stepping the
+/// conductances as themselves, [`StepCoordinates::Themselves`]).
 ///
 /// Why one start: the minimum distance converged, so the nearest network is near rc's
 /// minimum, and on the four-node machine, seeds 1–5, rc from it ends on the same networks
 /// as the race of two starts below, to the printed digit (methods/thermal-network.md).
 fn fits_from_nearest(
     data: &IdentificationData,
-    options: &ReplayOptions,
+    rc: &ResistanceCapacitance,
     estimate: &Estimate,
-    (scaling, water): (network::Scaling, Option<usize>),
+    water: Option<usize>,
     nearest: &Parts,
 ) -> (
     Vec<crate::estimate::Result<Estimate>>,
     Vec<Option<Estimate>>,
 ) {
-    let rc = rc_stepping(options, scaling, StepCoordinates::Themselves);
     let (free, held) = std::thread::scope(|scope| {
         let held = scope.spawn(|| {
             water.and_then(|w| {

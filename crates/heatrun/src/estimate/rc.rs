@@ -173,13 +173,8 @@ impl ResistanceCapacitance {
         output_error: Estimate,
     ) -> Result<Estimate> {
         self.scaling_is_valid()?;
-        let map = Parametrisation::of_shape(data.ts_s, self.scaling, &projected(start.clone()));
-        let at = map.start.clone();
-        let mut estimate = self.fit_from(data, map, &at, &[], (NEGLIGIBLE_CHI2, false), None)?;
-        if let Some(network) = estimate.network.as_mut() {
-            *network.output_error = output_error;
-        }
-        Ok(estimate)
+        let fit = self.full_rate_from(data, &projected(start.clone()), &[], None)?;
+        Ok(with_output_error(fit, output_error))
     }
 
     /// [`ResistanceCapacitance::estimate_from`] from a `start` already projected.
@@ -190,11 +185,21 @@ impl ResistanceCapacitance {
         output_error: Estimate,
         race: Option<&StartRace>,
     ) -> Result<Estimate> {
-        let mut estimate = self.coarse_first(data, start, &[], &output_error.model, race)?;
-        if let Some(network) = estimate.network.as_mut() {
-            *network.output_error = output_error;
-        }
-        Ok(estimate)
+        let fit = self.coarse_first(data, start, &[], &output_error.model, race)?;
+        Ok(with_output_error(fit, output_error))
+    }
+
+    /// The full-rate fit to `data` from `parts` (projected), the parameters `pinned` held.
+    fn full_rate_from(
+        &self,
+        data: &IdentificationData,
+        parts: &Parts,
+        pinned: &[usize],
+        race: Option<&StartRace>,
+    ) -> Result<Estimate> {
+        let map = Parametrisation::of_shape(data.ts_s, self.scaling, parts);
+        let start = map.start.clone();
+        self.fit_from(data, map, &start, pinned, (NEGLIGIBLE_CHI2, false), race)
     }
 
     /// The fit to `data` from `start` (projected, the parameters `pinned` held), run
@@ -293,9 +298,7 @@ impl ResistanceCapacitance {
         let n = parts.capacitance_j_per_k.len();
         let pinned = held_to_coolant(n, coolant_state);
         let parts = pinned_at_zero(parts, &pinned);
-        let map = Parametrisation::of_shape(data.ts_s, self.scaling, &parts);
-        let start = map.start.clone();
-        self.fit_from(data, map, &start, &pinned, (NEGLIGIBLE_CHI2, false), race)
+        self.full_rate_from(data, &parts, &pinned, race)
     }
 
     /// `estimate`'s network refitted from itself with the weights' cap raised pass by
@@ -500,6 +503,15 @@ impl ResistanceCapacitance {
         }
         Ok(problem.conclude(self.method(), rows_used, evaluations, start_model))
     }
+}
+
+/// `fit` with `output_error` (an output-error estimate on the same data) kept beside its
+/// network for comparison.
+fn with_output_error(mut fit: Estimate, output_error: Estimate) -> Estimate {
+    if let Some(network) = fit.network.as_mut() {
+        *network.output_error = output_error;
+    }
+    fit
 }
 
 /// Σ_i ln MSE_i of `model`'s simulation on `data` (outputs in their own units: the sum of

@@ -302,12 +302,11 @@ fn accelerated(
     let mut probe = p.to_vec();
     for (k, &q) in free.iter().enumerate() {
         let s = map.start[q];
-        let scale = map.step_coordinate_scale(q, p[q]);
         // y + h·v in the fit's coordinates, unbounded (a probe, not a step).
-        probe[q] = if scale == 1.0 {
+        probe[q] = if q < map.capacitances() {
             p[q] + GEODESIC_H * velocity[k]
         } else {
-            let y = (p[q] - s).exp() + GEODESIC_H * velocity[k];
+            let y = map.step_coordinate(q, p[q]) + GEODESIC_H * velocity[k];
             if y <= 0.0 {
                 return None;
             }
@@ -379,6 +378,14 @@ mod tests {
     use super::*;
     use crate::synth::example::generator_like;
 
+    /// The generator-like machine's scaling (θ_base 80 K, P_base 300 MW).
+    fn scaling() -> Scaling {
+        Scaling {
+            theta_base_k: 80.0,
+            p_base_w: 300e6,
+        }
+    }
+
     fn model_of(parts: &Parts, scaling: Scaling) -> DiscreteModel {
         let map = Parametrisation::of_shape(1.0, scaling, parts);
         map.model(&map.start)
@@ -403,10 +410,7 @@ mod tests {
     #[test]
     fn a_network_is_found_again_from_its_own_model_and_a_perturbed_start() {
         let (truth, _) = generator_like();
-        let scaling = Scaling {
-            theta_base_k: 80.0,
-            p_base_w: 300e6,
-        };
+        let scaling = scaling();
         let model = model_of(&truth, scaling);
         // A start 30 % off in every C and G, and shares moved by 0.1.
         let mut start = truth.clone();
@@ -449,10 +453,7 @@ mod tests {
     #[test]
     fn a_model_that_is_no_network_has_a_large_distance_and_a_singular_covariance_is_regularised() {
         let (truth, _) = generator_like();
-        let scaling = Scaling {
-            theta_base_k: 80.0,
-            p_base_w: 300e6,
-        };
+        let scaling = scaling();
         let mut model = model_of(&truth, scaling);
         // Make one share negative in Γ (a loss that cools a part): no passive network.
         let g = model.gamma[(0, 2)];
@@ -481,10 +482,7 @@ mod tests {
         use rand::SeedableRng;
         use rand_distr::{Distribution, Normal};
         let (truth, _) = generator_like();
-        let scaling = Scaling {
-            theta_base_k: 80.0,
-            p_base_w: 300e6,
-        };
+        let scaling = scaling();
         let model = model_of(&truth, scaling);
         let len = 18;
         let a = DMatrix::from_fn(len, len, |i, j| ((i * 7 + j * 3) % 11) as f64 / 11.0);

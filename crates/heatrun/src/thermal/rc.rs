@@ -258,14 +258,12 @@ impl Parametrisation {
     /// zero and leaves it with a step of the size its own gradient asks for, and the
     /// model, linear in G and K for a given C, has no curve in it for the step to miss.
     pub(crate) fn stepped(&self, q: usize, p_q: f64, step: f64) -> f64 {
-        let s = self.start[q];
-        let moved = if q < self.n {
-            p_q + step.clamp(-MOST_LOG_STEP, MOST_LOG_STEP)
+        let step = if q < self.n {
+            step.clamp(-MOST_LOG_STEP, MOST_LOG_STEP)
         } else {
-            let y = (p_q - s).exp() + step;
-            s + y.max((-LOG_RANGE).exp()).ln()
+            step
         };
-        moved.clamp(s - LOG_RANGE, s + LOG_RANGE)
+        self.param_of_step_coordinate(q, self.step_coordinate(q, p_q) + step)
     }
 
     /// Whether p_q sits at its floor start − [`LOG_RANGE`] (its entry zero for any purpose).
