@@ -12,9 +12,9 @@ use heatrun::report::Replayed;
 use heatrun::synth::{self, SynthOptions};
 // rerun's own decoder, through the SDK the build already has (no second build of
 // rerun's crates for the tests).
-use rerun::external::re_log_encoding::DecoderApp;
-use rerun::log::{Chunk, LogMsg};
-use rerun::StoreKind;
+use heatrun_rerun::sdk::external::re_log_encoding::DecoderApp;
+use heatrun_rerun::sdk::log::{Chunk, LogMsg};
+use heatrun_rerun::sdk::StoreKind;
 use serde_json::Value;
 
 thread_local! {

@@ -2,7 +2,7 @@
 //! constant to a part (eqs. 27-29), the residuals' correlations, and the recursive
 //! estimate's trajectory.
 
-use rerun::RecordingStream;
+use crate::sdk::RecordingStream;
 
 use crate::Result;
 use heatrun::hidden::traces::OutputSensitivities;

@@ -7,18 +7,18 @@
 //! `container/<id>`, `view/<id>`, `view/<id>/ViewContents`), plus one entity per view
 //! property (`view/<id>/TimeAxis`, ...), the layout Python's `rerun.blueprint` writes.
 
-use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, RecordingId};
-use rerun::external::re_sdk_types::blueprint::archetypes::{
+use crate::sdk::external::re_log_types::{BlueprintActivationCommand, LogMsg, RecordingId};
+use crate::sdk::types::blueprint::archetypes::{
     ContainerBlueprint, PanelBlueprint, PlotLegend, TimeAxis, TimePanelBlueprint, ViewBlueprint,
     ViewContents, ViewportBlueprint,
 };
-use rerun::external::re_sdk_types::blueprint::components::{
+use crate::sdk::types::blueprint::components::{
     ActiveTab, ColumnShare, ContainerKind, Corner2D, IncludedContent, LinkAxis, PanelState,
     QueryExpression, RootContainer, RowShare, ViewClass,
 };
-use rerun::external::re_sdk_types::components::{Name, Visible};
-use rerun::external::re_sdk_types::datatypes::TimeRange;
-use rerun::{AsComponents, RecordingStream, RecordingStreamBuilder, SerializedComponentBatch};
+use crate::sdk::types::components::{Name, Visible};
+use crate::sdk::types::datatypes::TimeRange;
+use crate::sdk::{AsComponents, RecordingStream, RecordingStreamBuilder, SerializedComponentBatch};
 
 /// A view's class, as the viewer names it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -219,7 +219,7 @@ fn hyphenated(b: &[u8; 16]) -> String {
 impl Layout {
     /// Logs the layout into a new blueprint store and sends it with `rec`, active and the
     /// default (so "reset blueprint" in the viewer comes back to it).
-    pub fn send(&self, rec: &RecordingStream) -> rerun::RecordingStreamResult<()> {
+    pub fn send(&self, rec: &RecordingStream) -> crate::sdk::RecordingStreamResult<()> {
         let application_id = rec
             .store_info()
             .map(|info| info.application_id().clone())
@@ -270,7 +270,7 @@ fn log_node(
     stream: &RecordingStream,
     node: &Node,
     ids: &mut Ids,
-) -> rerun::RecordingStreamResult<[u8; 16]> {
+) -> crate::sdk::RecordingStreamResult<[u8; 16]> {
     let id = ids.next();
     match node {
         Node::View(view) => log_view(stream, view, &format!("view/{}", hyphenated(&id)))?,
@@ -318,7 +318,7 @@ fn log_node(
 }
 
 /// Logs a view: its contents query, its blueprint and its properties.
-fn log_view(stream: &RecordingStream, view: &View, path: &str) -> rerun::RecordingStreamResult<()> {
+fn log_view(stream: &RecordingStream, view: &View, path: &str) -> crate::sdk::RecordingStreamResult<()> {
     stream.log(
         format!("{path}/ViewContents"),
         &ViewContents::new([QueryExpression::from("$origin/**")]),

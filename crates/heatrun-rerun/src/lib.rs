@@ -7,7 +7,8 @@
 //! against model per part, the residuals, the inputs and the model's figures; tabs
 //! for the sensitivities, residual analysis, recursive estimate and raw channels.
 //!
-//! Modules: `traces` (the time series), `analysis` (sensitivities, correlations, RLS),
+//! Modules: `sdk` (rerun's SDK under the `rerun` crate's names, without that crate's
+//! viewer-side dependencies), `traces` (the time series), `analysis` (sensitivities, correlations, RLS),
 //! `text` (the figures panel), `style` (names and colours), `layout` (a blueprint
 //! writer with view properties), `blueprint` (the layout of a replay).
 
@@ -15,7 +16,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
-use rerun::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
+use crate::sdk::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
 
 mod analysis;
 pub mod blueprint;
@@ -29,6 +30,7 @@ pub mod network;
 pub mod prediction;
 #[cfg(test)]
 mod rrd_testing;
+pub mod sdk;
 mod style;
 mod text;
 mod traces;
@@ -336,7 +338,7 @@ fn log_rest(
     let figures = text::model_figures(report);
     rec.log_static(
         "model",
-        &rerun::TextDocument::new(figures).with_media_type(rerun::MediaType::markdown()),
+        &crate::sdk::TextDocument::new(figures).with_media_type(crate::sdk::MediaType::markdown()),
     )
     .map_err(publish_err)?;
     rec.log_static("summary", &text::preformatted(summary_text))

@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use rerun::RecordingStream;
+use crate::sdk::RecordingStream;
 
 use super::layout::{Layout, Node, View, ViewKind};
 use super::traces::on_grid;

@@ -3,7 +3,7 @@
 //! the heat through it at the end of the run (sized and coloured by that heat); edges in
 //! the direction the heat flows.
 
-use rerun::{GraphEdges, GraphNodes, RecordingStream};
+use crate::sdk::{GraphEdges, GraphNodes, RecordingStream};
 
 use crate::Result;
 use heatrun::network::Network;

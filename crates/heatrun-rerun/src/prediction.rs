@@ -1,7 +1,7 @@
 //! `heatrun predict --rrd`: the load schedule, the losses it causes and the predicted
 //! temperatures with each part's limit, on a timeline of the schedule's own seconds.
 
-use rerun::{RecordingStream, Scalars, TimeColumn};
+use crate::sdk::{RecordingStream, Scalars, TimeColumn};
 
 use super::layout::{Layout, Node, View};
 use super::traces::SERIES_SLICE;

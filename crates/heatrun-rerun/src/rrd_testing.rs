@@ -7,9 +7,9 @@ use std::path::Path;
 
 use heatrun::pipeline::{replay, ReplayOptions};
 use heatrun::report::Replayed;
-use rerun::external::re_log_encoding::DecoderApp;
-use rerun::log::{Chunk, LogMsg};
-use rerun::StoreKind;
+use crate::sdk::external::re_log_encoding::DecoderApp;
+use crate::sdk::log::{Chunk, LogMsg};
+use crate::sdk::StoreKind;
 
 /// `mcap` replayed with `options` and published to an .rrd beside it; with each
 /// time-series entity the .rrd holds ([`series`]).
@@ -26,8 +26,8 @@ pub(crate) fn replayed_and_drawn(
 
 /// Each time-series entity of the recording store: its (time ns, value) rows, in order.
 fn series(path: &std::path::Path) -> BTreeMap<String, Vec<(i64, f64)>> {
-    let component = rerun::Scalars::descriptor_scalars().component;
-    let timeline = rerun::TimelineName::try_new(crate::TIMELINE).unwrap();
+    let component = crate::sdk::Scalars::descriptor_scalars().component;
+    let timeline = crate::sdk::TimelineName::try_new(crate::TIMELINE).unwrap();
     let mut out: BTreeMap<String, Vec<(i64, f64)>> = BTreeMap::new();
     let file = std::fs::File::open(path).unwrap();
     for msg in DecoderApp::decode_eager(BufReader::new(file)).unwrap() {

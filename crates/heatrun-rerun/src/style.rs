@@ -2,7 +2,7 @@
 //! its measured and model temperatures, its residual, its sensitivity responses — and
 //! each input another, so a reader matches lines across plots without a legend.
 
-use rerun::{RecordingStream, SeriesLines};
+use crate::sdk::{RecordingStream, SeriesLines};
 
 use crate::Result;
 

@@ -82,7 +82,7 @@ pub fn decisions(report: &Report) -> String {
 /// A plain-text table (the terminal summary, the monitor's) as a document the viewer shows
 /// in a fixed-width font: Markdown, the text in one fenced block, so its columns line up
 /// as they do on a terminal (rerun draws plain text proportionally).
-pub fn preformatted(text: &str) -> rerun::TextDocument {
-    rerun::TextDocument::new(format!("```text\n{}\n```\n", text.trim_end()))
-        .with_media_type(rerun::MediaType::markdown())
+pub fn preformatted(text: &str) -> crate::sdk::TextDocument {
+    crate::sdk::TextDocument::new(format!("```text\n{}\n```\n", text.trim_end()))
+        .with_media_type(crate::sdk::MediaType::markdown())
 }

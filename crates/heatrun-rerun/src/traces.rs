@@ -2,7 +2,7 @@
 //! part, residuals, inputs and the decimated quantities. Each series goes out as columns
 //! in slices it waits for (rerun's queue never holds more than one slice).
 
-use rerun::{RecordingStream, Scalars, TimeColumn};
+use crate::sdk::{RecordingStream, Scalars, TimeColumn};
 
 use crate::Result;
 use heatrun::decimate::DecimatedRecording;
