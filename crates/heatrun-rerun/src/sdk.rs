@@ -1,12 +1,12 @@
 //! The parts of rerun's SDK the publisher uses, under the names the `rerun` crate gives
-//! them (`crate::sdk::Scalars`, `rerun::log::Chunk`, …).
+//! them (`rerun::Scalars`, `rerun::log::Chunk`, …).
 //!
 //! They come from `re_sdk` and `re_sdk_types`, the crates the `rerun` crate re-exports,
 //! not from `rerun` itself: whatever its features, `rerun` always builds the viewer's
 //! store and query engine (`re_entity_db`, `re_chunk_store`, `re_query`), the data
 //! platform's client and its authentication (`re_redap_client`, `re_auth`: `ring`,
 //! `jsonwebtoken`, OpenTelemetry), analytics and a memory profiler (`backtrace`, `gimli`):
-//! about 60 crates of a clean build that a recording stream never calls
+//! 57 packages of a clean build that a recording stream never calls
 //! (docs/src/contributing.md#build-timings). What an .rrd holds, and the gRPC stream to a
 //! viewer, are the same: `rerun`'s `RecordingStream` is `re_sdk`'s.
 
