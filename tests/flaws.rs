@@ -147,6 +147,17 @@ fn a_frozen_hour_is_named_and_moves_the_time_constants_by_at_most_1_percent() {
     assert!(warnings[0].starts_with(
         "stator_winding_temp: 3600 sample(s) from 2019-06-03T08:30:00Z to 2019-06-03T09:29:59Z left out"
     ));
+    // The estimator's copy of the stretch is the model's prediction (the inputs computed
+    // from that channel follow it), but the state keeps its readings as measured: what
+    // the summary, the report's residuals and rerun's "measured" trace show is the frozen
+    // value the sensor sent, not a value heatrun made up.
+    let r = replayed(&dir.path().join("frozen.mcap"));
+    assert_eq!(r.left_out.len(), 1, "{:?}", r.left_out);
+    let stretch = &r.left_out[0];
+    let measured = &r.signals.states[stretch.state].measured;
+    for k in stretch.from_index..=stretch.to_index {
+        assert_eq!(measured.get(k), Some(held), "instant {k}");
+    }
     let clean = replayed(&dir.path().join("clean.mcap"));
     let tc: Vec<f64> = report["time_constants_s"]
         .as_array()
