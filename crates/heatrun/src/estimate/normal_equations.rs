@@ -10,9 +10,17 @@
 
 use nalgebra::{DMatrix, DVector};
 
-/// Rows gathered before they are added: enough to amortise reading JᵀJ, few enough that
-/// the block stays in the first-level cache (32 rows of 120 entries: 30 kB).
-const BLOCK_ROWS: usize = 32;
+/// Rows gathered before they are added: enough to amortise reading JᵀJ and writing it
+/// back (at 32 rows that was a third of the time), few enough that a block of the usual
+/// 20 to 30 columns stays in the first-level cache (128 rows of 32 entries: 32 kB).
+const BLOCK_ROWS: usize = 128;
+
+/// Rows of JᵀJ one tile of [`add_tile`] sums at once.
+const TILE_ROWS: usize = 4;
+
+/// Columns of JᵀJ one tile of [`add_tile`] sums at once: with [`TILE_ROWS`], 32 sums in
+/// registers, eight independent chains of four where one column's sums are one chain.
+const TILE_COLUMNS: usize = 8;
 
 /// Rows of J over a set of columns (increasing), gathered and added to JᵀJ (upper
 /// triangle) and Jᵀr a block at a time.
@@ -20,13 +28,16 @@ const BLOCK_ROWS: usize = 32;
 pub(crate) struct RowBlock {
     /// The column of J of each of the block's columns, increasing.
     columns: Vec<usize>,
-    /// The rows, row-major: `filled` rows of `columns.len()` entries.
+    /// The rows, row-major, [`RowBlock::stride`] entries a row: the row's entries over
+    /// `columns`, then its residual, then zeros up to the stride.
     rows: Vec<f64>,
-    /// The residual of each row.
-    residuals: Vec<f64>,
+    /// Entries a row, the columns and the residual padded for whole tiles.
+    stride: usize,
     filled: usize,
-    /// One row of the block's part of JᵀJ as it is summed.
-    scratch: Vec<f64>,
+    /// The sums of the block's tiles, `stride` × `stride` row-major: entry (a, b) of the
+    /// block's part of [JᵀJ Jᵀr] for a ≤ b (b = the residual's column for Jᵀr), and
+    /// products a tile computes beyond them that are never read.
+    sums: Vec<f64>,
 }
 
 impl RowBlock {
@@ -35,9 +46,9 @@ impl RowBlock {
         RowBlock {
             columns: Vec::new(),
             rows: Vec::new(),
-            residuals: Vec::with_capacity(BLOCK_ROWS),
+            stride: 0,
             filled: 0,
-            scratch: Vec::new(),
+            sums: Vec::new(),
         }
     }
 
@@ -52,9 +63,15 @@ impl RowBlock {
         self.columns.clear();
         self.columns.extend(columns);
         debug_assert!(self.columns.windows(2).all(|w| w[0] < w[1]));
-        let width = self.columns.len();
-        self.rows.resize(BLOCK_ROWS * width, 0.0);
-        self.scratch.resize(width, 0.0);
+        // The columns and the residual, rounded up to whole tile rows, and one more tile
+        // row: a tile starting at a multiple of TILE_ROWS at or before the residual's
+        // column then ends within the stride.
+        let with_residual = self.columns.len() + 1;
+        self.stride = with_residual.div_ceil(TILE_ROWS) * TILE_ROWS + TILE_COLUMNS - TILE_ROWS;
+        self.rows.clear();
+        self.rows.resize(BLOCK_ROWS * self.stride, 0.0);
+        self.sums.clear();
+        self.sums.resize(self.stride * self.stride, 0.0);
     }
 
     /// A new row with residual `r`, to be filled in over the block's columns (in their
@@ -69,9 +86,9 @@ impl RowBlock {
             self.flush(gram, grad);
         }
         let width = self.columns.len();
-        let at = self.filled * width;
+        let at = self.filled * self.stride;
         self.filled += 1;
-        self.residuals.push(r);
+        self.rows[at + width] = r;
         &mut self.rows[at..at + width]
     }
 
@@ -79,8 +96,10 @@ impl RowBlock {
     ///
     /// Each entry receives its rows' products in row order, one at a time, exactly as
     /// adding the rows one by one would: the sums are the same to the last bit, so the
-    /// estimates (and everything fitted to their covariance) do not move. A row of the
-    /// block's upper triangle is summed in a contiguous scratch row ([`add_products`]).
+    /// estimates (and everything fitted to their covariance) do not move. Jᵀr is summed
+    /// as one more column of JᵀJ, the residual's ([J r]ᵀ[J r] has Jᵀr there), and the
+    /// block's part of [JᵀJ Jᵀr] in tiles of [`TILE_ROWS`] × [`TILE_COLUMNS`] held in
+    /// registers through the block's rows ([`add_tile`]).
     pub(crate) fn flush(&mut self, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
@@ -91,11 +110,10 @@ impl RowBlock {
         self.flush_portable(gram, grad);
     }
 
-    /// [`RowBlock::flush`] compiled for AVX2: the register sums of [`add_products`] four
-    /// to an instruction where the portable x86-64 build has two. The same products are
-    /// added in the same order (Rust fuses no multiply into an add), so the sums are the
-    /// same to the bit on every processor. An output-error fit's evaluation spends much
-    /// of its time here (43 % of a misfit model's 887-evaluation fit, `perf`).
+    /// [`RowBlock::flush`] compiled for AVX2: four sums to an instruction where the
+    /// portable x86-64 build has two. The same products are added in the same order
+    /// (Rust fuses no multiply into an add), so the sums are the same to the bit on every
+    /// processor. An output-error fit's evaluation spends much of its time here.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn flush_avx2(&mut self, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
@@ -105,55 +123,58 @@ impl RowBlock {
     /// [`RowBlock::flush`] for any processor; inlined into each compiled variant.
     #[inline(always)]
     fn flush_portable(&mut self, gram: &mut DMatrix<f64>, grad: &mut DVector<f64>) {
-        let (rows, width) = (self.filled, self.columns.len());
-        let data = &self.rows[..rows * width];
-        for (a, &qa) in self.columns.iter().enumerate() {
-            let mut g = grad[qa];
-            for (k, r) in self.residuals.iter().enumerate() {
-                g += data[k * width + a] * r;
+        if self.filled == 0 {
+            return;
+        }
+        let (width, stride) = (self.columns.len(), self.stride);
+        let columns = &self.columns;
+        let sums = &mut self.sums;
+        for (a, &qa) in columns.iter().enumerate() {
+            for (b, &qb) in columns.iter().enumerate().skip(a) {
+                sums[a * stride + b] = gram[(qa, qb)];
             }
-            grad[qa] = g;
-            let upper = &self.columns[a..];
-            let sums = &mut self.scratch[..upper.len()];
-            for (sum, &qb) in sums.iter_mut().zip(upper) {
-                *sum = gram[(qa, qb)];
-            }
-            add_products(data, width, a, sums);
-            for (sum, &qb) in sums.iter().zip(upper) {
-                gram[(qa, qb)] = *sum;
+            sums[a * stride + width] = grad[qa];
+        }
+        let data = &self.rows[..self.filled * stride];
+        for a0 in (0..width).step_by(TILE_ROWS) {
+            for b0 in (a0..=width).step_by(TILE_COLUMNS) {
+                add_tile(data, stride, (a0, b0), sums);
             }
         }
+        for (a, &qa) in columns.iter().enumerate() {
+            for (b, &qb) in columns.iter().enumerate().skip(a) {
+                gram[(qa, qb)] = sums[a * stride + b];
+            }
+            grad[qa] = sums[a * stride + width];
+        }
         self.filled = 0;
-        self.residuals.clear();
     }
 }
 
-/// Columns summed together in registers by [`add_products`].
-const LANES: usize = 8;
-
-/// sums[b − a] += Σ_k B[k][a] B[k][b] for b = a…width−1, over the rows of `data`
-/// (row-major, `width` entries a row) in order, each product added on its own. The sums
-/// of [`LANES`] columns stay in registers through all the rows.
+/// sums[a][b] += Σ_k B[k][a] B[k][b] over the tile a = a0…a0+3, b = b0…b0+7, over the
+/// rows of `data` (row-major, `stride` entries a row) in order, each product added on its
+/// own. The tile's 32 sums stay in registers through all the rows: each row costs 32
+/// independent multiply-adds, where one column's sums down the rows would be a chain
+/// waiting on each add.
 #[inline(always)]
-fn add_products(data: &[f64], width: usize, a: usize, sums: &mut [f64]) {
-    let mut chunks = sums.chunks_exact_mut(LANES);
-    let mut b = a;
-    for chunk in &mut chunks {
-        let mut acc = [0.0; LANES];
-        acc.copy_from_slice(chunk);
-        for row in data.chunks_exact(width) {
-            let (ra, rb) = (row[a], &row[b..b + LANES]);
-            for (s, v) in acc.iter_mut().zip(rb) {
-                *s += ra * v;
+fn add_tile(data: &[f64], stride: usize, (a0, b0): (usize, usize), sums: &mut [f64]) {
+    let mut acc = [[0.0; TILE_COLUMNS]; TILE_ROWS];
+    for (i, tile_row) in acc.iter_mut().enumerate() {
+        let at = (a0 + i) * stride + b0;
+        tile_row.copy_from_slice(&sums[at..at + TILE_COLUMNS]);
+    }
+    for row in data.chunks_exact(stride) {
+        let rb = &row[b0..b0 + TILE_COLUMNS];
+        let ra = &row[a0..a0 + TILE_ROWS];
+        for (tile_row, &x) in acc.iter_mut().zip(ra) {
+            for (s, &v) in tile_row.iter_mut().zip(rb) {
+                *s += x * v;
             }
         }
-        chunk.copy_from_slice(&acc);
-        b += LANES;
     }
-    for (i, sum) in chunks.into_remainder().iter_mut().enumerate() {
-        for row in data.chunks_exact(width) {
-            *sum += row[a] * row[b + i];
-        }
+    for (i, tile_row) in acc.iter().enumerate() {
+        let at = (a0 + i) * stride + b0;
+        sums[at..at + TILE_COLUMNS].copy_from_slice(tile_row);
     }
 }
 
