@@ -1011,7 +1011,39 @@ impl Propagation {
     }
 
     /// ŷ(k) = Φ ŷ(k−1) + Γ u(k−1) (eq. 8).
+    ///
+    /// Every output's sum is carried at once, term by term in the order written (Φ's,
+    /// then Γ's): with n known for three and four states the sums stay in registers.
+    /// Each sum is the same to the bit.
     fn step(&mut self) {
+        match self.n {
+            3 => self.step_with::<3>(),
+            4 => self.step_with::<4>(),
+            _ => self.step_any(),
+        }
+        std::mem::swap(&mut self.y, &mut self.y_next);
+    }
+
+    /// [`Propagation::step`] for N states, known when compiled.
+    #[inline(always)]
+    fn step_with<const N: usize>(&mut self) {
+        let m = self.m;
+        let mut acc = [0.0; N];
+        for (l, &v) in self.y[..N].iter().enumerate() {
+            for (c, a) in acc.iter_mut().enumerate() {
+                *a += self.phi[c * N + l] * v;
+            }
+        }
+        for (l, &v) in self.u[..m].iter().enumerate() {
+            for (c, a) in acc.iter_mut().enumerate() {
+                *a += self.gamma[c * m + l] * v;
+            }
+        }
+        self.y_next[..N].copy_from_slice(&acc);
+    }
+
+    /// [`Propagation::step`] for any number of states.
+    fn step_any(&mut self) {
         let (n, m) = (self.n, self.m);
         for c in 0..n {
             let mut acc = 0.0;
@@ -1023,7 +1055,6 @@ impl Propagation {
             }
             self.y_next[c] = acc;
         }
-        std::mem::swap(&mut self.y, &mut self.y_next);
     }
 
     /// The row of J for output c over a segment's columns ([`Problem::segment_columns`]):

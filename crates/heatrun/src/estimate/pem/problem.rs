@@ -458,9 +458,13 @@ struct Filter {
     observed: Vec<bool>,
     /// The columns of K among the parameters (n² where it is free, 0 where given).
     gain_cols: usize,
-    /// sens[q·na + c] = ∂x̂_c/∂param_q over the segment's columns (Θ, K, x̂(start)).
+    /// sens[c·stride + q] = ∂x̂_c/∂param_q over the segment's columns (Θ, K, x̂(start)):
+    /// a state's sensitivities side by side, so that a step propagates them a vector of
+    /// parameters at a time and J's row is one slice.
     sens: Vec<f64>,
     sens_next: Vec<f64>,
+    /// Entries of a state's row of `sens`: every column a segment can have.
+    stride: usize,
 }
 
 impl Filter {
@@ -497,6 +501,7 @@ impl Filter {
             gain_cols,
             sens: vec![0.0; cols * na],
             sens_next: vec![0.0; cols * na],
+            stride: cols,
         }
     }
 
@@ -509,9 +514,9 @@ impl Filter {
         self.x[..self.n].copy_from_slice(x0);
         self.sens.iter_mut().for_each(|v| *v = 0.0);
         let at = self.x0_column();
-        for q in 0..self.n {
-            if let Some(slot) = self.sens.get_mut((at + q) * na + q) {
-                *slot = 1.0;
+        if at + self.n <= self.stride {
+            for q in 0..self.n.min(na) {
+                self.sens[q * self.stride + at + q] = 1.0;
             }
         }
     }
@@ -539,10 +544,34 @@ impl Filter {
     /// ∂x̂_a(k+1)/∂θ = (Φ_a − K_a M_k C_a) ∂x̂_a(k)/∂θ + the direct terms: φ_j(k) in row
     /// i for Θ_ij (φ = [x̂ᵀ uᵀ]ᵀ), (M_k e)_j in row i for a free K_ij, none for
     /// x̂(start); before [`Filter::step`].
+    ///
+    /// Each entry is summed in a register through the na rows it depends on (A_c0
+    /// ∂x̂_0/∂θ_q + … in that order, then its direct term), a vector of parameters at a
+    /// time: every entry the same to the bit as one summed on its own. Compiled for AVX2
+    /// where the processor has it, with na known for the usual three to five states.
     fn propagate_sensitivities(&mut self, with_x0: bool) {
-        let (n, na, p) = (self.n, self.na, self.n + self.m);
-        let p_theta = n * p;
-        let cols = self.x0_column() + if with_x0 { n } else { 0 };
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2, checked just above.
+            unsafe { self.propagate_avx2(with_x0) };
+            return;
+        }
+        self.propagate_portable(with_x0);
+    }
+
+    /// [`Filter::propagate_sensitivities`] compiled for AVX2 (the same operations in the
+    /// same order: the same bits).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn propagate_avx2(&mut self, with_x0: bool) {
+        self.propagate_portable(with_x0);
+    }
+
+    /// [`Filter::propagate_sensitivities`] for any processor; inlined into each
+    /// compiled variant.
+    #[inline(always)]
+    fn propagate_portable(&mut self, with_x0: bool) {
+        let (n, na) = (self.n, self.na);
         for c in 0..na {
             for l in 0..na {
                 let k = if l < n && self.observed[l] {
@@ -553,27 +582,110 @@ impl Filter {
                 self.a[c * na + l] = self.phi[c * na + l] - k;
             }
         }
-        for q in 0..cols {
-            for c in 0..na {
-                let mut acc = 0.0;
-                for l in 0..na {
-                    acc += self.a[c * na + l] * self.sens[q * na + l];
-                }
-                self.sens_next[q * na + c] = acc;
-            }
-            if q < p_theta {
-                let (i, j) = (q / p, q % p);
-                self.sens_next[q * na + i] += if j < n { self.x[j] } else { self.u[j - n] };
-            } else if q < p_theta + self.gain_cols {
-                let (i, j) = ((q - p_theta) / n, (q - p_theta) % n);
-                self.sens_next[q * na + i] += self.e[j];
-            }
+        let cols = self.x0_column() + if with_x0 { n } else { 0 };
+        match na {
+            3 => self.transition_with::<3>(cols),
+            4 => self.transition_with::<4>(cols),
+            5 => self.transition_with::<5>(cols),
+            _ => self.transition_any(cols),
         }
+        self.add_direct_terms();
         std::mem::swap(&mut self.sens, &mut self.sens_next);
     }
 
+    /// sens_next = (Φ_a − K_a M_k C_a) sens over the first `cols` columns, for NA states
+    /// known when compiled: the rows' loop unrolls and each entry's sum stays in a
+    /// register.
+    #[inline(always)]
+    fn transition_with<const NA: usize>(&mut self, cols: usize) {
+        let stride = self.stride;
+        let rows: [&[f64]; NA] = std::array::from_fn(|l| &self.sens[l * stride..][..cols]);
+        for c in 0..NA {
+            let factors: [f64; NA] = std::array::from_fn(|l| self.a[c * NA + l]);
+            let next = &mut self.sens_next[c * stride..][..cols];
+            for (q, slot) in next.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for (f, row) in factors.iter().zip(&rows) {
+                    acc += f * row[q];
+                }
+                *slot = acc;
+            }
+        }
+    }
+
+    /// [`Filter::transition_with`] for any number of states.
+    #[inline(always)]
+    fn transition_any(&mut self, cols: usize) {
+        let (na, stride) = (self.na, self.stride);
+        for c in 0..na {
+            let next = &mut self.sens_next[c * stride..][..cols];
+            for (q, slot) in next.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for l in 0..na {
+                    acc += self.a[c * na + l] * self.sens[l * stride + q];
+                }
+                *slot = acc;
+            }
+        }
+    }
+
+    /// The direct terms of [`Filter::propagate_sensitivities`], added after the
+    /// transition: φ_j(k) in row i for Θ_ij, (M_k e)_j in row i for a free K_ij.
+    #[inline(always)]
+    fn add_direct_terms(&mut self) {
+        let (n, p, stride) = (self.n, self.n + self.m, self.stride);
+        let p_theta = n * p;
+        for q in 0..p_theta {
+            let (i, j) = (q / p, q % p);
+            self.sens_next[i * stride + q] += if j < n { self.x[j] } else { self.u[j - n] };
+        }
+        for q in p_theta..p_theta + self.gain_cols {
+            let (i, j) = ((q - p_theta) / n, (q - p_theta) % n);
+            self.sens_next[i * stride + q] += self.e[j];
+        }
+    }
+
     /// x̂_a(k+1) = Φ_a x̂_a(k) + Γ_a u(k) + K_a M_k e(k).
+    ///
+    /// Every state's sum is carried at once, term by term in the order written (Φ_a's,
+    /// then K_a's, then Γ_a's): with na known for the usual three to five states the
+    /// sums stay in registers and no add waits on the one before it in the same state's
+    /// chain alone. Each sum is the same to the bit.
     fn step(&mut self) {
+        match self.na {
+            3 => self.step_with::<3>(),
+            4 => self.step_with::<4>(),
+            5 => self.step_with::<5>(),
+            _ => self.step_any(),
+        }
+        std::mem::swap(&mut self.x, &mut self.x_next);
+    }
+
+    /// [`Filter::step`] for NA states, known when compiled.
+    #[inline(always)]
+    fn step_with<const NA: usize>(&mut self) {
+        let (n, m) = (self.n, self.m);
+        let mut acc = [0.0; NA];
+        for (l, &v) in self.x[..NA].iter().enumerate() {
+            for (c, a) in acc.iter_mut().enumerate() {
+                *a += self.phi[c * NA + l] * v;
+            }
+        }
+        for (l, &v) in self.e[..n].iter().enumerate() {
+            for (c, a) in acc.iter_mut().enumerate() {
+                *a += self.gain[c * n + l] * v;
+            }
+        }
+        for (l, &v) in self.u[..m].iter().enumerate() {
+            for (c, a) in acc.iter_mut().enumerate() {
+                *a += self.gamma[c * m + l] * v;
+            }
+        }
+        self.x_next[..NA].copy_from_slice(&acc);
+    }
+
+    /// [`Filter::step`] for any number of states.
+    fn step_any(&mut self) {
         let (n, na, m) = (self.n, self.na, self.m);
         for c in 0..na {
             let mut acc = 0.0;
@@ -588,14 +700,14 @@ impl Filter {
             }
             self.x_next[c] = acc;
         }
-        std::mem::swap(&mut self.x, &mut self.x_next);
     }
 
     /// The row of J for output c over the segment's columns: −√w_c ∂x̂_c/∂param.
     fn jacobian_row(&self, c: usize, sqrt_w: f64, with_x0: bool, row: &mut [f64]) {
         let cols = self.x0_column() + if with_x0 { self.n } else { 0 };
-        for (q, slot) in row[..cols].iter_mut().enumerate() {
-            *slot = -sqrt_w * self.sens[q * self.na + c];
+        let sens = &self.sens[c * self.stride..][..cols];
+        for (slot, v) in row[..cols].iter_mut().zip(sens) {
+            *slot = -sqrt_w * v;
         }
     }
 }
