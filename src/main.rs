@@ -76,4 +76,3 @@ fn return_large_blocks_to_the_system() {
         libc::mallopt(libc::M_MMAP_THRESHOLD, OWN_MAPPING_FROM_BYTES);
     }
 }
-

@@ -318,7 +318,11 @@ fn log_node(
 }
 
 /// Logs a view: its contents query, its blueprint and its properties.
-fn log_view(stream: &RecordingStream, view: &View, path: &str) -> crate::sdk::RecordingStreamResult<()> {
+fn log_view(
+    stream: &RecordingStream,
+    view: &View,
+    path: &str,
+) -> crate::sdk::RecordingStreamResult<()> {
     stream.log(
         format!("{path}/ViewContents"),
         &ViewContents::new([QueryExpression::from("$origin/**")]),

@@ -5,11 +5,11 @@ use std::collections::BTreeMap;
 use std::io::BufReader;
 use std::path::Path;
 
-use heatrun::pipeline::{replay, ReplayOptions};
-use heatrun::report::Replayed;
 use crate::sdk::external::re_log_encoding::DecoderApp;
 use crate::sdk::log::{Chunk, LogMsg};
 use crate::sdk::StoreKind;
+use heatrun::pipeline::{replay, ReplayOptions};
+use heatrun::report::Replayed;
 
 /// `mcap` replayed with `options` and published to an .rrd beside it; with each
 /// time-series entity the .rrd holds ([`series`]).

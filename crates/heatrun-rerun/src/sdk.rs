@@ -11,12 +11,12 @@
 //! viewer, are the same: `rerun`'s `RecordingStream` is `re_sdk`'s.
 
 pub use re_sdk::log;
+pub use re_sdk::log::TimeColumn;
 pub use re_sdk::{
     external, AsComponents, RecordingStream, RecordingStreamBuilder, RecordingStreamResult,
     SerializedComponentBatch, StoreKind, TimelineName,
 };
-pub use re_sdk::log::TimeColumn;
-pub use re_sdk_types::archetypes::{GraphEdges, GraphNodes, Scalars, SeriesLines, TextDocument};
-pub use re_sdk_types::components::MediaType;
 /// Blueprint archetypes and components, component and data types: `rerun::external::re_sdk_types`.
 pub use re_sdk_types as types;
+pub use re_sdk_types::archetypes::{GraphEdges, GraphNodes, Scalars, SeriesLines, TextDocument};
+pub use re_sdk_types::components::MediaType;

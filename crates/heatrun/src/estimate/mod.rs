@@ -12,6 +12,7 @@ mod data;
 mod discrete;
 mod error;
 mod iv;
+pub(crate) mod kernels;
 pub mod long_run;
 mod method;
 pub(crate) mod normal_equations;

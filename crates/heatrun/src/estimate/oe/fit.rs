@@ -9,6 +9,7 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 use crate::estimate::iv::InstrumentalVariables;
+use crate::estimate::kernels::add_matrix_vector;
 use crate::estimate::long_run::{LongRunSum, WindowChoice};
 use crate::estimate::normal_equations::RowBlock;
 use crate::estimate::wls::WeightedLeastSquares;
@@ -1027,18 +1028,9 @@ impl Propagation {
     /// [`Propagation::step`] for N states, known when compiled.
     #[inline(always)]
     fn step_with<const N: usize>(&mut self) {
-        let m = self.m;
         let mut acc = [0.0; N];
-        for (l, &v) in self.y[..N].iter().enumerate() {
-            for (c, a) in acc.iter_mut().enumerate() {
-                *a += self.phi[c * N + l] * v;
-            }
-        }
-        for (l, &v) in self.u[..m].iter().enumerate() {
-            for (c, a) in acc.iter_mut().enumerate() {
-                *a += self.gamma[c * m + l] * v;
-            }
-        }
+        add_matrix_vector(&mut acc, &self.phi, &self.y[..N]);
+        add_matrix_vector(&mut acc, &self.gamma, &self.u);
         self.y_next[..N].copy_from_slice(&acc);
     }
 

@@ -10,6 +10,7 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
 use super::{PredictionError, Predictor};
+use crate::estimate::kernels::add_matrix_vector;
 use crate::estimate::normal_equations::RowBlock;
 use crate::estimate::oe::{
     cached, compared_instants, covariance_from_gram, normalised_inverse, Evaluation, Reporting,
@@ -664,23 +665,10 @@ impl Filter {
     /// [`Filter::step`] for NA states, known when compiled.
     #[inline(always)]
     fn step_with<const NA: usize>(&mut self) {
-        let (n, m) = (self.n, self.m);
         let mut acc = [0.0; NA];
-        for (l, &v) in self.x[..NA].iter().enumerate() {
-            for (c, a) in acc.iter_mut().enumerate() {
-                *a += self.phi[c * NA + l] * v;
-            }
-        }
-        for (l, &v) in self.e[..n].iter().enumerate() {
-            for (c, a) in acc.iter_mut().enumerate() {
-                *a += self.gain[c * n + l] * v;
-            }
-        }
-        for (l, &v) in self.u[..m].iter().enumerate() {
-            for (c, a) in acc.iter_mut().enumerate() {
-                *a += self.gamma[c * m + l] * v;
-            }
-        }
+        add_matrix_vector(&mut acc, &self.phi, &self.x[..NA]);
+        add_matrix_vector(&mut acc, &self.gain, &self.e);
+        add_matrix_vector(&mut acc, &self.gamma, &self.u);
         self.x_next[..NA].copy_from_slice(&acc);
     }
 
