@@ -940,12 +940,12 @@ impl Propagation {
     }
 
     /// [`Propagation::propagate_sensitivities`] for N states, known when compiled.
-    #[inline(always)]
     ///
     /// Each sensitivity is summed in a register through the n rows it depends on
     /// (Φ_c0 ∂ŷ_0/∂θ_q + … in that order), a vector of θ at a time: where n is known the
     /// rows' loop unrolls, and no row of the sum is stored and read back between its
     /// terms.
+    #[inline(always)]
     fn propagate_with<const N: usize>(&mut self) {
         let p = N + self.m;
         let pt = N * p;

@@ -510,13 +510,12 @@ impl Filter {
     /// a constant part would be a heat the inputs miss throughout), ∂x̂_a/∂(Θ, K_a) = 0,
     /// ∂x̂/∂x0 = I.
     fn reset(&mut self, x0: &[f64]) {
-        let na = self.na;
         self.x.iter_mut().for_each(|v| *v = 0.0);
         self.x[..self.n].copy_from_slice(x0);
         self.sens.iter_mut().for_each(|v| *v = 0.0);
         let at = self.x0_column();
         if at + self.n <= self.stride {
-            for q in 0..self.n.min(na) {
+            for q in 0..self.n {
                 self.sens[q * self.stride + at + q] = 1.0;
             }
         }
