@@ -539,6 +539,7 @@ impl Report {
                 reason: c.reason.clone(),
                 oe_autocorrelation_outside_band: c.oe_autocorrelation_outside_band.clone(),
                 threshold: c.threshold,
+                oe_ljung_box: c.oe_ljung_box.clone(),
                 likelihood_ratio: c.likelihood_ratio,
             }),
             decisions: r.decisions.clone(),

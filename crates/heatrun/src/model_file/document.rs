@@ -586,6 +586,9 @@ pub struct EstimatorChoiceEntry {
     pub oe_autocorrelation_outside_band: Vec<f64>,
     /// The fraction above which a residual is taken as not white.
     pub threshold: f64,
+    /// Ljung and Box's Q per state over lags 1..L of the same residuals, and χ²_L's 0.99
+    /// quantile above which a residual is taken as not white (either test suffices).
+    pub oe_ljung_box: crate::decide::estimator::LjungBox,
     /// The likelihood ratio of `pem` against `oe`, where `pem` was fitted to test it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub likelihood_ratio: Option<crate::estimate::LikelihoodRatio>,

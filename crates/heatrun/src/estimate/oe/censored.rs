@@ -130,7 +130,7 @@ fn complete(
     noise_variance: &[f64],
 ) -> Completion {
     let (len, n) = (data.len(), data.states());
-    let simulated = simulate(data, fitted, segments);
+    let simulated = fitted.simulate_segments(data, segments);
     let mut outputs = data.outputs.clone();
     let mut observed = data
         .output_observed
@@ -162,26 +162,6 @@ fn complete(
         noise_variance: variances,
         information,
     }
-}
-
-/// ŷ over the segments from the fit's initial states, NaN elsewhere.
-fn simulate(
-    data: &IdentificationData,
-    fitted: &Fitted,
-    segments: &[std::ops::Range<usize>],
-) -> DMatrix<f64> {
-    let n = data.states();
-    let mut simulated = DMatrix::from_element(data.len(), n, f64::NAN);
-    for (seg, x0) in segments.iter().zip(&fitted.initial_states) {
-        let sim = fitted
-            .estimate
-            .model
-            .simulate_from(data, seg.clone(), x0.as_slice());
-        simulated
-            .view_mut((seg.start, 0), (seg.len(), n))
-            .copy_from(&sim);
-    }
-    simulated
 }
 
 /// The σ² of output j that maximises the likelihood for a fixed simulation: the fixed

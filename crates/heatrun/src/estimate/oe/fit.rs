@@ -41,6 +41,31 @@ pub(crate) struct Fitted {
     pub initial_states: Vec<DVector<f64>>,
 }
 
+impl Fitted {
+    /// ŷ over the segments from the fit's own initial states, NaN elsewhere: the
+    /// simulation whose residuals the fit minimised. Simulated from the measured y(start)
+    /// instead ([`DiscreteModel::simulate_segments`]), the first sample's noise would
+    /// decay through the slow modes and correlate the residuals at every lag.
+    pub(crate) fn simulate_segments(
+        &self,
+        data: &IdentificationData,
+        segments: &[std::ops::Range<usize>],
+    ) -> DMatrix<f64> {
+        let n = data.states();
+        let mut simulated = DMatrix::from_element(data.len(), n, f64::NAN);
+        for (seg, x0) in segments.iter().zip(&self.initial_states) {
+            let sim = self
+                .estimate
+                .model
+                .simulate_from(data, seg.clone(), x0.as_slice());
+            simulated
+                .view_mut((seg.start, 0), (seg.len(), n))
+                .copy_from(&sim);
+        }
+        simulated
+    }
+}
+
 impl OutputError {
     /// The starting model: a rough IV estimate (LM takes it the rest of the way).
     ///
