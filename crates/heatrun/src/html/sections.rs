@@ -1083,7 +1083,9 @@ impl Section for ResidualsSection<'_> {
         out.figure(
             &chart.to_svg()?,
             &format!(
-                "Autocorrelation of the simulation residuals{}{}, lags 0–{}.",
+                "Autocorrelation of the simulation residuals{} (the simulation from the \
+                 initial state that best fits the data: the traces' own start, the first \
+                 sample's noise, would correlate every lag){}, lags 0–{}.",
                 of_the_measured_state_model(r),
                 if r.innovations.is_some() {
                     " (above) and of the one-step predictor's innovations (below)"
