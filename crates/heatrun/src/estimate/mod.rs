@@ -26,7 +26,7 @@ pub(crate) mod testing;
 mod wls;
 
 pub use data::{ExceptionStorage, IdentificationData};
-pub use discrete::DiscreteModel;
+pub use discrete::{DiscreteModel, StartCorrection};
 pub use error::EstimationError;
 pub use iv::InstrumentalVariables;
 pub use method::{Method, UnknownMethod};

@@ -119,7 +119,7 @@ pub fn analyse(
     // Where the method estimated an output offset (y = x + d), the reported simulation
     // carries it from the first instant and is the model's own error already.
     let residuals = match &estimate.output_offset {
-        None => own_residuals(model, &estimation),
+        None => own_residuals(model, &estimation, &estimation_sim),
         Some(_) => residuals::analyse(&estimation, &estimation_sim, RESIDUAL_MAX_LAG),
     };
     let innovations = estimate.predictor.as_ref().map(|p| {
@@ -151,7 +151,8 @@ pub fn analyse(
 fn own_residuals(
     model: &DiscreteModel,
     estimation: &IdentificationData,
+    simulated: &DMatrix<f64>,
 ) -> residuals::ResidualAnalysis {
-    let own = model.simulate_segments_from_best_start(estimation, &estimation.segments());
-    residuals::analyse(estimation, &own, RESIDUAL_MAX_LAG)
+    let correction = model.start_correction(estimation, &estimation.segments());
+    residuals::analyse_from_best_start(estimation, simulated, &correction, RESIDUAL_MAX_LAG)
 }

@@ -6,7 +6,7 @@ use std::ops::{Range, RangeInclusive};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-use crate::estimate::IdentificationData;
+use crate::estimate::{IdentificationData, StartCorrection};
 
 /// z of the two-sided 99 % normal band.
 pub const Z99: f64 = 2.575_829_303_548_901;
@@ -41,8 +41,28 @@ pub fn analyse(
     simulated: &DMatrix<f64>,
     max_lag: usize,
 ) -> ResidualAnalysis {
+    analyse_corrected(data, simulated, None, max_lag)
+}
+
+/// [`analyse`] of the simulation plus a start correction: the simulation from each
+/// segment's best start ([`crate::estimate::DiscreteModel::start_correction`]).
+pub fn analyse_from_best_start(
+    data: &IdentificationData,
+    simulated: &DMatrix<f64>,
+    correction: &StartCorrection,
+    max_lag: usize,
+) -> ResidualAnalysis {
+    analyse_corrected(data, simulated, Some(correction), max_lag)
+}
+
+fn analyse_corrected(
+    data: &IdentificationData,
+    simulated: &DMatrix<f64>,
+    correction: Option<&StartCorrection>,
+    max_lag: usize,
+) -> ResidualAnalysis {
     let (n, m, len) = (data.states(), data.input_count(), data.len());
-    let centred = Centred::new(data, simulated);
+    let centred = Centred::new(data, simulated, correction);
     let samples = (0..len)
         .filter(|&k| (0..n).any(|i| centred.valid(k, i)))
         .count();
@@ -117,16 +137,22 @@ pub fn ljung_box(r: &[f64], samples: usize) -> f64 {
 struct Centred<'a> {
     data: &'a IdentificationData,
     simulated: &'a DMatrix<f64>,
+    correction: Option<&'a StartCorrection>,
     residual_means: Vec<f64>,
     input_means: Vec<f64>,
 }
 
 impl<'a> Centred<'a> {
-    fn new(data: &'a IdentificationData, simulated: &'a DMatrix<f64>) -> Centred<'a> {
+    fn new(
+        data: &'a IdentificationData,
+        simulated: &'a DMatrix<f64>,
+        correction: Option<&'a StartCorrection>,
+    ) -> Centred<'a> {
         let len = data.len();
         let mut centred = Centred {
             data,
             simulated,
+            correction,
             residual_means: vec![0.0; data.states()],
             input_means: vec![0.0; data.input_count()],
         };
@@ -147,8 +173,12 @@ impl<'a> Centred<'a> {
 
     /// e_i(k) − mean, where known.
     fn residual(&self, i: usize, k: usize) -> Option<f64> {
-        self.valid(k, i)
-            .then(|| self.data.outputs[(k, i)] - self.simulated[(k, i)] - self.residual_means[i])
+        let correction = self.correction.map_or(0.0, |c| c.at(k, i));
+        self.valid(k, i).then(|| {
+            self.data.outputs[(k, i)]
+                - (self.simulated[(k, i)] + correction)
+                - self.residual_means[i]
+        })
     }
 
     /// u_j(k) − mean, where known.
@@ -414,7 +444,7 @@ mod tests {
                 simulated[(k, 0)] = f64::NAN;
             }
             let got = analyse(&data, &simulated, max_lag);
-            let centred = Centred::new(&data, &simulated);
+            let centred = Centred::new(&data, &simulated, None);
             let energy_of = |f: &dyn Fn(usize) -> Option<f64>| energy(len, f);
             for i in 0..2 {
                 let e = |k: usize| centred.residual(i, k);
