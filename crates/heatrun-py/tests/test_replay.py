@@ -163,11 +163,19 @@ def test_a_report_that_is_none_is_bad_input(tmp_path):
 
 
 def test_the_gil_is_released_while_the_library_works():
-    # While a replay runs in one thread, this one keeps running Python: the longest pause
-    # between its steps is a small part of the replay (with the GIL held it would be all).
-    done = []
-    started = time.perf_counter()
-    t = threading.Thread(target=lambda: done.append(heatrun.replay(str(FIXTURE), traces=False)))
+    # While replays run in one thread, this one keeps running Python: the longest pause
+    # between its steps is a small part of one replay (with the GIL held it would be all of
+    # it). Judged against the replays' own durations, not a fixed time: a faster library
+    # must not make the test vacuous or fail it (the fixture's replay took 0.19 s here).
+    durations = []
+
+    def work():
+        for _ in range(3):
+            began = time.perf_counter()
+            heatrun.replay(str(FIXTURE), traces=False)
+            durations.append(time.perf_counter() - began)
+
+    t = threading.Thread(target=work)
     t.start()
     last, longest = time.perf_counter(), 0.0
     while t.is_alive():
@@ -175,9 +183,8 @@ def test_the_gil_is_released_while_the_library_works():
         longest = max(longest, now - last)
         last = now
     t.join()
-    took = time.perf_counter() - started
-    assert done and took > 0.2
-    assert longest < 0.25 * took, (longest, took)
+    assert len(durations) == 3
+    assert longest < 0.25 * min(durations), (longest, durations)
 
 
 def test_threads_replay_alike():
