@@ -86,6 +86,9 @@ pub(super) fn log_hidden_sensitivities(rec: &RecordingStream, replay: &Replay) -
     Ok(())
 }
 
+/// Entity root of the residuals' autocorrelation as bars over the lag, one per state.
+pub const AUTOCORRELATION_BY_LAG: &str = "residual_autocorrelation";
+
 /// Per state: the residual's autocorrelation with its 99 % band, and its
 /// cross-correlation with each input, against the lag.
 pub(super) fn log_residual_correlation(
@@ -96,6 +99,15 @@ pub(super) fn log_residual_correlation(
     let res = &analysis.residuals;
     let lag = res.max_lag as i64;
     for (i, state) in signals.states.iter().enumerate() {
+        // The correlogram as bars over the lag, static: it shows on whatever timeline the
+        // viewer is on, where the series below need the `lag` timeline picked.
+        rec.log_static(
+            format!("{AUTOCORRELATION_BY_LAG}/{}", state.name),
+            &crate::sdk::BarChart::new(res.autocorrelation[i].as_slice())
+                .with_abscissa((0..=lag).collect::<Vec<i64>>().as_slice())
+                .with_color(style::part(i)),
+        )
+        .map_err(super::publish_err)?;
         let root = format!("residual_correlation/{}", state.name);
         let auto = format!("{root}/autocorrelation");
         style::series(

@@ -154,19 +154,33 @@ fn residual_analysis(replay: &Replay) -> Node {
     } else {
         ""
     };
+    let band = replay.analysis.residuals.band99;
     let views = replay
         .signals
         .states
         .iter()
         .map(|st| {
-            View::time_series(
-                format!(
-                    "{}: residual correlation{whose} (x: lag, samples)",
-                    short_part(&st.part)
-                ),
-                format!("residual_correlation/{}", st.name),
+            let part = short_part(&st.part);
+            Node::vertical(
+                part,
+                vec![
+                    View::new(
+                        ViewKind::BarChart,
+                        format!(
+                            "{part}: residual autocorrelation{whose} by lag (99 % band ±{band:.4})"
+                        ),
+                        format!("{}/{}", crate::analysis::AUTOCORRELATION_BY_LAG, st.name),
+                    )
+                    .into(),
+                    View::time_series(
+                        format!(
+                            "{part}: correlations with the band and the inputs (pick the `lag` timeline)"
+                        ),
+                        format!("residual_correlation/{}", st.name),
+                    )
+                    .into(),
+                ],
             )
-            .into()
         })
         .collect();
     Node::horizontal(format!("residual analysis{whose}"), views)
@@ -217,6 +231,43 @@ mod tests {
         assert!(series.iter().all(|v| v.shows_whole_range()));
         assert_eq!(views[0].origin, "temperature/stator_winding_temp");
         assert!(views[0].name.ends_with("°C"), "{}", views[0].name);
+    }
+
+    /// The residual tab opens on something drawn: per part a bar chart of the
+    /// autocorrelation (static, on any timeline) whose entity the .rrd holds, above the
+    /// series on the `lag` timeline.
+    #[test]
+    fn the_residual_tab_draws_each_parts_correlogram_on_any_timeline() {
+        let dir = tempfile::tempdir().unwrap();
+        let mcap = dir.path().join("run.mcap");
+        heatrun::synth::write(
+            &mcap,
+            &heatrun::synth::SynthOptions::default().with_noise_level(1.0),
+        )
+        .unwrap();
+        let options = heatrun::pipeline::ReplayOptions {
+            ts_s: 10.0,
+            ..heatrun::pipeline::ReplayOptions::default()
+        };
+        let (replayed, _) = crate::rrd_testing::replayed_and_drawn(&mcap, &options);
+        let replay = &replayed.replay;
+        let layout = blueprint(replay, true);
+        let bars: Vec<String> = layout
+            .root
+            .views()
+            .iter()
+            .filter(|v| v.kind == ViewKind::BarChart)
+            .map(|v| format!("/{}", v.origin))
+            .collect();
+        let states: Vec<String> = replay
+            .signals
+            .states
+            .iter()
+            .map(|s| format!("/{}/{}", crate::analysis::AUTOCORRELATION_BY_LAG, s.name))
+            .collect();
+        assert_eq!(bars, states);
+        let stored = crate::rrd_testing::static_bar_charts(&mcap.with_extension("rrd"));
+        assert_eq!(stored, states.into_iter().collect());
     }
 
     #[test]

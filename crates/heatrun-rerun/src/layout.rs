@@ -29,6 +29,8 @@ pub enum ViewKind {
     TextDocument,
     /// Nodes and edges.
     Graph,
+    /// Bars over an abscissa, on any timeline (static data).
+    BarChart,
 }
 
 impl ViewKind {
@@ -37,6 +39,7 @@ impl ViewKind {
             ViewKind::TimeSeries => "TimeSeries",
             ViewKind::TextDocument => "TextDocument",
             ViewKind::Graph => "Graph",
+            ViewKind::BarChart => "BarChart",
         }
     }
 }

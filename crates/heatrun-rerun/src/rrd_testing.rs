@@ -52,3 +52,23 @@ fn series(path: &std::path::Path) -> BTreeMap<String, Vec<(i64, f64)>> {
     }
     out
 }
+
+/// The entities of the recording store whose static chunks carry a bar chart's values.
+pub(crate) fn static_bar_charts(path: &std::path::Path) -> std::collections::BTreeSet<String> {
+    let component = crate::sdk::BarChart::descriptor_values().component;
+    let file = std::fs::File::open(path).unwrap();
+    let mut out = std::collections::BTreeSet::new();
+    for msg in DecoderApp::decode_eager(BufReader::new(file)).unwrap() {
+        let LogMsg::ArrowMsg(store, arrow) = msg.unwrap() else {
+            continue;
+        };
+        if store.kind() == StoreKind::Blueprint {
+            continue;
+        }
+        let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
+        if chunk.is_static() && chunk.components().contains_component(component) {
+            out.insert(chunk.entity_path().to_string());
+        }
+    }
+    out
+}

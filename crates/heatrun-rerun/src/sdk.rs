@@ -18,5 +18,7 @@ pub use re_sdk::{
 };
 /// Blueprint archetypes and components, component and data types: `rerun::external::re_sdk_types`.
 pub use re_sdk_types as types;
-pub use re_sdk_types::archetypes::{GraphEdges, GraphNodes, Scalars, SeriesLines, TextDocument};
+pub use re_sdk_types::archetypes::{
+    BarChart, GraphEdges, GraphNodes, Scalars, SeriesLines, TextDocument,
+};
 pub use re_sdk_types::components::MediaType;
