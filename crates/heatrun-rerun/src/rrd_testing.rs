@@ -24,20 +24,26 @@ pub(crate) fn replayed_and_drawn(
     (replayed, drawn)
 }
 
+/// The recording store's chunks (the blueprint's left out), in the order the file holds.
+fn recording_chunks(path: &std::path::Path) -> Vec<Chunk> {
+    let file = std::fs::File::open(path).unwrap();
+    DecoderApp::decode_eager(BufReader::new(file))
+        .unwrap()
+        .filter_map(|msg| match msg.unwrap() {
+            LogMsg::ArrowMsg(store, arrow) if store.kind() != StoreKind::Blueprint => {
+                Some(Chunk::from_arrow_msg(&arrow).unwrap())
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 /// Each time-series entity of the recording store: its (time ns, value) rows, in order.
 fn series(path: &std::path::Path) -> BTreeMap<String, Vec<(i64, f64)>> {
     let component = crate::sdk::Scalars::descriptor_scalars().component;
     let timeline = crate::sdk::TimelineName::try_new(crate::TIMELINE).unwrap();
     let mut out: BTreeMap<String, Vec<(i64, f64)>> = BTreeMap::new();
-    let file = std::fs::File::open(path).unwrap();
-    for msg in DecoderApp::decode_eager(BufReader::new(file)).unwrap() {
-        let LogMsg::ArrowMsg(store, arrow) = msg.unwrap() else {
-            continue;
-        };
-        if store.kind() == StoreKind::Blueprint {
-            continue;
-        }
-        let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
+    for chunk in recording_chunks(path) {
         let Some(times) = chunk.timelines().get(&timeline) else {
             continue;
         };
@@ -56,19 +62,9 @@ fn series(path: &std::path::Path) -> BTreeMap<String, Vec<(i64, f64)>> {
 /// The entities of the recording store whose static chunks carry a bar chart's values.
 pub(crate) fn static_bar_charts(path: &std::path::Path) -> std::collections::BTreeSet<String> {
     let component = crate::sdk::BarChart::descriptor_values().component;
-    let file = std::fs::File::open(path).unwrap();
-    let mut out = std::collections::BTreeSet::new();
-    for msg in DecoderApp::decode_eager(BufReader::new(file)).unwrap() {
-        let LogMsg::ArrowMsg(store, arrow) = msg.unwrap() else {
-            continue;
-        };
-        if store.kind() == StoreKind::Blueprint {
-            continue;
-        }
-        let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
-        if chunk.is_static() && chunk.components().contains_component(component) {
-            out.insert(chunk.entity_path().to_string());
-        }
-    }
-    out
+    recording_chunks(path)
+        .iter()
+        .filter(|c| c.is_static() && c.components().contains_component(component))
+        .map(|c| c.entity_path().to_string())
+        .collect()
 }

@@ -398,9 +398,7 @@ fn nearness(
     let fit_of = |m: &crate::estimate::DiscreteModel| {
         let mut simulated = m.simulate_segments(data, &segments);
         if let Some(d) = offset {
-            for (mut column, d) in simulated.column_iter_mut().zip(d) {
-                column.apply(|v| *v += d);
-            }
+            crate::estimate::add_output_offset(&mut simulated, d);
         }
         crate::model::fit::fit(data, &simulated, base)
     };

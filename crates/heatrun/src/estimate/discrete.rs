@@ -206,17 +206,40 @@ impl DiscreteModel {
         data: &IdentificationData,
         segments: &[Range<usize>],
     ) -> DMatrix<f64> {
+        // An empty segment simulates nothing and has no first sample to start from.
+        let starts: Vec<DVector<f64>> = segments
+            .iter()
+            .map(|seg| match seg.is_empty() {
+                true => DVector::zeros(self.phi.nrows()),
+                false => self.initial_state(data, seg.clone()),
+            })
+            .collect();
+        self.simulate_segments_from(data, segments, &starts)
+    }
+
+    /// The simulated output over every segment from its given start ŷ(start) (an
+    /// estimator's fitted initial states), NaN outside them.
+    pub fn simulate_segments_from(
+        &self,
+        data: &IdentificationData,
+        segments: &[Range<usize>],
+        starts: &[DVector<f64>],
+    ) -> DMatrix<f64> {
         // Each segment written in place: a week at 1 s is 14.5 MB a copy, and the copy of
         // a segment's own simulation was the replay's peak of memory.
         let mut out = DMatrix::from_element(data.len(), data.states(), f64::NAN);
-        for seg in segments {
-            if seg.is_empty() {
-                continue;
-            }
-            let x0 = self.initial_state(data, seg.clone());
+        for (seg, x0) in segments.iter().zip(starts) {
             self.simulate_into(data, seg.clone(), x0.as_slice(), &mut out, seg.start);
         }
         out
+    }
+}
+
+/// ŷ = x + d: each output's column of a simulation shifted by its offset d (an estimator's
+/// error of the first sample the rises are measured from); NaN rows stay NaN.
+pub fn add_output_offset(simulated: &mut DMatrix<f64>, offset: &[f64]) {
+    for (mut column, d) in simulated.column_iter_mut().zip(offset) {
+        column.apply(|v| *v += d);
     }
 }
 

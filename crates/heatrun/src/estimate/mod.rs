@@ -26,7 +26,7 @@ pub(crate) mod testing;
 mod wls;
 
 pub use data::{ExceptionStorage, IdentificationData};
-pub use discrete::{DiscreteModel, StartCorrection};
+pub use discrete::{add_output_offset, DiscreteModel, StartCorrection};
 pub use error::EstimationError;
 pub use iv::InstrumentalVariables;
 pub use method::{Method, UnknownMethod};

@@ -85,9 +85,7 @@ pub fn analyse(
     // ŷ = x + d where the method estimated an output offset d (rc: the error of the
     // first samples the rises are measured from); NaN rows stay NaN.
     if let Some(offset) = &estimate.output_offset {
-        for (mut column, d) in simulated.column_iter_mut().zip(offset) {
-            column.apply(|v| *v += d);
-        }
+        crate::estimate::add_output_offset(&mut simulated, offset);
     }
     let whole = estimation_range == (0..data.len());
     // Simulation is causal: the rows of the estimation range are the simulation of that

@@ -51,18 +51,9 @@ impl Fitted {
         data: &IdentificationData,
         segments: &[std::ops::Range<usize>],
     ) -> DMatrix<f64> {
-        let n = data.states();
-        let mut simulated = DMatrix::from_element(data.len(), n, f64::NAN);
-        for (seg, x0) in segments.iter().zip(&self.initial_states) {
-            let sim = self
-                .estimate
-                .model
-                .simulate_from(data, seg.clone(), x0.as_slice());
-            simulated
-                .view_mut((seg.start, 0), (seg.len(), n))
-                .copy_from(&sim);
-        }
-        simulated
+        self.estimate
+            .model
+            .simulate_segments_from(data, segments, &self.initial_states)
     }
 }
 
