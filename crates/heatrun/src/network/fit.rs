@@ -221,6 +221,11 @@ fn levenberg_marquardt(
         let jacobian = jacobian.select_columns(&free);
         let gradient = DVector::from_iterator(free.len(), free.iter().map(|&q| gradient[q]));
         let gram = jacobian.transpose() * &jacobian;
+        // A step from a Jacobian that is not finite goes nowhere (and nalgebra's SVD of
+        // such a matrix does not return): the fit ends where it is.
+        if !gram.iter().all(|v| v.is_finite()) {
+            return Some((p, iteration, false));
+        }
         let mut accepted = false;
         while lambda < 1e16 {
             let mut damped = gram.clone();

@@ -282,34 +282,97 @@ impl Parametrisation {
         }
     }
 
-    /// D = ∂Θ/∂p (Θ laid out as [`DiscreteModel::theta`]): for each direction E of
-    /// M = [[A_c, B_c], [0, 0]]·Ts, the upper-right block of exp([[M, E], [0, M]]) is
-    /// the Fréchet derivative of e^M along E, whose top rows are [dΦ dΓ].
+    /// D = ∂Θ/∂p (Θ laid out as [`DiscreteModel::theta`]): the Fréchet derivative of
+    /// e^M, M = [[A_c, B_c], [0, 0]]·Ts, along each parameter's direction
+    /// E = [[∂A_c, ∂B_c], [0, 0]]·Ts, whose top rows are [dΦ dΓ]. From M's eigenvectors
+    /// where A_c has them ([`Spectrum`], one symmetric eigenproblem for all directions),
+    /// else from one exponential of a block matrix per direction.
     pub(crate) fn theta_jacobian(&self, p: &[f64]) -> DMatrix<f64> {
+        let derivatives = self.continuous_derivatives(p);
+        let spectral = self
+            .spectrum(p)
+            .map(|spectrum| self.jacobian_of(&derivatives, |e| spectrum.derivative(e)))
+            .filter(|d| d.iter().all(|v| v.is_finite()));
+        spectral.unwrap_or_else(|| {
+            let (a, b) = self.continuous(p);
+            let m = block(&a, &b, self.ts_s);
+            self.jacobian_of(&derivatives, |e| by_block_exponential(&m, e))
+        })
+    }
+
+    /// D from each direction's derivative [dΦ dΓ] (n × (n + m)) by `derivative`.
+    fn jacobian_of(
+        &self,
+        derivatives: &[(DMatrix<f64>, DMatrix<f64>)],
+        derivative: impl Fn(&DMatrix<f64>) -> DMatrix<f64>,
+    ) -> DMatrix<f64> {
         let (n, m) = (self.n, self.m);
         let s = n + m;
-        let (a, b) = self.continuous(p);
-        let mut big = DMatrix::zeros(2 * s, 2 * s);
-        for block in [0, s] {
-            big.view_mut((block, block), (n, n))
-                .copy_from(&(&a * self.ts_s));
-            big.view_mut((block, block + n), (n, m))
-                .copy_from(&(&b * self.ts_s));
-        }
-        let derivatives = self.continuous_derivatives(p);
         let mut d = DMatrix::zeros(n * s, derivatives.len());
+        let mut e = DMatrix::zeros(n, s);
         for (q, (da, db)) in derivatives.iter().enumerate() {
-            let mut e = big.clone();
-            e.view_mut((0, s), (n, n)).copy_from(&(da * self.ts_s));
-            e.view_mut((0, s + n), (n, m)).copy_from(&(db * self.ts_s));
-            let x = crate::thermal::matrix::exponential(e);
+            e.view_mut((0, 0), (n, n)).copy_from(&(da * self.ts_s));
+            e.view_mut((0, n), (n, m)).copy_from(&(db * self.ts_s));
+            let x = derivative(&e);
             for i in 0..n {
                 for j in 0..s {
-                    d[(i * s + j, q)] = x[(i, s + j)];
+                    d[(i * s + j, q)] = x[(i, j)];
                 }
             }
         }
         d
+    }
+
+    /// M's eigenvectors at p: A_c = −C⁻¹L is similar to the symmetric −C^{−½}LC^{−½}
+    /// (L the conductances' symmetric Laplacian), so A_c = VΛV⁻¹ with V = C^{−½}U,
+    /// V⁻¹ = UᵀC^{½} (U orthonormal); `None` where A_c is singular (a part with no path
+    /// to the coolant: M then has no full set of eigenvectors) or not finite.
+    fn spectrum(&self, p: &[f64]) -> Option<Spectrum> {
+        let parts = self.parts(p);
+        let l = laplacian(&parts.conductance_w_per_k);
+        let c = &parts.capacitance_j_per_k;
+        let root: Vec<f64> = c.iter().map(|c| c.sqrt()).collect();
+        let n = self.n;
+        let symmetric = DMatrix::from_fn(n, n, |i, j| -l[(i, j)] / (root[i] * root[j]));
+        if !symmetric.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let eigen = nalgebra::SymmetricEigen::new(symmetric);
+        let largest = eigen.eigenvalues.amax();
+        if eigen.eigenvalues.iter().any(|l| l.abs() <= 1e-12 * largest) {
+            return None;
+        }
+        let u = &eigen.eigenvectors;
+        let v = DMatrix::from_fn(n, n, |i, k| u[(i, k)] / root[i]);
+        let v_inverse = DMatrix::from_fn(n, n, |k, i| u[(i, k)] * root[i]);
+        let (_, b) = self.continuous(p);
+        // M's eigenvectors of the eigenvalue 0: [−A_c⁻¹B_c e_j; e_j], A_c⁻¹ = VΛ⁻¹V⁻¹.
+        let mut inverse_b = &v_inverse * &b;
+        for (k, mut row) in inverse_b.row_iter_mut().enumerate() {
+            row /= -eigen.eigenvalues[k];
+        }
+        let null = &v * inverse_b;
+        let mu: Vec<f64> = eigen
+            .eigenvalues
+            .iter()
+            .map(|l| l * self.ts_s)
+            .chain(std::iter::repeat_n(0.0, self.m))
+            .collect();
+        let s = n + self.m;
+        // e^{max}·(e^{min−max} − 1)/(min − max): no exponential of a positive difference
+        // (at a start far from the data the modes are e^25 apart).
+        let divided = DMatrix::from_fn(n, s, |i, j| {
+            let (low, high) = (mu[i].min(mu[j]), mu[i].max(mu[j]));
+            high.exp() * relative_exp_m1(low - high)
+        });
+        let null_in_modes = &v_inverse * &null;
+        Some(Spectrum {
+            v,
+            v_inverse,
+            null,
+            null_in_modes,
+            divided,
+        })
     }
 
     /// 95 % intervals of C, G (log-normal) and K (delta method) from cov(p).
@@ -377,6 +440,81 @@ impl Parametrisation {
 }
 
 /// L of eq. (Fig. 9): L_ij = −G_ij, L_ii = G_i0 + Σ_{j≠i} G_ij.
+/// M = Ts·[[A_c, B_c], [0, 0]].
+fn block(a: &DMatrix<f64>, b: &DMatrix<f64>, ts_s: f64) -> DMatrix<f64> {
+    let (n, m) = (a.nrows(), b.ncols());
+    let mut big = DMatrix::zeros(n + m, n + m);
+    big.view_mut((0, 0), (n, n)).copy_from(&(a * ts_s));
+    big.view_mut((0, n), (n, m)).copy_from(&(b * ts_s));
+    big
+}
+
+/// The top n rows of the Fréchet derivative of e^M along [[E], [0]] (E the top n rows):
+/// the upper-right block of exp([[M, E'], [0, M]]) (E' = E with zero rows below).
+fn by_block_exponential(m: &DMatrix<f64>, e: &DMatrix<f64>) -> DMatrix<f64> {
+    let (s, n) = (m.nrows(), e.nrows());
+    let mut big = DMatrix::zeros(2 * s, 2 * s);
+    big.view_mut((0, 0), (s, s)).copy_from(m);
+    big.view_mut((s, s), (s, s)).copy_from(m);
+    big.view_mut((0, s), (n, s)).copy_from(e);
+    let x = crate::thermal::matrix::exponential(big);
+    x.view((0, s), (n, s)).into_owned()
+}
+
+/// (eˣ − 1)/x, 1 at x = 0, without the cancellation of either form near 0.
+fn relative_exp_m1(x: f64) -> f64 {
+    if x == 0.0 {
+        1.0
+    } else {
+        x.exp_m1() / x
+    }
+}
+
+/// M = Ts·[[A_c, B_c], [0, 0]] diagonalised: M = W·diag(μ)·W⁻¹ with
+/// W = [[V, X], [0, I]], W⁻¹ = [[V⁻¹, −V⁻¹X], [0, I]], μ = [λ·Ts; 0], X = −A_c⁻¹B_c.
+/// The Fréchet derivative of e^M along E is then (Daleckii and Krein)
+/// W·(F ∘ (W⁻¹EW))·W⁻¹ with F_ij = (e^{μ_i} − e^{μ_j})/(μ_i − μ_j), e^{μ_i} where
+/// μ_i = μ_j: a few n × (n + m) products per direction instead of an
+/// exponential of a 2(n + m) square matrix.
+struct Spectrum {
+    /// V, A_c's eigenvectors (columns).
+    v: DMatrix<f64>,
+    /// V⁻¹.
+    v_inverse: DMatrix<f64>,
+    /// X = −A_c⁻¹B_c, n × m.
+    null: DMatrix<f64>,
+    /// V⁻¹X.
+    null_in_modes: DMatrix<f64>,
+    /// F's top n rows, n × (n + m).
+    divided: DMatrix<f64>,
+}
+
+impl Spectrum {
+    /// [dΦ dΓ] along the direction whose top rows are `e` = Ts·[∂A_c ∂B_c] (its bottom
+    /// rows are zero): with Z = F ∘ (V⁻¹·E·W) = [Z₁ Z₂], dΦ = V·Z₁·V⁻¹ and
+    /// dΓ = V·(Z₂ − Z₁·V⁻¹X).
+    fn derivative(&self, e: &DMatrix<f64>) -> DMatrix<f64> {
+        let (n, s) = (e.nrows(), e.ncols());
+        let m = s - n;
+        let e_a = e.view((0, 0), (n, n));
+        let e_b = e.view((0, n), (n, m));
+        // E·W = [E_A·V, E_A·X + E_B].
+        let mut ew = DMatrix::zeros(n, s);
+        ew.view_mut((0, 0), (n, n)).copy_from(&(e_a * &self.v));
+        ew.view_mut((0, n), (n, m))
+            .copy_from(&(e_a * &self.null + e_b));
+        let z = (&self.v_inverse * ew).component_mul(&self.divided);
+        let z1 = z.view((0, 0), (n, n));
+        let z2 = z.view((0, n), (n, m));
+        let mut out = DMatrix::zeros(n, s);
+        out.view_mut((0, 0), (n, n))
+            .copy_from(&(&self.v * z1 * &self.v_inverse));
+        out.view_mut((0, n), (n, m))
+            .copy_from(&(&self.v * (z2 - z1 * &self.null_in_modes)));
+        out
+    }
+}
+
 fn laplacian(g: &DMatrix<f64>) -> DMatrix<f64> {
     let n = g.nrows();
     DMatrix::from_fn(n, n, |i, j| {
@@ -386,4 +524,128 @@ fn laplacian(g: &DMatrix<f64>) -> DMatrix<f64> {
             -g[(i, j)]
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The four-node unit of issue 33 (stator winding, core, cooling water, field
+    /// winding), per unit of 100 MW and 80 K.
+    fn four_node() -> (Parts, Scaling) {
+        let g = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                0.0, 22000.0, 9000.0, 1000.0, //
+                22000.0, 0.0, 35000.0, 1000.0, //
+                9000.0, 35000.0, 202114.6, 3000.0, //
+                1000.0, 1000.0, 3000.0, 0.0,
+            ],
+        );
+        let k = DMatrix::from_row_slice(
+            4,
+            3,
+            &[
+                0.8, 0.03, 0.05, 0.15, 0.02, 0.75, 0.05, 0.15, 0.15, 0.0, 0.8, 0.05,
+            ],
+        );
+        let parts = projected(Parts {
+            capacitance_j_per_k: vec![24.5e6, 137e6, 17.5e6, 8e6],
+            conductance_w_per_k: g,
+            loss_distribution: k,
+        });
+        let scaling = Scaling {
+            theta_base_k: 80.0,
+            p_base_w: 1e8,
+        };
+        (parts, scaling)
+    }
+
+    /// Each column of D by the block exponential, the reference.
+    fn by_blocks(map: &Parametrisation, p: &[f64]) -> DMatrix<f64> {
+        let (a, b) = map.continuous(p);
+        let m = block(&a, &b, map.ts_s);
+        map.jacobian_of(&map.continuous_derivatives(p), |e| {
+            by_block_exponential(&m, e)
+        })
+    }
+
+    /// max over columns of max |d − reference| / max |reference| (columns below 10⁻¹²
+    /// of the largest entry measured against that).
+    fn largest_column_error(d: &DMatrix<f64>, reference: &DMatrix<f64>) -> f64 {
+        let floor = 1e-12 * reference.amax();
+        (0..d.ncols())
+            .map(|q| {
+                (d.column(q) - reference.column(q)).amax() / reference.column(q).amax().max(floor)
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn the_spectral_jacobian_is_the_block_exponentials() {
+        let (parts, scaling) = four_node();
+        for ts_s in [1.0, 10.0, 600.0] {
+            let map = Parametrisation::of_shape(ts_s, scaling, &parts);
+            let p = &map.start;
+            assert!(map.spectrum(p).is_some());
+            let error = largest_column_error(&map.theta_jacobian(p), &by_blocks(&map, p));
+            assert!(error < 1e-11, "Ts {ts_s} s: {error:e}");
+        }
+    }
+
+    #[test]
+    fn a_repeated_time_constant_takes_the_limit_of_the_divided_difference() {
+        // Three equal parts, each to the coolant by g0 and to each other by g: L has the
+        // eigenvalue g0 + 3g twice (any vector summing to zero).
+        let g = DMatrix::from_fn(3, 3, |i, j| if i == j { 500.0 } else { 2000.0 });
+        let parts = Parts {
+            capacitance_j_per_k: vec![1e6; 3],
+            conductance_w_per_k: g,
+            loss_distribution: DMatrix::from_row_slice(3, 2, &[0.5, 0.2, 0.3, 0.3, 0.2, 0.5]),
+        };
+        let scaling = Scaling {
+            theta_base_k: 50.0,
+            p_base_w: 1e6,
+        };
+        let map = Parametrisation::of_shape(1.0, scaling, &parts);
+        let p = &map.start;
+        let error = largest_column_error(&map.theta_jacobian(p), &by_blocks(&map, p));
+        assert!(error < 1e-11, "{error:e}");
+    }
+
+    #[test]
+    fn modes_far_apart_give_the_block_exponentials_jacobian() {
+        // The stator winding's capacitance e^20 below its start (as a fit may probe): its
+        // mode decays in picoseconds, e^{μ_i − μ_j} overflows, e^{μ_i} is 0.
+        let (parts, scaling) = four_node();
+        let map = Parametrisation::of_shape(1.0, scaling, &parts);
+        let mut p = map.start.clone();
+        p[0] -= 20.0;
+        // The spectral route itself, not the fallback a non-finite entry would take.
+        let spectrum = map.spectrum(&p).expect("A_c is invertible");
+        let d = map.jacobian_of(&map.continuous_derivatives(&p), |e| spectrum.derivative(e));
+        assert!(d.iter().all(|v| v.is_finite()));
+        // Both are exact to rounding in the largest entries (3·10⁻¹¹); a column of the
+        // stiff mode itself (10⁻⁸ here) carries the rounding of the others.
+        let reference = by_blocks(&map, &p);
+        let error = (&d - &reference).amax() / reference.amax();
+        assert!(error < 1e-10, "{error:e}");
+    }
+
+    #[test]
+    fn a_part_with_no_path_to_the_coolant_falls_back_to_the_block_exponential() {
+        // No conductance to the coolant anywhere: L is singular, A_c has the eigenvalue 0
+        // and M no full set of eigenvectors.
+        let (parts, scaling) = four_node();
+        let map = Parametrisation::of_shape(1.0, scaling, &parts);
+        let mut p = map.start.clone();
+        for i in 0..4 {
+            p[4 + i] = f64::NEG_INFINITY;
+        }
+        assert!(map.spectrum(&p).is_none());
+        let d = map.theta_jacobian(&p);
+        assert!(d.iter().all(|v| v.is_finite()));
+        assert_eq!(d, by_blocks(&map, &p));
+    }
 }
