@@ -174,15 +174,21 @@ const LARGE_NORM: f64 = 1e6;
 /// Φ = e^{A·Ts}, Γ = ∫₀^Ts e^{A s} ds · B, from one exponential of the block
 /// matrix [[A, B], [0, 0]]·Ts (nalgebra's Padé scaling and squaring).
 pub fn discretize(a: &DMatrix<f64>, b: &DMatrix<f64>, ts: f64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let n = a.nrows();
+    let e = exponential(hold_block(a, b, ts));
+    (
+        e.view((0, 0), (n, n)).into_owned(),
+        e.view((0, n), (n, b.ncols())).into_owned(),
+    )
+}
+
+/// M = [[A, B], [0, 0]]·Ts, whose exponential is [[Φ, Γ], [0, I]] (the zero-order hold).
+pub(crate) fn hold_block(a: &DMatrix<f64>, b: &DMatrix<f64>, ts: f64) -> DMatrix<f64> {
     let (n, m) = (a.nrows(), b.ncols());
     let mut block = DMatrix::zeros(n + m, n + m);
     block.view_mut((0, 0), (n, n)).copy_from(&(a * ts));
     block.view_mut((0, n), (n, m)).copy_from(&(b * ts));
-    let e = exponential(block);
-    (
-        e.view((0, 0), (n, n)).into_owned(),
-        e.view((0, n), (n, m)).into_owned(),
-    )
+    block
 }
 
 /// A unit eigenvector of `a` for the real eigenvalue `lambda`: the right singular

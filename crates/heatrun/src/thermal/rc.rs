@@ -295,7 +295,7 @@ impl Parametrisation {
             .filter(|d| d.iter().all(|v| v.is_finite()));
         spectral.unwrap_or_else(|| {
             let (a, b) = self.continuous(p);
-            let m = block(&a, &b, self.ts_s);
+            let m = crate::thermal::matrix::hold_block(&a, &b, self.ts_s);
             self.jacobian_of(&derivatives, |e| by_block_exponential(&m, e))
         })
     }
@@ -440,15 +440,6 @@ impl Parametrisation {
 }
 
 /// L of eq. (Fig. 9): L_ij = −G_ij, L_ii = G_i0 + Σ_{j≠i} G_ij.
-/// M = Ts·[[A_c, B_c], [0, 0]].
-fn block(a: &DMatrix<f64>, b: &DMatrix<f64>, ts_s: f64) -> DMatrix<f64> {
-    let (n, m) = (a.nrows(), b.ncols());
-    let mut big = DMatrix::zeros(n + m, n + m);
-    big.view_mut((0, 0), (n, n)).copy_from(&(a * ts_s));
-    big.view_mut((0, n), (n, m)).copy_from(&(b * ts_s));
-    big
-}
-
 /// The top n rows of the Fréchet derivative of e^M along [[E], [0]] (E the top n rows):
 /// the upper-right block of exp([[M, E'], [0, M]]) (E' = E with zero rows below).
 fn by_block_exponential(m: &DMatrix<f64>, e: &DMatrix<f64>) -> DMatrix<f64> {
@@ -565,7 +556,7 @@ mod tests {
     /// Each column of D by the block exponential, the reference.
     fn by_blocks(map: &Parametrisation, p: &[f64]) -> DMatrix<f64> {
         let (a, b) = map.continuous(p);
-        let m = block(&a, &b, map.ts_s);
+        let m = crate::thermal::matrix::hold_block(&a, &b, map.ts_s);
         map.jacobian_of(&map.continuous_derivatives(p), |e| {
             by_block_exponential(&m, e)
         })
