@@ -28,6 +28,24 @@ fn field_run(path: &Path, seed: u64) -> Truth {
     .unwrap()
 }
 
+/// `heatrun replay field.mcap --field-state` in `dir` with `extra` arguments, writing
+/// report.json and field.rrd there; the report.
+fn replay_field(dir: &Path, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "replay",
+        "field.mcap",
+        "--field-state",
+        "--report",
+        "report.json",
+        "--rrd",
+        "field.rrd",
+        "-q",
+    ];
+    args.extend_from_slice(extra);
+    heatrun_ok(&args, dir);
+    serde_json::from_slice(&std::fs::read(dir.join("report.json")).unwrap()).unwrap()
+}
+
 /// The bars of issue 9 for the field state, as met: T2–T4 (690 s, 1592 s and 4496 s:
 /// stator winding, field winding, core) within 5 % and every steady-state rise within
 /// 1 K. The fastest constant (70 s, the cooling water) is the least excited by this heat
@@ -68,23 +86,7 @@ fn a_field_winding_seen_only_through_its_resistance_is_a_fourth_state_in_every_o
     let mcap = dir.path().join("field.mcap");
     let truth = field_run(&mcap, 1);
     assert_eq!(truth.time_constants_s.len(), 4);
-    heatrun_ok(
-        &[
-            "replay",
-            "field.mcap",
-            "--field-state",
-            "--report",
-            "report.json",
-            "--rrd",
-            "field.rrd",
-            "--network",
-            "nearest",
-            "-q",
-        ],
-        dir.path(),
-    );
-    let report: Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();
+    let report = replay_field(dir.path(), &["--network", "nearest"]);
     ReportSchema::load()
         .check(&report)
         .unwrap_or_else(|e| panic!("the 4-state report breaks the schema:\n{e}"));
@@ -235,21 +237,7 @@ fn a_field_state_without_a_field_temperature_is_refused() {
 fn a_held_network_the_coarse_grid_left_short_is_refitted_at_the_full_rate() {
     let dir = common::tempdir();
     let truth = field_run(&dir.path().join("field.mcap"), 23);
-    heatrun_ok(
-        &[
-            "replay",
-            "field.mcap",
-            "--field-state",
-            "--report",
-            "report.json",
-            "--rrd",
-            "field.rrd",
-            "-q",
-        ],
-        dir.path(),
-    );
-    let report: Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("report.json")).unwrap()).unwrap();
+    let report = replay_field(dir.path(), &[]);
     let network = &report["network"];
     let said = network["fitted_from"].as_str().unwrap();
     assert!(

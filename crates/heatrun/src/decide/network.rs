@@ -669,12 +669,8 @@ fn fits_from_nearest(
         (free, held)
     });
     let rejected = |held: &Estimate| {
-        free.as_ref().is_ok_and(|free| {
-            let held_parts = nearest.capacitance_j_per_k.len() - 1;
-            let (ratio, _) =
-                nested_ratio(crate::estimate::likelihood_ratio(data, free, held, floor));
-            network::fit::chi_square_survival(ratio, held_parts) < THROUGH_COOLANT_LEVEL
-        })
+        free.as_ref()
+            .is_ok_and(|free| HeldTest::of(data, free, held, floor).rejects())
     };
     let full_rate = match (water, &coarse) {
         (Some(w), Some(held)) if rejected(held) => {
@@ -771,7 +767,6 @@ fn through_coolant(
     ) else {
         return (full, String::new(), None);
     };
-    let held_parts = parts.capacitance_j_per_k.len() - 1;
     // The held network refitted from the free one's parts, beside those fitted from rc's
     // own starts, where the starts were far (`refit_from_free`): from the free network
     // alone, with its conductances to the coolant cut, the held fit stopped short of its
@@ -791,10 +786,14 @@ fn through_coolant(
     else {
         return (full, String::new(), None);
     };
-    let (ratio, free_short_by) =
-        nested_ratio(crate::estimate::likelihood_ratio(data, &full, &held, floor));
-    let p = network::fit::chi_square_survival(ratio, held_parts);
-    if p < THROUGH_COOLANT_LEVEL {
+    let test = HeldTest::of(data, &full, &held, floor);
+    let HeldTest {
+        ratio,
+        free_short_by,
+        held_parts,
+        p,
+    } = test;
+    if test.rejects() {
         let said = format!(
             "; every part's conductance to the coolant fitted (held at zero but the cooling \
              water's, they fit the data worse: likelihood ratio {ratio:.1} on {held_parts} \
@@ -817,6 +816,42 @@ fn through_coolant(
          {held_parts} degrees of freedom, p = {p:.2}{short})"
     );
     (held, said, Some(water))
+}
+
+/// The likelihood-ratio test of the held network (heat leaving only through the cooling
+/// water) against the free one whose model contains it.
+#[derive(Debug, Clone, Copy)]
+struct HeldTest {
+    /// Λ = deviance(held) − deviance(free), at least 0 ([`nested_ratio`]).
+    ratio: f64,
+    /// By how much the free fit ended above the held one, where it did.
+    free_short_by: Option<f64>,
+    /// The conductances held at zero: Λ's degrees of freedom.
+    held_parts: usize,
+    /// P(χ²_held_parts > Λ).
+    p: f64,
+}
+
+impl HeldTest {
+    fn of(data: &IdentificationData, free: &Estimate, held: &Estimate, floor: f64) -> HeldTest {
+        let held_parts = held
+            .network
+            .as_ref()
+            .map_or(0, |n| n.parts.capacitance_j_per_k.len().saturating_sub(1));
+        let (ratio, free_short_by) =
+            nested_ratio(crate::estimate::likelihood_ratio(data, free, held, floor));
+        HeldTest {
+            ratio,
+            free_short_by,
+            held_parts,
+            p: network::fit::chi_square_survival(ratio, held_parts),
+        }
+    }
+
+    /// Whether the data tell the held network from the free one ([`THROUGH_COOLANT_LEVEL`]).
+    fn rejects(&self) -> bool {
+        self.p < THROUGH_COOLANT_LEVEL
+    }
 }
 
 /// The likelihood ratio of a held fit against the free fit whose model contains it, and by
@@ -891,10 +926,6 @@ mod tests {
         }
     }
 
-    /// The verdicts at the figures measured on the issue's runs (methods/decisions.md):
-    /// a consistent RC unit (p 0.62), a noise-free RC unit near its data (0.0003 K beyond
-    /// 0.0029 K), the paper's model (5.6 K beyond 0.004 K, cycles 17-fold), and the noisy
-    /// four-node unit whose network rc must fit (0.26 K beyond 0.22 K, cycles 4.2-fold).
     #[test]
     fn a_free_fit_that_stopped_above_the_held_one_gives_a_ratio_of_zero_and_says_by_how_much() {
         assert_eq!(nested_ratio(-8.67), (0.0, Some(8.67)));
@@ -902,6 +933,10 @@ mod tests {
         assert_eq!(nested_ratio(0.0), (0.0, None));
     }
 
+    /// The verdicts at the figures measured on the issue's runs (methods/decisions.md):
+    /// a consistent RC unit (p 0.62), a noise-free RC unit near its data (0.0003 K beyond
+    /// 0.0029 K), the paper's model (5.6 K beyond 0.004 K, cycles 17-fold), and the noisy
+    /// four-node unit whose network rc must fit (0.26 K beyond 0.22 K, cycles 4.2-fold).
     #[test]
     fn the_nearest_network_is_taken_only_where_it_is_consistent_near_or_the_nearest_of_none() {
         let said = |n: Nearness| nearest_verdict(&n);
