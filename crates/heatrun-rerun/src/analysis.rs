@@ -2,7 +2,7 @@
 //! constant to a part (eqs. 27-29), the residuals' correlations, and the recursive
 //! estimate's trajectory.
 
-use crate::sdk::RecordingStream;
+use crate::paced::PacedStream;
 
 use crate::Result;
 use heatrun::hidden::traces::OutputSensitivities;
@@ -19,7 +19,7 @@ use super::traces::{
 /// recursion over the instants the model was estimated on, one state at a time, each in its
 /// part's colour.
 pub(super) fn log_sensitivities(
-    rec: &RecordingStream,
+    rec: &PacedStream,
     stages: Stages<'_>,
     analysis: &ModelAnalysis,
 ) -> Result<()> {
@@ -54,7 +54,7 @@ pub(super) fn log_sensitivities(
 /// estimation instants, one measured output at a time in its part's colour, under the
 /// entities the measured-state model's would take. Nothing where the model has no
 /// analysis (Φ without a real logarithm: the report then has no assignment either).
-pub(super) fn log_hidden_sensitivities(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+pub(super) fn log_hidden_sensitivities(rec: &PacedStream, replay: &Replay) -> Result<()> {
     let Some(h) = replay.hidden.as_ref().filter(|h| h.analysis.is_some()) else {
         return Ok(());
     };
@@ -92,7 +92,7 @@ pub const AUTOCORRELATION_BY_LAG: &str = "residual_autocorrelation";
 /// Per state: the residual's autocorrelation with its 99 % band, and its
 /// cross-correlation with each input, against the lag.
 pub(super) fn log_residual_correlation(
-    rec: &RecordingStream,
+    rec: &PacedStream,
     signals: &ModelSignals,
     analysis: &ModelAnalysis,
 ) -> Result<()> {
@@ -144,7 +144,7 @@ pub(super) fn log_residual_correlation(
 }
 
 /// The recursive estimate's Φ, Γ and time constants as they evolve (`--method rls`).
-pub(super) fn log_trajectory(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+pub(super) fn log_trajectory(rec: &PacedStream, replay: &Replay) -> Result<()> {
     let Some(traj) = &replay.estimate.trajectory else {
         return Ok(());
     };

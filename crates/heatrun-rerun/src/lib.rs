@@ -16,7 +16,8 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
-use crate::sdk::{RecordingStream, RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
+use crate::paced::PacedStream;
+use crate::sdk::{RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
 
 mod analysis;
 pub mod blueprint;
@@ -27,6 +28,7 @@ mod inputs_tests;
 pub mod layout;
 pub mod monitor;
 pub mod network;
+pub mod paced;
 pub mod prediction;
 #[cfg(test)]
 mod rrd_testing;
@@ -89,7 +91,7 @@ fn publish_err(e: impl std::fmt::Display) -> PublishError {
 /// the model is estimated, the model's while the network is fitted; [`Publisher::finish`]
 /// then sends the rest, and whatever no stage sent.
 pub struct Publisher {
-    rec: RecordingStream,
+    rec: PacedStream,
     pending: Option<PendingOutput>,
     full_rate: AtomicBool,
     early: Mutex<Early>,
@@ -124,7 +126,7 @@ impl Publisher {
                 let pending = PendingOutput::new(path);
                 let rec = builder.save(pending.path()).map_err(publish_err)?;
                 Publisher {
-                    rec,
+                    rec: PacedStream::new(rec),
                     pending: Some(pending),
                     full_rate: Default::default(),
                     early: Default::default(),
@@ -137,14 +139,14 @@ impl Publisher {
                 }
                 .map_err(publish_err)?;
                 Publisher {
-                    rec,
+                    rec: PacedStream::new(rec),
                     pending: None,
                     full_rate: Default::default(),
                     early: Default::default(),
                 }
             }
             RerunSink::Spawn => Publisher {
-                rec: builder.spawn().map_err(publish_err)?,
+                rec: PacedStream::new(builder.spawn().map_err(publish_err)?),
                 pending: None,
                 full_rate: Default::default(),
                 early: Default::default(),
@@ -223,7 +225,7 @@ const FULL_RATE_BATCH: usize = 1 << 16;
 /// Publishes raw samples at full rate as they stream by, in column batches, so that
 /// memory stays bounded whatever the recording's length.
 pub struct FullRatePublisher {
-    rec: RecordingStream,
+    rec: PacedStream,
     /// Per channel: entity path, times, values.
     channels: Vec<(String, Vec<i64>, Vec<f64>)>,
     failed: Option<String>,
@@ -237,6 +239,7 @@ impl FullRatePublisher {
         }
         let t = std::mem::take(times);
         let v = std::mem::take(values);
+        let rows = t.len();
         let result = Scalars::new(v)
             .columns_of_unit_batches()
             .map_err(publish_err)
@@ -249,8 +252,8 @@ impl FullRatePublisher {
                     )
                     .map_err(publish_err)
             })
-            // Waited for, so that rerun's queue holds one batch, not a week of them.
-            .and_then(|()| self.rec.flush_blocking().map_err(publish_err));
+            // Paced, so that rerun's queue holds a bounded backlog, not a week of batches.
+            .and_then(|()| self.rec.sent(rows));
         if let Err(e) = result {
             self.failed.get_or_insert(e.to_string());
         }
@@ -310,7 +313,7 @@ pub const LAG_TIMELINE: &str = "lag";
 /// time constants are the hidden model's); its residual correlations, which the report's
 /// `residuals` hold, stay under a tab that names them.
 fn log_model(
-    rec: &RecordingStream,
+    rec: &PacedStream,
     stages: traces::Stages<'_>,
     analysis: &ModelAnalysis,
 ) -> Result<()> {
@@ -324,12 +327,7 @@ fn log_model(
 /// What only the whole replay determines: the hidden-state model's outputs, residuals
 /// and sensitivities where it is the replay's model, the calorimetric balance, the
 /// recursive estimate, the network, the figures and the summary.
-fn log_rest(
-    rec: &RecordingStream,
-    replay: &Replay,
-    report: &Report,
-    summary_text: &str,
-) -> Result<()> {
+fn log_rest(rec: &PacedStream, replay: &Replay, report: &Report, summary_text: &str) -> Result<()> {
     traces::log_hidden_temperatures(rec, replay)?;
     analysis::log_hidden_sensitivities(rec, replay)?;
     traces::log_calorimetry(rec, replay)?;

@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use crate::sdk::RecordingStream;
+use crate::paced::PacedStream;
 
 use super::layout::{Layout, Node, View, ViewKind};
 use super::traces::on_grid;
@@ -154,7 +154,7 @@ impl StretchObserver for LivePublisher {
 }
 
 /// State j's series names, colours and widths.
-fn styles(rec: &RecordingStream, j: usize, state: &str, band_label: &str) -> Result<()> {
+fn styles(rec: &PacedStream, j: usize, state: &str, band_label: &str) -> Result<()> {
     let colour = style::part(j);
     let temp = temperature_entity(state);
     let res = residual_entity(state);

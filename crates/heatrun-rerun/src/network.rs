@@ -3,7 +3,8 @@
 //! the heat through it at the end of the run (sized and coloured by that heat); edges in
 //! the direction the heat flows.
 
-use crate::sdk::{GraphEdges, GraphNodes, RecordingStream};
+use crate::paced::PacedStream;
+use crate::sdk::{GraphEdges, GraphNodes};
 
 use crate::Result;
 use heatrun::network::Network;
@@ -53,7 +54,7 @@ fn final_rises(replay: &Replay) -> Option<Vec<f64>> {
 }
 
 /// Logs the graph where the model has a network; does nothing otherwise.
-pub(super) fn log_network(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+pub(super) fn log_network(rec: &PacedStream, replay: &Replay) -> Result<()> {
     let (Ok(network), Some(rises)) = (&replay.network.network, final_rises(replay)) else {
         return Ok(());
     };

@@ -1,7 +1,8 @@
 //! `heatrun predict --rrd`: the load schedule, the losses it causes and the predicted
 //! temperatures with each part's limit, on a timeline of the schedule's own seconds.
 
-use crate::sdk::{RecordingStream, Scalars, TimeColumn};
+use crate::paced::PacedStream;
+use crate::sdk::{Scalars, TimeColumn};
 
 use super::layout::{Layout, Node, View};
 use super::traces::SERIES_SLICE;
@@ -45,15 +46,12 @@ pub fn publish(
     }
 }
 
-/// Sends `(s, value)` pairs in slices, each waited for.
-fn send(
-    rec: &RecordingStream,
-    entity: &str,
-    points: impl Iterator<Item = (f64, f64)>,
-) -> Result<()> {
+/// Sends `(s, value)` pairs in slices, paced ([`PacedStream::sent`]).
+fn send(rec: &PacedStream, entity: &str, points: impl Iterator<Item = (f64, f64)>) -> Result<()> {
     let mut points = points.filter(|(_, v)| v.is_finite()).peekable();
     while points.peek().is_some() {
         let (times, values): (Vec<f64>, Vec<f64>) = points.by_ref().take(SERIES_SLICE).unzip();
+        let rows = times.len();
         rec.send_columns(
             entity,
             [TimeColumn::new_duration_secs(SCHEDULE_TIMELINE, times)],
@@ -62,12 +60,12 @@ fn send(
                 .map_err(publish_err)?,
         )
         .map_err(publish_err)?;
-        rec.flush_blocking().map_err(publish_err)?;
+        rec.sent(rows)?;
     }
     Ok(())
 }
 
-fn log_temperatures(rec: &RecordingStream, p: &Prediction, limits: &[Limit]) -> Result<()> {
+fn log_temperatures(rec: &PacedStream, p: &Prediction, limits: &[Limit]) -> Result<()> {
     let t = &p.time_s;
     let span = [t[0], t[t.len() - 1]];
     for (j, name) in p.states.iter().enumerate() {
@@ -87,7 +85,7 @@ fn log_temperatures(rec: &RecordingStream, p: &Prediction, limits: &[Limit]) -> 
 
 /// Each part's 95 % band, where the prediction has one: `<part>_lo95` and `<part>_hi95`
 /// in the part's colour, lightened, beside its temperature.
-fn log_bands(rec: &RecordingStream, p: &Prediction) -> Result<()> {
+fn log_bands(rec: &PacedStream, p: &Prediction) -> Result<()> {
     let Some(bands) = &p.band_c else {
         return Ok(());
     };
@@ -116,7 +114,7 @@ fn log_bands(rec: &RecordingStream, p: &Prediction) -> Result<()> {
 
 /// One part's predicted temperature, in colour `j`, and its limit where it has one.
 fn log_temperature(
-    rec: &RecordingStream,
+    rec: &PacedStream,
     name: &str,
     j: usize,
     values: impl Iterator<Item = (f64, f64)>,
@@ -144,7 +142,7 @@ fn log_temperature(
 }
 
 /// The heat inputs in kW (W per unit: the model's power base), other inputs as they are.
-fn log_losses(rec: &RecordingStream, p: &Prediction, model: &ThermalModel) -> Result<()> {
+fn log_losses(rec: &PacedStream, p: &Prediction, model: &ThermalModel) -> Result<()> {
     for (i, input) in model.inputs.iter().enumerate() {
         if input.kind != InputKind::Heat {
             continue;
@@ -174,7 +172,7 @@ fn log_losses(rec: &RecordingStream, p: &Prediction, model: &ThermalModel) -> Re
 }
 
 /// The operating point in force at each instant.
-fn log_schedule(rec: &RecordingStream, p: &Prediction, schedule: &LoadSchedule) -> Result<()> {
+fn log_schedule(rec: &PacedStream, p: &Prediction, schedule: &LoadSchedule) -> Result<()> {
     type Quantity = (
         &'static str,
         &'static str,

@@ -2,7 +2,8 @@
 //! its measured and model temperatures, its residual, its sensitivity responses — and
 //! each input another, so a reader matches lines across plots without a legend.
 
-use crate::sdk::{RecordingStream, SeriesLines};
+use crate::paced::PacedStream;
+use crate::sdk::SeriesLines;
 
 use crate::Result;
 
@@ -52,13 +53,7 @@ pub const MEASURED_WIDTH: f32 = 4.0;
 pub const LINE_WIDTH: f32 = 1.5;
 
 /// Logs a series' name, colour and width (static: they hold for the whole recording).
-pub fn series(
-    rec: &RecordingStream,
-    entity: &str,
-    name: &str,
-    rgb: [u8; 3],
-    width: f32,
-) -> Result<()> {
+pub fn series(rec: &PacedStream, entity: &str, name: &str, rgb: [u8; 3], width: f32) -> Result<()> {
     rec.log_static(
         entity,
         &SeriesLines::new()

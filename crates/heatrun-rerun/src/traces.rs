@@ -1,8 +1,9 @@
 //! The replay's time series on the recording's clock: measured and model temperature per
 //! part, residuals, inputs and the decimated quantities. Each series goes out as columns
-//! in slices it waits for (rerun's queue never holds more than one slice).
+//! in slices, paced ([`PacedStream`]: rerun's queue holds a bounded backlog of them).
 
-use crate::sdk::{RecordingStream, Scalars, TimeColumn};
+use crate::paced::PacedStream;
+use crate::sdk::{Scalars, TimeColumn};
 
 use crate::Result;
 use heatrun::decimate::DecimatedRecording;
@@ -62,7 +63,7 @@ pub fn temperature_entity(state: &str) -> String {
 /// non-finite values. It goes out in slices of [`SERIES_SLICE`] rows, each waited for
 /// before the next is built, so a week-long series never sits in memory twice.
 pub(super) fn send_series(
-    rec: &RecordingStream,
+    rec: &PacedStream,
     entity: &str,
     points: impl Iterator<Item = (i64, f64)>,
 ) -> Result<usize> {
@@ -70,7 +71,8 @@ pub(super) fn send_series(
     let mut sent = 0;
     while points.peek().is_some() {
         let (times, values): (Vec<i64>, Vec<f64>) = points.by_ref().take(SERIES_SLICE).unzip();
-        sent += times.len();
+        let rows = times.len();
+        sent += rows;
         rec.send_columns(
             entity,
             [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
@@ -79,14 +81,14 @@ pub(super) fn send_series(
                 .map_err(publish_err)?,
         )
         .map_err(publish_err)?;
-        rec.flush_blocking().map_err(publish_err)?;
+        rec.sent(rows)?;
     }
     Ok(sent)
 }
 
 /// Sends a series against a lag (the correlation plots).
 pub(super) fn send_by_lag(
-    rec: &RecordingStream,
+    rec: &PacedStream,
     entity: &str,
     lags: Vec<i64>,
     values: Vec<f64>,
@@ -107,7 +109,7 @@ pub const CALORIMETRY: &str = "calorimetry";
 /// The calorimetric balance over time (paper eqs. 17-18), where the flow is recorded:
 /// the heat the cooling water carries away, c·ρ·(θ_out − θ_in)·Q, beside the sum of the
 /// computed losses, both in kW, so a wrong loss model or flow meter shows as a gap.
-pub(super) fn log_calorimetry(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+pub(super) fn log_calorimetry(rec: &PacedStream, replay: &Replay) -> Result<()> {
     let Some(c) = &replay.network.calorimetry else {
         return Ok(());
     };
@@ -217,7 +219,7 @@ fn temperature_entities(state: &str) -> (String, String) {
 /// What the recording alone gives, sent as soon as it is prepared: the measured
 /// temperature per part, the inputs (the generator's losses in kW) and the decimated
 /// quantities with units.
-pub(super) fn log_measured(rec: &RecordingStream, stages: Stages<'_>) -> Result<()> {
+pub(super) fn log_measured(rec: &PacedStream, stages: Stages<'_>) -> Result<()> {
     let s = stages.signals;
     let t = &s.time_ns;
     for (j, state) in s.states.iter().enumerate() {
@@ -281,7 +283,7 @@ pub(super) const HIDDEN_MODEL_LABEL: &str = "hidden-state model ŷ = Cx + Du";
 /// replay's model is then the hidden one, [`log_hidden_temperatures`]), the same trace
 /// drawn thin and grey as the measured-state model's, without residuals.
 pub(super) fn log_model_temperatures(
-    rec: &RecordingStream,
+    rec: &PacedStream,
     stages: Stages<'_>,
     analysis: &ModelAnalysis,
 ) -> Result<()> {
@@ -296,7 +298,7 @@ pub(super) fn log_model_temperatures(
 /// The hidden-state model's measured outputs ŷ = C x + D u per part, each segment from
 /// the initial state the replay fitted to it (estimation and validation apart), and its
 /// residuals y − ŷ: the replay's model where the spec declares `[hidden]`.
-pub(super) fn log_hidden_temperatures(rec: &RecordingStream, replay: &Replay) -> Result<()> {
+pub(super) fn log_hidden_temperatures(rec: &PacedStream, replay: &Replay) -> Result<()> {
     let Some(h) = &replay.hidden else {
         return Ok(());
     };
@@ -318,7 +320,7 @@ pub(super) fn log_hidden_temperatures(rec: &RecordingStream, replay: &Replay) ->
 /// temperatures over each state's reference, and for the replay's model the residuals
 /// where the estimator compared.
 fn log_simulated(
-    rec: &RecordingStream,
+    rec: &PacedStream,
     stages: Stages<'_>,
     sim: impl Fn(usize, usize) -> f64,
     which: Simulated,
