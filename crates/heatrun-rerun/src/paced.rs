@@ -17,8 +17,10 @@ use crate::sdk::RecordingStream;
 use crate::{publish_err, Result};
 
 /// Rows (a time, a value and a row id: about 36 bytes each as Arrow) that may wait in
-/// rerun's queue before a sender waits for the writer: about 9 MB.
-pub const BACKLOG_ROWS: usize = 1 << 18;
+/// rerun's queue before a sender waits for the writer: about 4.7 MB. Twice as many did
+/// not make W0 faster and left the week at 100 Hz (peak 184–202 MB resident) at its
+/// 200 MB bar; this many, 193 MB.
+pub const BACKLOG_ROWS: usize = 1 << 17;
 
 /// A [`RecordingStream`] with a count of the rows sent since the writer last caught up,
 /// shared by its clones (the series of one recording are sent from several threads).

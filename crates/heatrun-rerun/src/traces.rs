@@ -52,7 +52,7 @@ impl<'a> From<&'a Prepared> for Stages<'a> {
 use super::{publish_err, style, LAG_TIMELINE, TIMELINE};
 
 /// Rows per column chunk of a series.
-pub(super) const SERIES_SLICE: usize = 1 << 16;
+pub(super) const SERIES_SLICE: usize = 1 << 13;
 
 /// Entity path of a state's temperature plot.
 pub fn temperature_entity(state: &str) -> String {
