@@ -58,8 +58,8 @@ fn noise(x: &[Option<f64>]) -> f64 {
 }
 
 /// The median of up to [`LEVEL_SAMPLES`] known values taken from `indices` in order,
-/// `None` with fewer than three. Gathered on the stack: it is asked up to four times an
-/// instant for each pair of channels (a week at 1 s made 25 million allocations of it).
+/// `None` with fewer than three. Gathered on the stack: it is asked twice an instant for
+/// each channel (a week at 1 s made 25 million allocations of it).
 fn level(x: &[Option<f64>], indices: impl Iterator<Item = usize>) -> Option<f64> {
     let mut kept = [0.0; LEVEL_SAMPLES];
     let mut n = 0;
@@ -73,6 +73,40 @@ fn level(x: &[Option<f64>], indices: impl Iterator<Item = usize>) -> Option<f64>
     }
     v.sort_by(f64::total_cmp);
     Some(v[v.len() / 2])
+}
+
+/// What the check reads of one channel, taken once for every pair it is in: its
+/// readings, its robust noise σ and its level either side of each instant k — the median
+/// of the last known values before k (`before`) and of the next ones after it (`after`),
+/// [`LEVEL_SAMPLES`] of each within `reach` instants.
+struct Channel {
+    readings: Vec<Option<f64>>,
+    noise: f64,
+    before: Vec<Option<f64>>,
+    after: Vec<Option<f64>>,
+}
+
+impl Channel {
+    fn of(readings: Vec<Option<f64>>, reach: usize) -> Channel {
+        let len = readings.len();
+        let before = (0..len)
+            .map(|k| level(&readings, (k.saturating_sub(reach)..k).rev()))
+            .collect();
+        let after = (0..len)
+            .map(|k| level(&readings, (k + 1)..(k + 1 + reach).min(len)))
+            .collect();
+        Channel {
+            noise: noise(&readings),
+            readings,
+            before,
+            after,
+        }
+    }
+}
+
+/// The instants either side of one whose known values make a level there.
+fn reach(ts_s: f64) -> usize {
+    ((LEVEL_SPAN_S / ts_s).ceil() as usize).max(LEVEL_SAMPLES)
 }
 
 /// An exchange found: from instant `at` on, the two channels carry each other's values.
@@ -89,19 +123,26 @@ pub struct Exchange {
 /// The first exchange of `a` and `b` at or after instant `from`, on a grid of `ts_s`.
 pub fn find(a: &[Option<f64>], b: &[Option<f64>], ts_s: f64, from: usize) -> Option<Exchange> {
     let len = a.len().min(b.len());
-    let reach = ((LEVEL_SPAN_S / ts_s).ceil() as usize).max(LEVEL_SAMPLES);
-    let floor = MIN_GAP_K.max(NOISE_SIGMAS * noise(a).max(noise(b)));
+    let (a, b) = (
+        Channel::of(a[..len].to_vec(), reach(ts_s)),
+        Channel::of(b[..len].to_vec(), reach(ts_s)),
+    );
+    find_between(&a, &b, from)
+}
+
+/// [`find`] of two channels read (both over the same instants).
+fn find_between(a: &Channel, b: &Channel, from: usize) -> Option<Exchange> {
+    let len = a.readings.len();
+    let floor = MIN_GAP_K.max(NOISE_SIGMAS * a.noise.max(b.noise));
     for k in from.max(1)..len.saturating_sub(1) {
-        let back = || (k.saturating_sub(reach)..k).rev();
-        let ahead = || (k + 1)..(k + 1 + reach).min(len);
-        let (Some(a0), Some(b0)) = (level(a, back()), level(b, back())) else {
+        let (Some(a0), Some(b0)) = (a.before[k], b.before[k]) else {
             continue;
         };
         let gap = a0 - b0;
         if gap.abs() <= floor {
             continue;
         }
-        let (Some(a1), Some(b1)) = (level(a, ahead()), level(b, ahead())) else {
+        let (Some(a1), Some(b1)) = (a.after[k], b.after[k]) else {
             continue;
         };
         if (a1 - b0).abs() < MATCH_SHARE * gap.abs() && (b1 - a0).abs() < MATCH_SHARE * gap.abs() {
@@ -109,7 +150,7 @@ pub fn find(a: &[Option<f64>], b: &[Option<f64>], ts_s: f64, from: usize) -> Opt
             // ahead are mostly exchanged already): the first instant from k whose reading
             // of `a` lies nearer `b`'s old level is the one exchanged.
             let at = (k..len)
-                .find(|&j| a[j].is_some_and(|v| (v - b0).abs() < (v - a0).abs()))
+                .find(|&j| a.readings[j].is_some_and(|v| (v - b0).abs() < (v - a0).abs()))
                 .unwrap_or(k);
             return Some(Exchange {
                 at,
@@ -130,20 +171,22 @@ pub fn undo(decimated: &mut DecimatedRecording) -> Vec<Finding> {
         .filter(|(_, s)| s.unit == "degC")
         .map(|(signal, _)| signal.clone())
         .collect();
-    let ts_s = decimated.ts_s();
+    let reach = reach(decimated.ts_s());
+    let read = |decimated: &DecimatedRecording, signal: &Signal| {
+        Channel::of(readings(decimated, signal), reach)
+    };
+    let mut channels: Vec<Channel> = temperatures.iter().map(|s| read(decimated, s)).collect();
     let mut findings = Vec::new();
-    for (i, first) in temperatures.iter().enumerate() {
-        for second in &temperatures[i + 1..] {
+    for i in 0..temperatures.len() {
+        for j in i + 1..temperatures.len() {
+            let (first, second) = (&temperatures[i], &temperatures[j]);
             let mut from = 0;
             // A wire exchanged back later is found again once the first is undone.
-            while let Some(e) = find(
-                &readings(decimated, first),
-                &readings(decimated, second),
-                ts_s,
-                from,
-            ) {
+            while let Some(e) = find_between(&channels[i], &channels[j], from) {
                 swap_from(decimated, first, second, e.at);
                 findings.push(finding(decimated, first, second, &e));
+                channels[i] = read(decimated, first);
+                channels[j] = read(decimated, second);
                 from = e.at + 1;
             }
         }
