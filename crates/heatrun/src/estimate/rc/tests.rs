@@ -437,3 +437,32 @@ fn an_output_without_noise_is_weighted_by_its_own_noise_beyond_the_cap() {
         "own weights: C, G off by {cg_own}; at the cap: {cg_cap}"
     );
 }
+
+/// [z; ρ] of an accepted point over `entries` entries whose objective is J = `objective`
+/// and whose Gauss–Newton step predicts a gain of `predicted` noise variances σ² = J/N.
+fn reduced_at(objective: f64, predicted: f64, entries: usize) -> DVector<f64> {
+    let sigma2 = objective / entries as f64;
+    let z = (predicted * sigma2).sqrt();
+    DVector::from_vec(vec![z, (objective - z * z).sqrt()])
+}
+
+#[test]
+fn a_window_that_gains_less_than_a_twentieth_of_the_predicted_gain_is_a_creep() {
+    let entries = 1000;
+    let creep = Creep::default();
+    // σ² = 1 throughout (J ≈ 1000). The first window: 100 predicted at its start, 40 gained.
+    let mut objective = 1000.0;
+    assert!(!creep.crept(&reduced_at(objective, 100.0, entries), entries));
+    for _ in 0..CREEP_WINDOW {
+        objective -= 4.0;
+        assert!(!creep.crept(&reduced_at(objective, 100.0, entries), entries));
+    }
+    assert!(!creep.ended.get(), "40 of 100 is progress");
+    // The second window: 100 predicted again at its start, 4 gained (σ² ≈ 0.96).
+    for k in 0..CREEP_WINDOW {
+        objective -= 0.4;
+        let crept = creep.crept(&reduced_at(objective, 100.0, entries), entries);
+        assert_eq!(crept, k + 1 == CREEP_WINDOW, "point {k}");
+    }
+    assert!(creep.ended.get());
+}
