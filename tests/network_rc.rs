@@ -542,4 +542,18 @@ fn a_noisy_paper_run_whose_best_network_misses_by_kelvins_is_said_to_hold_none()
         "{:?}",
         network.fitted_from
     );
+    // The network printed is the one the decision judged, not a second fit of the same
+    // distance (which walked the paper's flat valleys to other digits: 561,394.6481667
+    // against 561,394.6481696 on W0).
+    let judged = decision.candidates[0]
+        .figures
+        .iter()
+        .find(|f| f.name == "χ² distance")
+        .expect("the decision's distance");
+    let printed = network.minimum_distance.as_ref().unwrap();
+    assert_eq!(
+        judged.value.to_bits(),
+        printed.distance.to_bits(),
+        "{judged:?} {printed:?}"
+    );
 }

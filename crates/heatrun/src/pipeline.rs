@@ -335,7 +335,10 @@ pub fn replay_observed(
                     network_source.refit.as_ref().unwrap_or(&estimate),
                     &analysis.continuous,
                     &prepared.signals,
-                    network_source.said.as_deref(),
+                    (
+                        network_source.said.as_deref(),
+                        network_source.nearest.as_ref(),
+                    ),
                 );
                 let decided = network_source.decision;
                 Ok::<_, Error>((validation, output_error_beside, (network, decided)))

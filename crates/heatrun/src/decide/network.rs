@@ -24,6 +24,10 @@ pub struct NetworkSource {
     pub said: Option<String>,
     /// The decision, where the replay made one (the default's `oe`).
     pub decision: Option<Decision>,
+    /// The passive network nearest `refit` (else the estimate), where the decision fitted
+    /// it to judge it ([`network::stage::nearest_parts`]): the network stage prints this
+    /// one instead of fitting the same minimum distance again.
+    pub(crate) nearest: Option<network::fit::Fitted>,
 }
 
 /// The replay's network: for `oe` (the default), the passive network nearest `oe`'s
@@ -49,6 +53,7 @@ pub fn network_source(
         refit,
         said: Some(said),
         decision: None,
+        nearest: None,
     };
     match options.method {
         Method::Rc => NetworkSource {
@@ -90,6 +95,7 @@ pub fn network_source(
             refit: None,
             said: None,
             decision: None,
+            nearest: None,
         },
     }
 }
@@ -149,7 +155,12 @@ fn chosen(
     // re-estimated with the first sample's offset where that applies.
     let refit = with_output_offset(data, options, estimate, noise);
     let judged = refit.as_ref().unwrap_or(estimate);
-    let nearness = nearness(data, judged, model, scaling, noise);
+    let fitted = crate::model::ContinuousModel::from_discrete(&judged.model)
+        .ok()
+        .and_then(|c| network::stage::nearest_parts(model, judged, &c, scaling).ok());
+    let nearness = fitted
+        .as_ref()
+        .and_then(|f| nearness(data, judged, f, model, scaling, noise));
     let nearest_figures = nearness.as_ref().map_or_else(Vec::new, |n| {
         let mut f = vec![
             Figure::new("χ² distance", n.distance.distance, ""),
@@ -196,6 +207,7 @@ fn chosen(
             refit,
             decision: Some(decision(nearest_name, said.clone(), vec![])),
             said: Some(said),
+            nearest: fitted,
         };
     }
     let floor = sensor_floor(scaling).max(noise.largest_variance());
@@ -215,6 +227,7 @@ fn chosen(
             refit: kept_refit,
             decision: Some(decision(nearest_name, said.clone(), rc)),
             said: Some(said),
+            nearest: fitted,
         };
     }
     let (chosen_name, rc_figures) = match &source.grey_box {
@@ -259,6 +272,10 @@ fn chosen(
         format!("{why}{}", source.said.clone().unwrap_or_default()),
         rc_figures,
     ));
+    // Where rc's fit is not the network, the stage prints the nearest one: judged here.
+    if source.grey_box.is_none() {
+        source.nearest = fitted;
+    }
     source
 }
 
@@ -371,11 +388,12 @@ fn imprecise(n: &Nearness) -> Option<f64> {
 /// between the figures measured, not derived.
 pub const PRECISE_CAPACITANCE: f64 = 0.04;
 
-/// The nearest passive network's distance from `estimate`'s model and, simulated on the
-/// data, what it leaves unexplained; `None` where it cannot be made.
+/// The distance of `fitted`, the passive network nearest `estimate`'s model, and what it
+/// leaves unexplained simulated on the data; `None` where it cannot be simulated.
 fn nearness(
     data: &IdentificationData,
     estimate: &Estimate,
+    fitted: &network::fit::Fitted,
     model: &ModelDescription,
     scaling: network::Scaling,
     noise: &NoiseFloor,
@@ -385,7 +403,7 @@ fn nearness(
         parts,
         distance,
         capacitance_standard_error,
-    } = network::stage::nearest_parts(model, estimate, &continuous, scaling).ok()?;
+    } = fitted.clone();
     let map = crate::thermal::rc::Parametrisation::of_shape(estimate.model.ts_s, scaling, &parts);
     let nearest = map.model(&map.params_of(&parts));
     let base = scaling.theta_base_k;
@@ -475,12 +493,14 @@ fn from_grey_box(
             refit: None,
             said: Some(said),
             decision: None,
+            nearest: None,
         },
         Err(why) => NetworkSource {
             grey_box: None,
             refit,
             said: Some(format!("not rc's fit to the data: {why}")),
             decision: None,
+            nearest: None,
         },
     }
 }

@@ -81,21 +81,23 @@ impl Balance {
     /// The stage's whole finding: `grey_box`'s network (`rc`'s estimate, fitted to the
     /// data), or else the passive network nearest the `identified` model, scaled by this
     /// balance's c·ρ·Q where it has one. `source` says which it is and why
-    /// ([`Network::fitted_from`]).
-    pub fn with_network(
+    /// ([`Network::fitted_from`]); `nearest` is that nearest network where it was fitted
+    /// already (in the energy-conservation scale, to the same `identified` model), which is
+    /// then not fitted again.
+    pub(crate) fn with_network(
         self,
         model: &ModelDescription,
         grey_box: Option<&NetworkEstimate>,
         identified: &Estimate,
         continuous: &ContinuousModel,
         signals: &ModelSignals,
-        source: Option<&str>,
+        (source, nearest): (Option<&str>, Option<&fit::Fitted>),
     ) -> NetworkAnalysis {
         let mut network = match grey_box {
             Some(estimate) => estimated_network(model, estimate, self.calorimetry.as_ref()),
             None => network(
                 model,
-                identified,
+                (identified, nearest),
                 continuous,
                 signals,
                 self.calorimetry.as_ref(),
@@ -139,7 +141,7 @@ pub(crate) fn labels(model: &ModelDescription) -> Labels {
 /// algebraic network's passivity figures (how far the model itself is from a network).
 fn network(
     model: &ModelDescription,
-    identified: &Estimate,
+    (identified, nearest): (&Estimate, Option<&fit::Fitted>),
     continuous: &ContinuousModel,
     signals: &ModelSignals,
     calorimetry: Option<&Calorimetry>,
@@ -173,7 +175,12 @@ fn network(
     let algebraic = Network::from_continuous(&continuous.a_c, &b_heat, scaling, coolant, &labels)
         .map_err(|e| e.to_string())?;
     Ok(nearest_network(
-        algebraic, identified, &heat, scaling, coolant, &labels,
+        algebraic,
+        (identified, nearest),
+        &heat,
+        scaling,
+        coolant,
+        &labels,
     ))
 }
 
@@ -246,12 +253,13 @@ pub(crate) fn nearest_parts(
 }
 
 /// The passive network nearest the identified model ([`fit::minimum_distance`], from the
-/// algebraic network in the energy-conservation scale), rescaled to c·ρ·Q where the
+/// algebraic network in the energy-conservation scale; or `nearest`, that fit made
+/// already by the network's decision), rescaled to c·ρ·Q where the
 /// coolant link is given (energy conservation beside it), carrying the algebraic
 /// network's passivity figures; the algebraic network itself where the fit fails.
 fn nearest_network(
     algebraic: Network,
-    identified: &Estimate,
+    (identified, nearest): (&Estimate, Option<&fit::Fitted>),
     heat: &[usize],
     scaling: Scaling,
     coolant: Option<CoolantLink>,
@@ -276,13 +284,18 @@ fn nearest_network(
             algebraic.loss_distribution[i][j] * to_energy
         }),
     };
-    let Some(fitted) = fit::minimum_distance(
-        &identified.model,
-        identified.covariance.as_ref(),
-        heat,
-        scaling,
-        start,
-    ) else {
+    // The nearest network fitted already is the same fit only where every input is heat
+    // (it was fitted to all of Γ's columns, as [`nearest_parts`] does).
+    let given = nearest.filter(|_| heat.len() == identified.model.gamma.ncols());
+    let Some(fitted) = given.cloned().or_else(|| {
+        fit::minimum_distance(
+            &identified.model,
+            identified.covariance.as_ref(),
+            heat,
+            scaling,
+            start,
+        )
+    }) else {
         return algebraic;
     };
     // Calorimetric: every C, G and k_ij times c·ρ·Q / G_out,0 (A_c and B_c unchanged).
