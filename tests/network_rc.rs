@@ -556,4 +556,25 @@ fn a_noisy_paper_run_whose_best_network_misses_by_kelvins_is_said_to_hold_none()
         printed.distance.to_bits(),
         "{judged:?} {printed:?}"
     );
+    // And the fast path (`--network nearest`) prints that same network, to the bit.
+    let fast = replay(
+        &path,
+        &ReplayOptions {
+            network: pipeline::NetworkChoice::Nearest,
+            ..ReplayOptions::default()
+        },
+    )
+    .unwrap();
+    let fast = fast.network.network.as_ref().unwrap();
+    let bits = |n: &Network| -> Vec<u64> {
+        let g = n.conductance_w_per_k.iter().flatten();
+        let k = n.loss_distribution.iter().flatten();
+        n.capacitance_j_per_k
+            .iter()
+            .chain(g)
+            .chain(k)
+            .map(|v| v.to_bits())
+            .collect()
+    };
+    assert_eq!(bits(network), bits(fast));
 }

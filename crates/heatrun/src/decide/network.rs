@@ -48,20 +48,22 @@ pub fn network_source(
     model: &ModelDescription,
     (scaling, noise): (network::Scaling, &NoiseFloor),
 ) -> NetworkSource {
-    let plain = |refit, said: String| NetworkSource {
+    // The nearest network is fitted here for every `oe` replay, where its decision judges
+    // it, so that the default and `--network nearest` print the same fit to the bit.
+    let plain = |refit: Option<Estimate>, said: String| NetworkSource {
+        nearest: nearest_fit(refit.as_ref().unwrap_or(estimate), model, scaling),
         grey_box: None,
         refit,
         said: Some(said),
         decision: None,
-        nearest: None,
     };
     match options.method {
         Method::Rc => NetworkSource {
+            grey_box: None,
             refit: None,
-            ..plain(
-                None,
-                "fitted to the data by rc (--method rc), started from oe's network".into(),
-            )
+            said: Some("fitted to the data by rc (--method rc), started from oe's network".into()),
+            decision: None,
+            nearest: None,
         },
         Method::Oe if reproduced_exactly(estimate, scaling) => {
             let said = format!(
@@ -155,9 +157,7 @@ fn chosen(
     // re-estimated with the first sample's offset where that applies.
     let refit = with_output_offset(data, options, estimate, noise);
     let judged = refit.as_ref().unwrap_or(estimate);
-    let fitted = crate::model::ContinuousModel::from_discrete(&judged.model)
-        .ok()
-        .and_then(|c| network::stage::nearest_parts(model, judged, &c, scaling).ok());
+    let fitted = nearest_fit(judged, model, scaling);
     let nearness = fitted
         .as_ref()
         .and_then(|f| nearness(data, judged, f, model, scaling, noise));
@@ -387,6 +387,17 @@ fn imprecise(n: &Nearness) -> Option<f64> {
 /// without noise: 0.2 %. The bar lies between 3.2 % and 5.1 % (1.27 times either): set
 /// between the figures measured, not derived.
 pub const PRECISE_CAPACITANCE: f64 = 0.04;
+
+/// The passive network nearest `judged`'s model ([`network::stage::nearest_parts`]), where
+/// it has one.
+fn nearest_fit(
+    judged: &Estimate,
+    model: &ModelDescription,
+    scaling: network::Scaling,
+) -> Option<network::fit::Fitted> {
+    let continuous = crate::model::ContinuousModel::from_discrete(&judged.model).ok()?;
+    network::stage::nearest_parts(model, judged, &continuous, scaling).ok()
+}
 
 /// The distance of `fitted`, the passive network nearest `estimate`'s model, and what it
 /// leaves unexplained simulated on the data; `None` where it cannot be simulated.
