@@ -4,7 +4,8 @@
     python3 scripts/twelve_seeds.py DIR [synth flags...]
 
 Synthesizes DIR/seedN.mcap (N = 1..12, kept for reruns) with the given flags (default
-`--temperature-noise 0.05`), replays each by default, and prints per time constant: the
+`--temperature-noise 0.05`), replays each by default (its .rrd written beside it, not in
+the folder the script runs from), and prints per time constant: the
 bias of the seeds' mean, the spread (sample standard deviation) against the mean reported
 standard error (the 95 % interval / 1.96, the Cramér–Rao estimate for white noise), how
 many 95 % intervals hold the truth, and the replays' wall times. HEATRUN names the binary
@@ -23,7 +24,8 @@ for seed in range(1, 13):
     truth = json.load(open(f + '.truth.json'))
     report = os.path.join(out, f'report{seed}.json')
     t0 = time.time()
-    subprocess.run([H, 'replay', f, '--report', report, '-q'], check=True, capture_output=True)
+    rrd = os.path.join(out, f'seed{seed}.rrd')
+    subprocess.run([H, 'replay', f, '--report', report, '--rrd', rrd, '-q'], check=True, capture_output=True)
     wall = time.time() - t0
     r = json.load(open(report))
     rows.append((wall, r['method'], r['time_constants_s'],
