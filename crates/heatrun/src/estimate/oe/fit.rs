@@ -109,13 +109,21 @@ impl OutputError {
     /// the data start at that sample (`starts_at_reference`) the state there is zero and
     /// d is the sample's error (negated); the estimate carries d in
     /// [`Estimate::output_offset`]. The thermal network is fitted to this Θ
-    /// (`network::stage`).
+    /// (`network::stage`), weighted by its Gauss–Newton covariance; it is reported nowhere
+    /// else, so it carries no robust covariance (the sandwich's two passes over the
+    /// scores, a third of this refit's time on W0, would go unused).
     pub fn refit_with_output_offset(
         &self,
         data: &IdentificationData,
         start: &DiscreteModel,
     ) -> Result<Estimate> {
-        Ok(self.fit_with(data, start, None, true)?.estimate)
+        let (problem, rows_used, evaluations) = self.minimised(data, start, None, true)?;
+        Ok(conclude(
+            &problem,
+            self.method(),
+            (rows_used, evaluations),
+            false,
+        ))
     }
 
     /// [`OutputError::refine`], with the initial states it estimated.
@@ -131,18 +139,23 @@ impl OutputError {
         start: &DiscreteModel,
         entry_weight: Option<DMatrix<f64>>,
     ) -> Result<Fitted> {
-        self.fit_with(data, start, entry_weight, false)
+        let (problem, rows_used, evaluations) = self.minimised(data, start, entry_weight, false)?;
+        Ok(Fitted {
+            estimate: conclude(&problem, self.method(), (rows_used, evaluations), true),
+            initial_states: problem.initial_states(),
+        })
     }
 
-    /// [`OutputError::fit_weighted`], with a constant output offset per output estimated
-    /// as well where `output_offset` ([`Problem::with_output_offset`]).
-    fn fit_with(
+    /// The problem minimised from `start`, with a constant output offset per output
+    /// estimated as well where `output_offset` ([`Problem::with_output_offset`]); with the
+    /// instants compared and the evaluations it took.
+    fn minimised<'a>(
         &self,
-        data: &IdentificationData,
+        data: &'a IdentificationData,
         start: &DiscreteModel,
         entry_weight: Option<DMatrix<f64>>,
         output_offset: bool,
-    ) -> Result<Fitted> {
+    ) -> Result<(Problem<'a>, usize, usize)> {
         self.check_weights(data)?;
         let segments = data.segments();
         let rows_used = compared_instants(data, &segments);
@@ -164,10 +177,7 @@ impl OutputError {
         problem.entry_weight = entry_weight;
         problem.progress = Some(Reporting::new(&self.progress, self.method().name()));
         let (problem, evaluations) = self.minimise(problem)?;
-        Ok(Fitted {
-            estimate: conclude(&problem, self.method(), rows_used, evaluations),
-            initial_states: problem.initial_states(),
-        })
+        Ok((problem, rows_used, evaluations))
     }
 
     /// Weights, when given, are one finite positive number per output.
@@ -362,9 +372,15 @@ pub(crate) fn information_covariance(
     theta_covariance(&problem, &evaluation.gram, 1.0 / mean_inverse)
 }
 
-/// The estimate at the minimum: Θ's block of the covariance, the noise variance per
-/// output from the unweighted residuals.
-fn conclude(problem: &Problem, method: Method, rows_used: usize, evaluations: usize) -> Estimate {
+/// The estimate at the minimum: Θ's block of the covariance (and of the sandwich
+/// H⁻¹MH⁻¹ robust to correlated residuals where `robust`), the noise variance per output
+/// from the unweighted residuals.
+fn conclude(
+    problem: &Problem,
+    method: Method,
+    (rows_used, evaluations): (usize, usize),
+    robust: bool,
+) -> Estimate {
     let n = problem.n;
     let w: Vec<f64> = problem.sqrt_w.iter().map(|v| v * v).collect();
     let evaluation = problem.evaluate_full();
@@ -376,11 +392,13 @@ fn conclude(problem: &Problem, method: Method, rows_used: usize, evaluations: us
     let p_theta = problem.p_theta();
     let theta_block = |m: &DMatrix<f64>| m.view((0, 0), (p_theta, p_theta)).into_owned();
     let covariance = theta_block(&bread_inverse) * sigma2;
-    let (sandwich, correlation_window) = problem.sandwich(&evaluation.gram, &bread_inverse);
-    let robust_covariance = RobustCovariance {
-        covariance: theta_block(&sandwich),
-        correlation_window,
-    };
+    let robust_covariance = robust.then(|| {
+        let (sandwich, correlation_window) = problem.sandwich(&evaluation.gram, &bread_inverse);
+        RobustCovariance {
+            covariance: theta_block(&sandwich),
+            correlation_window,
+        }
+    });
     let noise_variance: Vec<f64> = (0..n)
         .map(|c| evaluation.sse[c] / problem.counts[c].max(1) as f64 / w[c].max(1e-300))
         .collect();
@@ -390,7 +408,7 @@ fn conclude(problem: &Problem, method: Method, rows_used: usize, evaluations: us
         rows_used,
         condition_number,
         covariance: Some(covariance),
-        robust_covariance: Some(robust_covariance),
+        robust_covariance,
         noise_variance,
         iterations: evaluations,
         output_offset: problem.output_offset(),
