@@ -414,9 +414,9 @@ fn nearness(
         parts,
         distance,
         capacitance_standard_error,
-    } = fitted.clone();
-    let map = crate::thermal::rc::Parametrisation::of_shape(estimate.model.ts_s, scaling, &parts);
-    let nearest = map.model(&map.params_of(&parts));
+    } = fitted;
+    let map = crate::thermal::rc::Parametrisation::of_shape(estimate.model.ts_s, scaling, parts);
+    let nearest = map.model(&map.params_of(parts));
     let base = scaling.theta_base_k;
     let segments = data.segments();
     // Where Θ was re-estimated with the first sample's offset d (ŷ = x + d), the model and
@@ -471,8 +471,8 @@ fn nearness(
             .fold(1.0, f64::max)
     });
     (beyond_k.is_finite() && noise_k.is_finite()).then_some(Nearness {
-        distance,
-        capacitance_standard_error,
+        distance: distance.clone(),
+        capacitance_standard_error: *capacitance_standard_error,
         beyond_k,
         noise_k,
         pooled_beyond_k,

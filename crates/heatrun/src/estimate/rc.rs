@@ -420,7 +420,7 @@ impl ResistanceCapacitance {
                 ..Stall::default()
             };
             // Only the first pass of several: the last must reach its minimum.
-            problem.ends_on_creep = pass == 0 && self.weights.is_none() && MOST_PASSES > 1;
+            problem.ends_on_creep = pass == 0 && self.weights.is_none();
             problem.creep = Creep::default();
             let (solved, report) = lm.minimize(problem);
             problem = solved;
@@ -868,10 +868,10 @@ impl Creep {
     /// Counts an accepted point (`reduced` = [z; ρ], J = ‖reduced‖², of a fit over
     /// `entries` entries); true where the window that ends here crept.
     fn crept(&self, reduced: &DVector<f64>, entries: usize) -> bool {
-        let p = reduced.len().saturating_sub(1);
         let objective = reduced.norm_squared();
-        let sigma2 = (objective / entries.max(1) as f64).max(f64::MIN_POSITIVE);
-        let predicted = reduced.rows(0, p).norm_squared() / sigma2;
+        let (decrease, sigma2) = gauss_newton_decrease(reduced, entries);
+        let sigma2 = sigma2.max(f64::MIN_POSITIVE);
+        let predicted = decrease / sigma2;
         let k = self.accepted.get();
         self.accepted.set(k + 1);
         let (start_objective, start_predicted) = self.window_start.get();
@@ -883,6 +883,15 @@ impl Creep {
         self.ended.set(crept);
         crept
     }
+}
+
+/// The decrease ‖z‖² of J its Gauss–Newton step predicts at a point (`reduced` = [z; ρ],
+/// the residuals' QR-reduced form, J = ‖reduced‖²) and the noise variance σ² = J/N of a
+/// fit over `entries` entries.
+fn gauss_newton_decrease(reduced: &DVector<f64>, entries: usize) -> (f64, f64) {
+    let p = reduced.len().saturating_sub(1);
+    let decrease = reduced.rows(0, p).norm_squared();
+    (decrease, reduced.norm_squared() / entries.max(1) as f64)
 }
 
 impl<'a> RcProblem<'a> {
@@ -1069,11 +1078,13 @@ impl<'a> RcProblem<'a> {
     /// a 6 h run), ends a pass at its minimum: a pass ran on for [`RC_STALL_WINDOW`]
     /// evaluations there before.
     fn within_noise_of_minimum(&self, reduced: &DVector<f64>) -> bool {
-        let p = reduced.len().saturating_sub(1);
-        let decrease = reduced.rows(0, p).norm_squared();
-        let entries: usize = self.inner.counts.iter().sum();
-        let sigma2 = reduced.norm_squared() / entries.max(1) as f64;
+        let (decrease, sigma2) = gauss_newton_decrease(reduced, self.entries());
         decrease < SETTLED_STANDARD_ERRORS.powi(2) * sigma2
+    }
+
+    /// The entries the fit compares.
+    fn entries(&self) -> usize {
+        self.inner.counts.iter().sum()
     }
 
     /// Tells the race, if any, this accepted point's deviance and what its Gauss–Newton
@@ -1081,9 +1092,7 @@ impl<'a> RcProblem<'a> {
     /// lowest deviance where the fit is too far behind to go on ([`StartRace`]).
     fn behind_in_race(&self, evaluation: &Evaluation, reduced: &DVector<f64>) -> Option<f64> {
         let race = self.race?;
-        let p = reduced.len().saturating_sub(1);
-        let entries: usize = self.inner.counts.iter().sum();
-        let sigma2 = reduced.norm_squared() / entries.max(1) as f64;
+        let (decrease, sigma2) = gauss_newton_decrease(reduced, self.entries());
         let standing = Standing {
             deviance: race::deviance(
                 &evaluation.sse,
@@ -1091,7 +1100,7 @@ impl<'a> RcProblem<'a> {
                 &self.inner.sqrt_w,
                 race.floor(),
             ),
-            predicted_gain: reduced.rows(0, p).norm_squared() / sigma2.max(f64::MIN_POSITIVE),
+            predicted_gain: decrease / sigma2.max(f64::MIN_POSITIVE),
             parameters: self.free.len(),
         };
         // Published from the first point on, but a fit is dropped only from its second
@@ -1275,7 +1284,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
                 self.stall.window.stalled.set(true);
                 return None;
             }
-            if self.ends_on_creep && self.creep.crept(&r, self.inner.counts.iter().sum()) {
+            if self.ends_on_creep && self.creep.crept(&r, self.entries()) {
                 // No Jacobian: LM stops here; the next pass goes on from this point.
                 self.stall.window.stalled.set(true);
                 return None;

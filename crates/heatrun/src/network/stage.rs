@@ -232,16 +232,7 @@ pub(crate) fn nearest_parts(
         &labels(model),
     )
     .map_err(|e| e.to_string())?;
-    let (n, m) = (algebraic.capacitance_j_per_k.len(), algebraic.inputs.len());
-    let start = Parts {
-        capacitance_j_per_k: algebraic.capacitance_j_per_k.clone(),
-        conductance_w_per_k: nalgebra::DMatrix::from_fn(n, n, |i, j| {
-            algebraic.conductance_w_per_k[i][j]
-        }),
-        loss_distribution: nalgebra::DMatrix::from_fn(n, m, |i, j| {
-            algebraic.loss_distribution[i][j]
-        }),
-    };
+    let start = energy_scale_start(&algebraic);
     fit::minimum_distance(
         &identified.model,
         identified.covariance.as_ref(),
@@ -250,6 +241,30 @@ pub(crate) fn nearest_parts(
         start,
     )
     .ok_or_else(|| "no passive network near the identified model was found".into())
+}
+
+/// `algebraic`'s C, G and K in the energy-conservation scale (each column of K summing to
+/// 1), the minimum distance's start: a calorimetric network times its ratio to that scale.
+fn energy_scale_start(algebraic: &Network) -> Parts {
+    let to_energy = match (&algebraic.scale_from, &algebraic.alternative_scale) {
+        (ScaleSource::Calorimetric, Some(alt)) => alt.ratio_to_chosen,
+        _ => 1.0,
+    };
+    let n = algebraic.capacitance_j_per_k.len();
+    let m = algebraic.inputs.len();
+    Parts {
+        capacitance_j_per_k: algebraic
+            .capacitance_j_per_k
+            .iter()
+            .map(|c| c * to_energy)
+            .collect(),
+        conductance_w_per_k: nalgebra::DMatrix::from_fn(n, n, |i, j| {
+            algebraic.conductance_w_per_k[i][j] * to_energy
+        }),
+        loss_distribution: nalgebra::DMatrix::from_fn(n, m, |i, j| {
+            algebraic.loss_distribution[i][j] * to_energy
+        }),
+    }
 }
 
 /// The passive network nearest the identified model ([`fit::minimum_distance`], from the
@@ -265,25 +280,6 @@ fn nearest_network(
     coolant: Option<CoolantLink>,
     labels: &Labels,
 ) -> Network {
-    let to_energy = match (&algebraic.scale_from, &algebraic.alternative_scale) {
-        (ScaleSource::Calorimetric, Some(alt)) => alt.ratio_to_chosen,
-        _ => 1.0,
-    };
-    let n = algebraic.capacitance_j_per_k.len();
-    let m = algebraic.inputs.len();
-    let start = Parts {
-        capacitance_j_per_k: algebraic
-            .capacitance_j_per_k
-            .iter()
-            .map(|c| c * to_energy)
-            .collect(),
-        conductance_w_per_k: nalgebra::DMatrix::from_fn(n, n, |i, j| {
-            algebraic.conductance_w_per_k[i][j] * to_energy
-        }),
-        loss_distribution: nalgebra::DMatrix::from_fn(n, m, |i, j| {
-            algebraic.loss_distribution[i][j] * to_energy
-        }),
-    };
     // The nearest network fitted already is the same fit only where every input is heat
     // (it was fitted to all of Γ's columns, as [`nearest_parts`] does).
     let given = nearest.filter(|_| heat.len() == identified.model.gamma.ncols());
@@ -293,7 +289,7 @@ fn nearest_network(
             identified.covariance.as_ref(),
             heat,
             scaling,
-            start,
+            energy_scale_start(&algebraic),
         )
     }) else {
         return algebraic;
