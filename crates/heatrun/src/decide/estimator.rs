@@ -211,7 +211,7 @@ pub fn estimate_chosen(
     // sample, whose noise would decay through the slow modes and fail the whiteness
     // test on every noisy run.
     let simulated = fitted.simulate_segments(data, &segments);
-    let residuals = model::residuals::analyse(data, &simulated, model::RESIDUAL_MAX_LAG);
+    let residuals = model::residuals::analyse_whiteness(data, &simulated, model::RESIDUAL_MAX_LAG);
     let ljung_box = LjungBox::of(&residuals);
     let outside = residuals.autocorrelation_outside_band;
     let worst = outside.iter().copied().fold(0.0, f64::max);
