@@ -28,23 +28,60 @@ pub(super) fn log_sensitivities(
     let t = &signals.time_ns;
     let unit = sensitivity_unit(model);
     for i in 0..analysis.spectrum.time_constants_s.len() {
-        for (k, state) in signals.states.iter().enumerate() {
-            let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
-            let name = format!("{}, {unit}", short_part(&state.part));
-            style::series(rec, &entity, &name, style::part(k), style::LINE_WIDTH)?;
-            let mut points = Vec::with_capacity(SERIES_SLICE);
-            let mut failed = None;
-            responses.for_each(i, stages.data, |instant, rel| {
-                points.push((t[instant], rel[k]));
-                if points.len() == SERIES_SLICE && failed.is_none() {
-                    failed = send_series(rec, &entity, points.drain(..)).err();
-                }
-            });
-            if let Some(e) = failed {
-                return Err(e);
+        let entities = sensitivity_entities(rec, i, signals, unit)?;
+        send_responses(rec, &entities, t, |visit| {
+            responses.for_each(i, stages.data, |instant, rel| visit(instant, rel));
+        })?;
+    }
+    Ok(())
+}
+
+/// The entities of the responses to time constant `i`, one per state, styled in the
+/// parts' colours.
+fn sensitivity_entities(
+    rec: &PacedStream,
+    i: usize,
+    signals: &heatrun::ModelSignals,
+    unit: &str,
+) -> Result<Vec<String>> {
+    let mut entities = Vec::with_capacity(signals.states.len());
+    for (k, state) in signals.states.iter().enumerate() {
+        let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
+        let name = format!("{}, {unit}", short_part(&state.part));
+        style::series(rec, &entity, &name, style::part(k), style::LINE_WIDTH)?;
+        entities.push(entity);
+    }
+    Ok(entities)
+}
+
+/// Sends the responses to one time constant, each state's to its entity, from one run of
+/// the recursion `run` (it calls back with an instant and every state's value there): the
+/// recursion gives all states at once, and was run once per state before (nine runs for
+/// three constants and three states where three give the same points).
+fn send_responses(
+    rec: &PacedStream,
+    entities: &[String],
+    time_ns: &[i64],
+    run: impl FnOnce(&mut dyn FnMut(usize, &[f64])),
+) -> Result<()> {
+    let mut points: Vec<Vec<(i64, f64)>> = entities
+        .iter()
+        .map(|_| Vec::with_capacity(SERIES_SLICE))
+        .collect();
+    let mut failed = None;
+    run(&mut |instant, values| {
+        for ((entity, points), v) in entities.iter().zip(&mut points).zip(values) {
+            points.push((time_ns[instant], *v));
+            if points.len() == SERIES_SLICE && failed.is_none() {
+                failed = send_series(rec, entity, points.drain(..)).err();
             }
-            send_series(rec, &entity, points.into_iter())?;
         }
+    });
+    if let Some(e) = failed {
+        return Err(e);
+    }
+    for (entity, points) in entities.iter().zip(points) {
+        send_series(rec, entity, points.into_iter())?;
     }
     Ok(())
 }
@@ -65,23 +102,12 @@ pub(super) fn log_hidden_sensitivities(rec: &PacedStream, replay: &Replay) -> Re
     let range = replay.estimation_range.clone();
     let unit = sensitivity_unit(&replay.model);
     for i in 0..responses.time_constants_s().len() {
-        for (j, state) in replay.signals.states.iter().enumerate() {
-            let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
-            let name = format!("{}, {unit}", short_part(&state.part));
-            style::series(rec, &entity, &name, style::part(j), style::LINE_WIDTH)?;
-            let mut points = Vec::with_capacity(SERIES_SLICE);
-            let mut failed = None;
+        let entities = sensitivity_entities(rec, i, &replay.signals, unit)?;
+        send_responses(rec, &entities, t, |visit| {
             responses.for_each(i, &replay.data, range.clone(), |instant, y| {
-                points.push((t[instant], y[j]));
-                if points.len() == SERIES_SLICE && failed.is_none() {
-                    failed = send_series(rec, &entity, points.drain(..)).err();
-                }
+                visit(instant, y)
             });
-            if let Some(e) = failed {
-                return Err(e);
-            }
-            send_series(rec, &entity, points.into_iter())?;
-        }
+        })?;
     }
     Ok(())
 }

@@ -33,6 +33,8 @@ pub mod prediction;
 #[cfg(test)]
 mod rrd_testing;
 pub mod sdk;
+#[cfg(test)]
+mod sensitivity_tests;
 mod style;
 mod text;
 mod traces;
