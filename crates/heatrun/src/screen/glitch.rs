@@ -54,9 +54,16 @@ pub fn noise_scale_k(residuals: &[Option<f64>], resolution_k: f64) -> f64 {
 /// residual is unknown or a side has no residual.
 pub fn departure(residuals: &[Option<f64>], k: usize) -> Option<f64> {
     let r = residuals[k]?;
+    // The side's residuals in an array on the stack: this runs at every instant of every
+    // output, and two allocations an instant were most of the screen's time.
     let side = |range: &mut dyn Iterator<Item = usize>| -> Option<f64> {
-        let mut v: Vec<f64> = range.filter_map(|i| residuals[i]).take(WINDOW).collect();
-        (!v.is_empty()).then(|| r - median(&mut v))
+        let mut v = [0.0; WINDOW];
+        let mut held = 0;
+        for value in range.filter_map(|i| residuals[i]).take(WINDOW) {
+            v[held] = value;
+            held += 1;
+        }
+        (held > 0).then(|| r - median(&mut v[..held]))
     };
     let before = side(&mut (0..k).rev())?;
     let after = side(&mut (k + 1..residuals.len()))?;
