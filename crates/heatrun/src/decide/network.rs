@@ -659,8 +659,9 @@ fn rc_stepping(
 
 /// rc's free fit and its fit held to heat through the cooling water, both from the
 /// converged nearest passive network, each on a core of its own (`rc` stepping the
-/// conductances as themselves, [`StepCoordinates::Themselves`]). The held fit runs first
-/// on a coarser grid ([`ResistanceCapacitance::fit_through_coolant_from_start`]); where
+/// conductances as themselves, [`StepCoordinates::Themselves`]). Both run first on a
+/// coarser grid ([`ResistanceCapacitance::estimate_from_near`],
+/// [`ResistanceCapacitance::fit_through_coolant_from_start`]); where
 /// the free fit then rejects it ([`THROUGH_COOLANT_LEVEL`]), the held fit at the full rate
 /// from the same start is run as well, and [`through_coolant`] takes the lower deviance.
 ///

@@ -161,11 +161,13 @@ impl ResistanceCapacitance {
     }
 
     /// [`ResistanceCapacitance::estimate_from`] from a `start` near the minimum (the
-    /// converged nearest passive network), at the full rate only: the coarse grid's own
-    /// minimum lies off the full rate's by the decimation, and from a near start the coarse
-    /// fit bought no time (the four-node machine, seeds 1–5, default replays with rc from
-    /// the nearest network: 3.6, 2.5, 2.4, 4.4 and 7.9 s against 4.5, 3.9, 3.2, 4.5 and
-    /// 8.9 s coarse first, the same networks).
+    /// converged nearest passive network), coarse first ([`Self::coarse_first`]) as the
+    /// held fits are. From a near start the coarse fit buys little where the full-rate fit
+    /// is short, and much where it walks a curved valley: on forty seeds of the four-node
+    /// machine (2026-11-29, best of two in turns) the typical replay 4.5 % longer, seeds 13
+    /// and 35 1.31 → 0.73 s and 1.13 → 0.72 s, every printed network the same to its last
+    /// digit. (Measured before the first pass's creep ended it, on seeds 1–5, it bought no
+    /// time: 3.6–7.9 s at the full rate only against 3.2–8.9 s.)
     pub fn estimate_from_near(
         &self,
         data: &IdentificationData,
@@ -173,7 +175,13 @@ impl ResistanceCapacitance {
         output_error: Estimate,
     ) -> Result<Estimate> {
         self.scaling_is_valid()?;
-        let fit = self.full_rate_from(data, &projected(start.clone()), &[], None)?;
+        let fit = self.coarse_first(
+            data,
+            projected(start.clone()),
+            &[],
+            &output_error.model,
+            None,
+        )?;
         Ok(with_output_error(fit, output_error))
     }
 
