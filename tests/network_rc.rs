@@ -360,7 +360,7 @@ fn the_paper_fixtures_network_is_the_nearest_and_said_to_be_no_network() {
     );
     let summary = heatrun::model_file::Report::new(&r).summary();
     assert!(
-        summary.contains("The model is not a passive thermal network"),
+        summary.contains("The identified model is not a passive thermal network"),
         "{summary}"
     );
     assert!(

@@ -99,12 +99,12 @@ impl Passivity {
         passivity.is_passive = clauses.is_empty();
         passivity.verdict = if clauses.is_empty() {
             format!(
-                "The model is a passive thermal network: reciprocal within {:.1} %, every conductance and loss share non-negative, and every loss accounted for within {LOSS_SHARE_TOLERANCE}.",
+                "The identified model is a passive thermal network: reciprocal within {:.1} %, every conductance and loss share non-negative, and every loss accounted for within {LOSS_SHARE_TOLERANCE}.",
                 100.0 * passivity.relative_asymmetry
             )
         } else {
             format!(
-                "The model is not a passive thermal network: {}.",
+                "The identified model is not a passive thermal network: {}.",
                 clauses.join("; ")
             )
         };

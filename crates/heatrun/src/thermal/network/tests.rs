@@ -352,7 +352,7 @@ fn paper_model_is_not_a_passive_network() {
     assert_eq!(negative, ["k_13", "k_21", "k_22", "k_23", "k_32"]);
     assert!(p
         .verdict
-        .starts_with("The model is not a passive thermal network: "));
+        .starts_with("The identified model is not a passive thermal network: "));
     assert!(
         p.verdict
             .contains("k_32 = −1.03 (field copper loss into cooling water)"),
