@@ -2,10 +2,10 @@
 //! temperatures with each part's limit, on a timeline of the schedule's own seconds.
 
 use crate::paced::PacedStream;
-use crate::sdk::{Scalars, TimeColumn};
+use crate::sdk::TimeColumn;
 
 use super::layout::{Layout, Node, View};
-use super::traces::SERIES_SLICE;
+use super::traces::send_slices;
 use super::{publish_err, style, Publisher, RerunSink};
 use crate::Result;
 use heatrun::model_file::ThermalModel;
@@ -46,22 +46,11 @@ pub fn publish(
     }
 }
 
-/// Sends `(s, value)` pairs in slices, paced ([`PacedStream::sent`]).
+/// Sends `(s, value)` pairs on the schedule's timeline ([`send_slices`]).
 fn send(rec: &PacedStream, entity: &str, points: impl Iterator<Item = (f64, f64)>) -> Result<()> {
-    let mut points = points.filter(|(_, v)| v.is_finite()).peekable();
-    while points.peek().is_some() {
-        let (times, values): (Vec<f64>, Vec<f64>) = points.by_ref().take(SERIES_SLICE).unzip();
-        let rows = times.len();
-        rec.send_columns(
-            entity,
-            [TimeColumn::new_duration_secs(SCHEDULE_TIMELINE, times)],
-            Scalars::new(values)
-                .columns_of_unit_batches()
-                .map_err(publish_err)?,
-        )
-        .map_err(publish_err)?;
-        rec.sent(rows)?;
-    }
+    send_slices(rec, entity, points, |times| {
+        TimeColumn::new_duration_secs(SCHEDULE_TIMELINE, times)
+    })?;
     Ok(())
 }
 

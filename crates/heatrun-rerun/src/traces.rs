@@ -60,22 +60,36 @@ pub fn temperature_entity(state: &str) -> String {
 }
 
 /// Sends one series as columns, `(time ns, value)` pairs in time order, skipping
-/// non-finite values. It goes out in slices of [`SERIES_SLICE`] rows, each waited for
-/// before the next is built, so a week-long series never sits in memory twice.
+/// non-finite values ([`send_slices`] on the recording's clock).
 pub(super) fn send_series(
     rec: &PacedStream,
     entity: &str,
     points: impl Iterator<Item = (i64, f64)>,
 ) -> Result<usize> {
+    send_slices(rec, entity, points, |times| {
+        TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)
+    })
+}
+
+/// Sends `(time, value)` pairs in time order as columns, skipping non-finite values, on
+/// the timeline `time_column` makes of a slice's times. It goes out in slices of
+/// [`SERIES_SLICE`] rows, paced ([`PacedStream::sent`]), so a week-long series never sits
+/// in memory twice; returns the rows sent.
+pub(super) fn send_slices<T>(
+    rec: &PacedStream,
+    entity: &str,
+    points: impl Iterator<Item = (T, f64)>,
+    time_column: impl Fn(Vec<T>) -> TimeColumn,
+) -> Result<usize> {
     let mut points = points.filter(|(_, v)| v.is_finite()).peekable();
     let mut sent = 0;
     while points.peek().is_some() {
-        let (times, values): (Vec<i64>, Vec<f64>) = points.by_ref().take(SERIES_SLICE).unzip();
+        let (times, values): (Vec<T>, Vec<f64>) = points.by_ref().take(SERIES_SLICE).unzip();
         let rows = times.len();
         sent += rows;
         rec.send_columns(
             entity,
-            [TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)],
+            [time_column(times)],
             Scalars::new(values)
                 .columns_of_unit_batches()
                 .map_err(publish_err)?,
