@@ -231,8 +231,11 @@ fn a_field_state_without_a_field_temperature_is_refused() {
 /// Seed 23 of the noisy four-node run (issue 33): rc's held fit (heat leaving only through
 /// the cooling water) run first on the coarse grid stops short of its minimum there (its
 /// likelihood ratio against the free fit 10.5, which rejects it, and the free network's G
-/// is then 12.2 % off); the held fit at the full rate, run where the coarse one is
-/// rejected, holds (4.54), and its network is within issue 33's bars.
+/// is then 12.2 % off; its own Gauss–Newton step would still gain 6.4 χ² units, and its
+/// winding's C is 2.6 standard errors off). The held fit at the full rate, run where the
+/// coarse one stopped short, is kept by the score test at it (4.72 on 3 degrees of freedom),
+/// its network within issue 33's bars and every capacitance's 95 % interval holding the
+/// truth.
 #[test]
 fn a_held_network_the_coarse_grid_left_short_is_refitted_at_the_full_rate() {
     let dir = common::tempdir();
@@ -244,7 +247,17 @@ fn a_held_network_the_coarse_grid_left_short_is_refitted_at_the_full_rate() {
         said.contains("heat leaves only through the cooling water"),
         "{said}"
     );
+    assert!(said.contains("score test"), "{said}");
     let truth_network = truth.network.as_ref().unwrap();
+    let intervals = &network["intervals_95"]["capacitance_j_per_k"];
+    for (i, &want) in truth_network.capacitance_j_per_k.iter().enumerate() {
+        let got = network["capacitance_j_per_k"][i].as_f64().unwrap();
+        let se = intervals[i]["standard_error"].as_f64().unwrap();
+        assert!(
+            (got - want).abs() < 1.96 * se,
+            "C[{i}] {got:.4e} J/K ± {se:.2e} against {want:.4e} J/K: {said}"
+        );
+    }
     let g = &network["conductance_w_per_k"];
     for (i, row) in truth_network.conductance_w_per_k.iter().enumerate() {
         for (j, &want) in row.iter().enumerate().filter(|(_, &w)| w > 0.0) {

@@ -115,6 +115,10 @@ pub enum EstimationError {
         /// How far its deviance stood above the lowest.
         gap: f64,
     },
+    /// The grey-box network fit was called off: its result was no longer needed
+    /// ([`crate::estimate::StartRace::call_off`]).
+    #[error("rc: the fit was called off, its result no longer needed")]
+    CalledOff,
     /// The grey-box network fit was asked for a model with an input that is not heat.
     #[error("rc fits a thermal network, whose inputs are heat; the input '{input}' is not (kind = \"exogenous\")")]
     InputNotHeat {

@@ -35,7 +35,8 @@ pub use pem::ratio::{self as innovations_ratio, LikelihoodRatio};
 pub use pem::{Disturbance, PredictionError, Predictor};
 pub(crate) use rc::start_parts;
 pub use rc::{
-    deviance, likelihood_ratio, NetworkEstimate, ResistanceCapacitance, StartRace, StepCoordinates,
+    deviance, likelihood_ratio, HeldScore, NetworkEstimate, ResistanceCapacitance, StartRace,
+    StepCoordinates,
 };
 pub use rls::{RecursiveLeastSquares, TrajectoryPoint};
 pub use wls::WeightedLeastSquares;

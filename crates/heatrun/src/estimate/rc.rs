@@ -49,8 +49,10 @@ use crate::estimate::Method;
 use std::cell::{Cell, RefCell};
 
 mod race;
+mod score;
 use race::Standing;
 pub use race::StartRace;
+pub use score::HeldScore;
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
@@ -168,11 +170,15 @@ impl ResistanceCapacitance {
     /// and 35 1.31 → 0.73 s and 1.13 → 0.72 s, every printed network the same to its last
     /// digit. (Measured before the first pass's creep ended it, on seeds 1–5, it bought no
     /// time: 3.6–7.9 s at the full rate only against 3.2–8.9 s.)
+    ///
+    /// `race` only calls the full-rate fit off ([`StartRace::call_off`]): a fit alone in
+    /// its race is never behind.
     pub fn estimate_from_near(
         &self,
         data: &IdentificationData,
         start: &Parts,
         output_error: Estimate,
+        race: Option<&StartRace>,
     ) -> Result<Estimate> {
         self.scaling_is_valid()?;
         let fit = self.coarse_first(
@@ -180,7 +186,7 @@ impl ResistanceCapacitance {
             projected(start.clone()),
             &[],
             &output_error.model,
-            None,
+            race,
         )?;
         Ok(with_output_error(fit, output_error))
     }
@@ -292,6 +298,70 @@ impl ResistanceCapacitance {
         let pinned = held_to_coolant(n, coolant_state);
         let parts = pinned_at_zero(start, &pinned);
         self.coarse_first(data, parts, &pinned, fastest_from, race)
+    }
+
+    /// Rao's score statistic of `held` ([`Self::fit_through_coolant`]'s network, every
+    /// part's conductance to the coolant but `coolant_state`'s held at zero) against the
+    /// free network that contains it, taken at the held fit alone ([`score`]): S = what
+    /// freeing those conductances, each only upwards from zero, would lower
+    /// J = Σ_i ‖r_i‖²/max(σ̂²_i, floor) by, beyond what the held fit's own parameters
+    /// still would, by the Gauss–Newton model at the held network (σ̂²_i each output's
+    /// residual variance there, `floor` the least taken as real, as the deviance's). To
+    /// first order S is the likelihood-ratio statistic of the free fit against it, χ² on
+    /// the conductances held, without the free fit. `None` where the held fit has no
+    /// network or its normal equations cannot be factorised.
+    pub fn held_score(
+        &self,
+        data: &IdentificationData,
+        held: &Estimate,
+        coolant_state: usize,
+        floor: f64,
+    ) -> Option<HeldScore> {
+        let network = held.network.as_ref()?;
+        let n = network.parts.capacitance_j_per_k.len();
+        let pinned = held_to_coolant(n, coolant_state);
+        let parts = pinned_at_zero(&network.parts, &pinned);
+        let map = Parametrisation::of_shape(data.ts_s, self.scaling, &parts);
+        let start = map.start.clone();
+        let weights: Vec<f64> = held
+            .noise_variance
+            .iter()
+            .map(|v| 1.0 / v.max(floor).max(1e-300))
+            .collect();
+        let segments = data.segments();
+        let inner = Problem::new(data, segments, &map.model(&start), &weights).with_output_offset();
+        let mut problem = RcProblem::new(inner, map, &start, &[]);
+        // The start states and output offsets the held network's outputs are linear in:
+        // one Gauss–Newton step in them alone is their least-squares fit to it (the held
+        // fit's own are not kept beside its network).
+        let evaluation = problem.evaluate();
+        let network_parameters = problem.free.len();
+        let linear: Vec<usize> = (network_parameters..evaluation.grad.len()).collect();
+        if !linear.is_empty() {
+            let (_, step) = score::gain_and_step(&evaluation.gram, &evaluation.grad, &linear)?;
+            let mut params = problem.params.clone();
+            for (k, d) in linear.iter().zip(step.iter()) {
+                params[*k] += d;
+            }
+            problem.set_p(&params);
+        }
+        let evaluation = problem.evaluate();
+        let freed: Vec<usize> = problem
+            .free
+            .iter()
+            .enumerate()
+            .filter(|(_, q)| pinned.contains(q))
+            .map(|(k, _)| k)
+            .collect();
+        let base: Vec<usize> = (0..evaluation.grad.len())
+            .filter(|k| !freed.contains(k))
+            .collect();
+        let (statistic, short_of_minimum) =
+            score::constrained_gain(&evaluation.gram, &evaluation.grad, &base, &freed)?;
+        Some(HeldScore {
+            statistic,
+            short_of_minimum,
+        })
     }
 
     /// [`ResistanceCapacitance::fit_through_coolant`], given up where `race` has another
@@ -435,6 +505,9 @@ impl ResistanceCapacitance {
             evaluations += report.number_of_evaluations;
             if let Some(gap) = problem.dropped.get() {
                 return Err(EstimationError::StartDropped { gap });
+            }
+            if race.is_some_and(StartRace::is_called_off) {
+                return Err(EstimationError::CalledOff);
             }
             let stalled = problem.stall.window.stalled.get();
             if stalled {
@@ -1248,6 +1321,10 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
+        if self.race.is_some_and(StartRace::is_called_off) {
+            // No residuals: LM stops here, and the fit reports itself called off.
+            return None;
+        }
         let Some(r) = self.residuals_here() else {
             return self.rejected();
         };
@@ -1266,6 +1343,9 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for RcProblem<'_> {
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
+        if self.race.is_some_and(StartRace::is_called_off) {
+            return None;
+        }
         let evaluation = self.evaluated();
         let mut j = evaluation.residual_last_form()?;
         if !j.iter().all(|v| v.is_finite()) {

@@ -23,6 +23,7 @@
 //! conductance of zero gains a few χ² units per fifty evaluations: the paper's model left
 //! one walking to the evaluation cap, 950 evaluations, for a network never chosen.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 /// The lowest deviance any fit in a race has reached.
@@ -32,6 +33,9 @@ pub struct StartRace {
     /// [`crate::estimate::deviance`]'s `floor`, in the outputs' units squared).
     floor: f64,
     lowest: Mutex<f64>,
+    /// Whether the fits were called off: their result is no longer needed
+    /// ([`StartRace::call_off`]).
+    called_off: AtomicBool,
 }
 
 /// What a fit tells a race at a point it accepted.
@@ -50,7 +54,20 @@ impl StartRace {
         StartRace {
             floor,
             lowest: Mutex::new(f64::INFINITY),
+            called_off: AtomicBool::new(false),
         }
+    }
+
+    /// Calls off every fit in the race: each ends at its next evaluation with
+    /// [`crate::estimate::EstimationError::CalledOff`] (rc's free fit where the score
+    /// test has kept the held network without it).
+    pub fn call_off(&self) {
+        self.called_off.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether the race was called off ([`StartRace::call_off`]).
+    pub(crate) fn is_called_off(&self) -> bool {
+        self.called_off.load(Ordering::Relaxed)
     }
 
     /// The floor deviances are formed with.

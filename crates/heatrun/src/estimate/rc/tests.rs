@@ -466,3 +466,43 @@ fn a_window_that_gains_less_than_a_twentieth_of_the_predicted_gain_is_a_creep() 
     }
     assert!(creep.ended.get());
 }
+
+/// The score test at the held fit ([`ResistanceCapacitance::held_score`]) stands in for
+/// the likelihood ratio of the free fit: on the machine whose heat leaves through part 3
+/// alone both lie within χ²_2's range and within a tenth of a χ² unit of each other (the
+/// two statistics agree to first order; 2026-11-29: 0.439 against 0.460), and the held
+/// fit stands at its own minimum; where G_10 = 1 and G_20 = 2 W/K are real, both are far
+/// beyond it (23,071 and 69,252: the score is the first-order statistic, the ratio the
+/// whole). A score taken with the wrong sign of a step, or weights that are not the
+/// outputs' 1/σ̂² (1 instead: 400 times too small), falls out of one or the other.
+#[test]
+fn the_score_at_the_held_fit_tells_what_the_free_fit_s_likelihood_ratio_tells() {
+    let chi2_2_999 = -2.0 * 0.001_f64.ln();
+    let (truth, scaling) = known();
+    let estimator = ResistanceCapacitance {
+        weights: None,
+        scaling,
+        progress: crate::progress::Observer::silent(),
+        coordinates: crate::estimate::StepCoordinates::Logarithms,
+    };
+    let mut through = truth.clone();
+    through.conductance_w_per_k[(0, 0)] = 1e-12;
+    through.conductance_w_per_k[(1, 1)] = 1e-12;
+    let data = data_of(&through, scaling, 20000, 0.05);
+    let (_, held, ratio) = held_against_full(&data, scaling);
+    let score = estimator.held_score(&data, &held, 2, 0.0).unwrap();
+    assert!(score.statistic < chi2_2_999, "{score:?}, ratio {ratio}");
+    assert!(
+        (score.statistic - ratio).abs() < 0.1,
+        "{score:?}, ratio {ratio}"
+    );
+    assert!(score.short_of_minimum < 0.1, "{score:?}");
+
+    let data = data_of(&truth, scaling, 20000, 0.05);
+    let (_, held, ratio) = held_against_full(&data, scaling);
+    let score = estimator.held_score(&data, &held, 2, 0.0).unwrap();
+    assert!(
+        score.statistic > 10.0 * chi2_2_999,
+        "{score:?}, ratio {ratio}"
+    );
+}
