@@ -248,6 +248,30 @@ fn a_held_network_the_coarse_grid_left_short_is_refitted_at_the_full_rate() {
         "{said}"
     );
     assert!(said.contains("score test"), "{said}");
+    // The decision names the test and its figures beside rc's fit.
+    let decision = report["decisions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|d| d["what"] == "network")
+        .unwrap();
+    let rc = decision["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["name"] == "rc's fit of C, G, K to the data")
+        .unwrap();
+    let figure = |name: &str| {
+        rc["figures"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|f| f["name"].as_str().unwrap().starts_with(name))
+            .and_then(|f| f["value"].as_f64())
+    };
+    let statistic = figure("score test of heat through the cooling water alone").unwrap();
+    let p = figure("its p").unwrap();
+    assert!(statistic < 7.81 && p > 0.05, "S {statistic}, p {p}");
     let truth_network = truth.network.as_ref().unwrap();
     let intervals = &network["intervals_95"]["capacitance_j_per_k"];
     for (i, &want) in truth_network.capacitance_j_per_k.iter().enumerate() {

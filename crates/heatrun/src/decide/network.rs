@@ -215,7 +215,8 @@ fn chosen(
     }
     let floor = sensor_floor(scaling).max(noise.largest_variance());
     let kept_refit = refit.clone();
-    let mut source = from_grey_box(data, options, estimate, model, (scaling, floor), refit);
+    let (mut source, held_figures) =
+        from_grey_box(data, options, estimate, model, (scaling, floor), refit);
     if let Some(said) = nearness
         .as_ref()
         .and_then(|n| rc_found_no_network(n, source.grey_box.as_ref(), estimate, scaling))
@@ -236,14 +237,13 @@ fn chosen(
     let (chosen_name, rc_figures) = match &source.grey_box {
         Some(rc) => {
             let beyond = rc_beyond_k(Some(rc), estimate, scaling);
-            (
-                "rc's fit of C, G, K to the data",
-                vec![Figure::new(
-                    "unexplained beyond the model's residuals",
-                    beyond,
-                    "K RMS",
-                )],
-            )
+            let mut figures = vec![Figure::new(
+                "unexplained beyond the model's residuals",
+                beyond,
+                "K RMS",
+            )];
+            figures.extend(held_figures);
+            ("rc's fit of C, G, K to the data", figures)
         }
         None => (nearest_name, vec![]),
     };
@@ -492,7 +492,8 @@ const CONSISTENT_LEVEL: f64 = 0.05;
 
 /// The network from `rc`'s fit ([`grey_box_from_nearest`]), or the nearest passive
 /// network (fitted to `refit`, `oe`'s Θ with the first sample's offset, where there is
-/// one) with the reason `rc` could not apply.
+/// one) with the reason `rc` could not apply; with the figures of the test of the held
+/// network (heat leaving through the cooling water alone), where one was made.
 fn from_grey_box(
     data: &IdentificationData,
     options: &ReplayOptions,
@@ -500,22 +501,28 @@ fn from_grey_box(
     model: &ModelDescription,
     (scaling, floor): (network::Scaling, f64),
     refit: Option<Estimate>,
-) -> NetworkSource {
+) -> (NetworkSource, Vec<Figure>) {
     match grey_box_from_nearest(data, options, estimate, model, (scaling, floor)) {
-        Ok((grey_box, said)) => NetworkSource {
-            grey_box: Some(grey_box),
-            refit: None,
-            said: Some(said),
-            decision: None,
-            nearest: None,
-        },
-        Err(why) => NetworkSource {
-            grey_box: None,
-            refit,
-            said: Some(format!("not rc's fit to the data: {why}")),
-            decision: None,
-            nearest: None,
-        },
+        Ok((grey_box, said, held_figures)) => (
+            NetworkSource {
+                grey_box: Some(grey_box),
+                refit: None,
+                said: Some(said),
+                decision: None,
+                nearest: None,
+            },
+            held_figures,
+        ),
+        Err(why) => (
+            NetworkSource {
+                grey_box: None,
+                refit,
+                said: Some(format!("not rc's fit to the data: {why}")),
+                decision: None,
+                nearest: None,
+            },
+            Vec::new(),
+        ),
     }
 }
 
@@ -554,7 +561,7 @@ fn grey_box_from_nearest(
     estimate: &Estimate,
     model: &ModelDescription,
     (scaling, floor): (network::Scaling, f64),
-) -> std::result::Result<(Estimate, String), String> {
+) -> std::result::Result<(Estimate, String, Vec<Figure>), String> {
     let continuous =
         crate::model::ContinuousModel::from_discrete(&estimate.model).map_err(|e| e.to_string())?;
     let distance = network::stage::nearest_parts(model, estimate, &continuous, scaling)?;
@@ -593,6 +600,7 @@ fn grey_box_from_nearest(
         chosen,
         coolant,
         held_at,
+        held_figures,
     } = match fitted {
         FromNearest::HeldKept { held, water, score } => Kept {
             start: STARTS[0],
@@ -600,6 +608,7 @@ fn grey_box_from_nearest(
             chosen: *held,
             coolant: score.said(),
             held_at: Some(water),
+            held_figures: score.figures(),
         },
         FromNearest::Fits((fits, held)) => kept_of_fits(
             &rc,
@@ -634,6 +643,7 @@ fn grey_box_from_nearest(
             "fitted to the data by rc, started from {start}{dropped}{coolant}; it leaves at most \
              {beyond_k:.3} K RMS unexplained beyond the identified model's residuals{refit}"
         ),
+        held_figures,
     ))
 }
 
@@ -656,6 +666,8 @@ struct Kept {
     coolant: String,
     /// The cooling water's state where the network is the held one.
     held_at: Option<usize>,
+    /// The test of the held network's figures, where one was made.
+    held_figures: Vec<Figure>,
 }
 
 /// The fit of lowest deviance of `fits` (one per start of [`STARTS`]), or the held network
@@ -686,7 +698,7 @@ fn kept_of_fits(
             None => "rc's fit failed".into(),
         })?;
     let held: Vec<Estimate> = held.into_iter().flatten().collect();
-    let (chosen, coolant, held_at) = through_coolant(
+    let (chosen, coolant, held_at, held_figures) = through_coolant(
         rc,
         data,
         model,
@@ -699,6 +711,7 @@ fn kept_of_fits(
         chosen,
         coolant,
         held_at,
+        held_figures,
     })
 }
 
@@ -937,20 +950,20 @@ fn dropped_start(fits: &[crate::estimate::Result<Estimate>]) -> String {
 /// ([`ResistanceCapacitance::fit_through_coolant`]), where the likelihood-ratio test
 /// cannot tell them apart ([`held::THROUGH_COOLANT_LEVEL`]): a conductance the data cannot
 /// see otherwise takes a few kW/K that bend C and G by 10 % (the four-node machine,
-/// docs/src/methods/thermal-network.md). With what the text says of it, and the cooling
-/// water's state where the network returned is the held one.
+/// docs/src/methods/thermal-network.md). With what the text says of it, the cooling
+/// water's state where the network returned is the held one, and the test's figures.
 fn through_coolant(
     rc: &ResistanceCapacitance,
     data: &IdentificationData,
     model: &ModelDescription,
     (full, held_from_starts, refit_from_free): (Estimate, Vec<Estimate>, bool),
     (floor, race): (f64, &StartRace),
-) -> (Estimate, String, Option<usize>) {
+) -> (Estimate, String, Option<usize>, Vec<Figure>) {
     let (Some(water), Some(parts)) = (
         crate::spec::coolant::outlet_state(model),
         full.network.as_ref().map(|n| n.parts.clone()),
     ) else {
-        return (full, String::new(), None);
+        return (full, String::new(), None, Vec::new());
     };
     // The held network refitted from the free one's parts, beside those fitted from rc's
     // own starts, where the starts were far (`refit_from_free`): from the free network
@@ -969,9 +982,10 @@ fn through_coolant(
             d(a).total_cmp(&d(b))
         })
     else {
-        return (full, String::new(), None);
+        return (full, String::new(), None, Vec::new());
     };
     let test = HeldTest::of(data, &full, &held, floor);
+    let figures = test.figures();
     let HeldTest {
         ratio,
         free_short_by,
@@ -984,7 +998,7 @@ fn through_coolant(
              water's, they fit the data worse: likelihood ratio {ratio:.1} on {held_parts} \
              degrees of freedom, p = {p:.1e})"
         );
-        return (full, said, None);
+        return (full, said, None, figures);
     }
     if let (Some(h), Some(f)) = (held.network.as_mut(), full.network) {
         h.output_error = f.output_error;
@@ -1000,7 +1014,7 @@ fn through_coolant(
          coolant are held at zero, which fits the data as well (likelihood ratio {ratio:.2} on \
          {held_parts} degrees of freedom, p = {p:.2}{short})"
     );
-    (held, said, Some(water))
+    (held, said, Some(water), figures)
 }
 
 /// What the network is fitted to after `oe`: its Θ re-estimated with the constant output

@@ -3,6 +3,7 @@
 //! the free network that contains it: Rao's score test at the held fit alone
 //! ([`ScoreTest`]), and the likelihood ratio against the free fit ([`HeldTest`]).
 
+use crate::decide::Figure;
 use crate::estimate::{Estimate, IdentificationData, ResistanceCapacitance};
 use crate::network;
 
@@ -50,6 +51,26 @@ impl HeldTest {
     pub(super) fn rejects(&self) -> bool {
         self.p < THROUGH_COOLANT_LEVEL
     }
+
+    /// The figures the decision names: Λ, its degrees of freedom and p.
+    pub(super) fn figures(&self) -> Vec<Figure> {
+        figures(
+            "likelihood ratio of heat through the cooling water alone against the free fit",
+            self.ratio,
+            self.held_parts,
+            self.p,
+        )
+    }
+}
+
+/// A test of the held network (heat leaving through the cooling water alone) as a
+/// decision's figures: the statistic `what`, its degrees of freedom and its p.
+fn figures(what: &str, statistic: f64, held_parts: usize, p: f64) -> Vec<Figure> {
+    vec![
+        Figure::new(what, statistic, ""),
+        Figure::new("its degrees of freedom", held_parts as f64, ""),
+        Figure::new("its p", p, ""),
+    ]
 }
 
 /// Rao's score test of the held network (heat leaving only through the cooling water)
@@ -109,6 +130,16 @@ impl ScoreTest {
     /// the held fit stands at its own minimum ([`HELD_SHORT_OF_MINIMUM`]).
     pub(super) fn keeps_held(&self) -> bool {
         self.accepts() && self.short_of_minimum <= HELD_SHORT_OF_MINIMUM
+    }
+
+    /// The figures the decision names: S, its degrees of freedom and p.
+    pub(super) fn figures(&self) -> Vec<Figure> {
+        figures(
+            "score test of heat through the cooling water alone, at the held fit",
+            self.statistic,
+            self.held_parts,
+            self.p,
+        )
     }
 
     /// What the text says of the held network it kept.
