@@ -331,21 +331,7 @@ impl ResistanceCapacitance {
         let segments = data.segments();
         let inner = Problem::new(data, segments, &map.model(&start), &weights).with_output_offset();
         let mut problem = RcProblem::new(inner, map, &start, &[]);
-        // The start states and output offsets the held network's outputs are linear in:
-        // one Gauss–Newton step in them alone is their least-squares fit to it (the held
-        // fit's own are not kept beside its network).
-        let evaluation = problem.evaluate();
-        let network_parameters = problem.free.len();
-        let linear: Vec<usize> = (network_parameters..evaluation.grad.len()).collect();
-        if !linear.is_empty() {
-            let (_, step) = score::gain_and_step(&evaluation.gram, &evaluation.grad, &linear)?;
-            let mut params = problem.params.clone();
-            for (k, d) in linear.iter().zip(step.iter()) {
-                params[*k] += d;
-            }
-            problem.set_p(&params);
-        }
-        let evaluation = problem.evaluate();
+        let evaluation = problem.fit_linear_parameters()?;
         let freed: Vec<usize> = problem
             .free
             .iter()
@@ -1161,6 +1147,25 @@ impl<'a> RcProblem<'a> {
     fn within_noise_of_minimum(&self, reduced: &DVector<f64>) -> bool {
         let (decrease, sigma2) = gauss_newton_decrease(reduced, self.entries());
         decrease < SETTLED_STANDARD_ERRORS.powi(2) * sigma2
+    }
+
+    /// Fits the start states and output offsets, which the outputs are linear in, to the
+    /// network as it stands, by one Gauss–Newton step in them alone (their least-squares
+    /// fit: a fit's own are not kept beside its network); the evaluation there. `None`
+    /// where their normal equations cannot be factorised.
+    fn fit_linear_parameters(&mut self) -> Option<Evaluation> {
+        let evaluation = self.evaluate();
+        let linear: Vec<usize> = (self.free.len()..evaluation.grad.len()).collect();
+        if linear.is_empty() {
+            return Some(evaluation);
+        }
+        let (_, step) = score::gain_and_step(&evaluation.gram, &evaluation.grad, &linear)?;
+        let mut params = self.params.clone();
+        for (k, d) in linear.iter().zip(step.iter()) {
+            params[*k] += d;
+        }
+        self.set_p(&params);
+        Some(self.evaluate())
     }
 
     /// The entries the fit compares.
