@@ -1,5 +1,7 @@
 //! Fits of one network from several starts, run beside each other, and the rule that
-//! drops a start far behind another.
+//! drops a start far behind another; or fits called off outright where their result is no
+//! longer needed ([`StartRace::call_off`]: rc's free fit, once the score test at the held
+//! fit has kept the held network without it).
 //!
 //! Each fit publishes the deviance of the points Levenberg–Marquardt accepts,
 //!
