@@ -860,19 +860,22 @@ fn held_from_nearest(
             kept: None,
         };
     };
-    let score = ScoreTest::of(rc, data, &coarse, water, floor);
+    let mut score = ScoreTest::of(rc, data, &coarse, water, floor);
     let short = score.is_some_and(|s| s.accepts() && !s.keeps_held());
     let mut fits = vec![coarse];
-    let score = if short {
-        fits.extend(rc.fit_through_coolant_in(data, start, water, None).ok());
+    let full_rate = short
+        .then(|| rc.fit_through_coolant_in(data, start, water, None).ok())
+        .flatten();
+    if let Some(full_rate) = full_rate {
+        // The lower deviance first; only a new first fit is scored again.
         let d = |e: &Estimate| crate::estimate::deviance(data, e, floor);
-        if fits.len() == 2 && d(&fits[1]) < d(&fits[0]) {
-            fits.swap(0, 1);
+        if d(&full_rate) < d(&fits[0]) {
+            score = ScoreTest::of(rc, data, &full_rate, water, floor);
+            fits.insert(0, full_rate);
+        } else {
+            fits.push(full_rate);
         }
-        ScoreTest::of(rc, data, &fits[0], water, floor)
-    } else {
-        score
-    };
+    }
     HeldFromNearest {
         fits,
         kept: score.filter(ScoreTest::keeps_held),
