@@ -232,8 +232,9 @@ fn a_field_state_without_a_field_temperature_is_refused() {
 /// the cooling water) run first on the coarse grid stops short of its minimum there (its
 /// likelihood ratio against the free fit 10.5, which rejects it, and the free network's G
 /// is then 12.2 % off; its own Gauss–Newton step would still gain 6.4 χ² units, and its
-/// winding's C is 2.6 standard errors off). The held fit at the full rate, run where the
-/// coarse one stopped short, is kept by the score test at it (4.72 on 3 degrees of freedom),
+/// winding's C is 2.6 standard errors off). The held fit at the full rate, continued from
+/// where the coarse one stopped short, is kept by the score test at it (4.72 on 3 degrees
+/// of freedom),
 /// its network within issue 33's bars and every capacitance's 95 % interval holding the
 /// truth.
 #[test]
