@@ -60,6 +60,12 @@ fn end_quietly_on_closed_pipe() {
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 const OWN_MAPPING_FROM_BYTES: libc::c_int = 1 << 20;
 
+/// How much free memory each of glibc's heaps keeps at its top before returning it to the
+/// system: 2 MiB, the blocks under [`OWN_MAPPING_FROM_BYTES`] that a thread frees and
+/// allocates again.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+const KEPT_AT_TOP_BYTES: libc::c_int = 2 << 20;
+
 /// Keeps the process's resident memory near what it holds: every block of at least
 /// [`OWN_MAPPING_FROM_BYTES`] is mapped on its own and unmapped when freed.
 ///
@@ -68,11 +74,18 @@ const OWN_MAPPING_FROM_BYTES: libc::c_int = 1 << 20;
 /// ones come from the heap, whose freed pages stay resident. A week at 1 s (604,800
 /// instants, 4.8 MB a series) then held 231–242 MB resident for a 191 MB peak of heap;
 /// with the threshold fixed, 197 MB, in the same time (docs/src/validation/speed-and-scale.md).
+///
+/// Fixing it also leaves the trim threshold at glibc's first 128 KiB (which the moving
+/// threshold would have raised with it): rerun's file writer frees each encoded chunk
+/// (about 0.3 MB) and its heap's top went back to the system every time, to be faulted in
+/// again, page by page, for the next chunk (two thirds of W0's 22,000 page faults, a tenth
+/// of its wall time). At [`KEPT_AT_TOP_BYTES`] those pages stay with their thread.
 fn return_large_blocks_to_the_system() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: called in `main` before any other thread exists; `mallopt` only sets a
-    // parameter of the allocator.
+    // SAFETY: called in `main` before any other thread exists; `mallopt` only sets
+    // parameters of the allocator.
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, OWN_MAPPING_FROM_BYTES);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, KEPT_AT_TOP_BYTES);
     }
 }
