@@ -50,24 +50,25 @@ pub fn fit(data: &IdentificationData, simulated: &DMatrix<f64>, temperature_base
         .filter(|&k| (0..n).any(|j| compared(k, j)))
         .count();
     for j in 0..n {
-        let rows: Vec<usize> = (0..data.len()).filter(|&k| compared(k, j)).collect();
-        if rows.is_empty() {
+        // Sums over the compared instants, taken in their order without gathering them:
+        // on a week at 1 s the three gathered vectors were 14.5 MB, at the replay's peak.
+        let rows = || (0..data.len()).filter(move |&k| compared(k, j));
+        let count = rows().count();
+        if count == 0 {
             continue;
         }
-        let y: Vec<f64> = rows.iter().map(|&k| data.outputs[(k, j)]).collect();
-        let e: Vec<f64> = rows
-            .iter()
-            .map(|&k| data.outputs[(k, j)] - simulated[(k, j)])
-            .collect();
-        let mean = y.iter().sum::<f64>() / y.len() as f64;
-        let y_norm = y.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let e_norm = e.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let dev_norm = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
+        let y = |k: usize| data.outputs[(k, j)];
+        let e = |k: usize| data.outputs[(k, j)] - simulated[(k, j)];
+        let mean = rows().map(y).sum::<f64>() / count as f64;
+        let y_norm = rows().map(|k| y(k) * y(k)).sum::<f64>().sqrt();
+        let e_norm = rows().map(|k| e(k) * e(k)).sum::<f64>().sqrt();
+        let dev_norm = rows().map(|k| (y(k) - mean).powi(2)).sum::<f64>().sqrt();
         fit.snr_db[j] = 20.0 * (y_norm / e_norm).log10();
         fit.nrmse_fit_percent[j] = 100.0 * (1.0 - e_norm / dev_norm);
-        fit.rmse_k[j] = e_norm / (e.len() as f64).sqrt() * temperature_base_k;
+        fit.rmse_k[j] = e_norm / (count as f64).sqrt() * temperature_base_k;
         fit.mse_k2[j] = fit.rmse_k[j] * fit.rmse_k[j];
-        fit.max_abs_error_k[j] = e.iter().fold(0.0_f64, |m, v| m.max(v.abs())) * temperature_base_k;
+        fit.max_abs_error_k[j] =
+            rows().fold(0.0_f64, |m, k| m.max(e(k).abs())) * temperature_base_k;
     }
     fit
 }
