@@ -94,13 +94,20 @@ impl Water {
     /// Water at `theta_c` °C (0–100) and `pressure_pa` (up to 100 MPa): IF97 region 1,
     /// ρ = p/(R·T·π·γ_π), c_p = −R·τ²·γ_ττ.
     pub fn at_pressure(theta_c: f64, pressure_pa: f64) -> Result<Water, WaterError> {
+        Water::check(theta_c, pressure_pa)?;
+        Ok(region1(pressure_pa, theta_c + 273.15))
+    }
+
+    /// Whether [`Water::at_pressure`] holds at `theta_c` °C and `pressure_pa`: liquid water
+    /// (0–100 °C) at up to 100 MPa; the error it would give otherwise.
+    pub fn check(theta_c: f64, pressure_pa: f64) -> Result<(), WaterError> {
         if !(0.0..=100.0).contains(&theta_c) {
             return Err(WaterError::OutOfRange { theta_c });
         }
         if !(pressure_pa > 0.0 && pressure_pa <= 100e6) {
             return Err(WaterError::Pressure { pressure_pa });
         }
-        Ok(region1(pressure_pa, theta_c + 273.15))
+        Ok(())
     }
 
     /// ρ in kg/l.
