@@ -94,7 +94,7 @@ pub(super) struct ScoreTest {
 /// on the score test alone: 2² (its minimum within two standard errors along the step).
 /// On forty seeds of the four-node machine the held fits stood 0–1.75 from theirs, but
 /// seed 23's coarse start 6.4 (its network 2.3 % off in the winding's C, where the held
-/// fit at the full rate, then continued from where it stopped ([`held_from_nearest`]), is
+/// fit at the full rate, then continued from where it stopped ([`held_from_nearest`](super::grey_box)), is
 /// 0.4 % off).
 pub(super) const HELD_SHORT_OF_MINIMUM: f64 = 4.0;
 
