@@ -43,9 +43,10 @@ fn readings(decimated: &DecimatedRecording, signal: &Signal) -> Known {
 
 /// A value or none at each instant, none stored as NaN: 8 bytes an instant where an
 /// `Option<f64>` takes 16. Each channel holds three such series (its readings and its
-/// levels either side), and on a week at 1 s the four temperatures' twelve were the
-/// replay's peak of heap: 116 MB of its 169 MB as options (heaptrack, the week at
-/// 100 Hz). A NaN reading, which no grid holds, would read as none.
+/// levels either side): on a week at 1 s the four temperatures' twelve took 116 MB as
+/// options (heaptrack, the week at 100 Hz), beside the grid and the model's signals, near
+/// the replay's peak of heap (169 MB, in a later stage). A NaN reading, which no grid
+/// holds, would read as none.
 struct Known(Vec<f64>);
 
 impl Known {
