@@ -1,5 +1,5 @@
 //! One handler per command, behind [`dispatch`]: each takes its validated
-//! [`Request`](crate::cli::Request) and does the work (read, compute, write, print).
+//! [`crate::cli::Request`] and does the work (read, compute, write, print).
 
 mod bars;
 mod completions;

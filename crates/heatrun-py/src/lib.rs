@@ -5,8 +5,8 @@
 //! Every function takes and gives plain values: paths, options, the report's JSON text and
 //! the traces as little-endian bytes (read by `numpy.frombuffer` without a copy per
 //! element). The library works with the GIL released ([`Python::detach`]), so threads of
-//! one interpreter replay in parallel. Its errors become [`HeatrunError`] (or
-//! [`BadInputError`], the command line's exit status 2) carrying the command line's
+//! one interpreter replay in parallel. Its errors become `HeatrunError` (or
+//! `BadInputError`, the command line's exit status 2) carrying the command line's
 //! one-line message.
 
 mod errors;

@@ -23,7 +23,7 @@ pub struct ReplayOptions {
     /// The identification method.
     pub method: Method,
     /// Whether the replay chooses between `oe` and `pem` by the whiteness of `oe`'s
-    /// residuals ([`estimate_chosen`]), where `method` is `oe`: what the command line does
+    /// residuals ([`crate::decide::estimator::estimate_chosen`]), where `method` is `oe`: what the command line does
     /// when neither it nor the spec names a method. Off by default, so that a library
     /// caller's `oe` is `oe`.
     pub choose_estimator: bool,
@@ -37,7 +37,7 @@ pub struct ReplayOptions {
     /// The thermal system: its states, inputs and scaling.
     pub model: ModelDescription,
     /// What the states are measured from: the description's references, or the coolant
-    /// inlet where the recording calls for it ([`coolant::resolve`]).
+    /// inlet where the recording calls for it ([`crate::spec::coolant::resolve`]).
     pub reference: ReferencePolicy,
     /// Told how reading and estimation go ([`crate::progress`]); silent by default.
     pub progress: Observer,

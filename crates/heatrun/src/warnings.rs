@@ -210,7 +210,7 @@ pub fn flow_change(p: &Prepared<'_>) -> Option<String> {
 const LEFT_OUT_NAMED: usize = 20;
 
 /// One warning per stretch the screen left out of the estimation (channel, from, to,
-/// value, why), the first [`LEFT_OUT_NAMED`] of them by time, the rest counted.
+/// value, why), the first `LEFT_OUT_NAMED` of them by time, the rest counted.
 pub fn left_out(stretches: &[LeftOut]) -> Vec<String> {
     let mut by_time: Vec<&LeftOut> = stretches.iter().collect();
     by_time.sort_by_key(|l| (l.from_ns, l.state));

@@ -31,7 +31,7 @@ pub struct NetworkSource {
 }
 
 /// The replay's network: for `oe` (the default), the passive network nearest `oe`'s
-/// model where the χ² test of that distance cannot reject it ([`CONSISTENT_LEVEL`]: the
+/// model where the χ² test of that distance cannot reject it (`CONSISTENT_LEVEL`: the
 /// model is a passive network within its uncertainty, and rc's seconds would buy
 /// nothing the data can tell); that nearest network with the verdict that the model is
 /// no passive network where simulating it leaves far more unexplained than the noise

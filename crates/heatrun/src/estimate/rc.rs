@@ -94,7 +94,7 @@ pub enum StepCoordinates {
     /// p = ln G (or ln of the share ratio): a step multiplies the entry.
     Logarithms,
     /// y = e^{p − s} = G/G_start, held at zero while its gradient points down
-    /// ([`crate::thermal::rc::Parametrisation::step_coordinate`]): a step adds to it.
+    /// (`Parametrisation::step_coordinate` in `thermal::rc`): a step adds to it.
     Themselves,
 }
 
@@ -135,7 +135,7 @@ impl ResistanceCapacitance {
     /// conductances and shares floored, each column of K summing to 1), with
     /// `output_error` (an output-error estimate on the same data) kept beside it for
     /// comparison. Where the fastest time constant of `output_error`'s model spans ten
-    /// samples of a coarser grid, the fit runs there first ([`coarse`], a k-th of the
+    /// samples of a coarser grid, the fit runs there first (`coarse`, a k-th of the
     /// evaluations' cost) and the full-rate fit starts from its network. A replay
     /// starts from the passive network nearest `oe`'s model ([`crate::network`]): near
     /// the minimum, so the fit takes few evaluations.
@@ -163,7 +163,7 @@ impl ResistanceCapacitance {
     }
 
     /// [`ResistanceCapacitance::estimate_from`] from a `start` near the minimum (the
-    /// converged nearest passive network), coarse first ([`Self::coarse_first`]) as the
+    /// converged nearest passive network), coarse first (`coarse_first`) as the
     /// held fits are. From a near start the coarse fit buys little where the full-rate fit
     /// is short, and much where it walks a curved valley: on forty seeds of the four-node
     /// machine (2026-11-29, best of two in turns) the typical replay 4.5 % longer, seeds 13
@@ -284,7 +284,7 @@ impl ResistanceCapacitance {
 
     /// [`ResistanceCapacitance::fit_through_coolant_in`] from a start that may be far
     /// from the held network's minimum (a replay's starts, with their conductances to
-    /// the coolant cut): run first on a coarser grid ([`Self::coarse_first`], the grid
+    /// the coolant cut): run first on a coarser grid (`coarse_first`, the grid
     /// set by the fastest time constant of `fastest_from`, `oe`'s model).
     pub fn fit_through_coolant_from_start(
         &self,
@@ -302,7 +302,7 @@ impl ResistanceCapacitance {
 
     /// Rao's score statistic of `held` ([`Self::fit_through_coolant`]'s network, every
     /// part's conductance to the coolant but `coolant_state`'s held at zero) against the
-    /// free network that contains it, taken at the held fit alone ([`score`]): S = what
+    /// free network that contains it, taken at the held fit alone (`estimate::rc::score`): S = what
     /// freeing those conductances, each only upwards from zero, would lower
     /// J = Σ_i ‖r_i‖²/max(σ̂²_i, floor) by, beyond what the held fit's own parameters
     /// still would, by the Gauss–Newton model at the held network (σ̂²_i each output's
@@ -366,7 +366,7 @@ impl ResistanceCapacitance {
     }
 
     /// `estimate`'s network refitted from itself with the weights' cap raised pass by
-    /// pass ([`MOST_PASSES`]), where an output's own weight 1/σ̂² is above the cap (an
+    /// pass (`MOST_PASSES`), where an output's own weight 1/σ̂² is above the cap (an
     /// output read almost without noise); `estimate` itself otherwise, at no cost. Where
     /// `coolant_state` is given the network is [`Self::fit_through_coolant`]'s and stays
     /// held. The intervals stay at the capped weights.
@@ -618,7 +618,7 @@ pub fn deviance(data: &IdentificationData, estimate: &Estimate, floor: f64) -> f
 
 /// The likelihood-ratio statistic of `restricted` (a network with entries held, e.g.
 /// [`ResistanceCapacitance::fit_through_coolant`]) against `full`, both fitted to `data`:
-/// Λ = [`deviance`](restricted) − [`deviance`](full), χ²-distributed on as many degrees
+/// Λ = [`deviance`] of the restricted fit − [`deviance`] of the full one, χ²-distributed on as many degrees
 /// of freedom as entries held where those entries are zero in truth.
 pub fn likelihood_ratio(
     data: &IdentificationData,

@@ -11,7 +11,7 @@
 //! output barely moves does not swamp the rest. The smallest order within
 //! [`PARSIMONY_POINTS`] of the best is chosen, and the model of that order identified on all
 //! the estimation data; an order whose model fits the estimation data no better than the
-//! order below's is refused (a state the data do not use: [`no_better`]). Each order's model, on every fold and on all the data, is the best
+//! order below's is refused (a state the data do not use: `no_better`). Each order's model, on every fold and on all the data, is the best
 //! of several starts ([`super::starts`]), the order below's model among them. The
 //! candidates' Akaike criterion on all the estimation data, AIC = N_y ln(2J/N_y) + 2 P, and
 //! their cost 2J/N_y are given beside it, for the record: the outputs' errors of a
@@ -331,7 +331,7 @@ fn chains(
 }
 
 /// Identifies a hidden-state model from `data` (its estimation part only): the order
-/// given, or chosen by cross-validation on `data` ([`cross_validated`]: the smallest
+/// given, or chosen by cross-validation on `data` (`cross_validated`: the smallest
 /// order within [`PARSIMONY_POINTS`] of the best); each order the best of its starts.
 pub fn identify(
     data: &IdentificationData,

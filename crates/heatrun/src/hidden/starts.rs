@@ -104,7 +104,7 @@ impl Starts {
 ///
 ///   Φ' = [Φ 0; 0 λ],  Γ' = [Γ; g],  C' = [C 0],  D' = D,
 ///
-/// with λ = [`ADDED_POLE`] and g_l = [`ADDED_DRIVE`] · mean_i |Γ_il|. Its outputs are
+/// with λ = `ADDED_POLE` and g_l = `ADDED_DRIVE` · mean_i |Γ_il|. Its outputs are
 /// `model`'s exactly for any x0 (the added state is invisible), so its cost is the smaller
 /// model's; the cost's gradient in C's new column (free C) or Φ's new column (C = [I 0])
 /// is not zero, so the refinement can use the state. In the measured basis C' is still

@@ -4,8 +4,8 @@
 //!
 //! A [`Page`] is a list of [`Section`]s, each a struct that renders itself into
 //! [`Markup`] (numbered figures and tables, escaped text). The replay's page is
-//! [`replay_page`] ([`sections`] holds its sections, reading the [`Replay`] and its
-//! [`Report`]); another command builds its own page from its own sections and the same
+//! [`replay_page`] ([`sections`] holds its sections, reading the [`crate::pipeline::Replay`] and its
+//! [`crate::model_file::Report`]); another command builds its own page from its own sections and the same
 //! pieces: [`plot::Chart`] for figures, [`Table`] for tables, [`Page::write`] to save it.
 //! `heatrun predict`, `heatrun rating`, `heatrun monitor` and `heatrun fleet compare` do
 //! so: [`predict_page`], [`rating_page`], [`monitor_page`], [`fleet_compare_page`].

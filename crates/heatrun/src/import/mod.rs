@@ -4,15 +4,15 @@
 //! Input: a table and an [`ImportMap`] that says which column holds the time and
 //! which become channels (a profile quantity or a free name, with unit, sensor,
 //! quality and storage), plus the nameplate and other metadata records. The table is a
-//! [`source::RowSource`]: delimited text ([`table`]) or Parquet ([`parquet`], known by
+//! `source::RowSource`: delimited text (`table`) or Parquet (`parquet`, with the feature, known by
 //! its magic bytes). Output: a complete profile recording, written by
 //! [`crate::writer`] under a temporary name and renamed when complete.
 //!
 //! The table streams through one row at a time. A wide table's row becomes one
 //! message per imported column at the row's time; a long table's row (`layout =
-//! "long"`, [`long`]) one message on its tag's channel. Times are kept as they are
+//! "long"`, `long`) one message on its tag's channel. Times are kept as they are
 //! (non-uniform spacing stays); wall-clock times in the map's zone are placed by a
-//! [`RowClock`], which resolves the hour repeated when summer time ends by the rows'
+//! `RowClock`, which resolves the hour repeated when summer time ends by the rows'
 //! order and names each change crossed in the summary and the `heatrun.import`
 //! record. An empty cell, `NaN`, a null or one of the map's `missing` markers is a
 //! missing sample: no message is written for it. On a sampled channel the silence is

@@ -49,7 +49,7 @@ pub const MAX_ACTIVE_SET_ROUNDS: usize = 200;
 
 /// A record whose stored values scatter about the smooth course through them by at most
 /// this share of the deadband is taken as noise-free: the course is the smoothest within
-/// the bands (active set); a noisier one's is its likelihood's ([`Stretch::censored`]).
+/// the bands (active set); a noisier one's is its likelihood's (`Stretch::censored`).
 pub const NOISE_FREE: f64 = 0.05;
 
 /// The most rounds of the censored record's scoring.

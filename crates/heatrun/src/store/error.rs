@@ -37,7 +37,7 @@ pub enum StoreError {
     NoCredentials {
         /// The object's URL.
         url: String,
-        /// What to set, for this URL's store ([`credentials_hint`]).
+        /// What to set, for this URL's store (`credentials_hint`).
         hint: &'static str,
         /// The store's own words.
         said: String,

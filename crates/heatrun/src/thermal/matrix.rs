@@ -140,7 +140,7 @@ fn sqrtm_denman_beavers(a: &DMatrix<f64>) -> Result<DMatrix<f64>> {
 
 /// e^M, or a matrix of NaN where M has an entry that is not finite.
 ///
-/// Where ‖M‖₁ > [`LARGE_NORM`], e^M = (e^{M/2^k})^{2^k} with 2^k ≥ ‖M‖₁ (scaling and
+/// Where ‖M‖₁ > `LARGE_NORM`, e^M = (e^{M/2^k})^{2^k} with 2^k ≥ ‖M‖₁ (scaling and
 /// squaring done here): nalgebra's own choice of squarings takes the 1-norm of |M|²⁷,
 /// which overflows for ‖M‖₁ beyond about 10¹¹, and then asks for u64::MAX squarings, a
 /// loop that never ends. A fit that probes a network with a capacitance e^−20 below its

@@ -40,7 +40,7 @@
 //!
 //! d in the state's own units per sample (the rise the heat adds each step), d̂(start) = 0
 //! in each segment. K_a is the steady-state Kalman gain of w_d's variance q and the
-//! sensors' R, q estimated with Θ ([`disturbance`](self::disturbance)); as q → 0, K_a → 0
+//! sensors' R, q estimated with Θ (`disturbance`); as q → 0, K_a → 0
 //! and the predictor is `oe`'s simulation again.
 
 mod disturbance;
@@ -167,7 +167,7 @@ impl Estimator for PredictionError {
 impl PredictionError {
     /// The prediction-error fit from `start` (Θ, with K = 0) and its segments' initial
     /// states; with a disturbance state, its intensity searched
-    /// ([`disturbance`](self::disturbance)).
+    /// (`disturbance`).
     pub fn refine(
         &self,
         data: &IdentificationData,
