@@ -228,6 +228,12 @@ fn a_field_state_without_a_field_temperature_is_refused() {
     assert!(!dir.path().join("r.json").exists());
 }
 
+/// The entry of one of the report's lists whose `key` is `value`.
+fn entry<'a>(list: &'a Value, key: &str, value: &str) -> &'a Value {
+    let found = list.as_array().unwrap().iter().find(|e| e[key] == value);
+    found.unwrap_or_else(|| panic!("no entry with {key} = {value:?} in {list}"))
+}
+
 /// Seed 23 of the noisy four-node run (issue 33): rc's held fit (heat leaving only through
 /// the cooling water) run first on the coarse grid stops short of its minimum there (its
 /// likelihood ratio against the free fit 10.5, which rejects it, and the free network's G
@@ -250,18 +256,12 @@ fn a_held_network_the_coarse_grid_left_short_is_refitted_at_the_full_rate() {
     );
     assert!(said.contains("score test"), "{said}");
     // The decision names the test and its figures beside rc's fit.
-    let decision = report["decisions"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|d| d["what"] == "network")
-        .unwrap();
-    let rc = decision["candidates"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|c| c["name"] == "rc's fit of C, G, K to the data")
-        .unwrap();
+    let decision = entry(&report["decisions"], "what", "network");
+    let rc = entry(
+        &decision["candidates"],
+        "name",
+        "rc's fit of C, G, K to the data",
+    );
     let figure = |name: &str| {
         rc["figures"]
             .as_array()

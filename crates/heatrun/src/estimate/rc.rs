@@ -302,8 +302,8 @@ impl ResistanceCapacitance {
 
     /// Rao's score statistic of `held` ([`Self::fit_through_coolant`]'s network, every
     /// part's conductance to the coolant but `coolant_state`'s held at zero) against the
-    /// free network that contains it, taken at the held fit alone (`estimate::rc::score`): S = what
-    /// freeing those conductances, each only upwards from zero, would lower
+    /// free network that contains it, taken at the held fit alone (`estimate::rc::score`):
+    /// S = what freeing those conductances, each only upwards from zero, would lower
     /// J = Σ_i ‖r_i‖²/max(σ̂²_i, floor) by, beyond what the held fit's own parameters
     /// still would, by the Gauss–Newton model at the held network (σ̂²_i each output's
     /// residual variance there, `floor` the least taken as real, as the deviance's). To
@@ -618,8 +618,8 @@ pub fn deviance(data: &IdentificationData, estimate: &Estimate, floor: f64) -> f
 
 /// The likelihood-ratio statistic of `restricted` (a network with entries held, e.g.
 /// [`ResistanceCapacitance::fit_through_coolant`]) against `full`, both fitted to `data`:
-/// Λ = [`deviance`] of the restricted fit − [`deviance`] of the full one, χ²-distributed on as many degrees
-/// of freedom as entries held where those entries are zero in truth.
+/// Λ = [`deviance`] of the restricted fit − [`deviance`] of the full one, χ²-distributed
+/// on as many degrees of freedom as entries held where those entries are zero in truth.
 pub fn likelihood_ratio(
     data: &IdentificationData,
     full: &Estimate,

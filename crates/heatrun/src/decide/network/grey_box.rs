@@ -330,12 +330,12 @@ fn held_from_nearest(
     // again, the full-rate fit walked the whole valley a second time (seed 23: the
     // replay 1.06 s against 0.75 s, the same minimum to 6·10⁻⁴ in every printed figure).
     let stopped_at = coarse.network.as_ref().map_or(start, |n| &n.parts);
-    let full_rate = short
-        .then(|| {
-            rc.fit_through_coolant_in(data, stopped_at, water, None)
-                .ok()
-        })
-        .flatten();
+    let full_rate = if short {
+        rc.fit_through_coolant_in(data, stopped_at, water, None)
+            .ok()
+    } else {
+        None
+    };
     let mut fits = vec![coarse];
     if let Some(full_rate) = full_rate {
         // The lower deviance first; only a new first fit is scored again.
