@@ -44,7 +44,10 @@ pub struct WindowChoice {
     lagged: DVector<f64>,
     cross: DVector<f64>,
     current: DVector<f64>,
-    previous: Option<DVector<f64>>,
+    /// The score before, where one came before in this segment (`has_previous`): kept in
+    /// place, as the sums are, so that a score streamed costs no allocation.
+    previous: DVector<f64>,
+    has_previous: bool,
     pairs: usize,
     instants: usize,
     segment: usize,
@@ -58,7 +61,8 @@ impl WindowChoice {
             lagged: DVector::zeros(parameters),
             cross: DVector::zeros(parameters),
             current: DVector::zeros(parameters),
-            previous: None,
+            previous: DVector::zeros(parameters),
+            has_previous: false,
             pairs: 0,
             instants: 0,
             segment: 0,
@@ -68,13 +72,17 @@ impl WindowChoice {
 
     /// The next instant's score s_t.
     pub fn push(&mut self, score: &DVector<f64>) {
-        if let Some(before) = &self.previous {
-            self.lagged += before.component_mul(before);
-            self.cross += score.component_mul(before);
-            self.current += score.component_mul(score);
+        if self.has_previous {
+            for a in 0..score.len() {
+                let (before, now) = (self.previous[a], score[a]);
+                self.lagged[a] += before * before;
+                self.cross[a] += now * before;
+                self.current[a] += now * now;
+            }
             self.pairs += 1;
         }
-        self.previous = Some(score.clone());
+        self.previous.copy_from(score);
+        self.has_previous = true;
         self.instants += 1;
         self.segment += 1;
         self.longest = self.longest.max(self.segment);
@@ -82,7 +90,7 @@ impl WindowChoice {
 
     /// The segment ends: the next score does not follow this one.
     pub fn end_segment(&mut self) {
-        self.previous = None;
+        self.has_previous = false;
         self.segment = 0;
     }
 
@@ -122,12 +130,16 @@ impl WindowChoice {
 
 /// M = Σ_τ (1 − |τ|/(L + 1)) Γ_τ from scores streamed instant by instant, as
 /// (1/(L + 1)) Σ_t B_t B_tᵀ of the window sums B_t = Σ_{i=t}^{t+L} s_i (t = −L..T − 1 in
-/// each segment, zero outside it): L + 1 scores kept, P² operations an instant.
+/// each segment, zero outside it): L + 1 scores kept, P(P + 1)/2 operations an instant
+/// (the sum is symmetric: its upper triangle is summed, and mirrored at the end).
 #[derive(Debug, Clone)]
 pub struct LongRunSum {
     width: usize,
+    /// The window's scores, oldest first; a score leaving it makes room for the next, so
+    /// that streaming allocates nothing once the window is full.
     kept: VecDeque<DVector<f64>>,
     window: DVector<f64>,
+    /// Σ B_t B_tᵀ, its upper triangle (i ≤ j) only until [`LongRunSum::finish`].
     sum: DMatrix<f64>,
 }
 
@@ -144,14 +156,18 @@ impl LongRunSum {
 
     /// The next instant's score s_t: the window ending at it is complete.
     pub fn push(&mut self, score: &DVector<f64>) {
-        if self.kept.len() == self.width + 1 {
-            if let Some(oldest) = self.kept.pop_front() {
-                self.window -= oldest;
-            }
-        }
+        let slot = if self.kept.len() == self.width + 1 {
+            self.kept.pop_front().map(|mut oldest| {
+                self.window -= &oldest;
+                oldest.copy_from(score);
+                oldest
+            })
+        } else {
+            None
+        };
         self.window += score;
-        self.kept.push_back(score.clone());
-        self.sum.ger(1.0, &self.window, &self.window, 1.0);
+        self.kept.push_back(slot.unwrap_or_else(|| score.clone()));
+        self.add_outer(1.0);
     }
 
     /// The segment ends: the windows that reach past its last instant, then a fresh
@@ -160,20 +176,40 @@ impl LongRunSum {
         // A segment shorter than the window: the windows that hold all of it.
         let whole = (self.width + 1).saturating_sub(self.kept.len());
         if !self.kept.is_empty() && whole > 0 {
-            self.sum.ger(whole as f64, &self.window, &self.window, 1.0);
+            self.add_outer(whole as f64);
         }
         while let Some(oldest) = self.kept.pop_front() {
             self.window -= oldest;
             if !self.kept.is_empty() {
-                self.sum.ger(1.0, &self.window, &self.window, 1.0);
+                self.add_outer(1.0);
             }
         }
         self.window.fill(0.0);
     }
 
+    /// Σ += times · B Bᵀ on the upper triangle, each entry as a rank-one update computes
+    /// it, (times · B_j) · B_i.
+    fn add_outer(&mut self, times: f64) {
+        let p = self.window.len();
+        let window = self.window.as_slice();
+        // Column-major: column j's first j + 1 entries are its part of the triangle.
+        for (j, column) in self.sum.as_mut_slice().chunks_exact_mut(p).enumerate() {
+            let scaled = times * window[j];
+            for (entry, w) in column[..=j].iter_mut().zip(window) {
+                *entry += scaled * w;
+            }
+        }
+    }
+
     /// M, the segments ended.
     pub fn finish(mut self) -> DMatrix<f64> {
         self.end_segment();
+        let p = self.sum.nrows();
+        for j in 0..p {
+            for i in j + 1..p {
+                self.sum[(i, j)] = self.sum[(j, i)];
+            }
+        }
         self.sum / (self.width + 1) as f64
     }
 }

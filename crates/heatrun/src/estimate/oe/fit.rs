@@ -383,7 +383,12 @@ fn conclude(
 ) -> Estimate {
     let n = problem.n;
     let w: Vec<f64> = problem.sqrt_w.iter().map(|v| v * v).collect();
-    let evaluation = problem.evaluate_full();
+    let (evaluation, first_pass) = if robust {
+        let (evaluation, first) = problem.evaluate_full_with_scores();
+        (evaluation, Some(first))
+    } else {
+        (problem.evaluate_full(), None)
+    };
     let entries: usize = problem.counts.iter().sum();
     let dof = entries.saturating_sub(problem.params.len()).max(1) as f64;
     let sigma2 = evaluation.sse.iter().sum::<f64>() / dof;
@@ -392,8 +397,9 @@ fn conclude(
     let p_theta = problem.p_theta();
     let theta_block = |m: &DMatrix<f64>| m.view((0, 0), (p_theta, p_theta)).into_owned();
     let covariance = theta_block(&bread_inverse) * sigma2;
-    let robust_covariance = robust.then(|| {
-        let (sandwich, correlation_window) = problem.sandwich(&evaluation.gram, &bread_inverse);
+    let robust_covariance = first_pass.map(|first| {
+        let (sandwich, correlation_window) =
+            problem.sandwich(&evaluation.gram, &bread_inverse, first);
         RobustCovariance {
             covariance: theta_block(&sandwich),
             correlation_window,
@@ -470,6 +476,47 @@ pub(crate) const STALL_WINDOW: usize = 20;
 struct Stall {
     window: StallWindow,
     best: RefCell<Option<(f64, DVector<f64>)>>,
+}
+
+/// The most bytes of scores the sandwich's first pass keeps for its second
+/// ([`Problem::sandwich`]): a heat run of hours at 1 s with a dozen or two parameters
+/// (W0: 3.5 MB), so that it is summed from memory rather than propagated again; a week's
+/// scores (about 100 MB) are propagated twice, to keep the replay's peak of memory.
+const KEPT_SCORES_BYTES: usize = 8 << 20;
+
+/// The sandwich's first pass over the scores ([`Problem::sandwich`]): the sums that
+/// choose the window and, where they fit in [`KEPT_SCORES_BYTES`], the scores themselves
+/// (row after row, segment after segment) for the second.
+pub(crate) struct FirstPass {
+    choice: WindowChoice,
+    kept: Option<Vec<f64>>,
+}
+
+impl FirstPass {
+    /// Nothing seen yet of `problem`'s scores.
+    fn new(problem: &Problem) -> FirstPass {
+        let cols = problem.params.len();
+        let instants: usize = problem.segments.iter().map(|s| s.len()).sum();
+        let values = instants.saturating_mul(cols);
+        FirstPass {
+            choice: WindowChoice::new(cols),
+            kept: (values <= KEPT_SCORES_BYTES / size_of::<f64>())
+                .then(|| Vec::with_capacity(values)),
+        }
+    }
+
+    /// The next score, or the end of a segment.
+    fn take(&mut self, score: Option<&DVector<f64>>) {
+        match score {
+            Some(s) => {
+                self.choice.push(s);
+                if let Some(kept) = &mut self.kept {
+                    kept.extend_from_slice(s.as_slice());
+                }
+            }
+            None => self.choice.end_segment(),
+        }
+    }
 }
 
 /// A pass's evaluations counted in windows of [`STALL_WINDOW`], for its noise-tied end
@@ -689,6 +736,20 @@ impl<'a> Problem<'a> {
         evaluation
     }
 
+    /// [`Problem::evaluate_full`] and the first of the sandwich's passes over the scores
+    /// ([`Problem::sandwich`]) in one propagation of the sensitivities.
+    pub(crate) fn evaluate_full_with_scores(&self) -> (Evaluation, FirstPass) {
+        let cols = self.params.len();
+        let mut gram = DMatrix::<f64>::zeros(cols, cols);
+        let mut grad = DVector::<f64>::zeros(cols);
+        let mut first = FirstPass::new(self);
+        let sse = self.pass_scored(Some((&mut gram, &mut grad)), Some(&mut first));
+        if let Some(reporting) = &self.progress {
+            reporting.evaluated(&sse);
+        }
+        (Evaluation { sse, gram, grad }, first)
+    }
+
     /// [`Problem::evaluate_full`] without reporting it (a point already reported by
     /// [`Problem::evaluate_objective`]).
     pub(crate) fn normal_equations(&self) -> Evaluation {
@@ -703,17 +764,30 @@ impl<'a> Problem<'a> {
     /// the normal equations of the weighted residuals. The Jacobian itself is never
     /// stored (a week at 1 s would be 1.8 million rows); the sensitivities live in flat
     /// buffers.
-    fn pass(&self, mut normal: Option<(&mut DMatrix<f64>, &mut DVector<f64>)>) -> Vec<f64> {
+    fn pass(&self, normal: Option<(&mut DMatrix<f64>, &mut DVector<f64>)>) -> Vec<f64> {
+        self.pass_scored(normal, None)
+    }
+
+    /// [`Problem::pass`], giving each instant's score to `scores` as
+    /// [`Problem::for_each_score`] does, from the Jacobian rows the normal equations are
+    /// summed from (where they are asked for: the scores are read off their rows).
+    fn pass_scored(
+        &self,
+        mut normal: Option<(&mut DMatrix<f64>, &mut DVector<f64>)>,
+        mut scores: Option<&mut FirstPass>,
+    ) -> Vec<f64> {
         let n = self.n;
         let mut state = Propagation::new(&self.model());
         let mut block = RowBlock::new();
         let mut sse = vec![0.0; n];
+        let mut score = DVector::zeros(self.params.len());
         for (s, seg) in self.segments.iter().enumerate() {
             state.reset(self.x0(s));
             let x0_at = self.x0_at[s];
             if let Some((gram, grad)) = normal.as_mut() {
                 block.set_columns(self.segment_columns(x0_at), gram, grad);
             }
+            let columns: Vec<usize> = self.segment_columns(x0_at).collect();
             for k in seg.clone() {
                 if k > seg.start {
                     state.load_input(self.data, k - 1);
@@ -722,14 +796,26 @@ impl<'a> Problem<'a> {
                     }
                     state.step();
                 }
+                score.fill(0.0);
                 for c in (0..n).filter(|&c| self.data.observed(k, c)) {
                     let (sqrt_w, r) = self.weighted_residual(&state, k, c);
                     sse[c] += r * r;
                     if let Some((gram, grad)) = normal.as_mut() {
                         let row = block.push(r, gram, grad);
                         state.jacobian_row(c, sqrt_w, x0_at.is_some(), self.offset_at, row);
+                        if scores.is_some() {
+                            for (&q, v) in columns.iter().zip(row.iter()) {
+                                score[q] += v * r;
+                            }
+                        }
                     }
                 }
+                if let Some(first) = scores.as_mut() {
+                    first.take(Some(&score));
+                }
+            }
+            if let Some(first) = scores.as_mut() {
+                first.take(None);
             }
         }
         if let Some((gram, grad)) = normal {
@@ -795,26 +881,37 @@ impl<'a> Problem<'a> {
     /// The sandwich covariance of all the parameters at the current ones,
     /// C = H⁻¹ M H⁻¹ · N/(N − r) with H = JᵀWJ (`gram`) and M the long-run covariance of
     /// the weighted residuals' scores with Bartlett's window of Andrews' width
-    /// ([`crate::estimate::long_run`]): two passes with the sensitivities, the first to
-    /// choose the window. `bread_inverse` is H⁻¹ ([`covariance_from_gram`] with σ² = 1).
-    /// Returns it with the window's width.
+    /// ([`crate::estimate::long_run`]): `first`, the first pass over the scores (taken
+    /// with the evaluation, [`Problem::evaluate_full_with_scores`]), chose the window; the
+    /// second sums with it, from the scores the first kept where it kept them, else
+    /// propagating the sensitivities again (the same scores either way). `bread_inverse`
+    /// is H⁻¹ ([`covariance_from_gram`] with σ² = 1). Returns it with the window's width.
     pub(crate) fn sandwich(
         &self,
         gram: &DMatrix<f64>,
         bread_inverse: &DMatrix<f64>,
+        first: FirstPass,
     ) -> (DMatrix<f64>, usize) {
         let cols = self.params.len();
-        let mut choice = WindowChoice::new(cols);
-        self.for_each_score(|score| match score {
-            Some(s) => choice.push(s),
-            None => choice.end_segment(),
-        });
-        let width = choice.width(gram);
+        let width = first.choice.width(gram);
         let mut sum = LongRunSum::new(cols, width);
-        self.for_each_score(|score| match score {
-            Some(s) => sum.push(s),
-            None => sum.end_segment(),
-        });
+        match first.kept {
+            Some(kept) => {
+                let mut rows = kept.chunks_exact(cols);
+                let mut score = DVector::zeros(cols);
+                for segment in &self.segments {
+                    for row in rows.by_ref().take(segment.len()) {
+                        score.copy_from_slice(row);
+                        sum.push(&score);
+                    }
+                    sum.end_segment();
+                }
+            }
+            None => self.for_each_score(|score| match score {
+                Some(s) => sum.push(s),
+                None => sum.end_segment(),
+            }),
+        }
         let entries: usize = self.counts.iter().sum();
         let dof = entries as f64 / entries.saturating_sub(cols).max(1) as f64;
         (bread_inverse * sum.finish() * bread_inverse * dof, width)
@@ -1371,6 +1468,40 @@ mod tests {
         for v in &e.noise_variance {
             assert!((v.sqrt() / 0.02 - 1.0).abs() < 0.05, "σ = {}", v.sqrt());
         }
+    }
+
+    /// The sandwich's second pass sums the same scores whether it reads them from its
+    /// first pass or propagates the sensitivities again (a week's are not kept), to the
+    /// bit, over two segments of noisy data whose residuals are correlated (a model 3 %
+    /// off) so that the window is wide.
+    #[test]
+    fn the_kept_scores_give_the_sandwich_the_propagated_ones_give() {
+        let truth = two_state_model();
+        let u = step_inputs(3000, 2, 17);
+        let y = with_noise(&simulate(&truth, &u, &[0.5, 0.2]), 0.01, 18);
+        let mut outputs_known = vec![true; 3000];
+        outputs_known[1200..1210].fill(false);
+        let data = IdentificationData::new(1.0, y, u, outputs_known, vec![true; 3000]);
+        let segments = data.segments();
+        assert_eq!(segments.len(), 2, "{segments:?}");
+        let start = perturbed(&truth);
+        let weights = vec![1.0, 1.0];
+        let problem = Problem::new(&data, segments, &start, &weights);
+        let (evaluation, kept) = problem.evaluate_full_with_scores();
+        assert!(kept.kept.is_some());
+        let mut propagated = FirstPass {
+            choice: WindowChoice::new(problem.params.len()),
+            kept: None,
+        };
+        problem.for_each_score(|score| propagated.take(score));
+        let (bread, _) = covariance_from_gram(&evaluation.gram, 1.0);
+        let (from_kept, width) = problem.sandwich(&evaluation.gram, &bread, kept);
+        let (again, width_again) = problem.sandwich(&evaluation.gram, &bread, propagated);
+        assert!(width > 2, "window {width}");
+        assert_eq!(width, width_again);
+        assert_eq!(from_kept, again);
+        // And the first pass taken with the evaluation is the evaluation's own.
+        assert_eq!(evaluation.gram, problem.evaluate_full().gram);
     }
 
     /// Every `iteration` call a fit makes.
