@@ -54,23 +54,48 @@ pub fn noise_scale_k(residuals: &[Option<f64>], resolution_k: f64) -> f64 {
 /// residual is unknown or a side has no residual.
 pub fn departure(residuals: &[Option<f64>], k: usize) -> Option<f64> {
     let r = residuals[k]?;
+    let before = side_departure(residuals, r, &mut (0..k).rev())?;
+    let after = side_departure(residuals, r, &mut (k + 1..residuals.len()))?;
+    Some(of_both_sides(before, after))
+}
+
+/// [`departure`] where it is larger than `limit` in size, else `None`. The departure is
+/// never larger than its side before, so the side after is looked at only where the side
+/// before departs by more than `limit`: the screen's usual instant needs one median.
+fn departure_beyond(residuals: &[Option<f64>], k: usize, limit: f64) -> Option<f64> {
+    let r = residuals[k]?;
+    let before = side_departure(residuals, r, &mut (0..k).rev())?;
+    if before.abs() <= limit {
+        return None;
+    }
+    let after = side_departure(residuals, r, &mut (k + 1..residuals.len()))?;
+    Some(of_both_sides(before, after)).filter(|d| d.abs() > limit)
+}
+
+/// r less the median of the first [`WINDOW`] known residuals `side` reaches, `None` where
+/// it reaches none.
+fn side_departure(
+    residuals: &[Option<f64>],
+    r: f64,
+    side: &mut dyn Iterator<Item = usize>,
+) -> Option<f64> {
     // The side's residuals in an array on the stack: this runs at every instant of every
     // output, and two allocations an instant were most of the screen's time.
-    let side = |range: &mut dyn Iterator<Item = usize>| -> Option<f64> {
-        let mut v = [0.0; WINDOW];
-        let mut held = 0;
-        for value in range.filter_map(|i| residuals[i]).take(WINDOW) {
-            v[held] = value;
-            held += 1;
-        }
-        (held > 0).then(|| r - median(&mut v[..held]))
-    };
-    let before = side(&mut (0..k).rev())?;
-    let after = side(&mut (k + 1..residuals.len()))?;
-    if before.signum() != after.signum() {
-        return Some(0.0);
+    let mut v = [0.0; WINDOW];
+    let mut held = 0;
+    for value in side.filter_map(|i| residuals[i]).take(WINDOW) {
+        v[held] = value;
+        held += 1;
     }
-    Some(before.signum() * before.abs().min(after.abs()))
+    (held > 0).then(|| r - median(&mut v[..held]))
+}
+
+/// d = the smaller of the two sides' departures, 0 where they differ in sign.
+fn of_both_sides(before: f64, after: f64) -> f64 {
+    if before.signum() != after.signum() {
+        return 0.0;
+    }
+    before.signum() * before.abs().min(after.abs())
 }
 
 /// Output j's glitches: runs of neighbouring instants whose residual departs by more
@@ -85,7 +110,7 @@ pub fn find(
     let limit = THRESHOLD * noise_k * (1.0 + std::f64::consts::PI / (2.0 * WINDOW as f64)).sqrt();
     let mut out: Vec<LeftOut> = Vec::new();
     for k in 0..residuals.len() {
-        let Some(d) = departure(residuals, k).filter(|d| d.abs() > limit) else {
+        let Some(d) = departure_beyond(residuals, k, limit) else {
             continue;
         };
         let spikes =

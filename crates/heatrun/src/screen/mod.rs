@@ -143,35 +143,86 @@ impl Screening {
     }
 }
 
-/// Screens every output for glitches and frozen runs (see the module's doc).
+/// Screens every output for glitches and frozen runs (see the module's doc). Where the
+/// run is at most [`SIDE_BY_SIDE_INSTANTS`] long the outputs are screened side by side,
+/// two at a time; either way each output's findings are its own, in the outputs' order.
 pub fn screen(input: &ScreenInput<'_>) -> Result<Screening> {
+    screen_with(input, input.data.len() <= SIDE_BY_SIDE_INSTANTS)
+}
+
+/// [`screen`], the outputs side by side or one after the other.
+fn screen_with(input: &ScreenInput<'_>, side_by_side: bool) -> Result<Screening> {
     check_shapes(input)?;
+    let n = input.data.states();
+    let per_output: Vec<OutputScreen> = if side_by_side {
+        // The odd outputs on a thread of their own, the even ones here.
+        std::thread::scope(|scope| {
+            let odd = scope.spawn(|| {
+                (1..n)
+                    .step_by(2)
+                    .map(|j| screen_output(input, j))
+                    .collect::<Vec<_>>()
+            });
+            let even: Vec<_> = (0..n).step_by(2).map(|j| screen_output(input, j)).collect();
+            let odd = odd
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            let (mut even, mut odd) = (even.into_iter(), odd.into_iter());
+            (0..n)
+                .filter_map(|j| if j % 2 == 0 { even.next() } else { odd.next() })
+                .collect()
+        })
+    } else {
+        (0..n).map(|j| screen_output(input, j)).collect()
+    };
     let mut out = Screening::default();
-    for j in 0..input.data.states() {
-        let residuals = residuals_k(input, j);
-        let channel = &input.channels[j];
-        let resolution = channel
-            .declared_resolution_k
-            .unwrap_or_else(|| robust::resolution(channel.measured));
-        let noise = glitch::noise_scale_k(&residuals, resolution);
-        let readings: Vec<Option<f64>> = (0..input.data.len())
-            .map(|k| {
-                channel
-                    .measured
-                    .get(k)
-                    .filter(|_| input.data.observed(k, j))
-            })
-            .collect();
-        let mut found = glitch::find(input, j, (&residuals, &readings), noise);
-        if !channel.stored_by_exception {
-            found.extend(frozen::find(input, j, noise, resolution));
-        }
-        found.sort_by_key(|s| s.from_index);
-        out.left_out.extend(found);
-        out.noise_k.push(noise);
-        out.resolution_k.push(resolution);
+    for output in per_output {
+        out.left_out.extend(output.found);
+        out.noise_k.push(output.noise_k);
+        out.resolution_k.push(output.resolution_k);
     }
     Ok(out)
+}
+
+/// The longest run whose outputs are screened side by side: each output in flight holds
+/// its residuals and readings (32 bytes an instant), so a heat run of a day and a half
+/// at 1 s adds 4 MB, where a week at 1 s would add 19 MB at the replay's peak of memory.
+pub const SIDE_BY_SIDE_INSTANTS: usize = 1 << 17;
+
+/// One output's screen: its stretches (by time), and the noise and resolution it judged
+/// them by.
+struct OutputScreen {
+    found: Vec<LeftOut>,
+    noise_k: f64,
+    resolution_k: f64,
+}
+
+/// Output j's screen.
+fn screen_output(input: &ScreenInput<'_>, j: usize) -> OutputScreen {
+    let residuals = residuals_k(input, j);
+    let channel = &input.channels[j];
+    let resolution = channel
+        .declared_resolution_k
+        .unwrap_or_else(|| robust::resolution(channel.measured));
+    let noise = glitch::noise_scale_k(&residuals, resolution);
+    let readings: Vec<Option<f64>> = (0..input.data.len())
+        .map(|k| {
+            channel
+                .measured
+                .get(k)
+                .filter(|_| input.data.observed(k, j))
+        })
+        .collect();
+    let mut found = glitch::find(input, j, (&residuals, &readings), noise);
+    if !channel.stored_by_exception {
+        found.extend(frozen::find(input, j, noise, resolution));
+    }
+    found.sort_by_key(|s| s.from_index);
+    OutputScreen {
+        found,
+        noise_k: noise,
+        resolution_k: resolution,
+    }
 }
 
 /// Sets each stretch's [`LeftOut::predicted`] to the readings `input`'s model predicts

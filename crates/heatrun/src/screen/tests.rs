@@ -40,6 +40,15 @@ fn measured(y: &DMatrix<f64>, sigma: f64, r: f64, seed: u64) -> DMatrix<f64> {
 
 /// The screen of `outputs` against the true model's simulation (θ_base = 1 K).
 fn screen_of(outputs: &DMatrix<f64>, inputs: &DMatrix<f64>) -> Screening {
+    screen_of_with(outputs, inputs, |input| screen(input).unwrap())
+}
+
+/// `outputs` screened by `screen` against the true model's simulation (θ_base = 1 K).
+fn screen_of_with(
+    outputs: &DMatrix<f64>,
+    inputs: &DMatrix<f64>,
+    screen: impl Fn(&ScreenInput<'_>) -> Screening,
+) -> Screening {
     let data = IdentificationData::complete(1.0, outputs.clone(), inputs.clone());
     let sim = model().simulate_segments(&data, &data.segments());
     let series: Vec<Series> = (0..2)
@@ -70,7 +79,6 @@ fn screen_of(outputs: &DMatrix<f64>, inputs: &DMatrix<f64>) -> Screening {
         time_ns: &time_ns,
         temperature_base_k: 1.0,
     })
-    .unwrap()
 }
 
 #[test]
@@ -98,6 +106,24 @@ fn noise_free_data_leave_nothing_out() {
     let (y, u) = truth(6000);
     assert!(screen_of(&y, &u).is_empty());
     assert!(screen_of(&measured(&y, 0.0, 0.01, 1), &u).is_empty());
+}
+
+/// Outputs screened side by side find what they find one after the other, in the same
+/// order, with the same noise and resolution (a frozen stretch and glitches on both).
+#[test]
+fn side_by_side_and_one_after_the_other_find_the_same() {
+    let (y, u) = truth(6000);
+    let mut outputs = measured(&y, 0.05, 0.01, 5);
+    outputs[(700, 0)] += 2.0;
+    outputs[(3100, 1)] -= 1.5;
+    for k in 2000..2400 {
+        outputs[(k, 1)] = outputs[(2000, 1)];
+    }
+    let side_by_side = screen_of_with(&outputs, &u, |input| screen_with(input, true).unwrap());
+    let in_turn = screen_of_with(&outputs, &u, |input| screen_with(input, false).unwrap());
+    assert_eq!(side_by_side, in_turn);
+    let states: Vec<usize> = in_turn.left_out.iter().map(|l| l.state).collect();
+    assert!(states.contains(&0) && states.contains(&1), "{states:?}");
 }
 
 #[test]
