@@ -202,7 +202,27 @@ pub fn undo(decimated: &mut DecimatedRecording) -> Vec<Finding> {
     let read = |decimated: &DecimatedRecording, signal: &Signal| {
         Channel::of(readings(decimated, signal), reach)
     };
-    let mut channels: Vec<Channel> = temperatures.iter().map(|s| read(decimated, s)).collect();
+    // Each channel's levels are its own: the second half are read on a thread of their
+    // own beside the first (the replay's other core has nothing else to do yet).
+    let mut channels: Vec<Channel> = {
+        let shared: &DecimatedRecording = decimated;
+        let (first_half, second_half) = temperatures.split_at(temperatures.len() / 2);
+        std::thread::scope(|scope| {
+            let second = scope.spawn(|| {
+                second_half
+                    .iter()
+                    .map(|s| read(shared, s))
+                    .collect::<Vec<_>>()
+            });
+            let mut channels: Vec<Channel> = first_half.iter().map(|s| read(shared, s)).collect();
+            channels.extend(
+                second
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+            );
+            channels
+        })
+    };
     let mut findings = Vec::new();
     for i in 0..temperatures.len() {
         for j in i + 1..temperatures.len() {
