@@ -190,6 +190,10 @@ impl Publisher {
             .send(&self.rec)
             .map_err(publish_err)?;
         self.rec.flush_blocking().map_err(publish_err)?;
+        // The file is written but for its footer, which the drop below adds.
+        if let Some(pending) = &self.pending {
+            pending.start_writeback();
+        }
         drop(self.rec);
         match self.pending {
             Some(pending) => Ok(pending.commit()?),

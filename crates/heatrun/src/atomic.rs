@@ -71,6 +71,29 @@ impl PendingOutput {
         &self.destination
     }
 
+    /// Starts the system writing what the temporary file holds so far to its disk, without
+    /// waiting for it (Linux's `sync_file_range` with `SYNC_FILE_RANGE_WRITE`, the
+    /// write-out git's batched fsync starts with; elsewhere, nothing).
+    ///
+    /// Why: where the rename of [`PendingOutput::commit`] replaces an older file, ext4
+    /// writes the new file's data out first (its `auto_da_alloc`, so that a crash cannot
+    /// leave an empty file in the old one's place), and the rename waits for that: 9 ms
+    /// of W0's replay for its 15 MB .rrd. Started while the writer still finishes the
+    /// file, that writing is mostly done by the rename. Nothing is promised by it: a
+    /// failure is ignored (the rename then waits as before).
+    pub fn start_writeback(&self) {
+        #[cfg(target_os = "linux")]
+        if let Ok(file) = File::open(&self.path) {
+            use std::os::fd::AsRawFd as _;
+            // SAFETY: the descriptor is open for this call's length (`file` lives to the end
+            // of the block); offset 0 and length 0 name the whole file; the call reads and
+            // writes no memory of ours.
+            unsafe {
+                libc::sync_file_range(file.as_raw_fd(), 0, 0, libc::SYNC_FILE_RANGE_WRITE);
+            }
+        }
+    }
+
     /// Renames the finished temporary file to its destination (replacing what was there).
     pub fn commit(self) -> Result<()> {
         match self.temporary {
