@@ -261,6 +261,27 @@ struct Sums {
 impl Sums {
     /// The sums of the residuals' products with themselves and with the first `m` inputs.
     fn of(centred: &Centred, len: usize, max_lag: usize, m: usize) -> Sums {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2, checked just above.
+            return unsafe { Sums::of_avx2(centred, len, max_lag, m) };
+        }
+        Sums::of_portable(centred, len, max_lag, m)
+    }
+
+    /// [`Sums::of`] compiled for AVX2: four products a lane where the portable x86-64
+    /// build has two. Each sum receives the same products in the same order (Rust fuses
+    /// no multiply into an add), so the correlations are the same to the bit on every
+    /// processor; the analysis's cross-correlations are most of its time.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn of_avx2(centred: &Centred, len: usize, max_lag: usize, m: usize) -> Sums {
+        Sums::of_portable(centred, len, max_lag, m)
+    }
+
+    /// [`Sums::of`] for any processor; inlined into each compiled variant.
+    #[inline(always)]
+    fn of_portable(centred: &Centred, len: usize, max_lag: usize, m: usize) -> Sums {
         let n = centred.residual_means.len();
         let zero: f64 = std::iter::empty::<f64>().sum();
         let mut auto = vec![vec![zero; max_lag + 1]; n];
@@ -332,6 +353,7 @@ impl Window {
     }
 
     /// `sums[τ + offset] += a · b(k − τ)` for every τ of `lags`, where b(k − τ) is known.
+    #[inline(always)]
     fn multiply_into(
         &self,
         a: f64,
