@@ -84,7 +84,15 @@ pub(super) fn send_slices<T>(
     let mut points = points.filter(|(_, v)| v.is_finite()).peekable();
     let mut sent = 0;
     while points.peek().is_some() {
-        let (times, values): (Vec<T>, Vec<f64>) = points.by_ref().take(SERIES_SLICE).unzip();
+        // Sized for a whole slice: unzipped into empty vectors, they grew by copies.
+        let (mut times, mut values) = (
+            Vec::with_capacity(SERIES_SLICE),
+            Vec::with_capacity(SERIES_SLICE),
+        );
+        for (t, v) in points.by_ref().take(SERIES_SLICE) {
+            times.push(t);
+            values.push(v);
+        }
         let rows = times.len();
         sent += rows;
         rec.send_columns(
