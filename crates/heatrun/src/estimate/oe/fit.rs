@@ -492,6 +492,29 @@ pub(crate) struct FirstPass {
     kept: Option<Vec<f64>>,
 }
 
+/// Where a pass over the data gives each instant's score ([`Problem::pass_scored`]).
+trait ScoreSink {
+    /// Whether it takes them at all (a pass that gives none skips their sums).
+    const TAKES: bool;
+    /// The next instant's score, or the end of a segment (`None`).
+    fn take(&mut self, score: Option<&DVector<f64>>);
+}
+
+/// The scores of a pass that needs none.
+struct NoScores;
+
+impl ScoreSink for NoScores {
+    const TAKES: bool = false;
+    fn take(&mut self, _: Option<&DVector<f64>>) {}
+}
+
+impl ScoreSink for FirstPass {
+    const TAKES: bool = true;
+    fn take(&mut self, score: Option<&DVector<f64>>) {
+        FirstPass::take(self, score);
+    }
+}
+
 impl FirstPass {
     /// Nothing seen yet of `problem`'s scores.
     fn new(problem: &Problem) -> FirstPass {
@@ -743,7 +766,7 @@ impl<'a> Problem<'a> {
         let mut gram = DMatrix::<f64>::zeros(cols, cols);
         let mut grad = DVector::<f64>::zeros(cols);
         let mut first = FirstPass::new(self);
-        let sse = self.pass_scored(Some((&mut gram, &mut grad)), Some(&mut first));
+        let sse = self.pass_scored(Some((&mut gram, &mut grad)), &mut first);
         if let Some(reporting) = &self.progress {
             reporting.evaluated(&sse);
         }
@@ -765,29 +788,35 @@ impl<'a> Problem<'a> {
     /// stored (a week at 1 s would be 1.8 million rows); the sensitivities live in flat
     /// buffers.
     fn pass(&self, normal: Option<(&mut DMatrix<f64>, &mut DVector<f64>)>) -> Vec<f64> {
-        self.pass_scored(normal, None)
+        self.pass_scored(normal, &mut NoScores)
     }
 
     /// [`Problem::pass`], giving each instant's score to `scores` as
     /// [`Problem::for_each_score`] does, from the Jacobian rows the normal equations are
     /// summed from (where they are asked for: the scores are read off their rows).
-    fn pass_scored(
+    /// Compiled once per kind of `scores`: a pass that takes none is the loop it was.
+    #[inline(always)]
+    fn pass_scored<S: ScoreSink>(
         &self,
         mut normal: Option<(&mut DMatrix<f64>, &mut DVector<f64>)>,
-        mut scores: Option<&mut FirstPass>,
+        scores: &mut S,
     ) -> Vec<f64> {
         let n = self.n;
         let mut state = Propagation::new(&self.model());
         let mut block = RowBlock::new();
         let mut sse = vec![0.0; n];
-        let mut score = DVector::zeros(self.params.len());
+        let mut score = DVector::zeros(if S::TAKES { self.params.len() } else { 0 });
         for (s, seg) in self.segments.iter().enumerate() {
             state.reset(self.x0(s));
             let x0_at = self.x0_at[s];
             if let Some((gram, grad)) = normal.as_mut() {
                 block.set_columns(self.segment_columns(x0_at), gram, grad);
             }
-            let columns: Vec<usize> = self.segment_columns(x0_at).collect();
+            let columns: Vec<usize> = if S::TAKES {
+                self.segment_columns(x0_at).collect()
+            } else {
+                Vec::new()
+            };
             for k in seg.clone() {
                 if k > seg.start {
                     state.load_input(self.data, k - 1);
@@ -796,26 +825,28 @@ impl<'a> Problem<'a> {
                     }
                     state.step();
                 }
-                score.fill(0.0);
+                if S::TAKES {
+                    score.fill(0.0);
+                }
                 for c in (0..n).filter(|&c| self.data.observed(k, c)) {
                     let (sqrt_w, r) = self.weighted_residual(&state, k, c);
                     sse[c] += r * r;
                     if let Some((gram, grad)) = normal.as_mut() {
                         let row = block.push(r, gram, grad);
                         state.jacobian_row(c, sqrt_w, x0_at.is_some(), self.offset_at, row);
-                        if scores.is_some() {
+                        if S::TAKES {
                             for (&q, v) in columns.iter().zip(row.iter()) {
                                 score[q] += v * r;
                             }
                         }
                     }
                 }
-                if let Some(first) = scores.as_mut() {
-                    first.take(Some(&score));
+                if S::TAKES {
+                    scores.take(Some(&score));
                 }
             }
-            if let Some(first) = scores.as_mut() {
-                first.take(None);
+            if S::TAKES {
+                scores.take(None);
             }
         }
         if let Some((gram, grad)) = normal {
