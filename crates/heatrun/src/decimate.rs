@@ -517,7 +517,7 @@ impl Decimator {
         self.lay_out_with(channels, refuse_clock_jumps, side_by_side)
     }
 
-    /// [`Decimator::lay_out`], the channels two at a time or one after the other.
+    /// [`Decimator::lay_out`], the channels side by side or one after the other.
     fn lay_out_with(
         mut self,
         channels: &[SensorChannel],
@@ -567,21 +567,9 @@ impl Decimator {
             Ok(laid)
         };
         let laid: Vec<Result<Laid>> = if side_by_side {
-            // Two channels at a time: the odd ones on a thread of their own.
-            let (even, odd): (Vec<_>, Vec<_>) =
-                jobs.into_iter().enumerate().partition(|(i, _)| i % 2 == 0);
-            std::thread::scope(|scope| {
-                let odd =
-                    scope.spawn(|| odd.into_iter().map(|(_, job)| lay(job)).collect::<Vec<_>>());
-                let even: Vec<_> = even.into_iter().map(|(_, job)| lay(job)).collect();
-                let odd = odd
-                    .join()
-                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-                let (mut even, mut odd) = (even.into_iter(), odd.into_iter());
-                (0..even.len() + odd.len())
-                    .filter_map(|i| if i % 2 == 0 { even.next() } else { odd.next() })
-                    .collect()
-            })
+            // On rayon's threads, the grid in the channels' order whatever the cores.
+            use rayon::prelude::*;
+            jobs.into_par_iter().map(lay).collect()
         } else {
             // One channel at a time: its windows are freed before the next is laid out.
             let mut laid = Vec::new();
@@ -626,7 +614,7 @@ impl Decimator {
     }
 }
 
-/// The longest grid whose channels are laid out two at a time: each channel in flight
+/// The longest grid whose channels are laid out side by side: each channel in flight
 /// holds its windows and its laid series, so a heat run of a day and a half at 1 s adds a
 /// few MB, where a week at 1 s lays its channels one after the other for its peak of
 /// memory.
@@ -1101,7 +1089,7 @@ mod tests {
         order
     }
 
-    /// Channels laid out two at a time give the grid one at a time gives, and the same
+    /// Channels laid out side by side give the grid one at a time gives, and the same
     /// refusal: the first channel (in order) whose clock jumped back.
     #[test]
     fn side_by_side_and_one_after_the_other_lay_out_the_same() {

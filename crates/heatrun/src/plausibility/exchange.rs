@@ -202,26 +202,11 @@ pub fn undo(decimated: &mut DecimatedRecording) -> Vec<Finding> {
     let read = |decimated: &DecimatedRecording, signal: &Signal| {
         Channel::of(readings(decimated, signal), reach)
     };
-    // Each channel's levels are its own: the second half are read on a thread of their
-    // own beside the first (the replay's other core has nothing else to do yet).
+    // Each channel's levels are its own: read side by side, on rayon's threads.
     let mut channels: Vec<Channel> = {
+        use rayon::prelude::*;
         let shared: &DecimatedRecording = decimated;
-        let (first_half, second_half) = temperatures.split_at(temperatures.len() / 2);
-        std::thread::scope(|scope| {
-            let second = scope.spawn(|| {
-                second_half
-                    .iter()
-                    .map(|s| read(shared, s))
-                    .collect::<Vec<_>>()
-            });
-            let mut channels: Vec<Channel> = first_half.iter().map(|s| read(shared, s)).collect();
-            channels.extend(
-                second
-                    .join()
-                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
-            );
-            channels
-        })
+        temperatures.par_iter().map(|s| read(shared, s)).collect()
     };
     let mut findings = Vec::new();
     for i in 0..temperatures.len() {

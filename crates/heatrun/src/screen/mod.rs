@@ -144,8 +144,9 @@ impl Screening {
 }
 
 /// Screens every output for glitches and frozen runs (see the module's doc). Where the
-/// run is at most [`SIDE_BY_SIDE_INSTANTS`] long the outputs are screened side by side,
-/// two at a time; either way each output's findings are its own, in the outputs' order.
+/// run is at most [`SIDE_BY_SIDE_INSTANTS`] long the outputs are screened side by side
+/// on rayon's threads; either way each output's findings are its own, in the outputs'
+/// order.
 pub fn screen(input: &ScreenInput<'_>) -> Result<Screening> {
     screen_with(input, input.data.len() <= SIDE_BY_SIDE_INSTANTS)
 }
@@ -155,23 +156,11 @@ fn screen_with(input: &ScreenInput<'_>, side_by_side: bool) -> Result<Screening>
     check_shapes(input)?;
     let n = input.data.states();
     let per_output: Vec<OutputScreen> = if side_by_side {
-        // The odd outputs on a thread of their own, the even ones here.
-        std::thread::scope(|scope| {
-            let odd = scope.spawn(|| {
-                (1..n)
-                    .step_by(2)
-                    .map(|j| screen_output(input, j))
-                    .collect::<Vec<_>>()
-            });
-            let even: Vec<_> = (0..n).step_by(2).map(|j| screen_output(input, j)).collect();
-            let odd = odd
-                .join()
-                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-            let (mut even, mut odd) = (even.into_iter(), odd.into_iter());
-            (0..n)
-                .filter_map(|j| if j % 2 == 0 { even.next() } else { odd.next() })
-                .collect()
-        })
+        use rayon::prelude::*;
+        (0..n)
+            .into_par_iter()
+            .map(|j| screen_output(input, j))
+            .collect()
     } else {
         (0..n).map(|j| screen_output(input, j)).collect()
     };

@@ -130,30 +130,28 @@ const Y_LOWEST: i32 = -43;
 const Y_SPAN: usize = 61;
 
 /// Which exponents of (7.1 − π) the terms take: I − 1 and I.
-const X_USED: [bool; X_SPAN] = {
-    let mut used = [false; X_SPAN];
-    let mut t = 0;
-    while t < REGION1.len() {
-        let i = REGION1[t].0;
-        used[(i - 1 - X_LOWEST) as usize] = true;
-        used[(i - X_LOWEST) as usize] = true;
-        t += 1;
-    }
-    used
-};
+const X_USED: [bool; X_SPAN] = exponents_used(0, 1, X_LOWEST);
 
-/// Which exponents of (τ − 1.222) the terms take: J and J − 2.
-const Y_USED: [bool; Y_SPAN] = {
-    let mut used = [false; Y_SPAN];
+/// Which exponents of (τ − 1.222) the terms take: J − 2 and J.
+const Y_USED: [bool; Y_SPAN] = exponents_used(1, 2, Y_LOWEST);
+
+/// Which exponents from `lowest` on the terms take of one factor: its exponent in the
+/// terms' `column` (0: I, 1: J) and that less `less` (its derivative's).
+const fn exponents_used<const N: usize>(column: usize, less: i32, lowest: i32) -> [bool; N] {
+    let mut used = [false; N];
     let mut t = 0;
     while t < REGION1.len() {
-        let j = REGION1[t].1;
-        used[(j - 2 - Y_LOWEST) as usize] = true;
-        used[(j - Y_LOWEST) as usize] = true;
+        let e = if column == 0 {
+            REGION1[t].0
+        } else {
+            REGION1[t].1
+        };
+        used[(e - less - lowest) as usize] = true;
+        used[(e - lowest) as usize] = true;
         t += 1;
     }
     used
-};
+}
 
 /// `base` to each used power from `lowest` on (0 where unused), each by `powi` as the
 /// terms took it one by one: the same bits, each power taken once where the 34 terms

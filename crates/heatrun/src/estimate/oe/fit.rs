@@ -511,7 +511,15 @@ impl ScoreSink for NoScores {
 impl ScoreSink for FirstPass {
     const TAKES: bool = true;
     fn take(&mut self, score: Option<&DVector<f64>>) {
-        FirstPass::take(self, score);
+        match score {
+            Some(s) => {
+                self.choice.push(s);
+                if let Some(kept) = &mut self.kept {
+                    kept.extend_from_slice(s.as_slice());
+                }
+            }
+            None => self.choice.end_segment(),
+        }
     }
 }
 
@@ -525,19 +533,6 @@ impl FirstPass {
             choice: WindowChoice::new(cols),
             kept: (values <= KEPT_SCORES_BYTES / size_of::<f64>())
                 .then(|| Vec::with_capacity(values)),
-        }
-    }
-
-    /// The next score, or the end of a segment.
-    fn take(&mut self, score: Option<&DVector<f64>>) {
-        match score {
-            Some(s) => {
-                self.choice.push(s);
-                if let Some(kept) = &mut self.kept {
-                    kept.extend_from_slice(s.as_slice());
-                }
-            }
-            None => self.choice.end_segment(),
         }
     }
 }
