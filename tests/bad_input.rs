@@ -455,3 +455,54 @@ fn a_parquet_table_without_the_parquet_feature_says_how_to_build_it() {
         assert!(!d.join("run.mcap").exists());
     }
 }
+
+/// An output named as an input (or as another output) is refused before anything is
+/// read: every output is renamed over its destination, so `--rrd run.mcap` would have
+/// replaced the recording with its own replay and exited 0.
+#[test]
+fn an_output_that_would_replace_an_input_or_another_output_is_refused() {
+    let dir = common::tempdir();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    std::fs::copy(&fixture, dir.path().join("run.mcap")).unwrap();
+    std::fs::copy(&fixture, dir.path().join("run.rrd")).unwrap();
+    std::fs::create_dir_all(dir.path().join("a")).unwrap();
+    std::fs::create_dir_all(dir.path().join("b")).unwrap();
+    std::fs::copy(&fixture, dir.path().join("a/unit.mcap")).unwrap();
+    std::fs::copy(&fixture, dir.path().join("b/unit.mcap")).unwrap();
+    let before = common::files_in(dir.path());
+    let recording = std::fs::read(&fixture).unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["replay", "run.mcap", "--rrd", "./run.mcap"],
+            "--rrd ./run.mcap is the recording run.mcap",
+        ),
+        (
+            &["replay", "run.rrd"],
+            "--rrd's default run.rrd is the recording run.rrd",
+        ),
+        (
+            &["replay", "run.mcap", "--report", "x.json", "--html=x.json"],
+            "--report and --html both name x.json",
+        ),
+        (
+            &["replay", "a/unit.mcap", "b/unit.mcap", "--out-dir", "out"],
+            "a/unit.mcap and b/unit.mcap would both write unit.rrd",
+        ),
+        (
+            &["rating", "--model", "run.mcap", "--json", "run.mcap"],
+            "--json run.mcap is --model run.mcap",
+        ),
+    ];
+    for (args, expected) in cases {
+        let line = one_line_exit_2(args, dir.path());
+        assert!(line.contains(expected), "heatrun {args:?}: {line}");
+        assert_eq!(common::files_in(dir.path()), before, "nothing written");
+        for input in ["run.mcap", "run.rrd", "a/unit.mcap", "b/unit.mcap"] {
+            assert_eq!(
+                std::fs::read(dir.path().join(input)).unwrap(),
+                recording,
+                "{input} untouched"
+            );
+        }
+    }
+}

@@ -8,6 +8,7 @@ use clap::{Args, Subcommand};
 use heatrun::fleet::compare::CompareOptions;
 use heatrun::store::Location;
 
+use super::outputs::{distinct, NamedFile};
 use super::Usage;
 
 /// Arguments of `heatrun fleet`.
@@ -117,6 +118,16 @@ impl TryFrom<CompareArgs> for FleetCompare {
         if !(0.0..100.0).contains(&args.floor) {
             return Err(Usage(format!("--floor {}: a percentage in [0, 100)", args.floor)).into());
         }
+        let reads: Vec<NamedFile> = args
+            .reports
+            .iter()
+            .map(|p| NamedFile::new("the report", p))
+            .collect();
+        let writes: Vec<NamedFile> = [("--json", &args.json), ("--html", &args.html)]
+            .into_iter()
+            .filter_map(|(what, p)| p.as_deref().map(|p| NamedFile::new(what, p)))
+            .collect();
+        distinct(&reads, &writes)?;
         Ok(FleetCompare {
             reports: args.reports,
             options: CompareOptions {

@@ -15,6 +15,7 @@ mod fleet;
 mod import;
 mod method;
 mod monitor;
+mod outputs;
 mod predict;
 mod rating;
 mod replay;
@@ -191,8 +192,8 @@ impl TryFrom<Command> for Request {
             Command::Import(args) => Request::Import(args.try_into()?),
             Command::Completions(args) => Request::Completions(args),
             Command::Man(args) => Request::Man(args),
-            Command::Predict(args) => Request::Predict(args.into()),
-            Command::Rating(args) => Request::Rating(args.into()),
+            Command::Predict(args) => Request::Predict(args.try_into()?),
+            Command::Rating(args) => Request::Rating(args.try_into()?),
             Command::Monitor(args) => Request::Monitor(args.try_into()?),
             Command::Fleet(args) => match args.command {
                 FleetCommand::Summary(args) => Request::FleetSummary(args.try_into()?),

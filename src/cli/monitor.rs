@@ -8,6 +8,7 @@ use heatrun::monitor::stream::StreamOptions;
 use heatrun::monitor::{BandKind, BandRule, MonitorOptions};
 use heatrun_rerun::RerunSink;
 
+use super::outputs::{distinct, NamedFile};
 use super::viewer::{Offer, ViewerArgs};
 use super::Usage;
 
@@ -144,7 +145,7 @@ impl TryFrom<MonitorArgs> for Monitor {
                 .unwrap_or_default();
             (Input::File(args.recording), name)
         };
-        Ok(Monitor {
+        let monitor = Monitor {
             model: args.model,
             recording,
             name,
@@ -168,6 +169,25 @@ impl TryFrom<MonitorArgs> for Monitor {
             json: args.json,
             html: args.html,
             quiet: args.quiet,
-        })
+        };
+        monitor.files_distinct()?;
+        Ok(monitor)
+    }
+}
+
+impl Monitor {
+    /// Refuses outputs that would replace the model, the recording or each other.
+    fn files_distinct(&self) -> Result<(), Usage> {
+        let mut reads = vec![NamedFile::new("--model", &self.model)];
+        if let Input::File(path) = &self.recording {
+            reads.push(NamedFile::new("the recording", path));
+        }
+        let mut writes = Vec::new();
+        if let Some(RerunSink::Rrd(path)) = &self.sink {
+            writes.push(NamedFile::new("--rrd", path));
+        }
+        writes.extend(self.json.as_deref().map(|p| NamedFile::new("--json", p)));
+        writes.extend(self.html.as_deref().map(|p| NamedFile::new("--html", p)));
+        distinct(&reads, &writes)
     }
 }

@@ -8,8 +8,10 @@ use heatrun::predict::InitialState;
 use heatrun::rating::RatingOptions;
 use heatrun_rerun::RerunSink;
 
+use super::outputs::{distinct, NamedFile};
 use super::rating::{parse_limit, ClassArg};
 use super::viewer::{Offer, ViewerArgs};
+use super::Usage;
 
 /// Where a prediction starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -94,10 +96,13 @@ pub struct Predict {
     pub quiet: bool,
 }
 
-impl From<PredictArgs> for Predict {
+impl TryFrom<PredictArgs> for Predict {
+    type Error = Usage;
+
     /// The starting state and the limits as the library takes them; the sink of `--rrd`.
-    fn from(args: PredictArgs) -> Predict {
-        Predict {
+    /// Outputs that would replace the model, the schedule or each other are refused.
+    fn try_from(args: PredictArgs) -> Result<Predict, Usage> {
+        let predict = Predict {
             initial: match (args.initial_temps, args.initial) {
                 (Some(t), _) => InitialState::Temperatures(t),
                 (None, InitialArg::Measured) => InitialState::Measured,
@@ -110,6 +115,19 @@ impl From<PredictArgs> for Predict {
             out: args.out,
             html: args.html,
             quiet: args.quiet,
+        };
+        let mut writes = vec![NamedFile::new("--out", &predict.out)];
+        if let Some(RerunSink::Rrd(path)) = &predict.sink {
+            writes.push(NamedFile::new("--rrd", path));
         }
+        writes.extend(predict.html.as_deref().map(|p| NamedFile::new("--html", p)));
+        distinct(
+            &[
+                NamedFile::new("--model", &predict.model),
+                NamedFile::new("--load", &predict.load),
+            ],
+            &writes,
+        )?;
+        Ok(predict)
     }
 }

@@ -6,6 +6,9 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 use heatrun::rating::{InsulationClass, RatingOptions};
 
+use super::outputs::{distinct, NamedFile};
+use super::Usage;
+
 /// Insulation thermal class.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ClassArg {
@@ -103,10 +106,13 @@ pub struct Rating {
     pub html: Option<PathBuf>,
 }
 
-impl From<RatingArgs> for Rating {
-    /// The rating's options in the library's units.
-    fn from(args: RatingArgs) -> Rating {
-        Rating {
+impl TryFrom<RatingArgs> for Rating {
+    type Error = Usage;
+
+    /// The rating's options in the library's units; outputs that would replace the model
+    /// or each other are refused.
+    fn try_from(args: RatingArgs) -> Result<Rating, Usage> {
+        let rating = Rating {
             model: args.model,
             options: RatingOptions {
                 class: args.class.map(InsulationClass::from),
@@ -118,6 +124,12 @@ impl From<RatingArgs> for Rating {
             },
             json: args.json,
             html: args.html,
-        }
+        };
+        let writes: Vec<NamedFile> = [("--json", &rating.json), ("--html", &rating.html)]
+            .into_iter()
+            .filter_map(|(what, p)| p.as_deref().map(|p| NamedFile::new(what, p)))
+            .collect();
+        distinct(&[NamedFile::new("--model", &rating.model)], &writes)?;
+        Ok(rating)
     }
 }

@@ -13,6 +13,7 @@ use heatrun::spec::ModelDescription;
 use heatrun::store::{self, Location};
 use heatrun_rerun::RerunSink;
 
+use super::outputs::{distinct, NamedFile};
 use super::viewer::{Offer, ViewerArgs};
 use super::Usage;
 
@@ -265,6 +266,7 @@ fn indexed_replay(args: ReplayArgs, file: PathBuf) -> anyhow::Result<Replay> {
         file,
         out_dir: Some(args.out_dir.clone()),
     };
+    one.files_distinct(&args)?;
     Ok(Replay {
         options: library_options(&args)?,
         raw: args.raw,
@@ -422,13 +424,45 @@ fn one(args: &ReplayArgs, file: PathBuf) -> anyhow::Result<One> {
         .viewer
         .sink()
         .unwrap_or_else(|| RerunSink::Rrd(PathBuf::from(format!("{}.rrd", stem(&file)))));
-    Ok(One {
+    let one = One {
         sink,
         report: args.report.clone(),
         html,
         file,
         out_dir: None,
-    })
+    };
+    one.files_distinct(args)?;
+    Ok(one)
+}
+
+impl One {
+    /// Refuses outputs that would replace the recording, the spec or the machine file, or
+    /// each other (`--rrd run.mcap`, `--report x --html x`).
+    fn files_distinct(&self, args: &ReplayArgs) -> Result<(), Usage> {
+        let mut reads = vec![NamedFile::new("the recording", &self.file)];
+        reads.extend(args.spec.as_deref().map(|p| NamedFile::new("--spec", p)));
+        reads.extend(
+            args.machine
+                .as_deref()
+                .map(|p| NamedFile::new("--machine", p)),
+        );
+        let mut writes = Vec::new();
+        if let RerunSink::Rrd(path) = &self.sink {
+            let what = if args.viewer.is_given() {
+                "--rrd"
+            } else {
+                "--rrd's default"
+            };
+            writes.push(NamedFile::new(what, path));
+        }
+        writes.extend(
+            self.report
+                .as_deref()
+                .map(|p| NamedFile::new("--report", p)),
+        );
+        writes.extend(self.html.as_deref().map(|p| NamedFile::new("--html", p)));
+        distinct(&reads, &writes)
+    }
 }
 
 /// The HTML report's path of a single replay: as given, or `<stem>.html` here for a bare
@@ -465,6 +499,7 @@ fn fleet(args: &ReplayArgs, files: Vec<PathBuf>) -> anyhow::Result<Fleet> {
         )
         .into());
     }
+    stems_distinct(&files, &args.out_dir)?;
     Ok(Fleet {
         files,
         out_dir: args.out_dir.clone(),
@@ -474,6 +509,27 @@ fn fleet(args: &ReplayArgs, files: Vec<PathBuf>) -> anyhow::Result<Fleet> {
             .max(1),
         html: args.html.is_some(),
     })
+}
+
+/// A fleet's outputs are named after their recordings' stems in one folder: two
+/// recordings of one stem (`a/run.mcap`, `b/run.mcap`) would write the same files, the
+/// second replacing the first's.
+fn stems_distinct(files: &[PathBuf], out_dir: &Path) -> Result<(), Usage> {
+    let mut seen = std::collections::HashMap::new();
+    for file in files {
+        let s = stem(file);
+        if let Some(first) = seen.insert(s.clone(), file) {
+            return Err(Usage(format!(
+                "{} and {} would both write {s}.rrd and {s}.report.json in {}: a fleet's \
+                 outputs are named after the recording; replay one of them on its own, or \
+                 give it another name",
+                first.display(),
+                file.display(),
+                out_dir.display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// The replay's library options: the command line first, then the spec's own sample time
