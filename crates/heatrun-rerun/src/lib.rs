@@ -189,6 +189,9 @@ impl Publisher {
         blueprint(replay, self.full_rate.load(Ordering::Relaxed))
             .send(&self.rec)
             .map_err(publish_err)?;
+        if let Some(pending) = &self.pending {
+            pending.remove_destination();
+        }
         self.rec.flush_blocking().map_err(publish_err)?;
         // The file is written but for its footer, which the drop below adds.
         if let Some(pending) = &self.pending {

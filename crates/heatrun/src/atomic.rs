@@ -94,6 +94,21 @@ impl PendingOutput {
         }
     }
 
+    /// Removes the file at the destination, if any, ahead of [`PendingOutput::commit`]:
+    /// the output is then absent, never partial, until the commit renames it in place.
+    ///
+    /// Why: a rename that replaces a file also frees the old one (its blocks, its pages
+    /// in the cache), inside the rename: 4–5 ms of W0's replay for its 15 MB .rrd, with a
+    /// core idle. Removed while the writer still finishes the new file, the old one is
+    /// freed beside that work. Called only once everything is sent, so that only a failure
+    /// to write the last bytes can leave neither file. A failure is ignored (the rename
+    /// then replaces the file as before); a folder is never removed.
+    pub fn remove_destination(&self) {
+        if std::fs::symlink_metadata(&self.destination).is_ok_and(|m| !m.is_dir()) {
+            let _ = std::fs::remove_file(&self.destination);
+        }
+    }
+
     /// Renames the finished temporary file to its destination (replacing what was there).
     pub fn commit(self) -> Result<()> {
         match self.temporary {
@@ -193,6 +208,38 @@ mod tests {
         std::fs::write(pending.path(), "half a recording").unwrap();
         drop(pending);
         assert!(names_in(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn the_old_output_removed_ahead_is_absent_until_the_new_one_is_complete() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run.rrd");
+        std::fs::write(&out, "old").unwrap();
+        let pending = PendingOutput::new(&out);
+        std::fs::write(pending.path(), "new").unwrap();
+        pending.remove_destination();
+        assert!(!out.exists(), "absent, not partial, before the commit");
+        pending.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), "new");
+        assert_eq!(names_in(dir.path()), ["run.rrd"]);
+        // Nothing there yet: nothing to remove, and the commit places the output.
+        let fresh = dir.path().join("fresh.rrd");
+        let pending = PendingOutput::new(&fresh);
+        std::fs::write(pending.path(), "first").unwrap();
+        pending.remove_destination();
+        pending.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&fresh).unwrap(), "first");
+        // A folder in the output's place is left to the rename, which refuses it.
+        let folder = dir.path().join("folder.rrd");
+        std::fs::create_dir(&folder).unwrap();
+        std::fs::write(folder.join("inside"), "kept").unwrap();
+        let pending = PendingOutput::new(&folder);
+        pending.remove_destination();
+        assert!(pending.commit().is_err());
+        assert_eq!(
+            std::fs::read_to_string(folder.join("inside")).unwrap(),
+            "kept"
+        );
     }
 
     #[test]
