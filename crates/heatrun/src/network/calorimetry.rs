@@ -6,7 +6,7 @@ use serde::Serialize;
 
 use super::NetworkError;
 use crate::series::Series;
-pub use crate::thermal::water::{Water, WaterError, STANDARD_PRESSURE_PA};
+pub use crate::thermal::water::{Water, WaterError, WaterMemo, STANDARD_PRESSURE_PA};
 
 /// The heat carried away by water of `heat_per_litre_j_per_k` = c·ρ (J/(l·K)) rising
 /// `delta_k` at `flow_l_per_s`: dW_cw/dt = c·ρ·Δθ·Q in W (eq. 17).
@@ -78,18 +78,55 @@ impl WaterModel {
                 // Both ends must be liquid water for the mean c_p to stand for the enthalpy
                 // rise. (Only checked: evaluated, as they were, IF97's 34 terms four times
                 // an instant made 3 % of W0's CPU, and two of the four only checked this.)
-                Water::check(outlet_c, pressure_pa)?;
-                Water::check(inlet_c, pressure_pa)?;
-                let mean = Water::at_pressure(0.5 * (outlet_c + inlet_c), pressure_pa)?;
-                let metered = match flow_meter {
-                    FlowMeter::Inlet => inlet_c,
-                    FlowMeter::Outlet => outlet_c,
-                };
-                let rho = Water::at_pressure(metered, pressure_pa)?.density_kg_per_l();
-                Ok(mean.specific_heat_j_per_kg_k * rho)
+                mixed_heat_per_litre(flow_meter, pressure_pa, (outlet_c, inlet_c), |theta| {
+                    Water::at_pressure(theta, pressure_pa)
+                })
             }
         }
     }
+
+    /// [`WaterModel::heat_per_litre_j_per_k`] instant after instant, IF97's water
+    /// remembered by temperature ([`WaterMemo`]: the same bits).
+    fn per_instant(self) -> impl FnMut(f64, f64) -> Result<f64, NetworkError> {
+        let mut memo = match self {
+            WaterModel::AtTemperature { pressure_pa, .. } => Some(WaterMemo::new(pressure_pa)),
+            WaterModel::Constant { .. } => None,
+        };
+        move |outlet_c, inlet_c| match (self, memo.as_mut()) {
+            (
+                WaterModel::AtTemperature {
+                    flow_meter,
+                    pressure_pa,
+                },
+                Some(memo),
+            ) => mixed_heat_per_litre(flow_meter, pressure_pa, (outlet_c, inlet_c), |theta| {
+                memo.at(theta)
+            }),
+            _ => self.heat_per_litre_j_per_k(outlet_c, inlet_c),
+        }
+    }
+}
+
+/// c_p at the mean of inlet and outlet times ρ at the flow meter, IF97's water at
+/// `pressure_pa` from `at`.
+fn mixed_heat_per_litre(
+    flow_meter: FlowMeter,
+    pressure_pa: f64,
+    (outlet_c, inlet_c): (f64, f64),
+    mut at: impl FnMut(f64) -> Result<Water, WaterError>,
+) -> Result<f64, NetworkError> {
+    // Both ends must be liquid water for the mean c_p to stand for the enthalpy rise.
+    // (Only checked: evaluated, as they were, IF97's 34 terms four times an instant made
+    // 3 % of W0's CPU, and two of the four only checked this.)
+    Water::check(outlet_c, pressure_pa)?;
+    Water::check(inlet_c, pressure_pa)?;
+    let mean = at(0.5 * (outlet_c + inlet_c))?;
+    let metered = match flow_meter {
+        FlowMeter::Inlet => inlet_c,
+        FlowMeter::Outlet => outlet_c,
+    };
+    let rho = at(metered)?.density_kg_per_l();
+    Ok(mean.specific_heat_j_per_kg_k * rho)
 }
 
 /// The heat the cooling water carries away on the grid (eq. 17), and per unit of S_n (eq. 18).
@@ -159,11 +196,12 @@ where
     }
     let mut watts = Series::unknown(len);
     let mut instants_out_of_range = 0;
+    let mut heat_per_litre = water.per_instant();
     for (k, ((out, inl), q)) in outlet.zip(inlet).zip(flow).enumerate() {
         let (Some(out), Some(inl), Some(q)) = (out, inl, q) else {
             continue;
         };
-        match water.heat_per_litre_j_per_k(out, inl) {
+        match heat_per_litre(out, inl) {
             Ok(c_rho) => watts.set(k, Some(heat_flow_w(c_rho, out - inl, q))),
             Err(NetworkError::Water(WaterError::OutOfRange { .. })) => instants_out_of_range += 1,
             Err(e) => return Err(e),

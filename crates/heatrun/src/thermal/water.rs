@@ -121,6 +121,50 @@ impl Water {
     }
 }
 
+/// Water at one pressure, each temperature computed once: a heat run's water temperatures
+/// are stored to a resolution (0.01 K, 0.1 K), so most instants repeat a temperature seen
+/// before, and a repeat costs a lookup instead of IF97's 34 terms. The value is the one
+/// computed, so the same bits as [`Water::at_pressure`]. Direct-mapped: a slot keeps the
+/// last temperature that fell in it.
+#[derive(Debug, Clone)]
+pub struct WaterMemo {
+    pressure_pa: f64,
+    /// (°C as bits, its water); a NaN's bits where empty (a NaN is never looked up: it is
+    /// outside 0–100 °C).
+    slots: Box<[(u64, Water)]>,
+}
+
+/// log2 of [`WaterMemo`]'s slots: 4,096 (96 kB) hold a run's distinct temperatures at
+/// 0.01 K over 40 K.
+const MEMO_BITS: u32 = 12;
+
+impl WaterMemo {
+    /// An empty memo of water at `pressure_pa`.
+    pub fn new(pressure_pa: f64) -> WaterMemo {
+        let empty = Water {
+            specific_heat_j_per_kg_k: f64::NAN,
+            density_kg_per_m3: f64::NAN,
+        };
+        WaterMemo {
+            pressure_pa,
+            slots: vec![(f64::NAN.to_bits(), empty); 1 << MEMO_BITS].into_boxed_slice(),
+        }
+    }
+
+    /// [`Water::at_pressure`] at `theta_c` and the memo's pressure.
+    pub fn at(&mut self, theta_c: f64) -> Result<Water, WaterError> {
+        Water::check(theta_c, self.pressure_pa)?;
+        let key = theta_c.to_bits();
+        // Fibonacci hashing: the top bits of the key times 2^64/φ.
+        let slot =
+            &mut self.slots[(key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - MEMO_BITS)) as usize];
+        if slot.0 != key {
+            *slot = (key, region1(self.pressure_pa, theta_c + 273.15));
+        }
+        Ok(slot.1)
+    }
+}
+
 /// The lowest exponent of (7.1 − π) the terms of γ_π and γ_ττ take (I − 1 of I = 0),
 /// and how many exponents from it to the highest (I = 32).
 const X_LOWEST: i32 = -1;
@@ -153,15 +197,34 @@ const fn exponents_used<const N: usize>(column: usize, less: i32, lowest: i32) -
     used
 }
 
-/// `base` to each used power from `lowest` on (0 where unused), each by `powi` as the
-/// terms took it one by one: the same bits, each power taken once where the 34 terms
-/// took 136 (22 and 36 distinct; IF97 was 3 % of W0's replay, evaluated twice an instant
-/// by the calorimetric balance).
+/// `base` to each used power from `lowest` on (0 where unused), with `powi`'s bits: its
+/// algorithm (compiler-builtins' `__powidf2`) multiplies 1 by base^(2^k) for each set bit
+/// k of |e|, lowest first, the squares made by squaring in turn, then takes the reciprocal
+/// for e < 0. The squares are made once here for every power, and each power is the same
+/// products in the same order, without a call per power (IF97 was 3 % of W0's replay,
+/// evaluated twice an instant by the calorimetric balance).
 fn powers<const N: usize>(base: f64, lowest: i32, used: &[bool; N]) -> [f64; N] {
+    let mut squares = [base; 7];
+    for k in 1..squares.len() {
+        squares[k] = squares[k - 1] * squares[k - 1];
+    }
     let mut power = [0.0; N];
     for (e, (p, &u)) in power.iter_mut().zip(used).enumerate() {
         if u {
-            *p = base.powi(lowest + e as i32);
+            let e = lowest + e as i32;
+            let mut bits = e.unsigned_abs();
+            debug_assert!(bits < 1 << squares.len());
+            let mut product = 1.0;
+            for square in squares {
+                if bits & 1 != 0 {
+                    product *= square;
+                }
+                bits >>= 1;
+                if bits == 0 {
+                    break;
+                }
+            }
+            *p = if e < 0 { 1.0 / product } else { product };
         }
     }
     power
@@ -196,6 +259,25 @@ mod tests {
         (a - b).abs() / b.abs()
     }
 
+    /// Every power from −43 to 20, of bases near IF97's and far from them, has `powi`'s
+    /// bits.
+    #[test]
+    fn powers_from_shared_squares_have_powis_bits() {
+        const SPAN: usize = 64;
+        let every = [true; SPAN];
+        let mut base = 0.013_f64;
+        while base < 40.0 {
+            for b in [base, -base] {
+                let p = powers(b, -43, &every);
+                for (i, &v) in p.iter().enumerate() {
+                    let e = -43 + i as i32;
+                    assert_eq!(v.to_bits(), b.powi(e).to_bits(), "{b}^{e}");
+                }
+            }
+            base *= 1.0137;
+        }
+    }
+
     /// Each power taken once gives the bits each term's own `powi` gave, from 0 to 100 °C
     /// at pressures from 0.1 to 100 MPa.
     #[test]
@@ -220,6 +302,27 @@ mod tests {
                 assert_eq!(region1(p_pa, t_k), by_term(p_pa, t_k), "{p_pa} Pa, {t_k} K");
             }
         }
+    }
+
+    /// The memo gives [`Water::at_pressure`]'s bits and errors, whether a temperature is
+    /// new, repeated, or has evicted another from its slot.
+    #[test]
+    fn the_memo_gives_the_computed_water() {
+        let mut memo = WaterMemo::new(3e6);
+        for round in 0..3 {
+            for step in (0..=10_000).rev().step_by(7 + round) {
+                let theta = 0.01 * f64::from(step);
+                assert_eq!(memo.at(theta), Water::at_pressure(theta, 3e6), "{theta} °C");
+            }
+        }
+        for theta in [-0.5, 100.5, f64::NAN] {
+            // As text: a NaN in the error is not equal to itself.
+            assert_eq!(
+                format!("{:?}", memo.at(theta)),
+                format!("{:?}", Water::at_pressure(theta, 3e6))
+            );
+        }
+        assert!(WaterMemo::new(0.0).at(20.0).is_err());
     }
 
     #[test]
