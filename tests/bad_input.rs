@@ -469,9 +469,11 @@ fn an_output_that_would_replace_an_input_or_another_output_is_refused() {
     std::fs::create_dir_all(dir.path().join("b")).unwrap();
     std::fs::copy(&fixture, dir.path().join("a/unit.mcap")).unwrap();
     std::fs::copy(&fixture, dir.path().join("b/unit.mcap")).unwrap();
-    let before = common::files_in(dir.path());
     let recording = std::fs::read(&fixture).unwrap();
-    let cases: [(&[&str], &str); 5] = [
+    std::fs::write(dir.path().join("map.toml"), "time_column = \"t\"\n").unwrap();
+    let map = std::fs::read(dir.path().join("map.toml")).unwrap();
+    let before = common::files_in(dir.path());
+    let cases: [(&[&str], &str); 6] = [
         (
             &["replay", "run.mcap", "--rrd", "./run.mcap"],
             "--rrd ./run.mcap is the recording run.mcap",
@@ -492,6 +494,12 @@ fn an_output_that_would_replace_an_input_or_another_output_is_refused() {
             &["rating", "--model", "run.mcap", "--json", "run.mcap"],
             "--json run.mcap is --model run.mcap",
         ),
+        (
+            &[
+                "import", "run.rrd", "--map", "map.toml", "--out", "map.toml",
+            ],
+            "--out map.toml is --map map.toml",
+        ),
     ];
     for (args, expected) in cases {
         let line = one_line_exit_2(args, dir.path());
@@ -504,5 +512,6 @@ fn an_output_that_would_replace_an_input_or_another_output_is_refused() {
                 "{input} untouched"
             );
         }
+        assert_eq!(std::fs::read(dir.path().join("map.toml")).unwrap(), map);
     }
 }

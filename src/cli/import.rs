@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use super::outputs::{distinct, NamedFile};
 use super::Usage;
 
 /// Arguments of `heatrun import`.
@@ -57,6 +58,13 @@ impl TryFrom<ImportArgs> for Import {
                 "give the map with --map MAP.toml and the output with --out OUT.mcap (--guess prints a starting map)".into(),
             ));
         };
+        distinct(
+            &[
+                NamedFile::new("the table", &args.input),
+                NamedFile::new("--map", &map),
+            ],
+            &[NamedFile::new("--out", &out)],
+        )?;
         Ok(Import::Convert {
             input: args.input,
             map,
