@@ -515,3 +515,31 @@ fn an_output_that_would_replace_an_input_or_another_output_is_refused() {
         assert_eq!(std::fs::read(dir.path().join("map.toml")).unwrap(), map);
     }
 }
+
+/// An .rrd whose folder is missing fails before the replay runs, in one line naming the
+/// .rrd as given (rerun's sink named the temporary `.x.rrd.partial`), with the exit status
+/// of an output that cannot be written (1).
+#[test]
+fn an_rrd_into_a_missing_folder_is_named_by_its_own_path() {
+    let dir = common::tempdir();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let out = heatrun(
+        &[
+            "replay",
+            fixture.to_str().unwrap(),
+            "--rrd",
+            "missing/run.rrd",
+            "--report",
+            "run.json",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+    assert!(
+        stderr.starts_with("heatrun: missing/run.rrd: cannot write:"),
+        "{stderr}"
+    );
+    assert!(common::files_in(dir.path()).is_empty(), "nothing written");
+}

@@ -126,6 +126,9 @@ impl Publisher {
         Ok(match sink {
             RerunSink::Rrd(path) => {
                 let pending = PendingOutput::new(path);
+                // A missing folder is named by the .rrd's own path, not the temporary one
+                // rerun's sink would name.
+                pending.made()?;
                 let rec = builder.save(pending.path()).map_err(publish_err)?;
                 Publisher {
                     rec: PacedStream::new(rec),

@@ -61,6 +61,16 @@ impl PendingOutput {
         }
     }
 
+    /// Whether the temporary file could be made: the error, naming the destination (not
+    /// the temporary name), where its folder is missing or cannot take a file. For a
+    /// caller whose writer would report the temporary name (rerun's file sink).
+    pub fn made(&self) -> Result<()> {
+        match &self.temporary {
+            Ok(_) => Ok(()),
+            Err(e) => Err(write_error(&self.destination, e)),
+        }
+    }
+
     /// The temporary file to write.
     pub fn path(&self) -> &Path {
         &self.path
@@ -198,6 +208,20 @@ mod tests {
         pending.commit().unwrap();
         assert_eq!(std::fs::read_to_string(&out).unwrap(), "new");
         assert_eq!(names_in(dir.path()), ["report.json"]);
+    }
+
+    #[test]
+    fn a_missing_folder_is_named_by_the_destination_before_anything_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("missing").join("run.rrd");
+        let e = PendingOutput::new(&out).made().unwrap_err();
+        assert_eq!(e.path, out);
+        assert!(e
+            .to_string()
+            .starts_with(&format!("{}: cannot write:", out.display())));
+        assert!(PendingOutput::new(&dir.path().join("run.rrd"))
+            .made()
+            .is_ok());
     }
 
     #[test]
