@@ -658,10 +658,20 @@ impl Report {
             let text = crate::store::read_to_string(&location)?;
             return Report::from_json(&text, path);
         }
-        let text = std::fs::read_to_string(path).map_err(|source| UseError::Read {
+        let bytes = std::fs::read(path).map_err(|source| UseError::Read {
             path: path.to_owned(),
             source,
         })?;
+        // A recording given for its report (`--model run.mcap`) is named as such, not as
+        // text that is not UTF-8.
+        let not_text = |message: &str| UseError::NotAReport {
+            path: path.to_owned(),
+            message: message.into(),
+        };
+        if bytes.starts_with(mcap::MAGIC) {
+            return Err(not_text("it is an MCAP recording, not the report of one"));
+        }
+        let text = String::from_utf8(bytes).map_err(|_| not_text("it is not text (JSON)"))?;
         Report::from_json(&text, path)
     }
 

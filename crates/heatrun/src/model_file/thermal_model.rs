@@ -632,4 +632,27 @@ mod tests {
             "{unknown}"
         );
     }
+
+    /// A recording or any file that is not text, given for the report, is named as such
+    /// in one line (it was "stream did not contain valid UTF-8").
+    #[test]
+    fn a_recording_or_a_binary_file_is_not_taken_for_a_report() {
+        let dir = tempfile::tempdir().unwrap();
+        let recording = dir.path().join("run.mcap");
+        let mut bytes = mcap::MAGIC.to_vec();
+        bytes.extend([0xff, 0x00, 0x10]);
+        std::fs::write(&recording, &bytes).unwrap();
+        let binary = dir.path().join("model.bin");
+        std::fs::write(&binary, [0x7b, 0xff, 0xfe, 0x00]).unwrap();
+        for (path, why) in [
+            (&recording, "it is an MCAP recording, not the report of one"),
+            (&binary, "it is not text (JSON)"),
+        ] {
+            let message = Report::read(path).unwrap_err().to_string();
+            assert_eq!(
+                message,
+                format!("{}: not a heatrun model report: {why}", path.display())
+            );
+        }
+    }
 }
