@@ -106,11 +106,19 @@ fn the_fouled_unit_is_named_and_no_healthy_one() {
 fn too_few_reports_or_a_file_that_is_none_are_bad_input() {
     let dir = common::tempdir();
     std::fs::write(dir.path().join("notes.json"), "{\"hello\": 1}").unwrap();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    std::fs::copy(&fixture, dir.path().join("run.mcap")).unwrap();
     for (args, names) in [
         (vec!["fleet", "compare", "notes.json"], "notes.json"),
         (
             vec!["fleet", "compare", "a.json", "b.json", "c.json", "d.json"],
             "a.json",
+        ),
+        (
+            vec![
+                "fleet", "compare", "run.mcap", "run.mcap", "run.mcap", "run.mcap",
+            ],
+            "run.mcap: not a heatrun model report: it is an MCAP recording",
         ),
     ] {
         let out = common::heatrun(&args, dir.path());

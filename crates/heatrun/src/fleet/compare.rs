@@ -239,10 +239,7 @@ struct FitBlock {
 
 /// Reads one unit's report; `label` is its path as given (what the outputs name it by).
 pub fn read_unit(path: &Path, label: &str) -> Result<Unit, CompareError> {
-    let text = std::fs::read_to_string(path).map_err(|source| UseError::Read {
-        path: path.to_owned(),
-        source,
-    })?;
+    let text = crate::model_file::document::read_report_text(path)?;
     unit_from_json(&text, path, label)
 }
 
