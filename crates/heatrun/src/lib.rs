@@ -85,6 +85,7 @@ pub mod spec;
 pub mod store;
 pub mod synth;
 pub mod thermal;
+mod toml_message;
 pub mod warnings;
 pub mod writer;
 

@@ -287,7 +287,7 @@ impl NameplateEntries {
         };
         let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
         let file: MachineFile =
-            toml::from_str(&text).map_err(|e: toml::de::Error| bad(e.message().to_owned()))?;
+            toml::from_str(&text).map_err(|e| bad(crate::toml_message::located(&text, &e)))?;
         let table = toml::Table::try_from(&file).map_err(|e| bad(e.to_string()))?;
         let source = path.display().to_string();
         let entries = table

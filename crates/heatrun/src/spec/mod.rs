@@ -346,7 +346,7 @@ impl ModelDescription {
     /// Parses a TOML spec.
     pub fn from_toml(text: &str) -> Result<ModelDescription, SpecError> {
         let file: SpecFile = toml::from_str(text).map_err(|e| SpecError::Syntax {
-            message: e.to_string().replace('\n', " ").trim().to_owned(),
+            message: crate::toml_message::located(text, &e),
         })?;
         file.into_description()
     }
