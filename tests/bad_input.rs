@@ -516,30 +516,39 @@ fn an_output_that_would_replace_an_input_or_another_output_is_refused() {
     }
 }
 
-/// An .rrd whose folder is missing fails before the replay runs, in one line naming the
-/// .rrd as given (rerun's sink named the temporary `.x.rrd.partial`), with the exit status
-/// of an output that cannot be written (1).
+/// An output whose folder is missing fails before the replay runs, in one line naming
+/// the output as given (rerun's sink named the temporary `.x.rrd.partial`; the report's
+/// folder was found missing only after the replay, the .rrd written), with the exit
+/// status of an output that cannot be written (1).
 #[test]
-fn an_rrd_into_a_missing_folder_is_named_by_its_own_path() {
+fn an_output_into_a_missing_folder_is_named_by_its_own_path_before_the_replay() {
     let dir = common::tempdir();
     let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
-    let out = heatrun(
-        &[
-            "replay",
-            fixture.to_str().unwrap(),
-            "--rrd",
+    let fixture = fixture.to_str().unwrap();
+    for (args, named) in [
+        (
+            ["--rrd", "missing/run.rrd", "--report", "run.json"],
             "missing/run.rrd",
-            "--report",
-            "run.json",
-        ],
-        dir.path(),
-    );
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
-    assert!(
-        stderr.starts_with("heatrun: missing/run.rrd: cannot write:"),
-        "{stderr}"
-    );
-    assert!(common::files_in(dir.path()).is_empty(), "nothing written");
+        ),
+        (
+            ["--rrd", "run.rrd", "--report", "missing/run.json"],
+            "missing/run.json",
+        ),
+        (
+            ["--rrd", "run.rrd", "--html", "missing/run.html"],
+            "missing/run.html",
+        ),
+    ] {
+        let mut line = vec!["replay", fixture];
+        line.extend(args);
+        let out = heatrun(&line, dir.path());
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+        assert!(
+            stderr.starts_with(&format!("heatrun: {named}: cannot write:")),
+            "{stderr}"
+        );
+        assert!(common::files_in(dir.path()).is_empty(), "nothing written");
+    }
 }

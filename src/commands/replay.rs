@@ -111,6 +111,13 @@ pub fn replay_one(
         .unwrap_or_default();
     // Outputs named by URLs are written here complete, then uploaded whole.
     let mut staging = Staging::default();
+    // The report and the page are written after the replay: a folder that is not there
+    // is said now, not after a week's replay.
+    for path in [outputs.report, outputs.html].into_iter().flatten() {
+        if !heatrun::store::Location::from_path(path)?.is_remote() {
+            heatrun::atomic::folder_exists(path)?;
+        }
+    }
     let sink = match sink {
         RerunSink::Rrd(path) => RerunSink::Rrd(staging.local(path)?),
         other => other.clone(),

@@ -130,6 +130,20 @@ impl PendingOutput {
     }
 }
 
+/// Whether `destination` can be written where it is: its folder exists and is a folder.
+/// For outputs written only at the end of a long run (a replay's report and page), so
+/// that a mistyped folder is found before the run rather than after it.
+pub fn folder_exists(destination: &Path) -> Result<()> {
+    let folder = folder_of(destination);
+    if folder.is_dir() {
+        return Ok(());
+    }
+    Err(WriteError::new(
+        destination,
+        format!("the folder {} does not exist", folder.display()),
+    ))
+}
+
 /// Writes `bytes` to `destination` atomically.
 pub fn write_atomically(destination: &Path, bytes: &[u8]) -> Result<()> {
     let mut file = temporary_file(destination).map_err(|e| write_error(destination, &e))?;
@@ -222,6 +236,28 @@ mod tests {
         assert!(PendingOutput::new(&dir.path().join("run.rrd"))
             .made()
             .is_ok());
+    }
+
+    #[test]
+    fn an_output_in_a_missing_folder_is_found_before_it_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("missing").join("report.json");
+        let e = folder_exists(&missing).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{}: cannot write: the folder {} does not exist",
+                missing.display(),
+                dir.path().join("missing").display()
+            )
+        );
+        std::fs::write(dir.path().join("file"), "").unwrap();
+        assert!(folder_exists(&dir.path().join("file").join("x.json")).is_err());
+        assert!(folder_exists(&dir.path().join("report.json")).is_ok());
+        assert!(
+            folder_exists(Path::new("report.json")).is_ok(),
+            "the current folder"
+        );
     }
 
     #[test]
