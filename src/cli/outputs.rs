@@ -30,12 +30,12 @@ impl<'a> NamedFile<'a> {
 }
 
 /// Refuses (a [`Usage`] error, exit status 2) an output that is one of the inputs, or
-/// that another output also names. Paths name the same file when they reach the same
-/// inode (a hard or symbolic link, `./x` and `x`), or, for a file not yet there, the
-/// same name in the same folder.
+/// that another output also names: the same name in the same folder, the folder taken
+/// with its links followed (`./x` and `x`; `out/x` and `link-to-out/x`), and for an input
+/// reached through symbolic links, the file they lead to.
 pub fn distinct(reads: &[NamedFile<'_>], writes: &[NamedFile<'_>]) -> Result<(), Usage> {
     for (i, output) in writes.iter().enumerate() {
-        if let Some(input) = reads.iter().find(|r| same_file(r.path, output.path)) {
+        if let Some(input) = reads.iter().find(|r| is_replaced_by(r.path, output.path)) {
             return Err(Usage(format!(
                 "{} {} is {} {}: writing it would replace the input; name another file",
                 output.what,
@@ -44,7 +44,7 @@ pub fn distinct(reads: &[NamedFile<'_>], writes: &[NamedFile<'_>]) -> Result<(),
                 input.path.display()
             )));
         }
-        if let Some(earlier) = writes[..i].iter().find(|w| same_file(w.path, output.path)) {
+        if let Some(earlier) = writes[..i].iter().find(|w| same_place(w.path, output.path)) {
             return Err(Usage(format!(
                 "{} and {} both name {}: one would replace the other; give each output its \
                  own name",
@@ -57,24 +57,18 @@ pub fn distinct(reads: &[NamedFile<'_>], writes: &[NamedFile<'_>]) -> Result<(),
     Ok(())
 }
 
-/// Whether `a` and `b` name one file: for two that exist, the same device and inode;
-/// else the same name in the same (canonical) folder.
-fn same_file(a: &Path, b: &Path) -> bool {
-    if let (Ok(a), Ok(b)) = (std::fs::metadata(a), std::fs::metadata(b)) {
-        return same_inode(&a, &b);
-    }
+/// Whether writing `output` replaces the file `input` reads. The rename replaces the
+/// directory entry `output` names: the input's own entry, or the file it leads to
+/// through symbolic links. (Another hard link to the input, or a symbolic link to it, is
+/// an entry of its own: replaced, it leaves the input as it was.)
+fn is_replaced_by(input: &Path, output: &Path) -> bool {
+    let entry = place(output);
+    entry == place(input) || std::fs::canonicalize(input).is_ok_and(|file| file == entry)
+}
+
+/// Whether two outputs name one directory entry.
+fn same_place(a: &Path, b: &Path) -> bool {
     place(a) == place(b)
-}
-
-#[cfg(unix)]
-fn same_inode(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
-    use std::os::unix::fs::MetadataExt as _;
-    a.dev() == b.dev() && a.ino() == b.ino()
-}
-
-#[cfg(not(unix))]
-fn same_inode(_: &std::fs::Metadata, _: &std::fs::Metadata) -> bool {
-    false
 }
 
 /// Where a path names a file: its folder made canonical, joined with its name; as given
@@ -102,11 +96,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let recording = dir.path().join("run.mcap");
         std::fs::write(&recording, "recording").unwrap();
-        let linked = dir.path().join("linked.mcap");
-        std::fs::hard_link(&recording, &linked).unwrap();
         let dotted = dir.path().join(".").join("run.mcap");
         let reads = [NamedFile::new("the recording", &recording)];
-        for path in [&recording, &linked, &dotted] {
+        for path in [&recording, &dotted] {
             let e = distinct(&reads, &[NamedFile::new("--rrd", path)]).unwrap_err();
             assert!(
                 e.0.starts_with(&format!("--rrd {} is the recording", path.display()))
@@ -117,6 +109,27 @@ mod tests {
         }
         let other = dir.path().join("run.rrd");
         assert!(distinct(&reads, &[NamedFile::new("--rrd", &other)]).is_ok());
+        // A hard link is an entry of its own: replaced, it leaves the recording as it was.
+        let linked = dir.path().join("linked.mcap");
+        std::fs::hard_link(&recording, &linked).unwrap();
+        assert!(distinct(&reads, &[NamedFile::new("--rrd", &linked)]).is_ok());
+        #[cfg(unix)]
+        {
+            // So is a symbolic link to it; but a recording read through a link is
+            // replaced by writing the file the link leads to, and the link itself.
+            let link = dir.path().join("link.mcap");
+            std::os::unix::fs::symlink(&recording, &link).unwrap();
+            assert!(distinct(&reads, &[NamedFile::new("--rrd", &link)]).is_ok());
+            let through_link = [NamedFile::new("the recording", &link)];
+            for output in [&recording, &link] {
+                assert!(distinct(&through_link, &[NamedFile::new("--rrd", output)]).is_err());
+            }
+            // A folder reached through a link is the folder.
+            let folder_link = dir.path().join("here");
+            std::os::unix::fs::symlink(dir.path(), &folder_link).unwrap();
+            let via = folder_link.join("run.mcap");
+            assert!(distinct(&reads, &[NamedFile::new("--rrd", &via)]).is_err());
+        }
     }
 
     #[test]
@@ -148,8 +161,8 @@ mod tests {
     fn paths_in_folders_that_do_not_exist_compare_as_written() {
         let a = Path::new("/no/such/folder/x.rrd");
         let b = Path::new("s3://bucket/out/x.rrd");
-        assert!(same_file(a, a) && same_file(b, b));
-        assert!(!same_file(a, b));
-        assert!(!same_file(b, Path::new("s3://bucket/out/y.rrd")));
+        assert!(same_place(a, a) && same_place(b, b) && is_replaced_by(b, b));
+        assert!(!same_place(a, b) && !is_replaced_by(a, b));
+        assert!(!same_place(b, Path::new("s3://bucket/out/y.rrd")));
     }
 }
