@@ -888,7 +888,7 @@ fn median_spacing(points: &[Point]) -> f64 {
 ///
 /// The channel's span is cut into stretches of M windows that hold about
 /// [`DENSITY_SAMPLES`] samples each; its rate is the lower quartile of the non-empty
-/// stretches' counts (so a doubled stretch of up to three quarters of the span does not
+/// stretches' counts but the first and the last, which the span may cover in part (so a doubled stretch of up to three quarters of the span does not
 /// move it, nor do gaps); a run of stretches each holding [`DENSE_FACTOR`] times that,
 /// together longer than [`CLOCK_JUMP_MIN_S`], is the jump's overlap. The counts do not
 /// depend on the order the samples came in. A channel stored twice throughout (every
@@ -911,9 +911,16 @@ fn clock_jump(ts_ns: i64, windows: &[(i64, Window)]) -> Option<ClockJump> {
             *c += w.count as u64;
         }
     }
-    let mut occupied: Vec<u64> = counts.iter().copied().filter(|c| *c > 0).collect();
+    // The first and the last stretch hold only the part of them the span covers (on a
+    // grid of hours, a 5.8 h run's first window held its half hour): their counts do
+    // not say the rate, and as its quartile they made every full stretch look doubled.
+    let mut occupied: Vec<u64> = counts[1..stretches - 1]
+        .iter()
+        .copied()
+        .filter(|c| *c > 0)
+        .collect();
     occupied.sort_unstable();
-    let rate = occupied[occupied.len() / 4] as f64;
+    let rate = *occupied.get(occupied.len() / 4)? as f64;
     let dense = |c: u64| c as f64 >= DENSE_FACTOR * rate;
     let (mut best, mut run_start) = (None::<(usize, usize)>, None::<usize>);
     for (s, &c) in counts.iter().enumerate().chain([(stretches, &0)]) {
@@ -1445,6 +1452,18 @@ mod tests {
         assert!(run(&twice, Storage::Sampled).is_ok());
         // A jump of 30 s: too short to tell from a recorder's buffering.
         assert!(run(&jumped(3000, 2000, 30), Storage::Sampled).is_ok());
+        // A clean 1 Hz channel of 5.8 h on a grid of hours: its first and last windows
+        // hold the half hours the run covers of them, and are not the rate (every full
+        // hour was taken for a doubled one).
+        let alignments = crate::spec::ModelDescription::generator().alignments();
+        for ts_s in [600.0, 1800.0, 3600.0] {
+            let mut d = Decimator::new(ts_s, alignments.clone()).unwrap();
+            d.channel(&chans[0]);
+            for t in 0..20_869u64 {
+                d.sample(sample(0, (21_600 + t) * S, 1.0));
+            }
+            assert!(d.finish(&chans).is_ok(), "Ts {ts_s} s");
+        }
         // A 100 Hz channel jumping back 2 minutes.
         let fast: Vec<Sample> = (0..300_000u64)
             .map(|i| {
