@@ -294,3 +294,32 @@ fn a_held_network_the_coarse_grid_left_short_is_refitted_at_the_full_rate() {
         }
     }
 }
+
+/// `--field-state` on the paper's three-part machine (its U_f/I_f moves with the other
+/// parts): one line that names the flag and says the data hold no fourth state, exit 2,
+/// nothing written; it blamed the inputs ("not persistently exciting … replay a heat run").
+#[test]
+fn a_machine_without_a_fourth_state_is_told_to_replay_without_the_flag() {
+    let dir = common::tempdir();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    let out = heatrun(
+        &[
+            "replay",
+            fixture.to_str().unwrap(),
+            "--field-state",
+            "--rrd",
+            "run.rrd",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+    assert!(
+        stderr.contains("--field-state: the field winding's rise")
+            && stderr.contains("no fourth state")
+            && stderr.trim_end().ends_with("replay without --field-state"),
+        "{stderr}"
+    );
+    assert!(common::files_in(dir.path()).is_empty(), "nothing written");
+}

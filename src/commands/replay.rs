@@ -126,11 +126,13 @@ pub fn replay_one(
     // The publisher sends each stage's series while the next stage runs.
     let found = if replay.raw {
         let mut full_rate = publisher.full_rate();
-        let found = pipeline::replay_observed(file, &options, Some(&mut full_rate), &publisher)?;
+        let found = pipeline::replay_observed(file, &options, Some(&mut full_rate), &publisher)
+            .map_err(|e| no_fourth_state(e, &options))?;
         full_rate.flush()?;
         found
     } else {
-        pipeline::replay_observed(file, &options, None, &publisher)?
+        pipeline::replay_observed(file, &options, None, &publisher)
+            .map_err(|e| no_fourth_state(e, &options))?
     };
     options.progress.stage("writing the outputs");
     let replayed = Replayed::new(found);
@@ -143,4 +145,36 @@ pub fn replay_one(
     }
     staging.upload()?;
     Ok(replayed)
+}
+
+/// `--field-state` on a recording whose field winding's rise moves with the other parts'
+/// (a machine of three parts, or U_f/I_f following the stator): the four states' regression
+/// is rank deficient, which the estimator says of the inputs ("not persistently
+/// exciting ... replay a heat run"), where the flag is what the data cannot carry.
+fn no_fourth_state(error: heatrun::Error, options: &ReplayOptions) -> anyhow::Error {
+    use heatrun::estimate::EstimationError;
+    let field_state = options
+        .model
+        .states
+        .iter()
+        .any(|s| s.name == heatrun::recording::Quantity::FieldWindingTemp.name());
+    let (path, inner) = match &error {
+        heatrun::Error::InRecording { path, error } => (Some(path), error.as_ref()),
+        other => (None, other),
+    };
+    match inner {
+        heatrun::Error::Estimation(EstimationError::NoExcitation {
+            method,
+            singular_value_ratio,
+        }) if field_state => super::Usage(format!(
+            "{}--field-state: the field winding's rise (its own channel, or U_f/I_f) does not \
+             move apart from the other parts' rises, so the data hold no fourth state ({method}'s \
+             regression is rank deficient, σ_min/σ_max = {singular_value_ratio:.1e}); replay \
+             without --field-state",
+            path.map(|p| format!("{}: ", p.display()))
+                .unwrap_or_default()
+        ))
+        .into(),
+        _ => error.into(),
+    }
 }
