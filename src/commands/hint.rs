@@ -32,6 +32,9 @@ pub fn one_line(err: &anyhow::Error) -> String {
 
 /// A one-line hint for an error, where the command line can mend it.
 pub fn for_error(err: &anyhow::Error) -> Option<String> {
+    if let Some(e) = err.downcast_ref::<heatrun_rerun::PublishError>() {
+        return for_viewer(e);
+    }
     let e = err.downcast_ref::<Error>()?;
     let e = match e {
         Error::InRecording { error, .. } => error.as_ref(),
@@ -47,6 +50,18 @@ pub fn for_error(err: &anyhow::Error) -> Option<String> {
         Error::Signals(e) => for_signals(e),
         other => for_replay(other),
     }
+}
+
+/// Hints for a viewer that cannot be reached: where one is started, or the file instead.
+fn for_viewer(e: &heatrun_rerun::PublishError) -> Option<String> {
+    let heatrun_rerun::PublishError::Rerun(message) = e else {
+        return None;
+    };
+    message.contains("unable to connect").then(|| {
+        "start a viewer there (`rerun` listens on rerun+http://127.0.0.1:9876/proxy), use \
+         --spawn to start one, or save the recording with --rrd FILE.rrd"
+            .into()
+    })
 }
 
 /// Hints for the recording: its channels and nameplate.
@@ -306,6 +321,23 @@ mod tests {
             closest("Power_Factor", known).as_deref(),
             Some("power_factor"),
             "a name that differs only in case"
+        );
+    }
+
+    #[test]
+    fn a_viewer_that_cannot_be_reached_gets_where_to_start_one() {
+        let unreachable: anyhow::Error = heatrun_rerun::PublishError::Rerun(
+            "gRPC has been unable to connect for 5s, uri: rerun+http://127.0.0.1:1/proxy".into(),
+        )
+        .into();
+        let hint = for_error(&unreachable).unwrap();
+        assert!(hint.contains("--spawn") && hint.contains("--rrd"), "{hint}");
+        let other: anyhow::Error =
+            heatrun_rerun::PublishError::Rerun("Invalid or missing scheme".into()).into();
+        assert_eq!(
+            for_error(&other),
+            None,
+            "the scheme's error says what to write"
         );
     }
 }
