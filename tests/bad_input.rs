@@ -552,3 +552,27 @@ fn an_output_into_a_missing_folder_is_named_by_its_own_path_before_the_replay() 
         assert!(common::files_in(dir.path()).is_empty(), "nothing written");
     }
 }
+
+/// `fleet summary` of a folder none of whose reports reads says why, in the first
+/// report's words, naming it (it said only that none could be read).
+#[test]
+fn a_fleet_summary_of_unreadable_reports_names_the_first_and_why() {
+    let dir = common::tempdir();
+    std::fs::create_dir(dir.path().join("out")).unwrap();
+    std::fs::write(
+        dir.path().join("out/unit.report.json"),
+        r#"{"profile": "heatrun-scada/1"}"#,
+    )
+    .unwrap();
+    let line = one_line_exit_2(&["fleet", "summary", "out"], dir.path());
+    assert!(
+        line.contains(
+            "out: none of its 1 reports could be read (the first: out/unit.report.json: "
+        ),
+        "{line}"
+    );
+    assert!(
+        !dir.path().join("out/fleet-summary.csv").exists(),
+        "no table"
+    );
+}

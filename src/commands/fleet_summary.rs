@@ -34,9 +34,16 @@ pub fn run(summary: &FleetSummary) -> anyhow::Result<Outcome> {
         .iter()
         .find_map(|(_, r)| r.as_ref().ok().map(|r| &r.model))
     else {
+        // Why, in the first report's words (each names its own file).
+        let first = read
+            .iter()
+            .find_map(|(_, r)| r.as_ref().err())
+            .map(|why| format!(" (the first: {why})"))
+            .unwrap_or_default();
         return Err(Usage(format!(
-            "{}: no report there could be read",
-            summary.reports
+            "{}: none of its {} reports could be read{first}",
+            summary.reports,
+            read.len()
         ))
         .into());
     };
