@@ -239,7 +239,7 @@ struct FitBlock {
 
 /// Reads one unit's report; `label` is its path as given (what the outputs name it by).
 pub fn read_unit(path: &Path, label: &str) -> Result<Unit, CompareError> {
-    let text = crate::model_file::document::read_report_text(path)?;
+    let text = Report::read_text(path)?;
     unit_from_json(&text, path, label)
 }
 

@@ -305,32 +305,15 @@ impl SensitivityModel {
             for (j, u) in u.iter_mut().enumerate() {
                 *u = data.inputs[(k - 1, j)];
             }
-            // s ← Φ s + ∂Φ/∂T_i y + ∂Γ/∂T_i u, then y ← Φ y + Γ u (old y in both). The
-            // first product starts each sum: 0 + (−0) would not keep a negative zero.
+            // s ← Φ s + ∂Φ/∂T_i y + ∂Γ/∂T_i u, then y ← Φ y + Γ u (old y in both).
             let s_next: [f64; N] = std::array::from_fn(|c| {
-                let phi = &phi[c * N..][..N];
-                let mut acc = phi[0] * s[0];
-                for l in 1..N {
-                    acc += phi[l] * s[l];
-                }
-                for (d, y) in d_phi[c * N..][..N].iter().zip(&y) {
-                    acc += d * y;
-                }
-                for (d, u) in d_gamma[c * m..][..m].iter().zip(&u) {
-                    acc += d * u;
-                }
-                acc
+                let acc = row_times(&phi[c * N..][..N], &s);
+                let acc = plus_row_times(acc, &d_phi[c * N..][..N], &y);
+                plus_row_times(acc, &d_gamma[c * m..][..m], &u)
             });
             let y_next: [f64; N] = std::array::from_fn(|c| {
-                let phi = &phi[c * N..][..N];
-                let mut acc = phi[0] * y[0];
-                for l in 1..N {
-                    acc += phi[l] * y[l];
-                }
-                for (g, u) in gamma[c * m..][..m].iter().zip(&u) {
-                    acc += g * u;
-                }
-                acc
+                let acc = row_times(&phi[c * N..][..N], &y);
+                plus_row_times(acc, &gamma[c * m..][..m], &u)
             });
             (s, y) = (s_next, y_next);
             visit(k, &s.map(|v| v * t));
@@ -372,6 +355,26 @@ impl SensitivityModel {
             visit(k, rel.as_slice());
         }
     }
+}
+
+/// Σ_l row_l·x_l, in order from l = 0, as nalgebra's `gemv` with β = 0 sums it: started
+/// from the first product, since 0 + (−0) would not keep a negative zero.
+#[inline(always)]
+fn row_times<const N: usize>(row: &[f64], x: &[f64; N]) -> f64 {
+    let mut acc = row[0] * x[0];
+    for l in 1..N {
+        acc += row[l] * x[l];
+    }
+    acc
+}
+
+/// `acc` + Σ_l row_l·x_l, each product added in order, as `gemv` with β = 1 adds them.
+#[inline(always)]
+fn plus_row_times(mut acc: f64, row: &[f64], x: &[f64]) -> f64 {
+    for (r, x) in row.iter().zip(x) {
+        acc += r * x;
+    }
+    acc
 }
 
 /// Computes the sensitivity responses over the simulation segments of `data` and their

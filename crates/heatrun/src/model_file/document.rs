@@ -649,24 +649,6 @@ enum Tag {
     Other(IgnoredAny),
 }
 
-/// The text of a local report file. A recording given for its report (`--model
-/// run.mcap`) or any file that is not text is named as such, not as text that is not
-/// UTF-8.
-pub(crate) fn read_report_text(path: &Path) -> Result<String, UseError> {
-    let bytes = std::fs::read(path).map_err(|source| UseError::Read {
-        path: path.to_owned(),
-        source,
-    })?;
-    let not_text = |message: &str| UseError::NotAReport {
-        path: path.to_owned(),
-        message: message.into(),
-    };
-    if bytes.starts_with(mcap::MAGIC) {
-        return Err(not_text("it is an MCAP recording, not the report of one"));
-    }
-    String::from_utf8(bytes).map_err(|_| not_text("it is not text (JSON)"))
-}
-
 impl Report {
     /// Reads a report (`heatrun replay --report`).
     pub fn read(path: &Path) -> Result<Report, UseError> {
@@ -676,7 +658,25 @@ impl Report {
             let text = crate::store::read_to_string(&location)?;
             return Report::from_json(&text, path);
         }
-        Report::from_json(&read_report_text(path)?, path)
+        Report::from_json(&Report::read_text(path)?, path)
+    }
+
+    /// The text of a local report file. A recording given for its report (`--model
+    /// run.mcap`) or any file that is not text is named as such, not as text that is not
+    /// UTF-8.
+    pub(crate) fn read_text(path: &Path) -> Result<String, UseError> {
+        let bytes = std::fs::read(path).map_err(|source| UseError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+        let not_text = |message: &str| UseError::NotAReport {
+            path: path.to_owned(),
+            message: message.into(),
+        };
+        if bytes.starts_with(mcap::MAGIC) {
+            return Err(not_text("it is an MCAP recording, not the report of one"));
+        }
+        String::from_utf8(bytes).map_err(|_| not_text("it is not text (JSON)"))
     }
 
     /// Parses a report's text; `path` names it in messages. The profile is checked first
