@@ -124,16 +124,15 @@ pub fn replay_one(
     };
     let publisher = Publisher::open(&sink, &name)?;
     // The publisher sends each stage's series while the next stage runs.
-    let found = if replay.raw {
-        let mut full_rate = publisher.full_rate();
-        let found = pipeline::replay_observed(file, &options, Some(&mut full_rate), &publisher)
-            .map_err(|e| no_fourth_state(e, &options))?;
+    let mut full_rate = replay.raw.then(|| publisher.full_rate());
+    let also = full_rate
+        .as_mut()
+        .map(|f| f as &mut dyn heatrun::recording::SampleSink);
+    let found = pipeline::replay_observed(file, &options, also, &publisher)
+        .map_err(|e| no_fourth_state(e, &options))?;
+    if let Some(full_rate) = full_rate.as_mut() {
         full_rate.flush()?;
-        found
-    } else {
-        pipeline::replay_observed(file, &options, None, &publisher)
-            .map_err(|e| no_fourth_state(e, &options))?
-    };
+    }
     options.progress.stage("writing the outputs");
     let replayed = Replayed::new(found);
     publisher.finish(&replayed)?;
@@ -153,11 +152,9 @@ pub fn replay_one(
 /// exciting ... replay a heat run"), where the flag is what the data cannot carry.
 fn no_fourth_state(error: heatrun::Error, options: &ReplayOptions) -> anyhow::Error {
     use heatrun::estimate::EstimationError;
-    let field_state = options
-        .model
-        .states
-        .iter()
-        .any(|s| s.name == heatrun::recording::Quantity::FieldWindingTemp.name());
+    // The model `--field-state` asks for, by its name (a spec's own is another).
+    let field_state =
+        options.model.name == heatrun::spec::ModelDescription::generator_with_field_state().name;
     let (path, inner) = match &error {
         heatrun::Error::InRecording { path, error } => (Some(path), error.as_ref()),
         other => (None, other),

@@ -6,7 +6,8 @@ use serde::Serialize;
 
 use super::NetworkError;
 use crate::series::Series;
-pub use crate::thermal::water::{Water, WaterError, WaterMemo, STANDARD_PRESSURE_PA};
+use crate::thermal::water::WaterMemo;
+pub use crate::thermal::water::{Water, WaterError, STANDARD_PRESSURE_PA};
 
 /// The heat carried away by water of `heat_per_litre_j_per_k` = c·ρ (J/(l·K)) rising
 /// `delta_k` at `flow_l_per_s`: dW_cw/dt = c·ρ·Δθ·Q in W (eq. 17).
@@ -74,35 +75,27 @@ impl WaterModel {
             WaterModel::AtTemperature {
                 flow_meter,
                 pressure_pa,
-            } => {
-                // Both ends must be liquid water for the mean c_p to stand for the enthalpy
-                // rise. (Only checked: evaluated, as they were, IF97's 34 terms four times
-                // an instant made 3 % of W0's CPU, and two of the four only checked this.)
-                mixed_heat_per_litre(flow_meter, pressure_pa, (outlet_c, inlet_c), |theta| {
-                    Water::at_pressure(theta, pressure_pa)
-                })
-            }
+            } => mixed_heat_per_litre(flow_meter, pressure_pa, (outlet_c, inlet_c), |theta| {
+                Water::at_pressure(theta, pressure_pa)
+            }),
         }
     }
 
     /// [`WaterModel::heat_per_litre_j_per_k`] instant after instant, IF97's water
     /// remembered by temperature ([`WaterMemo`]: the same bits).
     fn per_instant(self) -> impl FnMut(f64, f64) -> Result<f64, NetworkError> {
-        let mut memo = match self {
-            WaterModel::AtTemperature { pressure_pa, .. } => Some(WaterMemo::new(pressure_pa)),
-            WaterModel::Constant { .. } => None,
-        };
-        move |outlet_c, inlet_c| match (self, memo.as_mut()) {
-            (
-                WaterModel::AtTemperature {
-                    flow_meter,
-                    pressure_pa,
-                },
-                Some(memo),
-            ) => mixed_heat_per_litre(flow_meter, pressure_pa, (outlet_c, inlet_c), |theta| {
-                memo.at(theta)
-            }),
-            _ => self.heat_per_litre_j_per_k(outlet_c, inlet_c),
+        let mut memo = None;
+        move |outlet_c, inlet_c| match self {
+            WaterModel::AtTemperature {
+                flow_meter,
+                pressure_pa,
+            } => {
+                let memo = memo.get_or_insert_with(|| WaterMemo::new(pressure_pa));
+                mixed_heat_per_litre(flow_meter, pressure_pa, (outlet_c, inlet_c), |theta| {
+                    memo.at(theta)
+                })
+            }
+            WaterModel::Constant { .. } => self.heat_per_litre_j_per_k(outlet_c, inlet_c),
         }
     }
 }
