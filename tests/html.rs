@@ -95,6 +95,30 @@ impl Page {
             .collect()
     }
 
+    /// Per `<figure>` of the section `id`: the stroke colours its drawing uses, as
+    /// plotters writes them (`#RRGGBB`).
+    fn figure_strokes(&self, id: &str) -> Vec<std::collections::BTreeSet<String>> {
+        let start = self
+            .html
+            .find(&format!("<section id=\"{id}\""))
+            .unwrap_or_else(|| panic!("no section {id}"));
+        let section = &self.html[start..];
+        let section = &section[..section.find("</section>").expect("the section ends")];
+        section
+            .split("<figure")
+            .skip(1)
+            .map(|figure| {
+                figure
+                    .split("stroke=\"")
+                    .skip(1)
+                    .filter_map(|rest| rest.split('"').next())
+                    .filter(|c| c.starts_with('#'))
+                    .map(str::to_owned)
+                    .collect()
+            })
+            .collect()
+    }
+
     fn tables(&self) -> Vec<ParsedTable> {
         let dom = self.dom();
         let parser = dom.parser();
@@ -328,6 +352,27 @@ fn the_fixtures_page_has_every_section_figure_and_table() {
         &report["steady_state"]["measured_final_temperature_c"],
     )) {
         assert_eq!(*cell, format!("{v:.3}"));
+    }
+    // Each part keeps the rerun recording's colour (`heatrun::colour`): a temperature
+    // figure draws the measured trace lightened and the model in the part's colour, and
+    // every sensitivity figure draws each part's response in that part's colour.
+    let hex = |c: heatrun::colour::Rgb| format!("#{:02X}{:02X}{:02X}", c[0], c[1], c[2]);
+    let temperatures = page.figure_strokes("temperatures");
+    assert_eq!(temperatures.len(), 3);
+    for (j, strokes) in temperatures.iter().enumerate() {
+        for c in [heatrun::colour::measured(j), heatrun::colour::part(j)] {
+            assert!(strokes.contains(&hex(c)), "figure {j}: {strokes:?}");
+        }
+    }
+    let sensitivities = page.figure_strokes("time-constants");
+    assert_eq!(sensitivities.len(), 3);
+    for strokes in &sensitivities {
+        for j in 0..3 {
+            assert!(
+                strokes.contains(&hex(heatrun::colour::part(j))),
+                "{strokes:?}"
+            );
+        }
     }
     // The recording's metadata and the version.
     assert!(page.html.contains("synthetic-seed-1"));

@@ -158,7 +158,7 @@ fn styles(rec: &PacedStream, j: usize, state: &str, band_label: &str) -> Result<
     let colour = style::part(j);
     let temp = temperature_entity(state);
     let res = residual_entity(state);
-    let measured = (style::lightened(colour, 0.55), style::MEASURED_WIDTH);
+    let measured = (style::measured(j), style::MEASURED_WIDTH);
     style::series(
         rec,
         &format!("{temp}/measured"),

@@ -251,7 +251,7 @@ pub(super) fn log_measured(rec: &PacedStream, stages: Stages<'_>) -> Result<()> 
             rec,
             &measured,
             &format!("measured, {unit}"),
-            style::lightened(style::part(j), 0.55),
+            style::measured(j),
             style::MEASURED_WIDTH,
         )?;
         send_series(rec, &measured, on_grid(t, state.measured.iter()))?;

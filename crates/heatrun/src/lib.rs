@@ -55,6 +55,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod atomic;
+pub mod colour;
 pub mod confidence;
 pub mod decide;
 pub mod decimate;

@@ -74,7 +74,7 @@ fn the_summary_and_the_page_of_a_hidden_replay_describe_the_hidden_model() {
     assert!(!page.contains(&format!("({} estimate, Ts", report.method)));
     assert!(page.contains("Φ of the hidden-state model."));
     assert!(page.contains("C of the hidden-state model"));
-    assert!(page.contains("measured and hidden-state model (dashed"));
+    assert!(page.contains("measured and hidden-state model (grey: the measured-state model)"));
     assert!(page.contains("Φ (eq. 19) of the measured-state model."));
     // One sensitivity chart per time constant of the hidden model's four, each captioned
     // with the report's (the hidden model's) assignment.

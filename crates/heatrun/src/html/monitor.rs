@@ -7,8 +7,9 @@
 //! of [`Markup`], [`Chart`]s drawn into inline SVG.
 
 use super::markup::{fixed, sig, spoken};
-use super::plot::{Chart, Line, Panel, TimeAxis, MEASURED, MODEL};
+use super::plot::{Chart, Line, Panel, TimeAxis};
 use super::{HtmlError, Markup, Page, Section, Table};
+use crate::colour;
 use crate::monitor::alarm::CLEAR_SHARE_OF_HOLD;
 use crate::monitor::{Alarm, MonitorResult};
 use crate::recording::format_time;
@@ -163,17 +164,16 @@ impl PartsSection<'_> {
         let mut top = Panel::new(
             format!("{}, °C", spoken(&r.parts[j])),
             vec![
-                Line::new(
+                Line::measured(
                     "measured",
-                    MEASURED,
+                    j,
                     axis.series_ns(t, BUCKETS, |k| tr.measured[j].get(k)),
                 ),
                 Line::new(
                     "model",
-                    MODEL,
+                    colour::part(j),
                     axis.series_ns(t, BUCKETS, |k| tr.predicted[j].get(k)),
-                )
-                .dashed(),
+                ),
             ],
         );
         top.weight = 2;
@@ -183,7 +183,7 @@ impl PartsSection<'_> {
             "residual θ − θ̂, K",
             vec![Line::new(
                 "residual",
-                MEASURED,
+                colour::part(j),
                 axis.series_ns(t, BUCKETS, |k| tr.residual(j, k)),
             )],
         );
@@ -217,7 +217,7 @@ impl Section for PartsSection<'_> {
             let stats = &r.stats[j];
             let alarms = r.alarms.iter().filter(|a| a.state == j).count();
             let caption = format!(
-                "{}: measured and model (dashed); below, the residual in its band ±{} K. \
+                "{}: measured (wide, light) and model; below, the residual in its band ±{} K. \
                  RMS residual {} K, {} % of the instants outside, {}.",
                 spoken(&r.parts[j]),
                 fixed(r.band.half_width_k[j], 2),

@@ -14,26 +14,24 @@ use plotters::prelude::*;
 
 use super::HtmlError;
 
-/// An sRGB colour.
-pub type Rgb = (u8, u8, u8);
+pub use crate::colour::Rgb;
 
-/// The measured trace (blue), as in the rerun recording.
-pub const MEASURED: Rgb = (31, 119, 180);
-/// The model's trace (orange), as in the rerun recording.
-pub const MODEL: Rgb = (255, 127, 14);
-/// Colours of the lines of one plot, in turn (after the rerun recording's palette).
+/// Colours of the lines of one plot that are neither parts nor inputs (a fleet's units,
+/// the recursive estimate's time constants, a rating's curve), in turn; a part's lines
+/// take [`crate::colour::part`], an input's [`crate::colour::input`], as in the rerun
+/// recording.
 pub const PALETTE: [Rgb; 6] = [
-    (214, 39, 40),
-    (44, 160, 44),
-    (148, 103, 189),
-    (140, 86, 75),
-    (31, 119, 180),
-    (255, 127, 14),
+    [214, 39, 40],
+    [44, 160, 44],
+    [148, 103, 189],
+    [140, 86, 75],
+    [31, 119, 180],
+    [255, 127, 14],
 ];
 /// A neutral grey for bands and reference lines.
-pub const GREY: Rgb = (128, 128, 128);
+pub const GREY: Rgb = crate::colour::REFERENCE;
 /// The shading of alarm stretches (red, light).
-pub const ALARM: Rgb = (214, 39, 40);
+pub const ALARM: Rgb = [214, 39, 40];
 
 /// The i-th colour of [`PALETTE`], cycling.
 pub fn palette(i: usize) -> Rgb {
@@ -47,8 +45,10 @@ pub struct Line {
     pub name: String,
     /// Its colour.
     pub colour: Rgb,
-    /// Drawn dashed (a model against a measurement, a reference level).
+    /// Drawn dashed (a band's edge, a reference level).
     pub dashed: bool,
+    /// Drawn wide (a measured trace, lightened, under the model's line).
+    pub wide: bool,
     /// Runs of (x, y) points without gaps, in x order.
     pub segments: Vec<Vec<(f64, f64)>>,
 }
@@ -60,6 +60,7 @@ impl Line {
             name: name.into(),
             colour,
             dashed: false,
+            wide: false,
             segments,
         }
     }
@@ -68,6 +69,15 @@ impl Line {
     pub fn dashed(mut self) -> Line {
         self.dashed = true;
         self
+    }
+
+    /// Part `j`'s measured trace: wide, in the part's colour lightened
+    /// ([`crate::colour::measured`]), for its model's line to be drawn over it.
+    pub fn measured(name: impl Into<String>, j: usize, segments: Vec<Vec<(f64, f64)>>) -> Line {
+        Line {
+            wide: true,
+            ..Line::new(name, crate::colour::measured(j), segments)
+        }
     }
 
     fn points(&self) -> impl Iterator<Item = &(f64, f64)> {
@@ -157,7 +167,7 @@ fn plot_error(e: impl std::fmt::Display) -> HtmlError {
 }
 
 fn colour(c: Rgb) -> RGBColor {
-    RGBColor(c.0, c.1, c.2)
+    RGBColor(c[0], c[1], c[2])
 }
 
 /// Font sizes (px) of tick labels and axis descriptions.
@@ -330,7 +340,7 @@ fn draw_spans(
 
 /// Draws a line's segments, clipped to the y range, with one legend entry.
 fn draw_line(chart: &mut Cartesian<'_>, line: &Line, y: &Range<f64>) -> Result<(), HtmlError> {
-    let style = ShapeStyle::from(&colour(line.colour)).stroke_width(2);
+    let style = ShapeStyle::from(&colour(line.colour)).stroke_width(if line.wide { 4 } else { 2 });
     let mut labelled = false;
     for segment in clip(&line.segments, y) {
         let drawn = if line.dashed {
@@ -647,7 +657,11 @@ mod tests {
 
     #[test]
     fn a_chart_is_one_svg_element_with_its_labels_and_lines() {
-        let line = Line::new("measured <T>", MEASURED, vec![vec![(0.0, 1.0), (1.0, 2.0)]]);
+        let line = Line::new(
+            "measured <T>",
+            crate::colour::part(0),
+            vec![vec![(0.0, 1.0), (1.0, 2.0)]],
+        );
         let chart = Chart::new("time, h", vec![Panel::new("temperature, °C", vec![line])]);
         let svg = chart.to_svg().unwrap();
         assert!(svg.starts_with("<svg"), "{}", &svg[..40]);

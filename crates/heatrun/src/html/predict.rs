@@ -5,8 +5,9 @@
 //! of [`Markup`], [`Chart`]s drawn into inline SVG.
 
 use super::markup::{fixed, sig, spoken};
-use super::plot::{palette, Chart, Line, Panel, TimeAxis};
+use super::plot::{Chart, Line, Panel, Rgb, TimeAxis};
 use super::{HtmlError, Markup, Page, Section, Table};
+use crate::colour;
 use crate::model_file::ThermalModel;
 use crate::predict::{LoadSchedule, Prediction};
 use crate::rating::LimitedPart;
@@ -16,7 +17,7 @@ use crate::spec::InputSource;
 const BUCKETS: usize = 1500;
 
 /// The limit lines' colour: black, apart from every part's palette colour.
-const LIMIT: (u8, u8, u8) = (0, 0, 0);
+const LIMIT: Rgb = [0, 0, 0];
 
 /// What the prediction's page shows: the model, the schedule, the prediction and the
 /// parts' limits (empty when none were asked for).
@@ -241,7 +242,7 @@ impl Section for LossesSection<'_> {
                 let values = clock.series_s(&p.time_s, BUCKETS, |k| {
                     p.inputs_model[k].get(i).map(|v| v * scale)
                 });
-                Line::new(spoken(name), palette(i), values)
+                Line::new(spoken(name), colour::input(i), values)
             })
             .collect();
         let label = if all_losses {
@@ -302,12 +303,12 @@ impl Section for TemperaturesSection<'_> {
                         let values = clock.series_s(&p.time_s, BUCKETS, |k| {
                             Some(v.temperature(part, k)? + sign * v.half_width(part, k)?)
                         });
-                        lines.push(Line::new(edge, palette(i), values).dashed());
+                        lines.push(Line::new(edge, colour::part(i), values).dashed());
                     }
                 }
                 lines.push(Line::new(
                     "predicted",
-                    palette(i),
+                    colour::part(i),
                     clock.series_s(&p.time_s, BUCKETS, |k| v.temperature(part, k)),
                 ));
                 if let Some(limit) = v.limit_of(&name) {

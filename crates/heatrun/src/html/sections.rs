@@ -5,8 +5,9 @@ use std::fmt::Write as _;
 
 use super::markup::{fixed, si, sig, Markup, Table};
 use super::network::{diagram, short_name};
-use super::plot::{palette, Chart, Line, Panel, Thinning, TimeAxis, GREY, MEASURED, MODEL};
+use super::plot::{Chart, Line, Panel, Thinning, TimeAxis, GREY};
 use super::{HtmlError, Section};
+use crate::colour;
 use crate::estimate::Method;
 use crate::model_file::document::{FitEntry, NetworkEntry};
 use crate::model_file::Report;
@@ -362,7 +363,7 @@ impl Section for InputsSection<'_> {
                 let values = input.values.iter().map(|v| v.map(|v| v * scale));
                 Line::new(
                     input.name.replace('_', " "),
-                    palette(j),
+                    colour::input(j),
                     grid_series(r, &axis, values),
                 )
             })
@@ -421,22 +422,26 @@ impl TemperaturesSection<'_> {
             axis,
             (0..s.len()).map(|k| s.rise_pu(j, k).map(|y| base * (y - sim[(k, j)]))),
         );
-        let mut lines = vec![Line::new("measured", MEASURED, measured)];
+        let mut lines = vec![Line::measured("measured", j, measured)];
         if r.hidden.is_some() {
             lines.push(Line::new(
                 "measured-state model",
                 GREY,
                 temperature(&r.analysis.simulated),
             ));
-            lines.push(Line::new("hidden-state model", MODEL, temperature(sim)).dashed());
+            lines.push(Line::new(
+                "hidden-state model",
+                colour::part(j),
+                temperature(sim),
+            ));
         } else {
-            lines.push(Line::new("model", MODEL, temperature(sim)).dashed());
+            lines.push(Line::new("model", colour::part(j), temperature(sim)));
         }
         let mut top = Panel::new(format!("{}, {unit}", short_name(&state.part)), lines);
         top.weight = 2;
         let bottom = Panel::new(
             format!("residual, {rise_unit}"),
-            vec![Line::new("", palette(j), residual)],
+            vec![Line::new("", colour::part(j), residual)],
         );
         Chart::new(&axis.label, vec![top, bottom])
     }
@@ -469,17 +474,21 @@ impl Section for TemperaturesSection<'_> {
         if hidden.is_some() {
             out.paragraph(&format!(
                 "Figures {first}–{} compare each measured temperature with the replay's model, \
-                 the hidden-state model's output ŷ = C x + D u (dashed), simulated through each \
+                 the hidden-state model's output ŷ = C x + D u, simulated through each \
                  segment from the initial state fitted to its outputs (the estimation instants \
                  and the validation apart), with its residual y − ŷ below; the measured-state \
-                 model (eq. 8, from the measured initial state) is drawn in grey beside it.",
+                 model (eq. 8, from the measured initial state) is drawn in grey beside it. Each \
+                 part keeps its colour in every figure and in the rerun recording: the measured \
+                 trace wide and light, the model's line over it in the full colour.",
                 first + n - 1
             ));
         } else {
             out.paragraph(&format!(
                 "Figures {first}–{} compare each measured temperature with the model simulated \
                  from the initial state through the whole recording (eq. 8; the paper's Figs. 3–5), \
-                 with the residual y − ŷ below.",
+                 with the residual y − ŷ below. Each part keeps its colour in every figure and in \
+                 the rerun recording: the measured trace wide and light, the model's line over it \
+                 in the full colour.",
                 first + n - 1
             ));
         }
@@ -497,9 +506,9 @@ impl Section for TemperaturesSection<'_> {
         for (j, state) in r.signals.states.iter().enumerate() {
             let fit = &self.report.fit;
             let model = if hidden.is_some() {
-                "hidden-state model (dashed; grey: the measured-state model)"
+                "hidden-state model (grey: the measured-state model)"
             } else {
-                "model (dashed)"
+                "model"
             };
             let caption = format!(
                 "{}: measured and {model}; below, the residual. NRMSE fit {} %, SNR {} dB, RMSE {} K.",
@@ -812,7 +821,7 @@ impl TimeConstantsSection<'_> {
                 .into_iter()
                 .zip(&r.signals.states)
                 .enumerate()
-                .map(|(k, (th, st))| Line::new(short_name(&st.part), palette(k), th.finish()))
+                .map(|(k, (th, st))| Line::new(short_name(&st.part), colour::part(k), th.finish()))
                 .collect();
             let y = format!(
                 "T{} ∂y/∂T{} (T{} = {} s), {unit}",
@@ -1150,7 +1159,7 @@ fn autocorrelation_lines(r: &Report, autocorrelation: &[Vec<f64>]) -> Vec<Line> 
                 .enumerate()
                 .map(|(lag, v)| (lag as f64 * ts, *v))
                 .collect();
-            Line::new(name, palette(k), vec![points])
+            Line::new(name, colour::part(k), vec![points])
         })
         .collect()
 }
@@ -1199,7 +1208,7 @@ impl Section for RecursiveSection<'_> {
                     format!("T{}, s", i + 1),
                     vec![Line::new(
                         format!("T{} (final {} s)", i + 1, sig(*t, 4)),
-                        palette(i),
+                        colour::part(i),
                         segments,
                     )],
                 );
@@ -1416,10 +1425,10 @@ impl Section for CalorimetrySection<'_> {
                 vec![
                     Line::new(
                         "heat carried by the cooling water, c·ρ·Q·Δθ",
-                        MEASURED,
+                        colour::input(0),
                         water,
                     ),
-                    Line::new("sum of the losses", MODEL, losses).dashed(),
+                    Line::new("sum of the losses", colour::input(1), losses).dashed(),
                 ],
             )],
         );
