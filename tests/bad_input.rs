@@ -402,6 +402,42 @@ fn errors_say_what_to_do_next() {
         "{marker}"
     );
     assert!(!dir.path().join("o.mcap").exists());
+
+    // A misspelt key of a machine file, a spec or a map: the key it lists that was meant.
+    std::fs::write(dir.path().join("machine.toml"), "rated_power_mva = 60\n").unwrap();
+    let key = one_line_exit_2(
+        &[
+            "replay",
+            fixture,
+            "--machine",
+            "machine.toml",
+            "--rrd",
+            "x.rrd",
+        ],
+        dir.path(),
+    );
+    assert!(
+        key.contains("machine.toml: line 1, column 1: unknown field `rated_power_mva`")
+            && key.ends_with("; did you mean `rated_apparent_power_mva`?\n"),
+        "{key}"
+    );
+    std::fs::write(dir.path().join("spec.toml"), "[[states]]\nname = \"a\"\n").unwrap();
+    let spec = one_line_exit_2(
+        &["replay", fixture, "--spec", "spec.toml", "--rrd", "k.rrd"],
+        dir.path(),
+    );
+    assert!(spec.ends_with("; did you mean `state`?\n"), "{spec}");
+    std::fs::write(
+        dir.path().join("colum.toml"),
+        map("Time (sec)").replacen("column", "colum", 1),
+    )
+    .unwrap();
+    let map_key = one_line_exit_2(
+        &["import", "t.csv", "--map", "colum.toml", "--out", "o.mcap"],
+        dir.path(),
+    );
+    assert!(map_key.ends_with("; did you mean `column`?\n"), "{map_key}");
+    assert!(!dir.path().join("k.rrd").exists() && !dir.path().join("o.mcap").exists());
 }
 
 /// A build without object storage (the README's) refuses a URL in one line that says

@@ -70,6 +70,13 @@ fn for_recording(e: &RecordingError) -> Option<String> {
         RecordingError::MissingNameplateKeys { .. } | RecordingError::BadNameplateValue { .. } => {
             "give the key in a machine file with --machine FILE.toml".into()
         }
+        RecordingError::BadMachineFile { message, .. } => {
+            unknown_key(message).unwrap_or_else(|| {
+                "a machine file holds the keys of the profile's `heatrun.nameplate` record \
+             (docs/src/reference/recording-format.md)"
+                    .into()
+            })
+        }
         RecordingError::Channel { .. } => {
             "mend the channel's metadata where the recording is written, or convert the table \
              again with `heatrun import` and the column's `unit` in the map"
@@ -116,8 +123,9 @@ fn for_replay(e: &Error) -> Option<String> {
             "give --split-at a time inside the recording, in seconds from its start".into()
         }
         Error::Weights { .. } => "give --weights one positive number per state".into(),
-        Error::Spec(heatrun::spec::SpecFileError::Bad { .. }) => {
-            "docs/src/reference/spec.md shows the spec's keys".into()
+        Error::Spec(heatrun::spec::SpecFileError::Bad { problem, .. }) => {
+            unknown_key(&problem.to_string())
+                .unwrap_or_else(|| "docs/src/reference/spec.md shows the spec's keys".into())
         }
         _ => return None,
     })
@@ -223,6 +231,9 @@ fn for_import(e: &ImportError) -> Option<String> {
              [time] `zone` (such as \"Europe/Zurich\") and the rows' order places them"
                 .into()
         }
+        ImportError::MapSyntax { message, .. } if unknown_key(message).is_some() => {
+            unknown_key(message)?
+        }
         ImportError::MapSyntax { .. } | ImportError::MapValue { .. } => {
             "`heatrun import --guess FILE` prints a map to start from; \
              docs/src/reference/import-map.md shows its keys"
@@ -252,8 +263,9 @@ fn for_model_use(e: &UseError) -> Option<String> {
         UseError::MissingColumn { .. } => {
             "docs/src/guide/predict-and-rating.md shows a schedule's columns".into()
         }
-        UseError::BadCell { .. } | UseError::TimeBackwards { .. } => {
-            "mend that cell of the load file; rows are in increasing time_s".into()
+        UseError::BadCell { .. } => "mend that cell of the load file".into(),
+        UseError::TimeBackwards { .. } => {
+            "mend that cell of the load file: its rows are in increasing time_s".into()
         }
         // Requests the command line mends (`predict::predict`, `rating::rate`); matched by
         // their wording, which the tests in `tests/bad_input.rs` hold.
@@ -271,6 +283,33 @@ fn for_model_use(e: &UseError) -> Option<String> {
         }
         _ => return None,
     })
+}
+
+/// "did you mean `key`?" for serde's "unknown field `given`, expected one of `a`, `b`, …"
+/// (or "expected `a` or `b`") where one of the keys it lists is near the one given.
+fn unknown_key(message: &str) -> Option<String> {
+    let rest = &message[message.find("unknown field `")? + "unknown field `".len()..];
+    let (given, expected) = rest.split_once('`')?;
+    let expected = expected.split_once("expected")?.1;
+    let known: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+    // A key that holds every word of the one given (`rated_power_mva` in
+    // `rated_apparent_power_mva`) is meant before one a few letters away
+    // (`rated_power_factor`); where no one key holds them, the nearest spelling.
+    let words = |key: &str| {
+        key.to_lowercase()
+            .split('_')
+            .map(str::to_owned)
+            .collect::<Vec<_>>()
+    };
+    let given_words = words(given);
+    let mut holding = known
+        .iter()
+        .filter(|k| **k != given && given_words.iter().all(|w| words(k).contains(w)));
+    let name = match (holding.next(), holding.next()) {
+        (Some(only), None) => (*only).to_owned(),
+        _ => closest(given, &known.join(","))?,
+    };
+    Some(format!("did you mean `{name}`?"))
 }
 
 /// The known name (from a comma-separated list) nearest `given`, if one is near: at most
@@ -292,6 +331,28 @@ fn closest(given: &str, known: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_unknown_key_near_a_known_one_is_named() {
+        let machine = "line 2, column 1: unknown field `rated_votage_kv`, expected one of \
+                       `rated_apparent_power_mva`, `rated_voltage_kv`, `name`";
+        assert_eq!(
+            unknown_key(machine).as_deref(),
+            Some("did you mean `rated_voltage_kv`?")
+        );
+        // The key that holds every word given, not the one a few letters away.
+        let words = "unknown field `rated_power_mva`, expected one of `rated_apparent_power_mva`, \
+                     `rated_power_factor`";
+        assert_eq!(
+            unknown_key(words).as_deref(),
+            Some("did you mean `rated_apparent_power_mva`?")
+        );
+        let two = "line 1, column 1: unknown field `nme`, expected `name` or `unit`";
+        assert_eq!(unknown_key(two).as_deref(), Some("did you mean `name`?"));
+        let far = "unknown field `colour`, expected one of `name`, `unit`";
+        assert_eq!(unknown_key(far), None);
+        assert_eq!(unknown_key("line 1, column 6: invalid array"), None);
+    }
 
     #[test]
     fn a_cause_already_in_the_message_is_not_repeated() {
