@@ -273,6 +273,25 @@ fn synth_refuses_disturbances_the_paper_model_cannot_take() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--field voltage"));
     assert!(common::files_in(dir.path()).is_empty(), "no output");
+    // A run too long to simulate in memory is refused before anything is allocated (a
+    // duration of 1e9 s asked for 32 GB and aborted).
+    let too_long = one_line_exit_2(&["synth", "out.mcap", "--duration", "1e9"], dir.path());
+    assert!(
+        too_long.contains("1000000000 steps of the plant's 1 s")
+            && too_long.contains("; give a shorter --duration"),
+        "{too_long}"
+    );
+    assert!(common::files_in(dir.path()).is_empty(), "no output");
+    // A negative number reaches the command's own check (not clap's "unexpected argument").
+    let negative = one_line_exit_2(
+        &["synth", "out.mcap", "--temperature-noise", "-1"],
+        dir.path(),
+    );
+    assert!(
+        negative.contains("the temperature noise σ must be a number ≥ 0 (0: none), not -1"),
+        "{negative}"
+    );
+    assert!(common::files_in(dir.path()).is_empty(), "no output");
 }
 
 /// Runs a command that must fail with status 2 in one line; returns the line.
@@ -309,6 +328,14 @@ fn errors_say_what_to_do_next() {
         "{rls}"
     );
     assert!(!dir.path().join("x.rrd").exists());
+    let negative = one_line_exit_2(
+        &["replay", fixture, "--ts", "-1", "--rrd", "x.rrd"],
+        dir.path(),
+    );
+    assert!(
+        negative.contains("the sample time -1 s is outside") && negative.contains("; give --ts"),
+        "{negative}"
+    );
 
     // predict and rating: the model report and the load schedule.
     std::fs::write(dir.path().join("notes.json"), "{}").unwrap();

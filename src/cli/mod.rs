@@ -65,12 +65,16 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Replay a heat-run recording into a thermal model, a report and a rerun recording.
+    // A negative number is a value (`--ts -1`), for the command's own check to name
+    // what the option takes, not clap's "unexpected argument '-1'".
     #[command(
+        allow_negative_numbers = true,
         after_help = "Examples:\n  heatrun replay                                   # the shipped fixture\n  heatrun replay run.mcap --report run.json --rrd run.rrd\n  heatrun replay run.mcap --split-at 14400 --summary json | jq .validation\n  heatrun replay archive/ --out-dir results --jobs 4   # a fleet"
     )]
     Replay(ReplayArgs),
     /// Write a synthetic heat run simulated from a known model (the paper's by default).
     #[command(
+        allow_negative_numbers = true,
         after_help = "Examples:\n  heatrun synth run.mcap --temperature-noise 0.05 --seed 7\n  heatrun synth drift.mcap --machine rc-unit --inlet-drift 3"
     )]
     Synth(SynthArgs),

@@ -123,6 +123,11 @@ fn for_replay(e: &Error) -> Option<String> {
             "give --split-at a time inside the recording, in seconds from its start".into()
         }
         Error::Weights { .. } => "give --weights one positive number per state".into(),
+        Error::Synth(heatrun::synth::SynthError::Options(message))
+            if message.contains("simulates in memory") =>
+        {
+            "give a shorter --duration".into()
+        }
         Error::Spec(heatrun::spec::SpecFileError::Bad { problem, .. }) => {
             unknown_key(&problem.to_string())
                 .unwrap_or_else(|| "docs/src/reference/spec.md shows the spec's keys".into())

@@ -350,6 +350,12 @@ pub fn write(out: &Path, o: &SynthOptions) -> Result<Truth> {
     Ok(truth)
 }
 
+/// The plant steps (duration / the machine's sample time) a synthetic run may take: the
+/// trajectory is simulated whole before it is written, about 220 bytes a step (a run of
+/// 10⁶ s at 1 s peaked at 216 MB resident), so 10⁷ steps (116 days at 1 s) need about 2 GB,
+/// and a duration of 10⁹ s asked for 32 GB and aborted.
+pub const MAX_PLANT_STEPS: usize = 10_000_000;
+
 /// Rejects options that cannot make a run.
 fn check_options(o: &SynthOptions) -> Result<()> {
     for (name, v) in [
@@ -367,6 +373,26 @@ fn check_options(o: &SynthOptions) -> Result<()> {
         return Err(SynthError::Options(
             "the duration must cover at least 10 sample times".into(),
         ));
+    }
+    for (name, v) in [
+        ("temperature noise σ", o.temperature_noise_k),
+        ("electrical noise σ", o.electrical_noise_pu),
+        ("temperature resolution", o.temperature_resolution_k),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(SynthError::Options(format!(
+                "the {name} must be a number ≥ 0 (0: none), not {v}"
+            )));
+        }
+    }
+    let steps = o.duration_s / o.machine.ts_s();
+    if steps > MAX_PLANT_STEPS as f64 {
+        return Err(SynthError::Options(format!(
+            "the duration {} s is {steps:.0} steps of the plant's {} s, over the {MAX_PLANT_STEPS} \
+             a synthetic run simulates in memory (about 2 GB; a week is 604800)",
+            o.duration_s,
+            o.machine.ts_s()
+        )));
     }
     check_machine(o)?;
     o.flaws.check(o.duration_s)?;
