@@ -384,6 +384,30 @@ fn errors_say_what_to_do_next() {
         "{column}"
     );
     assert!(!dir.path().join("p.csv").exists());
+    // A schedule longer than a prediction holds in memory (10¹² s aborted asking for 8 TB).
+    std::fs::write(
+        dir.path().join("long.csv"),
+        "time_s,apparent_power_mva,power_factor\n0,60,0.9\n1e12,60,0.9\n",
+    )
+    .unwrap();
+    let long = one_line_exit_2(
+        &[
+            "predict",
+            "--model",
+            "model.json",
+            "--load",
+            "long.csv",
+            "--out",
+            "p.csv",
+        ],
+        dir.path(),
+    );
+    assert!(
+        long.contains("long.csv: row 3, column `time_s`: 1000000000000 s is")
+            && long.contains("; predict a shorter schedule"),
+        "{long}"
+    );
+    assert!(!dir.path().join("p.csv").exists());
     let no_limit = one_line_exit_2(&["rating", "--model", "model.json"], dir.path());
     assert!(
         no_limit.contains("; give --class B, F or H, or --limit"),

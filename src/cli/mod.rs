@@ -97,12 +97,15 @@ pub enum Command {
     )]
     Man(ManArgs),
     /// Predict every part's temperature under a load schedule, from a model report.
+    #[command(allow_negative_numbers = true)]
     Predict(PredictArgs),
     /// The machine's thermal rating: largest continuous power, limiting part, overloads.
+    #[command(allow_negative_numbers = true)]
     Rating(RatingArgs),
     /// Run a model beside a later recording of the machine; alarm where a part leaves the
     /// model's band.
     #[command(
+        allow_negative_numbers = true,
         after_help = "Exit status: 0 healthy (no alarm), 4 alarms raised, 2 bad input (a report of \
 another profile or without the needed blocks, a recording lacking a state's channel), 3 data \
 lost from the recording (no alarm), 1 any other failure.\n\nExamples:\n  heatrun monitor --model model.json service.mcap\n  heatrun monitor --model model.json service.mcap --json alarms.json --rrd service.rrd --hold 300\n  tail -c +1 -f growing.mcap | heatrun monitor --model model.json - --connect"

@@ -53,7 +53,12 @@ pub struct PredictArgs {
     #[arg(long, value_enum, default_value_t = InitialArg::Measured, conflicts_with = "initial_temps")]
     pub initial: InitialArg,
     /// Start from these temperatures, °C, one per state in the model's order.
-    #[arg(long, value_delimiter = ',', value_name = "T1,T2,...")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "T1,T2,...",
+        allow_hyphen_values = true
+    )]
     pub initial_temps: Option<Vec<f64>>,
     /// `--rrd`.
     #[command(flatten)]

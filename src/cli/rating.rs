@@ -76,7 +76,10 @@ pub fn parse_limit(text: &str) -> Result<(String, f64), String> {
     let value: f64 = value
         .trim()
         .parse()
-        .map_err(|_| format!("`{value}` is not a temperature in °C"))?;
+        .ok()
+        // Above absolute zero: a limit of −300 °C gave a rating of 0 MVA, as if it held.
+        .filter(|v: &f64| v.is_finite() && *v > -273.15)
+        .ok_or_else(|| format!("`{value}` is not a temperature in °C (above −273.15)"))?;
     Ok((name.trim().to_owned(), value))
 }
 

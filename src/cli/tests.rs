@@ -919,3 +919,21 @@ fn synth_spread_needs_a_network_machine_and_a_percentage_in_range() {
         assert!(err.downcast_ref::<Usage>().is_some(), "{err}");
     }
 }
+
+#[test]
+fn a_limit_is_a_state_and_a_temperature_above_absolute_zero() {
+    use super::rating::parse_limit;
+    assert_eq!(
+        parse_limit("core_temp = 130").unwrap(),
+        ("core_temp".to_owned(), 130.0)
+    );
+    assert_eq!(parse_limit("core_temp=-20").unwrap().1, -20.0);
+    for bad in [
+        "core_temp",
+        "core_temp=hot",
+        "core_temp=-300",
+        "core_temp=inf",
+    ] {
+        assert!(parse_limit(bad).is_err(), "{bad}");
+    }
+}

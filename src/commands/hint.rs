@@ -269,6 +269,11 @@ fn for_model_use(e: &UseError) -> Option<String> {
             "docs/src/guide/predict-and-rating.md shows a schedule's columns".into()
         }
         UseError::BadCell { .. } => "mend that cell of the load file".into(),
+        UseError::ScheduleTooLong { .. } => {
+            "predict a shorter schedule, or a long one in parts, each started with \
+             --initial-temps from the last row of the one before"
+                .into()
+        }
         UseError::TimeBackwards { .. } => {
             "mend that cell of the load file: its rows are in increasing time_s".into()
         }

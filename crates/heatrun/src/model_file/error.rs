@@ -120,6 +120,25 @@ pub enum UseError {
         /// The previous row's.
         previous_s: f64,
     },
+    /// The schedule runs longer than a prediction holds in memory
+    /// ([`crate::predict::MAX_PREDICTION_STEPS`] steps of the model's sample time).
+    #[error(
+        "{path}: row {row}, column `time_s`: {time_s} s is {steps:.0} steps of the model's {ts_s} s \
+         after the schedule's start, over the {max} a prediction holds in memory (about 1.5 kB a step)",
+        max = crate::predict::MAX_PREDICTION_STEPS
+    )]
+    ScheduleTooLong {
+        /// The load file.
+        path: PathBuf,
+        /// Line in the file.
+        row: u64,
+        /// This row's time.
+        time_s: f64,
+        /// Its steps after the schedule's first row.
+        steps: f64,
+        /// The model's sample time, s.
+        ts_s: f64,
+    },
     /// The load file is malformed CSV or has no rows.
     #[error("{path}: {message}")]
     BadTable {

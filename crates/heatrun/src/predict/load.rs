@@ -267,6 +267,18 @@ pub fn read(path: &Path, model: &ThermalModel) -> Result<LoadSchedule, UseError>
                 });
             }
         }
+        if let Some(&first_s) = schedule.time_s.first() {
+            let steps = (t - first_s) / model.ts_s;
+            if steps > super::MAX_PREDICTION_STEPS as f64 {
+                return Err(UseError::ScheduleTooLong {
+                    path: path.to_owned(),
+                    row: line,
+                    time_s: t,
+                    steps,
+                    ts_s: model.ts_s,
+                });
+            }
+        }
         let (point, s) = operating_point(&row, model, phasor.as_ref().map(|p| &p.0))?;
         schedule.time_s.push(t);
         schedule.points.push(point);

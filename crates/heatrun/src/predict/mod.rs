@@ -11,6 +11,12 @@
 //! states predicts its measured outputs y = C x + D u (the report's `states`); its
 //! hidden states are simulated but not written (they are no part's temperature).
 
+/// The steps of the model's sample time a prediction may span: it holds every step's
+/// temperatures, inputs and the band's linearisation in memory, about 1.5 kB a step (a
+/// schedule of 10⁶ s at 1 s peaked at 1.46 GB resident), so 2·10⁶ steps (23 days at 1 s)
+/// need about 3 GB; a schedule of 10¹² s asked for 8 TB and aborted.
+pub const MAX_PREDICTION_STEPS: usize = 2_000_000;
+
 pub mod band;
 pub mod load;
 pub mod phasor;
