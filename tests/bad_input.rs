@@ -408,6 +408,30 @@ fn errors_say_what_to_do_next() {
         "{long}"
     );
     assert!(!dir.path().join("p.csv").exists());
+    // A load far beyond the model's runs its temperatures away: said where, not printed.
+    std::fs::write(
+        dir.path().join("huge.csv"),
+        "time_s,apparent_power_mva,power_factor\n0,60,0.9\n3600,20000,0.9\n7200,60,0.9\n",
+    )
+    .unwrap();
+    let huge = one_line_exit_2(
+        &[
+            "predict",
+            "--model",
+            "model.json",
+            "--load",
+            "huge.csv",
+            "--out",
+            "p.csv",
+        ],
+        dir.path(),
+    );
+    assert!(
+        huge.contains("huge.csv: at 36")
+            && huge.contains("(the row of time_s 3600): the predicted temperatures ran away"),
+        "{huge}"
+    );
+    assert!(!dir.path().join("p.csv").exists());
     let no_limit = one_line_exit_2(&["rating", "--model", "model.json"], dir.path());
     assert!(
         no_limit.contains("; give --class B, F or H, or --limit"),
