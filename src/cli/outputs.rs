@@ -29,12 +29,20 @@ impl<'a> NamedFile<'a> {
     }
 }
 
-/// Refuses (a [`Usage`] error, exit status 2) an output that is one of the inputs, or
-/// that another output also names: the same name in the same folder, the folder taken
+/// Refuses (a [`Usage`] error, exit status 2) an output that is a folder, one of the
+/// inputs, or that another output also names: the same name in the same folder, the folder taken
 /// with its links followed (`./x` and `x`; `out/x` and `link-to-out/x`), and for an input
 /// reached through symbolic links, the file they lead to.
 pub fn distinct(reads: &[NamedFile<'_>], writes: &[NamedFile<'_>]) -> Result<(), Usage> {
     for (i, output) in writes.iter().enumerate() {
+        // A folder would only be refused by the rename at the end, after the work.
+        if output.path.is_dir() {
+            return Err(Usage(format!(
+                "{} {} is a folder: name a file in it",
+                output.what,
+                output.path.display()
+            )));
+        }
         if let Some(input) = reads.iter().find(|r| is_replaced_by(r.path, output.path)) {
             return Err(Usage(format!(
                 "{} {} is {} {}: writing it would replace the input; name another file",
@@ -155,6 +163,21 @@ mod tests {
             );
             assert!(distinct(&[], &writes[..2]).is_ok());
         }
+    }
+
+    #[test]
+    fn an_output_that_is_a_folder_is_refused_before_the_work() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = distinct(&[], &[NamedFile::new("--rrd", dir.path())]).unwrap_err();
+        assert_eq!(
+            e.0,
+            format!(
+                "--rrd {} is a folder: name a file in it",
+                dir.path().display()
+            )
+        );
+        let file = dir.path().join("run.rrd");
+        assert!(distinct(&[], &[NamedFile::new("--rrd", &file)]).is_ok());
     }
 
     #[test]
