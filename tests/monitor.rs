@@ -197,6 +197,60 @@ fn a_fouled_cooler_raises_an_alarm_and_healthy_recordings_none() {
     );
 }
 
+/// The shipped fixture's model was identified from a noise-free run: it knows no sensor
+/// noise, so a band from what it knows would be about 0 K (every sample of a real
+/// recording an alarm: 100 % outside before). It keeps the fixed band and says why; a noisy
+/// run of the same machine is healthy.
+#[test]
+fn a_model_from_noise_free_data_keeps_the_fixed_band_and_says_why() {
+    let dir = common::tempdir();
+    let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
+    common::heatrun_ok(
+        &[
+            "replay",
+            fixture.to_str().unwrap(),
+            "--report",
+            "model.json",
+            "-q",
+        ],
+        dir.path(),
+    );
+    common::heatrun_ok(
+        &[
+            "synth",
+            "later.mcap",
+            "--temperature-noise",
+            "0.05",
+            "--seed",
+            "3",
+        ],
+        dir.path(),
+    );
+    let json = "later.json";
+    let out = common::heatrun(
+        &[
+            "monitor",
+            "--model",
+            "model.json",
+            "later.mcap",
+            "--json",
+            json,
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains("the model reproduces its own recording exactly")
+            && stderr.contains("the fixed band max(4 × RMSE, 0.5 K) is used instead"),
+        "{stderr}"
+    );
+    let doc: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join(json)).unwrap()).unwrap();
+    assert_eq!(doc["band"]["kind"], "fixed", "{}", doc["band"]);
+    assert!(alarms(&doc).is_empty());
+}
+
 #[test]
 fn a_coolant_referenced_model_follows_a_drifting_inlet_and_flags_the_fault() {
     let dir = common::tempdir();

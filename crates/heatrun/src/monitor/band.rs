@@ -86,6 +86,43 @@ pub fn measurement_variance_k2(model: &ThermalModel) -> Vec<f64> {
         .collect()
 }
 
+/// The rule a monitor runs with, and why where it is not the one asked for: a model
+/// band needs a model that knows its sensors' noise. A model identified from data it
+/// reproduces exactly (a noise-free synthetic run such as the shipped fixture: RMSE
+/// 3·10⁻¹² K, [`crate::decide::estimator::EXACT_FIT_RMS_K`]) knows none, so its band
+/// b_j = k·√(θ_base² var x̂_j + σ_j²) would be about 0 K wide and every sample of a real
+/// recording an alarm (the fixture's model on a noisy run of the same machine: 100 % of
+/// the instants outside). Such a monitor keeps the fixed band, whose floor is what a
+/// sensor can vouch for, and says so.
+pub fn rule_for(model: &ThermalModel, asked: BandRule) -> (BandRule, Option<String>) {
+    let noiseless = model
+        .uncertainty
+        .sensor_noise_k
+        .iter()
+        .zip(&model.states)
+        .filter(|(sigma, _)| !(**sigma >= crate::decide::estimator::EXACT_FIT_RMS_K))
+        .map(|(_, state)| state.name.as_str())
+        .collect::<Vec<_>>();
+    if asked.kind != BandKind::Model || noiseless.is_empty() {
+        return (asked, None);
+    }
+    let why = format!(
+        "the model reproduces its own recording exactly (no sensor noise on {}), so a band \
+         from what it knows would be about 0 K wide and every sample here outside it: the \
+         fixed band max({} × RMSE, {} K) is used instead, as with --band fixed",
+        noiseless.join(", "),
+        asked.factor,
+        asked.floor_k
+    );
+    (
+        BandRule {
+            kind: BandKind::Fixed,
+            ..asked
+        },
+        Some(why),
+    )
+}
+
 /// The band per state: |θ − θ̂| ≤ `half_width_k[j]` is inside.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Band {

@@ -152,7 +152,8 @@ pub fn monitor_stream(
 ) -> Result<MonitorResult> {
     let description = description_of(model)?;
     let name = source.name();
-    let band = Band::from_model_error(&model.error, options.band);
+    let (rule, band_warning) = super::band::rule_for(model, options.band);
+    let band = Band::from_model_error(&model.error, rule);
     let mut live = Live::new(model, description.clone(), &band, options.hold_s, stream)?;
     live.also = watchers.also;
     live.observer = watchers.observer;
@@ -175,9 +176,11 @@ pub fn monitor_stream(
     }
     let mut data_loss = summary.data_loss;
     data_loss.extend(live.grid.late_lines());
-    Ok(live
+    let mut result = live
         .run
-        .finish(model, &band, options.hold_s, &name, data_loss))
+        .finish(model, &band, options.hold_s, &name, data_loss);
+    result.warnings.extend(band_warning);
+    Ok(result)
 }
 
 /// The sample sink that drives the grid builder and runs the model over each stretch
