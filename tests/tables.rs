@@ -369,7 +369,41 @@ fn a_night_run_through_the_clock_change_replays_to_its_truth() {
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("time goes backwards"), "{err}");
+    // An hour back is summer time's end: the hint names the zone.
+    assert!(err.contains("give the map's [time] `zone`"), "{err}");
     assert!(!d.join("fixed.mcap").exists());
+    // Five seconds back is rows out of order: the hint says to sort them.
+    std::fs::write(
+        d.join("shuffled.csv"),
+        "Zeit,T\n2024-03-01 10:00:00,45.1\n2024-03-01 10:00:10,45.2\n2024-03-01 10:00:05,45.3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("utc.toml"),
+        "[time]\ncolumn = \"Zeit\"\nzone = \"UTC\"\n[[column]]\ncolumn = \"T\"\n\
+         channel = \"T\"\nunit = \"degC\"\n",
+    )
+    .unwrap();
+    let out = common::heatrun(
+        &[
+            "import",
+            "shuffled.csv",
+            "--map",
+            "utc.toml",
+            "--out",
+            "s.mcap",
+        ],
+        d,
+    );
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(
+            "; the rows are out of time order (5 s back): sort the table by its time column"
+        ) && !err.contains("zone"),
+        "{err}"
+    );
+    assert!(!d.join("s.mcap").exists());
 }
 
 #[test]

@@ -231,6 +231,14 @@ fn for_import(e: &ImportError) -> Option<String> {
              [time] `zone` (such as \"+01:00\")"
                 .into()
         }
+        // Summer time's end puts a local clock back an hour; other steps back are rows out
+        // of order.
+        ImportError::TimeBackwards { back_s, .. } if !(2700.0..=4500.0).contains(back_s) => {
+            format!(
+                "the rows are out of time order ({back_s} s back): sort the table by its time \
+                 column"
+            )
+        }
         ImportError::TimeBackwards { .. } => {
             "local wall-clock times go back an hour when summer time ends: give the map's \
              [time] `zone` (such as \"Europe/Zurich\") and the rows' order places them"

@@ -145,6 +145,8 @@ pub enum ImportError {
         previous: String,
         /// This row's time (RFC 3339, UTC).
         current: String,
+        /// How far it goes back, s (about 3600 where summer time ended on a local clock).
+        back_s: f64,
     },
     /// The CSV reader could not read a record (a broken quote).
     #[error("{path}: line {line}: {message}")]

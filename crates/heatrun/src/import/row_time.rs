@@ -195,6 +195,7 @@ pub fn time_error(
             column,
             previous: format!("{} {previous_row}", format_time(previous)),
             current: format_time(current),
+            back_s: previous.saturating_sub(current) as f64 / 1e9,
         },
     }
 }
