@@ -120,12 +120,11 @@ pub enum UseError {
         /// The previous row's.
         previous_s: f64,
     },
-    /// The schedule runs longer than a prediction holds in memory
-    /// ([`crate::predict::MAX_PREDICTION_STEPS`] steps of the model's sample time).
+    /// The schedule runs longer than a prediction holds in memory (`max` steps of the
+    /// model's sample time).
     #[error(
         "{path}: row {row}, column `time_s`: {time_s} s is {steps:.0} steps of the model's {ts_s} s \
-         after the schedule's start, over the {max} a prediction holds in memory (about 1.5 kB a step)",
-        max = crate::predict::MAX_PREDICTION_STEPS
+         after the schedule's start, over the {max} a prediction holds in memory (about 1.5 kB a step)"
     )]
     ScheduleTooLong {
         /// The load file.
@@ -138,6 +137,8 @@ pub enum UseError {
         steps: f64,
         /// The model's sample time, s.
         ts_s: f64,
+        /// The steps a prediction may span.
+        max: usize,
     },
     /// The load file is malformed CSV or has no rows.
     #[error("{path}: {message}")]

@@ -276,6 +276,7 @@ pub fn read(path: &Path, model: &ThermalModel) -> Result<LoadSchedule, UseError>
                     time_s: t,
                     steps,
                     ts_s: model.ts_s,
+                    max: super::MAX_PREDICTION_STEPS,
                 });
             }
         }
