@@ -303,6 +303,26 @@ fn one_line_exit_2(args: &[&str], dir: &Path) -> String {
     stderr
 }
 
+/// `predict` of `model.json` under the schedule `text` written to `name`: refused in one
+/// line with exit 2, no prediction written; returns the line.
+fn predict_refused(dir: &Path, name: &str, text: &str) -> String {
+    std::fs::write(dir.join(name), text).unwrap();
+    let line = one_line_exit_2(
+        &[
+            "predict",
+            "--model",
+            "model.json",
+            "--load",
+            name,
+            "--out",
+            "p.csv",
+        ],
+        dir,
+    );
+    assert!(!dir.join("p.csv").exists(), "{line}");
+    line
+}
+
 /// The errors a user mends from the command line say how: the flag, file or command,
 /// after what is wrong and where.
 #[test]
@@ -361,77 +381,39 @@ fn errors_say_what_to_do_next() {
         dir.path(),
     );
     assert!(replayed.status.success());
-    std::fs::write(
-        dir.path().join("load.csv"),
-        "time_s,apparent_power_mva,pwer_factor\n0,60,0.9\n",
-    )
-    .unwrap();
-    let column = one_line_exit_2(
-        &[
-            "predict",
-            "--model",
-            "model.json",
-            "--load",
-            "load.csv",
-            "--out",
-            "p.csv",
-        ],
+    // The load schedule: a misspelt column, a schedule longer than a prediction holds in
+    // memory (10¹² s aborted asking for 8 TB), a load so far beyond the model's that its
+    // temperatures run away (printed before, not refused).
+    let column = predict_refused(
         dir.path(),
+        "load.csv",
+        "time_s,apparent_power_mva,pwer_factor\n0,60,0.9\n",
     );
     assert!(
         column.contains("load.csv: row 1, column `pwer_factor`: not a load column")
             && column.contains("did you mean `power_factor`?"),
         "{column}"
     );
-    assert!(!dir.path().join("p.csv").exists());
-    // A schedule longer than a prediction holds in memory (10¹² s aborted asking for 8 TB).
-    std::fs::write(
-        dir.path().join("long.csv"),
-        "time_s,apparent_power_mva,power_factor\n0,60,0.9\n1e12,60,0.9\n",
-    )
-    .unwrap();
-    let long = one_line_exit_2(
-        &[
-            "predict",
-            "--model",
-            "model.json",
-            "--load",
-            "long.csv",
-            "--out",
-            "p.csv",
-        ],
+    let long = predict_refused(
         dir.path(),
+        "long.csv",
+        "time_s,apparent_power_mva,power_factor\n0,60,0.9\n1e12,60,0.9\n",
     );
     assert!(
         long.contains("long.csv: row 3, column `time_s`: 1000000000000 s is")
             && long.contains("; predict a shorter schedule"),
         "{long}"
     );
-    assert!(!dir.path().join("p.csv").exists());
-    // A load far beyond the model's runs its temperatures away: said where, not printed.
-    std::fs::write(
-        dir.path().join("huge.csv"),
-        "time_s,apparent_power_mva,power_factor\n0,60,0.9\n3600,20000,0.9\n7200,60,0.9\n",
-    )
-    .unwrap();
-    let huge = one_line_exit_2(
-        &[
-            "predict",
-            "--model",
-            "model.json",
-            "--load",
-            "huge.csv",
-            "--out",
-            "p.csv",
-        ],
+    let huge = predict_refused(
         dir.path(),
+        "huge.csv",
+        "time_s,apparent_power_mva,power_factor\n0,60,0.9\n3600,20000,0.9\n7200,60,0.9\n",
     );
     assert!(
         huge.contains("huge.csv: at 36")
             && huge.contains("(the row of time_s 3600): the predicted temperatures ran away"),
         "{huge}"
     );
-    assert!(!dir.path().join("p.csv").exists());
     let no_limit = one_line_exit_2(&["rating", "--model", "model.json"], dir.path());
     assert!(
         no_limit.contains("; give --class B, F or H, or --limit"),
