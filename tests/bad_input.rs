@@ -460,6 +460,23 @@ fn errors_say_what_to_do_next() {
     );
     assert!(!dir.path().join("o.mcap").exists());
 
+    // A spec's expression that is never finite (a division by zero) is named, not taken for
+    // too few samples with a hint at --ts.
+    std::fs::write(
+        dir.path().join("zero.toml"),
+        "[[state]]\nname = \"stator_winding_temp\"\n[[input]]\nname = \"q\"\n\
+         expression = \"armature_current / 0\"\nunit = \"W\"\n",
+    )
+    .unwrap();
+    let zero = one_line_exit_2(
+        &["replay", fixture, "--spec", "zero.toml", "--rrd", "k.rrd"],
+        dir.path(),
+    );
+    assert!(
+        zero.contains("input `q`: its expression `armature_current / 0` is not a finite number")
+            && zero.contains("; mend the input's expression in the spec"),
+        "{zero}"
+    );
     // A misspelt key of a machine file, a spec or a map: the key it lists that was meant.
     std::fs::write(dir.path().join("machine.toml"), "rated_power_mva = 60\n").unwrap();
     let key = one_line_exit_2(

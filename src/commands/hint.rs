@@ -106,6 +106,9 @@ fn for_signals(e: &SignalError) -> Option<String> {
              --spec SPEC.toml naming its channels"
                 .into()
         }
+        SignalError::ExpressionNeverFinite { .. } => {
+            "mend the input's expression in the spec (docs/src/reference/spec.md)".into()
+        }
         SignalError::NoCommonInstant { .. } => {
             "`heatrun info FILE` shows each channel's span and gaps; a longer --ts bridges \
              short gaps"

@@ -34,6 +34,20 @@ pub enum SignalError {
         /// What was looked for.
         what: String,
     },
+    /// An input's expression gives no finite value at any instant where its channels are
+    /// all known (a division by zero, the logarithm of a negative number).
+    #[error(
+        "input `{input}`: its expression `{expression}` is not a finite number at any of the \
+         {known} instants where its channels are known"
+    )]
+    ExpressionNeverFinite {
+        /// The input.
+        input: String,
+        /// The expression's text.
+        expression: String,
+        /// Instants where every channel it reads is known.
+        known: usize,
+    },
     /// The model description needs a nameplate and none was resolved (a library misuse).
     #[error("the model's loss model and per-unit scaling need the machine's nameplate")]
     NameplateNeeded,
@@ -762,14 +776,26 @@ fn input_signal<'a>(
                 .map(|c| series(c).map(|s| &s.values))
                 .collect::<Result<Vec<_>>>()?;
             let mut args = vec![0.0; channels.len()];
-            (0..decimated.len)
+            let mut known = 0;
+            let values: Series = (0..decimated.len)
                 .map(|k| {
                     for (a, c) in args.iter_mut().zip(&channels) {
                         *a = c.get(k)?;
                     }
+                    known += 1;
                     e.eval(&args).map(|v| v / power_base)
                 })
-                .collect()
+                .collect();
+            // Where the channels are known and the expression never is, the expression is
+            // at fault, not the recording's coverage: say so rather than "too few samples".
+            if known > 0 && values.iter().all(|v| v.is_none()) {
+                return Err(SignalError::ExpressionNeverFinite {
+                    input: i.name.clone(),
+                    expression: e.text().to_owned(),
+                    known,
+                });
+            }
+            values
         }
         InputSource::Loss(h) => generator
             .ok_or(SignalError::NameplateNeeded)?
