@@ -166,7 +166,10 @@ fn constant_inputs_are_not_persistently_exciting() {
         });
     r.write(&dir.path().join("r.mcap"));
     let msg = fails_with_2(dir.path(), "r.mcap");
-    assert!(msg.contains("persistently exciting"), "{msg}");
+    assert!(
+        msg.contains("are both constant") && msg.contains("replay a heat run with load steps"),
+        "{msg}"
+    );
 }
 
 /// What the MCAP conformance suite's `OneMessage` case holds: one schema, one channel
@@ -476,6 +479,24 @@ fn errors_say_what_to_do_next() {
         zero.contains("input `q`: its expression `armature_current / 0` is not a finite number")
             && zero.contains("; mend the input's expression in the spec"),
         "{zero}"
+    );
+    // Two proportional inputs are named as the regression's rank deficiency.
+    std::fs::write(
+        dir.path().join("twice.toml"),
+        "[[state]]\nname = \"stator_winding_temp\"\n[[input]]\nname = \"q\"\n\
+         expression = \"armature_current^2\"\nunit = \"kA2\"\n[[input]]\nname = \"q2\"\n\
+         expression = \"2 * armature_current^2\"\nunit = \"kA2\"\n",
+    )
+    .unwrap();
+    let twice = one_line_exit_2(
+        &["replay", fixture, "--spec", "twice.toml", "--rrd", "k.rrd"],
+        dir.path(),
+    );
+    assert!(
+        twice.contains(
+            "inputs `q` and `q2` are proportional (`q2` = 2.000000 × `q` at every instant)"
+        ) && twice.contains("; two proportional inputs are one heat"),
+        "{twice}"
     );
     // A misspelt key of a machine file, a spec or a map: the key it lists that was meant.
     std::fs::write(dir.path().join("machine.toml"), "rated_power_mva = 60\n").unwrap();

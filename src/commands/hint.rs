@@ -150,6 +150,14 @@ fn for_estimation(e: &EstimationError) -> Option<String> {
              have gaps"
                 .into()
         }
+        EstimationError::DependentInputs { which, .. } if which.contains("both constant") => {
+            "the inputs must change: replay a heat run with load steps".into()
+        }
+        EstimationError::DependentInputs { .. } => {
+            "two proportional inputs are one heat: keep one of them in the spec (--spec \
+             SPEC.toml)"
+                .into()
+        }
         EstimationError::ZeroRegressor { .. } | EstimationError::NoExcitation { .. } => {
             "the inputs must change, and change independently: replay a heat run with load \
              steps, or identify fewer inputs with --spec SPEC.toml"

@@ -3,6 +3,7 @@
 //! and resolution ([`super::noise::NoiseFloor`]).
 
 use crate::error::{Error, Result};
+use crate::estimate::excitation::input_dependence;
 use crate::estimate::{
     Estimate, EstimationError, Estimator, IdentificationData, InstrumentalVariables, Method,
     OutputError, PredictionError, RecursiveLeastSquares, ResistanceCapacitance,
@@ -182,6 +183,37 @@ pub fn disturbance_state(model: &ModelDescription) -> Option<usize> {
 /// what the gain buys against the parameters it costs. Data stored by exception keep
 /// `oe`, whose likelihood of the censored values `pem` does not have.
 pub fn estimate_chosen(
+    data: &IdentificationData,
+    options: &ReplayOptions,
+    scaling: network::Scaling,
+    noise: &NoiseFloor,
+) -> Result<(Estimate, Option<EstimatorChoice>)> {
+    choose(data, options, scaling, noise).map_err(|e| named_dependence(e, data, options))
+}
+
+/// A rank-deficient regression whose cause lies in the inputs, said with their names (a
+/// constant input, two proportional ones: [`input_dependence`]); any other error as it is.
+fn named_dependence(e: Error, data: &IdentificationData, options: &ReplayOptions) -> Error {
+    let Error::Estimation(EstimationError::NoExcitation { method, .. }) = &e else {
+        return e;
+    };
+    let Some(dependence) = input_dependence(data) else {
+        return e;
+    };
+    let names: Vec<String> = options
+        .model
+        .inputs
+        .iter()
+        .map(|i| i.name.clone())
+        .collect();
+    Error::Estimation(EstimationError::DependentInputs {
+        method,
+        which: dependence.describe(&names),
+    })
+}
+
+/// [`estimate_chosen`] before its error is named.
+fn choose(
     data: &IdentificationData,
     options: &ReplayOptions,
     scaling: network::Scaling,

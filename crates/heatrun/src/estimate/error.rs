@@ -43,6 +43,15 @@ pub enum EstimationError {
         /// σ_min/σ_max of the column-scaled matrix.
         singular_value_ratio: f64,
     },
+    /// The regression is rank deficient because two inputs are proportional, named
+    /// ([`super::excitation::input_dependence`]).
+    #[error("{method}: the regression is rank deficient: {which}, so Γ's columns for them cannot be told apart")]
+    DependentInputs {
+        /// The method's name.
+        method: &'static str,
+        /// The dependence, the inputs named.
+        which: String,
+    },
     /// An iterative method's starting model is unstable.
     #[error("{method}: the starting model is unstable (spectral radius {spectral_radius:.6})")]
     UnstableStart {

@@ -11,6 +11,7 @@ pub(crate) mod compressed;
 mod data;
 mod discrete;
 mod error;
+pub mod excitation;
 mod iv;
 pub(crate) mod kernels;
 pub mod long_run;
