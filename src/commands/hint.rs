@@ -102,8 +102,8 @@ fn for_signals(e: &SignalError) -> Option<String> {
                 .into()
         }
         SignalError::MissingChannel { .. } | SignalError::Losses(LossError::MissingChannel { .. }) => {
-            "`heatrun info FILE` lists the channels; a recording of another system needs \
-             --spec SPEC.toml naming its channels"
+            "`heatrun info FILE` lists the channels the recording has; a spec (--spec \
+             SPEC.toml) names the ones its model reads"
                 .into()
         }
         SignalError::ExpressionNeverFinite { .. } => {
