@@ -466,4 +466,27 @@ fn an_indexed_replay_makes_its_folder_and_a_quiet_fleet_prints_no_table() {
     let quiet = common::heatrun_ok(&["replay", "archive", "--out-dir", "out", "-q"], dir.path());
     assert_eq!(String::from_utf8_lossy(&quiet.stdout), "");
     assert!(dir.path().join("out/fleet-summary.csv").is_file());
+    // A recording named as the listing is refused by what it is (it was read as text:
+    // "invalid utf-8 sequence of 1 bytes from index 0").
+    let out = common::heatrun(
+        &[
+            "replay",
+            "--index",
+            "0",
+            "archive/unit1.mcap",
+            "--out-dir",
+            "o",
+            "-q",
+        ],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--index: archive/unit1.mcap is not a listing of recordings")
+            && stderr.contains("it is an MCAP recording")
+            && stderr.contains("replay it without --index"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("o").exists());
 }

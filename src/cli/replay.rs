@@ -334,7 +334,7 @@ fn listing_of(listing: &Path) -> anyhow::Result<Vec<PathBuf>> {
             .map(Location::to_path)
             .collect());
     }
-    let text = store::read_to_string(&location)?;
+    let text = listing_text(listing, &location)?;
     let mut found: Vec<PathBuf> = text
         .lines()
         .map(str::trim)
@@ -343,6 +343,34 @@ fn listing_of(listing: &Path) -> anyhow::Result<Vec<PathBuf>> {
         .collect();
     found.sort();
     Ok(found)
+}
+
+/// A listing file's text; a recording or any other binary file named as the listing is
+/// refused by what it is, from its first bytes (a recording is not read whole for it).
+fn listing_text(listing: &Path, location: &Location) -> anyhow::Result<String> {
+    use std::io::Read;
+    let not_a_listing = |what: &str| {
+        Usage(format!(
+            "--index: {} is not a listing of recordings (a folder, a prefix, or a text file of \
+             paths or URLs, one a line): it is {what}; replay it without --index",
+            listing.display()
+        ))
+    };
+    let mut reader = store::open(location)?.reader;
+    let mut start = Vec::with_capacity(8);
+    reader
+        .by_ref()
+        .take(8)
+        .read_to_end(&mut start)
+        .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", listing.display()))?;
+    if start.starts_with(b"\x89MCAP") {
+        return Err(not_a_listing("an MCAP recording").into());
+    }
+    let mut bytes = start;
+    reader
+        .read_to_end(&mut bytes)
+        .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", listing.display()))?;
+    String::from_utf8(bytes).map_err(|_| not_a_listing("not text").into())
 }
 
 /// The recordings a replay names.
