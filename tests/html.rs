@@ -364,6 +364,16 @@ fn the_fixtures_page_has_every_section_figure_and_table() {
             assert!(strokes.contains(&hex(c)), "figure {j}: {strokes:?}");
         }
     }
+    // The network's nodes too (the paper's Fig. 9), outlined in their parts' colours.
+    let network = page.figure_strokes("network");
+    for j in 0..3 {
+        assert!(
+            network
+                .iter()
+                .any(|f| f.contains(&hex(heatrun::colour::part(j)))),
+            "{network:?}"
+        );
+    }
     let sensitivities = page.figure_strokes("time-constants");
     assert_eq!(sensitivities.len(), 3);
     for strokes in &sensitivities {

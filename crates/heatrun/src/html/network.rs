@@ -77,7 +77,7 @@ pub fn diagram(network: &Network) -> String {
         }
     }
     for (i, part) in network.states.iter().enumerate() {
-        node(&mut s, x(i), top, part);
+        node(&mut s, x(i), top, part, crate::colour::part(i));
         let bottom = top + BOX_H;
         resistor_vertical(
             &mut s,
@@ -127,14 +127,19 @@ fn resistance_label(g: f64, r: Option<f64>) -> String {
     }
 }
 
-fn node(s: &mut String, cx: f64, top: f64, part: &str) {
+/// A part's node, outlined and tinted in the part's colour (as in the figures and the
+/// rerun recording's graph of the network).
+fn node(s: &mut String, cx: f64, top: f64, part: &str, rgb: crate::colour::Rgb) {
+    let hex = |c: crate::colour::Rgb| format!("#{:02X}{:02X}{:02X}", c[0], c[1], c[2]);
     let _ = writeln!(
         s,
         "<g><title>{}</title><rect x=\"{}\" y=\"{top}\" width=\"{BOX_W}\" height=\"{BOX_H}\" rx=\"8\" \
-         fill=\"#eef3fa\" stroke=\"#1f5fa8\" stroke-width=\"2\"/>\
+         fill=\"{}\" stroke=\"{}\" stroke-width=\"3\"/>\
          <text x=\"{cx}\" y=\"{}\" text-anchor=\"middle\" font-weight=\"600\">{}</text></g>",
         escape(part),
         cx - BOX_W / 2.0,
+        hex(crate::colour::lightened(rgb, 0.88)),
+        hex(rgb),
         top + BOX_H / 2.0 + 5.0,
         escape(short_name(part))
     );
