@@ -18,6 +18,13 @@ pub fn run(args: &ManArgs) -> anyhow::Result<Outcome> {
     root.build();
     if let Some(dir) = &args.out_dir {
         let start = find(&root, &args.command)?;
+        if dir.exists() && !dir.is_dir() {
+            return Err(Usage(format!(
+                "--out-dir {} is a file: name a folder for the pages",
+                dir.display()
+            ))
+            .into());
+        }
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for command in with_subcommands(start) {
             let page = render(command)?;
