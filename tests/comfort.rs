@@ -104,10 +104,17 @@ fn man_pages_hold_every_command_and_option() {
     ] {
         assert!(d.join("man/1").join(page).is_file(), "{page}");
     }
-    // A file where the folder should be: refused as usage (exit 1 before, "File exists").
-    let file = common::heatrun(&["man", "--out-dir", "man/1/heatrun.1"], d);
-    assert_eq!(file.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&file.stderr).contains("is a file: name a folder"));
+    // A file where the folder should be: refused as usage (exit 1 before, "File exists"),
+    // here and for a fleet's outputs.
+    for args in [
+        &["man", "--out-dir", "man/1/heatrun.1"][..],
+        &["replay", "man", "--out-dir", "man/1/heatrun.1"],
+    ] {
+        let file = common::heatrun(args, d);
+        assert_eq!(file.status.code(), Some(2), "{args:?}");
+        let message = String::from_utf8_lossy(&file.stderr);
+        assert!(message.contains("is a file: name a folder"), "{message}");
+    }
     let bad = common::heatrun(&["man", "replayy"], d);
     assert_eq!(bad.status.code(), Some(2));
     let message = String::from_utf8_lossy(&bad.stderr);

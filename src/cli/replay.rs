@@ -223,6 +223,14 @@ impl TryFrom<ReplayArgs> for Replay {
     /// Finds the recordings, checks the flags against one or many, then reads the spec:
     /// the command line's own faults are found before any file is read for the model.
     fn try_from(args: ReplayArgs) -> anyhow::Result<Replay> {
+        // Found here, not when the folder is made after the arguments are read.
+        if args.out_dir.is_file() {
+            return Err(Usage(format!(
+                "--out-dir {} is a file: name a folder for the outputs",
+                args.out_dir.display()
+            ))
+            .into());
+        }
         let named = match indexed(&args)? {
             Some(file) => return indexed_replay(args, file),
             None => named_recordings(&args.files)?,
