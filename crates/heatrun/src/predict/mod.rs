@@ -191,16 +191,10 @@ fn predict_from(
         let t = t0 + k as f64 * ts;
         let p = schedule.point_at(t);
         let theta = sim.temperatures(&model.outputs(&x, &last_u), p);
-        if theta.iter().any(|v| !(v.abs() < RUNAWAY_C)) {
-            let ran_away = UseError::Request(String::new());
-            return Err(at_schedule_time(
-                ran_away,
-                schedule,
-                (t, &theta),
-                &out.states,
-            ));
+        if let Some(e) = ran_away(schedule, (t, &theta), &out.states) {
+            return Err(e);
         }
-        let located = |e| at_schedule_time(e, schedule, (t, &theta), &out.states);
+        let located = |e| at_schedule_time(e, schedule, t);
         let now = sim.inputs(p, &theta).map_err(located)?;
         let u = if delays.reads_ahead() {
             // An advanced input (`advance_s`) acts as u(k + 1): the schedule one sample on.
@@ -230,32 +224,35 @@ fn predict_from(
 /// generator describes (insulation chars long before), °C.
 const RUNAWAY_C: f64 = 1e4;
 
-/// An input that could not be computed at time `t_s` of the schedule, named by the
-/// schedule's file, the time and the row in force; where the temperatures `theta` (°C of
-/// the parts `states`) had already run away (a load far beyond the model's, whose copper
-/// losses grow with the temperature they raise), that is the cause said.
-fn at_schedule_time(
-    e: UseError,
+/// Where the temperatures `theta` (°C of the parts `states`) at time `t_s` of the
+/// schedule have run away (a load far beyond the model's, whose copper losses grow with
+/// the temperature they raise): the error naming the part, the time and the row.
+fn ran_away(
     schedule: &LoadSchedule,
     (t_s, theta): (f64, &[f64]),
     states: &[String],
-) -> UseError {
+) -> Option<UseError> {
+    let j = theta.iter().position(|v| !(v.abs() < RUNAWAY_C))?;
+    let what = format!(
+        "the predicted temperatures ran away ({} at {:.3e} °C): the schedule's load is far \
+         beyond any the model describes",
+        states.get(j).map_or("a part", String::as_str),
+        theta[j]
+    );
+    Some(at_schedule_time(UseError::Request(what), schedule, t_s))
+}
+
+/// A request error at time `t_s` of the schedule, named by the schedule's file, the time
+/// and the row in force (an input that could not be computed there); any other error as
+/// it is.
+fn at_schedule_time(e: UseError, schedule: &LoadSchedule, t_s: f64) -> UseError {
     let UseError::Request(message) = e else {
         return e;
     };
     let row = schedule.time_s.partition_point(|&r| r <= t_s + 1e-9);
     let row_s = schedule.time_s[row.saturating_sub(1)];
-    let what = match theta.iter().position(|v| !(v.abs() < RUNAWAY_C)) {
-        Some(j) => format!(
-            "the predicted temperatures ran away ({} at {:.3e} °C): the schedule's load is \
-             far beyond any the model describes",
-            states.get(j).map_or("a part", String::as_str),
-            theta[j]
-        ),
-        None => message,
-    };
     UseError::Request(format!(
-        "{}: at {t_s} s (the row of time_s {row_s}): {what}",
+        "{}: at {t_s} s (the row of time_s {row_s}): {message}",
         schedule.path.display()
     ))
 }
