@@ -191,8 +191,9 @@ pub fn estimate_chosen(
     choose(data, options, scaling, noise).map_err(|e| named_dependence(e, data, options))
 }
 
-/// A rank-deficient regression whose cause lies in the inputs, said with their names (a
-/// constant input, two proportional ones: [`input_dependence`]); any other error as it is.
+/// A rank-deficient regression whose cause lies in the inputs, said with their names (two
+/// proportional inputs, or two constant ones: [`input_dependence`]); any other error as it
+/// is.
 fn named_dependence(e: Error, data: &IdentificationData, options: &ReplayOptions) -> Error {
     let Error::Estimation(EstimationError::NoExcitation { method, .. }) = &e else {
         return e;
