@@ -108,6 +108,12 @@ fn too_few_reports_or_a_file_that_is_none_are_bad_input() {
     std::fs::write(dir.path().join("notes.json"), "{\"hello\": 1}").unwrap();
     let fixture = common::package_root().join("fixtures/paper_heat_run.mcap");
     std::fs::copy(&fixture, dir.path().join("run.mcap")).unwrap();
+    // `heatrun synth`'s truth, which a glob of a folder's `*.json` picks up.
+    std::fs::copy(
+        common::package_root().join("fixtures/paper_heat_run.mcap.truth.json"),
+        dir.path().join("run.mcap.truth.json"),
+    )
+    .unwrap();
     for (args, names) in [
         (vec!["fleet", "compare", "notes.json"], "notes.json"),
         (
@@ -119,6 +125,18 @@ fn too_few_reports_or_a_file_that_is_none_are_bad_input() {
                 "fleet", "compare", "run.mcap", "run.mcap", "run.mcap", "run.mcap",
             ],
             "run.mcap: not a heatrun model report: it is an MCAP recording",
+        ),
+        (
+            vec![
+                "fleet",
+                "compare",
+                "run.mcap.truth.json",
+                "a.json",
+                "b.json",
+                "c.json",
+            ],
+            "run.mcap.truth.json: not a heatrun model report: it is the true model `heatrun \
+             synth` writes beside a recording",
         ),
     ] {
         let out = common::heatrun(&args, dir.path());

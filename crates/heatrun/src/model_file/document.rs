@@ -698,7 +698,23 @@ impl Report {
                     expected: PROFILE,
                 })
             }
-            Some(Tag::Other(_)) | None => {
+            // `heatrun synth`'s truth beside a recording (`run.mcap.truth.json`) is met
+            // where a folder's `*.json` is given: its `profile` is the load schedule.
+            _ if path.to_string_lossy().ends_with(".truth.json") => {
+                return Err(UseError::NotAReport {
+                    path: path.to_owned(),
+                    message: "it is the true model `heatrun synth` writes beside a recording, \
+                              not the report of a replay"
+                        .into(),
+                })
+            }
+            Some(Tag::Other(_)) => {
+                return Err(UseError::NotAReport {
+                    path: path.to_owned(),
+                    message: "its `profile` is not the name of a heatrun profile".into(),
+                })
+            }
+            None => {
                 return Err(UseError::NotAReport {
                     path: path.to_owned(),
                     message: "no `profile` key".into(),

@@ -582,6 +582,13 @@ mod tests {
         );
         assert_eq!(
             message(|r| r["profile"] = 2.into()),
+            "model.json: not a heatrun model report: its `profile` is not the name of a heatrun \
+             profile"
+        );
+        assert_eq!(
+            message(|r| {
+                r.as_object_mut().unwrap().remove("profile");
+            }),
             "model.json: not a heatrun model report: no `profile` key"
         );
         assert_eq!(
