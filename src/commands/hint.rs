@@ -150,7 +150,7 @@ fn for_estimation(e: &EstimationError) -> Option<String> {
              have gaps"
                 .into()
         }
-        EstimationError::DependentInputs { which, .. } if which.contains("both constant") => {
+        EstimationError::DependentInputs { constant: true, .. } => {
             "the inputs must change: replay a heat run with load steps".into()
         }
         EstimationError::DependentInputs { .. } => {
@@ -255,14 +255,10 @@ fn for_import(e: &ImportError) -> Option<String> {
              [time] `zone` (such as \"Europe/Zurich\") and the rows' order places them"
                 .into()
         }
-        ImportError::MapSyntax { message, .. } if unknown_key(message).is_some() => {
-            unknown_key(message)?
+        ImportError::MapSyntax { message, .. } => {
+            unknown_key(message).unwrap_or_else(|| MAP_HINT.into())
         }
-        ImportError::MapSyntax { .. } | ImportError::MapValue { .. } => {
-            "`heatrun import --guess FILE` prints a map to start from; \
-             docs/src/reference/import-map.md shows its keys"
-                .into()
-        }
+        ImportError::MapValue { .. } => MAP_HINT.into(),
         _ => return None,
     })
 }
@@ -313,6 +309,10 @@ fn for_model_use(e: &UseError) -> Option<String> {
         _ => return None,
     })
 }
+
+/// Where a map's keys are shown and a first map is had.
+const MAP_HINT: &str = "`heatrun import --guess FILE` prints a map to start from; \
+                        docs/src/reference/import-map.md shows its keys";
 
 /// "did you mean `key`?" for serde's "unknown field `given`, expected one of `a`, `b`, …"
 /// (or "expected `a` or `b`") where one of the keys it lists is near the one given.

@@ -210,6 +210,7 @@ fn named_dependence(e: Error, data: &IdentificationData, options: &ReplayOptions
     Error::Estimation(EstimationError::DependentInputs {
         method,
         which: dependence.describe(&names),
+        constant: dependence.constant.is_some(),
     })
 }
 

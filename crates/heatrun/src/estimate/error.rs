@@ -51,6 +51,8 @@ pub enum EstimationError {
         method: &'static str,
         /// The dependence, the inputs named.
         which: String,
+        /// Both inputs are constant (the run wants load steps, not a spec with one fewer).
+        constant: bool,
     },
     /// An iterative method's starting model is unstable.
     #[error("{method}: the starting model is unstable (spectral radius {spectral_radius:.6})")]

@@ -21,12 +21,12 @@ pub use crate::colour::Rgb;
 /// take [`crate::colour::part`], an input's [`crate::colour::input`], as in the rerun
 /// recording.
 pub const PALETTE: [Rgb; 6] = [
-    [214, 39, 40],
-    [44, 160, 44],
-    [148, 103, 189],
-    [140, 86, 75],
-    [31, 119, 180],
-    [255, 127, 14],
+    crate::colour::PARTS[0],
+    crate::colour::PARTS[2],
+    crate::colour::PARTS[3],
+    crate::colour::PARTS[4],
+    crate::colour::PARTS[1],
+    crate::colour::INPUTS[0],
 ];
 /// A neutral grey for bands and reference lines.
 pub const GREY: Rgb = crate::colour::REFERENCE;

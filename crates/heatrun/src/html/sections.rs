@@ -447,6 +447,11 @@ impl TemperaturesSection<'_> {
     }
 }
 
+/// How the temperature figures draw a part, said under either model's paragraph.
+const KEPT_COLOURS: &str = "Each part keeps its colour in every figure and in the rerun \
+                            recording: the measured trace wide and light, the model's line over \
+                            it in the full colour.";
+
 impl Section for TemperaturesSection<'_> {
     fn id(&self) -> &str {
         "temperatures"
@@ -477,18 +482,15 @@ impl Section for TemperaturesSection<'_> {
                  the hidden-state model's output ŷ = C x + D u, simulated through each \
                  segment from the initial state fitted to its outputs (the estimation instants \
                  and the validation apart), with its residual y − ŷ below; the measured-state \
-                 model (eq. 8, from the measured initial state) is drawn in grey beside it. Each \
-                 part keeps its colour in every figure and in the rerun recording: the measured \
-                 trace wide and light, the model's line over it in the full colour.",
+                 model (eq. 8, from the measured initial state) is drawn in grey beside it. \
+                 {KEPT_COLOURS}",
                 first + n - 1
             ));
         } else {
             out.paragraph(&format!(
                 "Figures {first}–{} compare each measured temperature with the model simulated \
                  from the initial state through the whole recording (eq. 8; the paper's Figs. 3–5), \
-                 with the residual y − ŷ below. Each part keeps its colour in every figure and in \
-                 the rerun recording: the measured trace wide and light, the model's line over it \
-                 in the full colour.",
+                 with the residual y − ŷ below. {KEPT_COLOURS}",
                 first + n - 1
             ));
         }
