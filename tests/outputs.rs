@@ -98,10 +98,15 @@ fn rrd_holds_the_expected_entities_and_rows() {
             n,
             "{rows:?}"
         );
-        assert_eq!(rows[&format!("/temperature/{state}/model")], n);
         assert_eq!(rows[&format!("/residual/{state}")], n);
+        // Smooth curves, sent as the polyline the plot draws (heatrun_rerun::curve): its
+        // two ends at least, fewer rows than instants (the instants' values are checked
+        // in the publisher's own tests).
+        let model = rows[&format!("/temperature/{state}/model")];
+        assert!((2..n).contains(&model), "{model}");
         for i in 1..=3 {
-            assert_eq!(rows[&format!("/sensitivity/T{i}/{state}")], n);
+            let response = rows[&format!("/sensitivity/T{i}/{state}")];
+            assert!((2..n).contains(&response), "T{i} {state}: {response}");
         }
     }
     for input in ["armature_copper_loss", "field_copper_loss", "iron_loss"] {

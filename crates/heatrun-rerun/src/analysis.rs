@@ -2,6 +2,7 @@
 //! constant to a part (eqs. 27-29), the residuals' correlations, and the recursive
 //! estimate's trajectory.
 
+use crate::curve::{Polyline, CURVE_TOLERANCE};
 use crate::paced::PacedStream;
 
 use crate::Result;
@@ -48,30 +49,31 @@ fn sensitivity_entities(
     for (k, state) in signals.states.iter().enumerate() {
         let entity = format!("sensitivity/T{}/{}", i + 1, state.name);
         let name = format!("{}, {unit}", short_part(&state.part));
-        style::series(rec, &entity, &name, style::part(k), style::LINE_WIDTH)?;
+        style::series(rec, &entity, &name, style::part(k), style::CURVE_WIDTH)?;
         entities.push(entity);
     }
     Ok(entities)
 }
 
-/// Sends the responses to one time constant, each state's to its entity, from one run of
-/// the recursion `run` (it calls back with an instant and every state's value there): the
-/// recursion gives all states at once, and was run once per state before (nine runs for
-/// three constants and three states where three give the same points).
+/// Sends the responses to one time constant, each state's to its entity as the polyline
+/// a plot draws of it ([`Polyline`]: smooth curves), from one run of the recursion `run`
+/// (it calls back with an instant and every state's value there): the recursion gives
+/// all states at once, and was run once per state before (nine runs for three constants
+/// and three states where three give the same points).
 fn send_responses(
     rec: &PacedStream,
     entities: &[String],
     time_ns: &[i64],
     run: impl FnOnce(&mut dyn FnMut(usize, &[f64])),
 ) -> Result<()> {
-    let mut points: Vec<Vec<(i64, f64)>> = entities
+    let mut curves: Vec<(Polyline, Vec<(i64, f64)>)> = entities
         .iter()
-        .map(|_| Vec::with_capacity(SERIES_SLICE))
+        .map(|_| (Polyline::new(CURVE_TOLERANCE), Vec::new()))
         .collect();
     let mut failed = None;
     run(&mut |instant, values| {
-        for ((entity, points), v) in entities.iter().zip(&mut points).zip(values) {
-            points.push((time_ns[instant], *v));
+        for ((entity, (line, points)), v) in entities.iter().zip(&mut curves).zip(values) {
+            points.extend(line.push((time_ns[instant], *v)));
             if points.len() == SERIES_SLICE && failed.is_none() {
                 failed = send_series(rec, entity, points.drain(..)).err();
             }
@@ -80,7 +82,8 @@ fn send_responses(
     if let Some(e) = failed {
         return Err(e);
     }
-    for (entity, points) in entities.iter().zip(points) {
+    for (entity, (mut line, mut points)) in entities.iter().zip(curves) {
+        points.extend(line.finish());
         send_series(rec, entity, points.into_iter())?;
     }
     Ok(())

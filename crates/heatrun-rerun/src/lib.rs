@@ -21,6 +21,7 @@ use crate::sdk::{RecordingStreamBuilder, Scalars, SeriesLines, TimeColumn};
 
 mod analysis;
 pub mod blueprint;
+pub mod curve;
 #[cfg(test)]
 mod hidden_tests;
 #[cfg(test)]

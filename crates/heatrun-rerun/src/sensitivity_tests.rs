@@ -1,10 +1,12 @@
-//! The sensitivity responses drawn are the analysis's, to the bit, each state's under its
-//! own entity, now that one run of the recursion sends every state's (it was run once per
-//! state), across more instants than one slice of a series.
+//! The sensitivity responses drawn are the analysis's (each drawn point to the bit, the
+//! polyline through them within the curve's tolerance of every instant), each state's
+//! under its own entity, now that one run of the recursion sends every state's (it was
+//! run once per state), across more instants than one slice of a series.
 
 use heatrun::pipeline::ReplayOptions;
 use heatrun::synth::{self, SynthOptions};
 
+use crate::curve::departure_in_tolerances;
 use crate::rrd_testing::replayed_and_drawn;
 use crate::traces::SERIES_SLICE;
 
@@ -30,15 +32,22 @@ fn each_states_sensitivity_response_is_drawn_as_the_analysis_made_it() {
                 .responses
                 .for_each(i, &r.data, |instant, rel| {
                     if rel[k].is_finite() {
-                        want.push((t[instant], rel[k].to_bits()));
+                        want.push((t[instant], rel[k]));
                     }
                 });
             assert!(want.len() > SERIES_SLICE, "{}", want.len());
-            let got: Vec<(i64, u64)> = drawn[&format!("/sensitivity/T{}/{}", i + 1, state.name)]
-                .iter()
-                .map(|&(t, v)| (t, v.to_bits()))
-                .collect();
-            assert_eq!(got, want, "T{} {}", i + 1, state.name);
+            let got = &drawn[&format!("/sensitivity/T{}/{}", i + 1, state.name)];
+            // Drawn as the polyline within the tolerance: points of the response, to the
+            // bit, fewer than its instants (a response to measured, noisy losses: here a
+            // seventh of them).
+            let departure = departure_in_tolerances(&want, got, 0.0);
+            assert!(
+                departure <= 1.0 + 1e-9,
+                "T{} {}: {departure}",
+                i + 1,
+                state.name
+            );
+            assert!(got.len() < want.len(), "{} of {}", got.len(), want.len());
         }
     }
 }

@@ -2,6 +2,7 @@
 //! part, residuals, inputs and the decimated quantities. Each series goes out as columns
 //! in slices, paced ([`PacedStream`]: rerun's queue holds a bounded backlog of them).
 
+use crate::curve::{self, CURVE_TOLERANCE};
 use crate::paced::PacedStream;
 use crate::sdk::{Scalars, TimeColumn};
 
@@ -69,6 +70,17 @@ pub(super) fn send_series(
     send_slices(rec, entity, points, |times| {
         TimeColumn::new_timestamp_nanos_since_epoch(TIMELINE, times)
     })
+}
+
+/// Sends a smooth curve, `(time ns, value)` pairs in time order, as the polyline a plot
+/// draws of it: the points within [`CURVE_TOLERANCE`] of its range of the line through
+/// their neighbours are left out ([`curve::thinned`]); returns the rows sent.
+pub(super) fn send_curve(
+    rec: &PacedStream,
+    entity: &str,
+    points: impl Iterator<Item = (i64, f64)>,
+) -> Result<usize> {
+    send_series(rec, entity, curve::thinned(points, CURVE_TOLERANCE))
 }
 
 /// Sends `(time, value)` pairs in time order as columns, skipping non-finite values, on
@@ -364,8 +376,8 @@ fn log_simulated(
                 style::REFERENCE,
             ),
         };
-        style::series(rec, &entity, &name, colour, style::LINE_WIDTH)?;
-        send_series(
+        style::series(rec, &entity, &name, colour, style::CURVE_WIDTH)?;
+        send_curve(
             rec,
             &entity,
             on_grid(
