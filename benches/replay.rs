@@ -10,7 +10,9 @@
 //! and report written) as the `heatrun` binary does. For each it prints messages/s, MB/s
 //! and peak resident memory of the replay, the floor — iterating the same file's
 //! messages with the mcap crate and nothing else — and the ratio replay / floor; medians
-//! of three runs (W0: five). "W1 shuffled" is W1 with its messages stored in a random
+//! of three runs (W0: eleven), the floor read in the same turns as the replays and the
+//! ratio the median of each turn's (a machine whose load drifts between the floors and
+//! the replays moved W0's ratio by a tenth when all the floors came first). "W1 shuffled" is W1 with its messages stored in a random
 //! order (zstd chunks of 1 MiB, metadata at the end): its replay must stay within 1.5×
 //! of W1's time and within W1's memory, and give W1's report numbers.
 //! `HEATRUN_BENCH_W2=1` adds W2, seven days at the same rates (about 260 million
@@ -176,16 +178,11 @@ enum Source {
     Shuffled(&'static str),
 }
 
-/// Medians of the floor over `runs`: (messages, seconds).
-fn floor_median(path: &Path, runs: usize) -> (u64, f64) {
-    let mut floors = Vec::new();
-    let mut messages = 0;
-    for _ in 0..runs {
-        let t = Instant::now();
-        messages = floor(path);
-        floors.push(t.elapsed().as_secs_f64());
-    }
-    (messages, median(floors))
+/// The floor once: (messages, seconds).
+fn timed_floor(path: &Path) -> (u64, f64) {
+    let t = Instant::now();
+    let messages = floor(path);
+    (messages, t.elapsed().as_secs_f64())
 }
 
 /// A workload's replays: median seconds, peak MB, the report's numbers.
@@ -195,14 +192,23 @@ struct Measured {
     numbers: Vec<f64>,
 }
 
-/// Replays `path` `runs` times, in turns with `paired` when given (a reordered workload
-/// and its source then see the same load on the machine).
+/// The floor in the same turns as the replays: median seconds, and the median of each
+/// turn's replay / floor (both under the load the machine had in that turn).
+struct Floor {
+    messages: u64,
+    seconds: f64,
+    ratio: f64,
+}
+
+/// Reads `path` (the floor) and replays it `runs` times, in turns, with `paired` in the
+/// same turns when given (a reordered workload and its source then see the same load on
+/// the machine, as the floor and the replay do).
 fn measure(
     path: &Path,
     paired: Option<&Path>,
     out: &Path,
     runs: usize,
-) -> (Measured, Option<Measured>) {
+) -> (Measured, Option<Measured>, Floor) {
     let summary = |times: Vec<f64>, peaks: Vec<f64>, numbers| Measured {
         seconds: median(times),
         peak_mb: peaks.iter().cloned().fold(0.0, f64::max),
@@ -210,7 +216,11 @@ fn measure(
     };
     let (mut times, mut peaks, mut numbers) = (Vec::new(), Vec::new(), Vec::new());
     let (mut times_of, mut peaks_of, mut numbers_of) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut messages, mut floors, mut ratios) = (0, Vec::new(), Vec::new());
     for _ in 0..runs {
+        let (m, f) = timed_floor(path);
+        messages = m;
+        floors.push(f);
         if let Some(of) = paired {
             let (t, peak) = replay(of, out);
             times_of.push(t);
@@ -219,11 +229,17 @@ fn measure(
         }
         let (t, peak) = replay(path, out);
         times.push(t);
+        ratios.push(t / f);
         peaks.push(peak);
         numbers = report_numbers(out);
     }
     let of = paired.map(|_| summary(times_of, peaks_of, numbers_of));
-    (summary(times, peaks, numbers), of)
+    let floor = Floor {
+        messages,
+        seconds: median(floors),
+        ratio: median(ratios),
+    };
+    (summary(times, peaks, numbers), of, floor)
 }
 
 fn main() {
@@ -250,7 +266,7 @@ fn main() {
                 "--temperature-noise",
                 "0.05",
             ])),
-            5,
+            11,
         ),
         ("W1/4", full_rate(20868.0 / 4.0), 3),
         ("W1/2", full_rate(20868.0 / 2.0), 3),
@@ -285,10 +301,9 @@ fn main() {
             (Source::Shuffled(of), None) => panic!("{of} is not made before {name}"),
         };
         let bytes = std::fs::metadata(&path).expect("workload").len() as f64 / 1e6;
-        let (messages, f) = floor_median(&path, runs);
         let paired = source_of.as_ref().map(|(_, p)| p.as_path());
-        let (m, of) = measure(&path, paired, out.path(), runs);
-        let t = m.seconds;
+        let (m, of, floor) = measure(&path, paired, out.path(), runs);
+        let (t, messages, f) = (m.seconds, floor.messages, floor.seconds);
         println!(
             "{:<12} {:>12} {:>9.0} {:>10.2} {:>12.0} {:>9.0} {:>10.1} {:>9.2} {:>7.2}",
             name,
@@ -299,7 +314,7 @@ fn main() {
             bytes / t,
             m.peak_mb,
             f,
-            t / f
+            floor.ratio
         );
         if let (Some(of), Some((of_name, _))) = (of, source_of) {
             let worst = m
