@@ -102,9 +102,95 @@ pub fn chi_square_quantile_99(degrees_of_freedom: usize) -> f64 {
     nu * (1.0 - a + Z_99 * a.sqrt()).powi(3)
 }
 
+/// χ²_ν's quantile of `probability` (in (0, 1)) by the same approximation as
+/// [`chi_square_quantile_99`], z the standard normal quantile of `probability`
+/// ([`standard_normal_quantile`]).
+pub fn chi_square_quantile(degrees_of_freedom: usize, probability: f64) -> f64 {
+    let nu = degrees_of_freedom.max(1) as f64;
+    let a = 2.0 / (9.0 * nu);
+    nu * (1.0 - a + standard_normal_quantile(probability) * a.sqrt()).powi(3)
+}
+
+/// The critical value c of a test of size [`SIZE`] on the largest of `tests` independent
+/// statistics each χ²_ν where the null holds: P(max > c) = 1 − F(c)^n = α, so c is χ²_ν's
+/// (1 − α)^(1/n) quantile (Šidák). Each statistic alone against χ²_ν's 1 − α quantile
+/// would reject somewhere with probability 1 − (1 − α)^n: 3.9 % for four outputs.
+pub fn chi_square_quantile_of_largest(degrees_of_freedom: usize, tests: usize) -> f64 {
+    let tests = tests.max(1) as f64;
+    chi_square_quantile(degrees_of_freedom, (1.0 - SIZE).powf(1.0 / tests))
+}
+
+/// The standard normal quantile z with Φ(z) = `probability` (in (0, 1)): Φ(z) =
+/// ½ erfc(−z/√2) solved by bisection on [−40, 40] to the last bit of z (the quantile
+/// is needed a few times a replay).
+pub fn standard_normal_quantile(probability: f64) -> f64 {
+    let cdf = |z: f64| 0.5 * libm::erfc(-z * std::f64::consts::FRAC_1_SQRT_2);
+    let (mut low, mut high) = (-40.0_f64, 40.0_f64);
+    for _ in 0..200 {
+        let mid = 0.5 * (low + high);
+        if mid == low || mid == high {
+            break;
+        }
+        if cdf(mid) < probability {
+            low = mid;
+        } else {
+            high = mid;
+        }
+    }
+    0.5 * (low + high)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Published normal quantiles (Abramowitz & Stegun, table 26.5).
+    #[test]
+    fn the_normal_quantile_is_the_tables() {
+        for (p, table) in [
+            (0.5, 0.0),
+            (0.975, 1.959_963_985),
+            (0.99, Z_99),
+            (0.995, 2.575_829_304),
+            (0.999, 3.090_232_306),
+            (0.01, -Z_99),
+        ] {
+            let z = standard_normal_quantile(p);
+            assert!((z - table).abs() < 1e-8, "{p}: {z} against {table}");
+        }
+    }
+
+    /// Published χ² quantiles at 0.995 and 0.999 (Abramowitz & Stegun, table 26.8), and
+    /// the largest of one statistic is the statistic's own 0.99 quantile.
+    #[test]
+    fn the_quantiles_of_other_probabilities_are_the_tables_within_half_a_percent() {
+        for (nu, p, table) in [
+            (30, 0.995, 53.672),
+            (60, 0.995, 91.952),
+            (60, 0.999, 99.607),
+            (100, 0.995, 140.169),
+        ] {
+            let q = chi_square_quantile(nu, p);
+            assert!(
+                (q / table - 1.0).abs() < 0.005,
+                "ν {nu}, {p}: {q} against {table}"
+            );
+        }
+        let one = chi_square_quantile_of_largest(60, 1);
+        assert!((one / chi_square_quantile_99(60) - 1.0).abs() < 1e-9);
+    }
+
+    /// The largest of four: (0.99)^(1/4) = 0.997490; its quantile of χ²₆₀ lies between the
+    /// tables' 0.995 and 0.999 ones (91.952, 99.607), and a family of four held to it
+    /// rejects somewhere at 1 − 0.997490⁴ = 1 %.
+    #[test]
+    fn the_largest_of_four_is_held_to_a_family_size_of_one_percent() {
+        let c = chi_square_quantile_of_largest(60, 4);
+        assert!(c > 91.952 && c < 99.607, "{c}");
+        let p = (1.0 - SIZE).powf(0.25);
+        assert!((1.0 - p.powi(4) - SIZE).abs() < 1e-12);
+        assert!(c > chi_square_quantile_of_largest(60, 3));
+    }
 
     /// Published χ² 0.99 quantiles (Abramowitz & Stegun, table 26.8).
     #[test]
