@@ -31,8 +31,8 @@ pub struct EstimatorChoice {
     pub oe_autocorrelation_outside_band: Vec<f64>,
     /// The fraction above which an output's residuals are taken as not white.
     pub threshold: f64,
-    /// Per output, Ljung and Box's Q of `oe`'s simulation residuals over lags 1..max_lag
-    /// and the χ² 0.99 quantile above which they are taken as not white.
+    /// Per output, Ljung and Box's Q of `oe`'s simulation residuals over lags 1..max_lag,
+    /// and the critical value above which the largest says they are not white ([`LjungBox`]).
     pub oe_ljung_box: LjungBox,
     /// The likelihood ratio of `pem` against `oe`, where `pem` was fitted to test it
     /// (each fit's variance floored at the rounding's r²/12: [`NoiseFloor::floored`]).
