@@ -1,7 +1,8 @@
 //! The `heatrun` command: a thin layer over the library. This is the one place
 //! that turns an outcome into an exit status: 0 ok, 1 failure, 2 usage or bad
 //! input, 3 completed with data loss, 4 completed and the monitored machine raised
-//! alarms (`heatrun monitor`).
+//! alarms (`heatrun monitor`). A command stopped by a signal (Ctrl-C) has no outcome: it
+//! ends by that signal, its incomplete outputs removed.
 
 // The options' doc comments are the command's `--help` text, where `<recording>` and
 // `<state>` are placeholders a user reads, not HTML.
@@ -21,6 +22,7 @@ use commands::Outcome;
 fn main() -> ExitCode {
     end_quietly_on_closed_pipe();
     return_large_blocks_to_the_system();
+    remove_incomplete_outputs_when_stopped();
     // clap refuses what it can declare (and exits 2); the rest is checked once, here,
     // before any handler runs, and reported as every other error is.
     let command = cli::Cli::parse().command;
@@ -38,6 +40,35 @@ fn main() -> ExitCode {
             }
             ExitCode::from(if bad_input { 2 } else { 1 })
         }
+    }
+}
+
+/// Removes the temporary files of outputs not yet complete when the process is stopped by
+/// Ctrl-C (SIGINT), SIGTERM or SIGHUP, then ends it by that signal (its default action: a
+/// shell reports 128 + the signal's number, 130 for Ctrl-C, and a script's loop stops).
+///
+/// Without it a replay stopped while its .rrd was written left `.run.rrd.<random>.partial`
+/// beside the destination, hidden, as large as the .rrd had grown, one more each time:
+/// the signal ends the process without running the destructors that remove them. The
+/// handler only wakes a thread (signal-hook's iterator), which does the removing outside
+/// the signal's context; an output renamed into place meanwhile is complete and stays.
+fn remove_incomplete_outputs_when_stopped() {
+    #[cfg(unix)]
+    {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        // Where the handlers cannot be installed the process keeps the default actions:
+        // a stopped replay then leaves its temporary file, as before.
+        let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+            return;
+        };
+        std::thread::spawn(move || {
+            if let Some(signal) = signals.forever().next() {
+                heatrun::atomic::remove_incomplete();
+                let _ = signal_hook::low_level::emulate_default_handler(signal);
+                // Reached only where the default action did not end the process.
+                std::process::exit(128 + signal);
+            }
+        });
     }
 }
 

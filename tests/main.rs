@@ -25,6 +25,7 @@
 //! | [`profile`] | the recording profile's page against the code's lists: quantities and units, nameplate keys, channel metadata keys, the report's keys; no page names a path outside the repository; `scripts/fetch-datasets` keeps only files of the pinned SHA-256 |
 //! | [`plant_export`] | a hand-written German historian export (`;`, decimal comma, day-first local times) through `import --guess`, the import and the replay, with only the nameplate and the zone filled in |
 //! | [`broken_pipe`] | a closed pipe (`heatrun info f.mcap \| head -1`) ends a command quietly |
+//! | [`interrupted`] | a replay stopped by Ctrl-C, SIGTERM or SIGHUP while it writes ends by that signal and leaves no temporary file |
 //! | `object_store` | (feature `object-store`) `s3://` recordings, prefixes as fleets, `--index`, `fleet summary` and store errors, against moto's S3 server on loopback |
 //!
 //! A new test file `tests/NAME.rs` becomes `mod NAME;` here; shared helpers are in
@@ -46,6 +47,7 @@ mod fleet_compare;
 mod historian;
 mod html;
 mod import;
+mod interrupted;
 mod layouts;
 mod monitor;
 mod network_rc;

@@ -9,8 +9,10 @@ use heatrun::store::{self, Location};
 /// Local stand-ins for the outputs of one command that go to a store.
 #[derive(Default)]
 pub struct Staging {
-    /// Created at the first remote output; removed (with anything not uploaded) on drop.
-    folder: Option<tempfile::TempDir>,
+    /// Created at the first remote output; removed (with anything not uploaded) on drop,
+    /// or by `heatrun::atomic::remove_incomplete` where the process is stopped by a signal
+    /// (the guard notes it until the folder is dropped: fields drop in order).
+    folder: Option<(tempfile::TempDir, heatrun::atomic::Incomplete)>,
     /// Each stand-in and the object it becomes.
     uploads: Vec<(PathBuf, Location)>,
 }
@@ -24,12 +26,14 @@ impl Staging {
             return Ok(destination.to_owned());
         }
         if self.folder.is_none() {
-            self.folder = Some(tempfile::Builder::new().prefix("heatrun-out").tempdir()?);
+            let folder = tempfile::Builder::new().prefix("heatrun-out").tempdir()?;
+            let noted = heatrun::atomic::Incomplete::note(folder.path());
+            self.folder = Some((folder, noted));
         }
         let folder = self
             .folder
             .as_ref()
-            .map(|f| f.path())
+            .map(|(f, _)| f.path())
             .unwrap_or(Path::new("."));
         let name = location.file_name().unwrap_or_else(|| "output".into());
         let local = folder.join(format!("{}-{name}", self.uploads.len()));

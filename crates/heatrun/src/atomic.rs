@@ -1,10 +1,14 @@
 //! Outputs that are either complete or absent: written under a temporary name in
 //! the destination's folder (so the final rename stays on one file system) and
-//! renamed into place only when complete, by `tempfile`'s persist.
+//! renamed into place only when complete, by `tempfile`'s persist. Every temporary file
+//! not yet renamed or removed is noted process-wide ([`Incomplete`]), so that a process
+//! stopped by a signal removes them ([`remove_incomplete`]) rather than leaving them
+//! beside their destinations.
 
 use std::fs::File;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use tempfile::{Builder, NamedTempFile, TempPath};
 
@@ -30,6 +34,58 @@ impl WriteError {
 
 type Result<T> = std::result::Result<T, WriteError>;
 
+/// The temporary files and folders of outputs not yet complete, in the order noted.
+static INCOMPLETE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn incomplete() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    // A panic elsewhere while the list was held leaves it as it was: still the list.
+    INCOMPLETE
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// A temporary file (or folder) of an output not yet complete, noted for
+/// [`remove_incomplete`] from its creation until this is dropped (once the file is renamed
+/// into place or removed).
+#[derive(Debug)]
+pub struct Incomplete(PathBuf);
+
+impl Incomplete {
+    /// Notes `path` as incomplete until the returned guard is dropped.
+    pub fn note(path: &Path) -> Incomplete {
+        incomplete().push(path.to_owned());
+        Incomplete(path.to_owned())
+    }
+}
+
+impl Drop for Incomplete {
+    fn drop(&mut self) {
+        let mut noted = incomplete();
+        if let Some(i) = noted.iter().rposition(|p| *p == self.0) {
+            noted.remove(i);
+        }
+    }
+}
+
+/// Removes every temporary file and folder of an output not yet complete ([`Incomplete`]);
+/// returns how many there were. For a process stopped by a signal (Ctrl-C), whose
+/// destructors will not run: without it a replay stopped while its .rrd is written leaves
+/// `.run.rrd.<random>.partial` beside the destination, hidden, as large as the .rrd had
+/// grown (a week at 100 Hz: 370 MB), one more each time. A file the process renames into
+/// place meanwhile is complete and stays; the list is left as it is, for the process to
+/// exit.
+pub fn remove_incomplete() -> usize {
+    let noted = incomplete();
+    for path in noted.iter() {
+        let _ = match std::fs::symlink_metadata(path) {
+            Ok(m) if m.is_dir() => std::fs::remove_dir_all(path),
+            Ok(_) => std::fs::remove_file(path),
+            Err(e) => Err(e),
+        };
+    }
+    noted.len()
+}
+
 /// A temporary file beside `destination`, removed on drop unless committed.
 #[derive(Debug)]
 pub struct PendingOutput {
@@ -38,6 +94,9 @@ pub struct PendingOutput {
     /// Where the caller writes: the temporary file's name.
     path: PathBuf,
     destination: PathBuf,
+    /// The temporary file noted as incomplete while it exists (dropped after it is
+    /// renamed or removed: fields drop in order).
+    _noted: Option<Incomplete>,
 }
 
 impl PendingOutput {
@@ -49,7 +108,10 @@ impl PendingOutput {
     /// to write at [`PendingOutput::path`] meets the same failure and reports it, naming
     /// the destination; [`PendingOutput::commit`] would report it too.
     pub fn new(destination: &Path) -> PendingOutput {
-        let temporary = temporary_file(destination).map(NamedTempFile::into_temp_path);
+        let (temporary, noted) = match temporary_file(destination) {
+            Ok((file, noted)) => (Ok(file.into_temp_path()), Some(noted)),
+            Err(e) => (Err(e), None),
+        };
         let path = match &temporary {
             Ok(file) => file.to_path_buf(),
             Err(_) => folder_of(destination).join(format!(".{}.partial", file_name(destination))),
@@ -58,6 +120,7 @@ impl PendingOutput {
             temporary,
             path,
             destination: destination.to_owned(),
+            _noted: noted,
         }
     }
 
@@ -146,7 +209,8 @@ pub fn folder_exists(destination: &Path) -> Result<()> {
 
 /// Writes `bytes` to `destination` atomically.
 pub fn write_atomically(destination: &Path, bytes: &[u8]) -> Result<()> {
-    let mut file = temporary_file(destination).map_err(|e| write_error(destination, &e))?;
+    let (mut file, _noted) =
+        temporary_file(destination).map_err(|e| write_error(destination, &e))?;
     file.write_all(bytes)
         .map_err(|e| write_error(destination, &e))?;
     file.persist(destination)
@@ -154,14 +218,17 @@ pub fn write_atomically(destination: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
-/// A new, uniquely named file beside `destination`. Created with `File::create_new`
-/// rather than tempfile's default so that it gets the usual permissions (0666 less the
-/// umask), not 0600: the output is an ordinary file once renamed.
-fn temporary_file(destination: &Path) -> std::io::Result<NamedTempFile> {
-    Builder::new()
+/// A new, uniquely named file beside `destination`, noted as incomplete. Created with
+/// `File::create_new` rather than tempfile's default so that it gets the usual
+/// permissions (0666 less the umask), not 0600: the output is an ordinary file once
+/// renamed.
+fn temporary_file(destination: &Path) -> std::io::Result<(NamedTempFile, Incomplete)> {
+    let file = Builder::new()
         .prefix(&format!(".{}.", file_name(destination)))
         .suffix(".partial")
-        .make_in(folder_of(destination), |path| File::create_new(path))
+        .make_in(folder_of(destination), |path| File::create_new(path))?;
+    let noted = Incomplete::note(file.path());
+    Ok((file, noted))
 }
 
 /// The folder an output goes to (`.` for a bare file name).
@@ -186,6 +253,39 @@ fn write_error(destination: &Path, e: &std::io::Error) -> WriteError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Whether `path` is noted as incomplete. (The tests never call
+    /// [`remove_incomplete`]: the list is the process's, and the tests beside these write
+    /// outputs of their own.)
+    fn noted(path: &Path) -> bool {
+        incomplete().iter().any(|p| p == path)
+    }
+
+    #[test]
+    fn a_temporary_file_is_noted_as_incomplete_until_it_is_renamed_or_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run.rrd");
+        let pending = PendingOutput::new(&out);
+        let temporary = pending.path().to_owned();
+        assert!(noted(&temporary));
+        std::fs::write(&temporary, b"complete").unwrap();
+        pending.commit().unwrap();
+        assert!(!noted(&temporary) && out.exists());
+        let dropped = PendingOutput::new(&out);
+        let temporary = dropped.path().to_owned();
+        assert!(noted(&temporary));
+        drop(dropped);
+        assert!(!noted(&temporary) && !temporary.exists());
+        // A folder that cannot take the file notes nothing.
+        let nowhere = PendingOutput::new(&dir.path().join("missing/run.rrd"));
+        assert!(!noted(nowhere.path()));
+        // A staging folder, noted by its guard.
+        let staging = dir.path().join("staging");
+        let guard = Incomplete::note(&staging);
+        assert!(noted(&staging));
+        drop(guard);
+        assert!(!noted(&staging));
+    }
 
     fn names_in(dir: &Path) -> Vec<String> {
         let mut names: Vec<String> = std::fs::read_dir(dir)
