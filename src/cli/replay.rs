@@ -392,7 +392,7 @@ enum Named {
 /// The recordings named: files as given, folders expanded; the fixture if none.
 fn named_recordings(files: &[PathBuf]) -> anyhow::Result<Named> {
     if files.is_empty() {
-        return Ok(Named::One(default_fixture()));
+        return Ok(Named::One(default_fixture()?));
     }
     let mut found = Vec::new();
     let mut from_folder = false;
@@ -422,12 +422,27 @@ fn named_recordings(files: &[PathBuf]) -> anyhow::Result<Named> {
 
 /// The fixture beside the current folder, else in the source tree this binary was built
 /// from (so `cargo run -- replay` works from any folder of a clone).
-fn default_fixture() -> PathBuf {
-    let here = PathBuf::from(DEFAULT_FIXTURE);
-    if here.exists() {
-        return here;
+fn default_fixture() -> anyhow::Result<PathBuf> {
+    example_from(&[
+        PathBuf::from(DEFAULT_FIXTURE),
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_FIXTURE),
+    ])
+}
+
+/// The first of `candidates` that exists; a usage error where none does (a binary
+/// installed from a tree since removed: `cargo install` builds in a temporary folder),
+/// which would otherwise read as a file of the user's missing.
+pub(super) fn example_from(candidates: &[PathBuf]) -> anyhow::Result<PathBuf> {
+    match candidates.iter().find(|p| p.exists()) {
+        Some(found) => Ok(found.clone()),
+        None => Err(Usage(format!(
+            "no recording given, and the example heat run replayed without one \
+             ({DEFAULT_FIXTURE}) is not in this folder or in the source tree this binary \
+             was built from: name a recording, `heatrun replay RUN.mcap`, or make one, \
+             `heatrun synth RUN.mcap`"
+        ))
+        .into()),
     }
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_FIXTURE)
 }
 
 /// The `.mcap` files of a folder, sorted by name.

@@ -937,3 +937,19 @@ fn a_limit_is_a_state_and_a_temperature_above_absolute_zero() {
         assert!(parse_limit(bad).is_err(), "{bad}");
     }
 }
+
+#[test]
+fn replay_without_a_recording_and_without_the_example_says_to_name_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = [dir.path().join("a.mcap"), dir.path().join("b.mcap")];
+    let err = super::replay::example_from(&missing).unwrap_err();
+    assert!(err.downcast_ref::<Usage>().is_some(), "exit 2: {err}");
+    let message = err.to_string();
+    assert!(message.starts_with("no recording given"), "{message}");
+    assert!(message.contains("heatrun replay RUN.mcap"), "{message}");
+    std::fs::write(&missing[1], b"").unwrap();
+    assert_eq!(
+        super::replay::example_from(&missing).unwrap(),
+        missing[1].clone()
+    );
+}
