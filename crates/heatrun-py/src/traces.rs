@@ -1,5 +1,7 @@
 //! A replay's traces on its grid: per state the measured value, the model's and the
-//! residual, as the rerun recording draws them (`heatrun-rerun`'s `traces` module):
+//! residual, the values the rerun recording draws (`heatrun-rerun`'s `traces` module),
+//! here at every instant (the recording sends the model's smooth curve as its polyline:
+//! `heatrun_rerun::curve`):
 //!
 //! - model θ̂_j(k) = θ_ref,j(k) + T_base · ŷ_j(k), ŷ the replay's model simulated from
 //!   the initial state (the hidden-state model's C x + D u where the spec declares one);
