@@ -67,23 +67,21 @@ impl Drop for Incomplete {
     }
 }
 
-/// Removes every temporary file and folder of an output not yet complete ([`Incomplete`]);
-/// returns how many there were. For a process stopped by a signal (Ctrl-C), whose
+/// Removes every temporary file and folder of an output not yet complete ([`Incomplete`]).
+/// For a process stopped by a signal (Ctrl-C), whose
 /// destructors will not run: without it a replay stopped while its .rrd is written leaves
 /// `.run.rrd.<random>.partial` beside the destination, hidden, as large as the .rrd had
 /// grown (a week at 100 Hz: 370 MB), one more each time. A file the process renames into
 /// place meanwhile is complete and stays; the list is left as it is, for the process to
 /// exit.
-pub fn remove_incomplete() -> usize {
-    let noted = incomplete();
-    for path in noted.iter() {
+pub fn remove_incomplete() {
+    for path in incomplete().iter() {
         let _ = match std::fs::symlink_metadata(path) {
             Ok(m) if m.is_dir() => std::fs::remove_dir_all(path),
             Ok(_) => std::fs::remove_file(path),
             Err(e) => Err(e),
         };
     }
-    noted.len()
 }
 
 /// A temporary file beside `destination`, removed on drop unless committed.
